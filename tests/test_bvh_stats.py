@@ -375,3 +375,26 @@ def test_cli_bvh_stats_options_a_builder_uses_are_not_warned_about(capsys):
     assert main(["bvh-stats", path, "--builder", "sah,warp:sah", "--bins", "4", "--leaf-size", "2",
                  "--warp-leaf-size", "2", "--json", "--epo-samples", "64"]) == 0
     assert "is ignored" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name,meant", [("wrp:sah", "warp:sah"), ("Warp-sah", "warp:sah"), ("al", "all")])
+def test_a_misspelt_builder_names_the_one_meant_among_every_name_the_option_takes(capsys, name, meant):
+    """--builder takes wrt's builders, 'all' and warp:NAME, but a misspelling was matched against wrt's builders
+    only: 'wrp:sah' was answered '(did you mean 'sweep_sah'?)', a builder the user did not mean."""
+    import sys
+
+    with pytest.raises(SystemExit) as e:
+        sys.exit(main(["bvh-stats", str(warp_assets("cube.usd")), "--builder", name]))
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"(did you mean '{meant}'?)" in err[0] and repr(name.lower()) in err[0], err
+    assert "warp:sah" in err[0].split("(did you mean")[1] and "all" in err[0].split(";")[-1]  # the names it takes
+
+
+def test_the_table_heading_counts_one_triangle_in_the_singular(capsys, tmp_path):
+    """The heading said '1 triangles', where the render's lines say '1 triangle'."""
+    path = tmp_path / "one.usda"
+    path.write_text('#usda 1.0\ndef Mesh "Tri"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    '[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    assert main(["bvh-stats", str(path), "--epo-samples", "64"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith(f"{path}: 1 triangle; SAH/EPO")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from ..errors import did_you_mean
 from ..strict_json import strict_json
+from ..wording import counted
 from .build import Builder, build_bvh, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
 
@@ -38,7 +39,12 @@ def parse_builders(text) -> list[str]:
                                      f"{', '.join(valid)}")
                 names.append(name)
             else:
-                names.append(Builder.from_str(name).value)
+                try:
+                    names.append(Builder.from_str(name).value)
+                except ValueError:  # matched against wrt's builders alone, 'wrp:sah' meant 'sweep_sah'
+                    every = [*builder_names(), "all", *(WARP_PREFIX + b for b in WARP_BUILDERS)]
+                    raise ValueError(f"unknown BVH builder {name!r}{did_you_mean(name, every)}; valid builders: "
+                                     f"{', '.join(every)}") from None
     if not names:
         raise ValueError(f"no builder given; valid builders: {', '.join(builder_names())}, all, warp:<name>")
     return list(dict.fromkeys(names))
@@ -254,7 +260,7 @@ def run_bvh_stats(args) -> int:
         print(strict_json(rows, indent=1))  # a statistic without a value (EPO without area is NaN) is null
     else:
         print(
-            f"{args.scene}: {len(indices)} triangles; SAH/EPO with C_t={args.traversal_cost}, "
+            f"{args.scene}: {counted(len(indices), 'triangle')}; SAH/EPO with C_t={args.traversal_cost}, "
             f"C_i={args.intersection_cost}; device {device}"
         )
         print(format_table(rows))
