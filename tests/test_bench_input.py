@@ -67,6 +67,19 @@ def test_an_unknown_scene_kind_is_named_with_a_did_you_mean(tmp_path):
     assert "mrays" in rows[0], rows[0].get("error")
 
 
+def test_a_warp_example_named_without_its_extension_is_named_with_the_files_there_are(tmp_path):
+    """'warp:bunny' (Warp's example is bunny.usd) was 'SceneError: /.../site-packages/warp/examples/assets/bunny:
+    file not found', naming neither the file meant nor the examples there are, where 'asset:ID' names the one meant."""
+    import warp.examples
+
+    usd_files = sorted(p.name for p in Path(warp.examples.get_asset_directory()).iterdir() if p.suffix == ".usd")
+    rows = run_grid(small_grid(scenes=["warp:bunny", "sphere:2000"]), tmp_path / "out", progress=False)
+    error = rows[0]["error"]
+    assert rows[0]["scene"] == "warp:bunny" and "(did you mean 'bunny.usd'?)" in error, error
+    assert all(name in error for name in usd_files), error
+    assert "mrays" in rows[1]  # the run went on
+
+
 def test_a_scene_without_triangles_is_an_error_row(tmp_path):
     """An empty stage was 'measured': rows of 0 triangles, 0 % hits and 100 % agreement, at some Mrays/s."""
     empty = tmp_path / "empty.usda"

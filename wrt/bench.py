@@ -451,7 +451,12 @@ def resolve_scene(name: str) -> Scene:
     if name.startswith("warp:"):
         import warp.examples
 
-        return load_usd(Path(warp.examples.get_asset_directory()) / name.split(":", 1)[1])
+        folder, file = Path(warp.examples.get_asset_directory()), name.split(":", 1)[1]
+        if not (folder / file).is_file():  # 'warp:bunny' named Warp's folder path alone, not the bunny.usd meant
+            examples = sorted(p.name for p in folder.iterdir() if p.suffix.lower() in USD_SUFFIXES)
+            raise SceneError(f"no file {file!r} among Warp's example assets{did_you_mean(file, examples)}; its USD "
+                             f"files: {', '.join(examples)}", path=name)
+        return load_usd(folder / file)
     if name.startswith("asset:"):
         return load_usd(asset_path(name.split(":", 1)[1]))
     kind = name.split(":", 1)[0]
