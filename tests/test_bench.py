@@ -376,6 +376,37 @@ def test_a_run_that_stops_before_its_first_row_leaves_the_earlier_results(tmp_pa
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
+@pytest.mark.parametrize("name", ["table.md", "settings.json", "mrays.png"])
+def test_a_summary_file_cut_short_leaves_the_earlier_one_whole(tmp_path, monkeypatch, name):
+    """table.md, settings.json and the plots were written in place: a Ctrl-C (or a full disk) while one was being
+    written left a truncated file where the earlier run's whole one had been (a table cut mid-row, a PNG no viewer
+    opens, settings that --resume silently took for none)."""
+    import matplotlib.figure
+    from PIL import Image as PilImage
+
+    grid = tiny_grid(accels=["wrt:sah"], rays=["primary"], n_rays=300, repeats=1)
+    run_grid(grid, tmp_path, progress=False)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name != "rows.jsonl"}
+    assert name in before
+
+    def cut_short(path):  # the file half written when the interruption comes
+        path = Path(path)
+        if path.parent == tmp_path and name in path.name:
+            path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+            raise KeyboardInterrupt
+
+    write_text, savefig = Path.write_text, matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(Path, "write_text", lambda self, *a, **k: (write_text(self, *a, **k), cut_short(self))[0])
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda fig, path, *a, **k: (savefig(fig, path, *a, **k), cut_short(path))[0])
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(grid, tmp_path, progress=False)
+    assert (tmp_path / name).read_bytes() == before[name]
+    assert {p.name for p in tmp_path.iterdir()} == set(before) | {"rows.jsonl"}  # no temporary file left behind
+    PilImage.open(tmp_path / "mrays.png").load()
+    assert (tmp_path / "table.md").read_text().rstrip().endswith(")")  # the hardware line under the table
+
+
 def test_ray_kinds():
     scene = wrt.Scene.from_triangles(*displaced_sphere(5000))
     for kind in RAY_KINDS:
@@ -500,16 +531,16 @@ def plotted_figures(monkeypatch, rows, out) -> dict:
     import matplotlib.figure
     import matplotlib.pyplot as plt
 
-    figures, save = {}, matplotlib.figure.Figure.savefig
+    figures, save = [], matplotlib.figure.Figure.savefig
 
-    def savefig(fig, path, **options):
-        figures[Path(path).name] = fig
+    def savefig(fig, path, **options):  # path: a temporary file, renamed to the plot's name once written
+        figures.append(fig)
         save(fig, path, **options)
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
     monkeypatch.setattr(plt, "close", lambda fig=None: None)
-    bench_module.plot(rows, out)
-    return figures
+    paths = bench_module.plot(rows, out)
+    return dict(zip([path.name for path in paths], figures, strict=True))
 
 
 def tree_row(accel, build_ms, sah_cost, rays="primary", threads=1, scene="sphere:1000"):

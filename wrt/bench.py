@@ -43,6 +43,7 @@ from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
 from .errors import SceneError, did_you_mean, flag, not_a_file
+from .image import write_atomically
 from .rays import RAY_KINDS, ray_set, shadow_target
 from .resources import check_host_memory
 from .scene import Scene
@@ -1027,7 +1028,8 @@ def run_grid(
         nonlocal begun
         if out is not None and not begun:
             _write_rows(jsonl, rows)  # the resumed rows, or none
-            (out / SETTINGS_FILE).write_text(strict_json(_resume_settings(grid)) + "\n")
+            settings = strict_json(_resume_settings(grid)) + "\n"
+            write_atomically(out / SETTINGS_FILE, lambda target: target.write_text(settings))
         begun = True
 
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
@@ -1111,7 +1113,8 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
 def write_summary(rows: list[dict], out: Path) -> None:
     """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots of an earlier run that they have no
     rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning."""
-    (out / "table.md").write_text(markdown_table(rows))
+    table = markdown_table(rows)
+    write_atomically(out / "table.md", lambda target: target.write_text(table))
     try:
         written = plot(rows, out)
     except ImportError:
@@ -1249,6 +1252,16 @@ def _plot_scene_names(scenes: list[str]) -> list[str]:
     return [name if len(owners[name]) == 1 else scene for scene, name in zip(scenes, short)]
 
 
+def _save_plot(fig, path: Path) -> None:
+    """Writes ``fig`` to ``path`` whole or not at all (an interruption leaves the earlier plot), then closes it."""
+    import matplotlib.pyplot as plt
+
+    try:
+        write_atomically(path, lambda target: fig.savefig(target, format="png", dpi=110, metadata=dict([PLOT_MARK])))
+    finally:
+        plt.close(fig)
+
+
 def plot(rows: list[dict], out: Path) -> list[Path]:
     """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths.
     Rows of several devices get a bar (and a scaling line) per device."""
@@ -1292,8 +1305,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         ax.legend(fontsize=7)
         fig.tight_layout()
         paths.append(out / "mrays.png")
-        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
-        plt.close(fig)
+        _save_plot(fig, paths[-1])
 
     # wrt: rows only: wp.Mesh and Embree give no SAH cost.
     with_sah = [r for r in good
@@ -1321,8 +1333,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         ax.xaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False))
         fig.tight_layout()
         paths.append(out / "build_vs_quality.png")
-        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
-        plt.close(fig)
+        _save_plot(fig, paths[-1])
 
     scaling = [r for r in good if r.get("sweep") and _plottable(r["build_ms"], r["mrays"])]
     if scaling:
@@ -1340,6 +1351,5 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()
         paths.append(out / "scaling.png")
-        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
-        plt.close(fig)
+        _save_plot(fig, paths[-1])
     return paths
