@@ -435,8 +435,8 @@ def test_the_rate_plot_marks_failed_rows_and_groups_n_a(tmp_path, monkeypatch):
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    drawn = {}
-    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: drawn.setdefault(Path(path).name, fig))
+    figures = []  # in the order of the paths plot returns: each is saved to a temporary name first
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: figures.append(fig))
 
     def row(scene, accel, mrays):
         return dict(scene=scene, triangles=10, device="cpu", rays="primary", accel=accel, threads=1, build_ms=1.0,
@@ -446,7 +446,7 @@ def test_the_rate_plot_marks_failed_rows_and_groups_n_a(tmp_path, monkeypatch):
             {"scene": "b", "accel": "wrt:sah", "device": "cpu", "rays": "primary", "threads": 1, "error": "boom"},
             row("c", "warp:sah", math.nan), row("c", "wrt:sah", 1.0),
             {"scene": "d", "accel": "*", "device": "cpu", "rays": "primary", "threads": None, "error": "no file"}]
-    bench_module.plot(rows, tmp_path)
+    drawn = dict(zip([path.name for path in bench_module.plot(rows, tmp_path)], figures, strict=True))
     ax = drawn["mrays.png"].axes[0]
     groups = [label.get_text().split("\n")[0] for label in ax.get_xticklabels()]
     assert groups == ["a", "b", "c", "d"]
