@@ -456,6 +456,21 @@ def test_cli_without_a_display_checks_its_default_output_before_the_work(tmp_pat
     assert [p.name for p in tmp_path.iterdir()] == ["preview.png"]
 
 
+def test_cli_with_pyvista_off_screen_set_writes_the_png_and_opens_no_window(tmp_path, capsys, monkeypatch):
+    """pyvista's own switch for off-screen drawing (PYVISTA_OFF_SCREEN=true, read into pyvista.OFF_SCREEN) was
+    overridden: where a display answered, wrt preview asked pyvista for a window (off_screen=False) all the same."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(preview_module, "has_display", lambda: True)
+    monkeypatch.setattr(pv, "OFF_SCREEN", True)
+    monkeypatch.setattr(pv.Plotter, "show", lambda *a, **k: pytest.fail("a window was opened"))
+    path = tmp_path / "tri.usda"
+    path.write_text('#usda 1.0\ndef Mesh "Tri"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    '[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    assert main(["preview", str(path), "--window", "64x48"]) == 0
+    assert read_png(tmp_path / "preview.png").shape[:2] == (48, 64)
+    assert "PYVISTA_OFF_SCREEN" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("usda", ["#usda 1.0\n", '#usda 1.0\ndef SphereLight "L"\n{\n}\n'])
 def test_preview_of_a_scene_with_nothing_to_draw_says_so_in_its_own_words(tmp_path, usda):
     """An empty stage, or one of lights alone, drew an empty frustum without a word, and with --rays warned in the

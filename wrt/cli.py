@@ -920,14 +920,15 @@ def _add_preview(sub) -> None:
         help="show a USD scene, its camera, BVH and rays in a 3D view (pyvista)",
         description="Show the scene as wrt reads it, the camera frustum with its near clipping plane, the scene's "
         "lights and, on request, BVH boxes, sample camera rays and the rendered image, in an interactive pyvista "
-        "window. With -o, or when there is no display, the view is rendered off-screen to a PNG instead. Needs "
-        "pyvista: pip install 'wrt[preview]'.",
+        "window. With -o, or when there is no display or PYVISTA_OFF_SCREEN=true is set, the view is rendered "
+        "off-screen to a PNG instead (preview.png without -o). Needs pyvista: pip install 'wrt[preview]'.",
         formatter_class=HelpFormatter,
     )
     p.add_argument("scene", nargs="?", type=_non_empty,
                    help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
     p.add_argument("-o", "--output", type=_non_empty,
-                   help="write the view to this PNG instead of a window (no display: preview.png)")
+                   help="write the view to this PNG instead of a window (no display, or PYVISTA_OFF_SCREEN=true: "
+                   "preview.png)")
     p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
     add_stage_options(p)
     bvh = p.add_mutually_exclusive_group()
@@ -972,13 +973,20 @@ def _add_preview(sub) -> None:
 def _run_preview(args) -> int:
     import wrt
 
-    from .preview import PreviewUnavailable, has_display, preview
+    from .preview import PreviewUnavailable, has_display, import_pyvista, preview
 
     progress = _Progress(args.quiet)
     path = Path(args.scene) if args.scene else default_scene_path()
     output = args.output
-    no_display = output is None and not has_display()
-    if no_display:  # decided before the load, so that a preview.png that cannot be written fails now, not after it
+    no_window = None  # why no window opens without -o, if none does
+    if output is None:
+        try:  # pyvista's switch (PYVISTA_OFF_SCREEN=true) asks for no window, as a missing display does
+            off_screen = import_pyvista().OFF_SCREEN
+        except PreviewUnavailable as e:
+            print(f"wrt: error: {e}", file=sys.stderr)
+            return 1
+        no_window = "no display found" if not has_display() else "PYVISTA_OFF_SCREEN is set" if off_screen else None
+    if no_window:  # decided before the load, so that a preview.png that cannot be written fails now, not after it
         output = "preview.png"
     if args.output is not None:
         from .image import check_not_extension_alone
@@ -989,12 +997,11 @@ def _run_preview(args) -> int:
         _check_output_file(Path(output))
     if output is not None and Path(output).suffix.lower() != ".png":
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
-    if no_display:  # the default preview.png: checked now too, saying where the name comes from
+    if no_window:  # the default preview.png: checked now too, saying where the name comes from
         try:
             _check_output_file(Path(output))
         except OSError as e:
-            raise type(e)(f"no display found, so the preview goes to preview.png: {e}; name a file with "
-                          "-o") from None
+            raise type(e)(f"{no_window}, so the preview goes to preview.png: {e}; name a file with -o") from None
     from .bvh.common import resolve_device_option
 
     resolve_device_option(args.device)  # before the load, as the output
@@ -1010,8 +1017,8 @@ def _run_preview(args) -> int:
         from .render import resolve_view
 
         _check_view_pixels(args, *resolve_view(scene, args.camera, args.width, args.height)[1:], scene.render_settings)
-    if no_display:
-        progress("no display found: rendering off-screen to preview.png")
+    if no_window:
+        progress(f"{no_window}: rendering off-screen to preview.png")
     start = time.perf_counter()
     try:
         plotter = preview(
