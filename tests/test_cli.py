@@ -571,6 +571,31 @@ def test_integrator_options_the_integrator_does_not_use_are_warned_about(tmp_pat
     np.testing.assert_array_equal(images[2], images[3])
 
 
+def test_an_output_placeholder_other_than_stem_is_warned_about(tmp_path, capsys):
+    """{stem} is -o's one placeholder; a misspelt one ('{steam}', '{Stem}') was written into the file name as it is,
+    '{steam}.png', without a word."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    small = ["--width", "8", "--height", "6", "-q"]
+    for pattern, warned in (("{steam}.png", "{steam}"), ("{stem}.png", None), ("{stem}_{Stem}.png", "{Stem}")):
+        assert main(["render", str(stage), *small, "-o", str(tmp_path / pattern)]) == 0
+        lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning:")]
+        if warned is None:
+            assert lines == [], pattern
+        else:
+            assert len(lines) == 1 and f"{warned} is no placeholder" in lines[0] and "{stem}" in lines[0], lines
+        assert (tmp_path / pattern.replace("{stem}", "tri")).is_file()  # as the warning says: kept as it is
+    other = tmp_path / "other.usda"
+    other.write_text(stage.read_text())
+    with pytest.raises(SystemExit) as exit_info:
+        sys.exit(main(["render", str(stage), str(other), *small, "-o", str(tmp_path / "out" / "{name}.png")]))
+    assert exit_info.value.code == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert "{name} is no placeholder" in lines[0] and "names one image for 2 scenes" in lines[1], lines
+
+
 @pytest.mark.parametrize("frames", [False, True])
 def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames):
     """--exposure scales PNGs only: with .exr or .npy output it did nothing, without a word."""

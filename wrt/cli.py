@@ -381,6 +381,18 @@ def _check_not_an_existing_folder(output: str) -> None:
         raise IsADirectoryError(f"cannot write {output}: it is a directory; -o {output}/ writes the image into it")
 
 
+def _warn_unknown_placeholders(output: str) -> None:
+    """A warning for each ``{word}`` of ``-o`` other than ``{stem}``: braces are kept in the file name as they are, so a
+    misspelt placeholder ('{steam}') named the image '{steam}.png' without a word."""
+    from .errors import did_you_mean
+
+    for token in dict.fromkeys(re.findall(r"\{\w*\}", output)):
+        if token != "{stem}":
+            warnings.warn(f"-o {output}: {token} is no placeholder, kept in the file name as it is"
+                          f"{did_you_mean(token, ['{stem}'])}; -o's placeholders are {{stem}}, the scene file name "
+                          "without extension, and with --frames a run of #, the frame number", stacklevel=2)
+
+
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
     if not several:  # {stem} too: a script's pattern works for one scene as for several
@@ -663,6 +675,8 @@ def _run_render(args) -> int:
         resolve_device_option(args.device)  # one error before any load, not one per scene of a batch after its load
     if args.products is not None:
         return _run_products(args, paths, progress)
+    if args.output:
+        _warn_unknown_placeholders(args.output)
     if args.frames:
         return _run_frames(args, paths, progress)
     if args.devices or args.dask is not None:
