@@ -413,6 +413,14 @@ def test_a_bad_product_value_names_the_product(tmp_path):
     assert scene.render_settings.products == () and scene.render_settings.product == ""
 
 
+def test_a_misspelt_render_settings_path_names_the_one_meant(tmp_path, capsys):
+    """The error listed the RenderSettings prims of the stage but named none as the one meant, as --camera does."""
+    stage = write_stage(tmp_path)
+    assert main(["render", str(stage), "--render-settings", "/Render/Setings", "-o", str(tmp_path / "x.png")]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and "(did you mean '/Render/Settings'?)" in errors[0], errors
+
+
 def test_render_settings_that_are_not_a_settings_prim_are_named(tmp_path, capsys):
     stage = write_stage(tmp_path)
     with pytest.raises(wrt.SceneError, match=r"stage.usda: /World/Box is a Cube, not a RenderSettings prim; "

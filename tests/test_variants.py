@@ -76,8 +76,8 @@ def test_variants_switch_colour_and_geometry_on_the_session_layer(stage):
 
 
 @pytest.mark.parametrize("variants, message", [
-    ({"/World/Bus": {"paint": "red"}}, r"car.usda: no prim at /World/Bus to select variants on; prims with variant "
-                                       r"sets: /World/Car \(paint, shape\)"),
+    ({"/World/Bus": {"paint": "red"}}, r"car.usda: no prim at /World/Bus to select variants on \(did you mean "
+                                       r"'/World/Car'\?\); prims with variant sets: /World/Car \(paint, shape\)"),
     ({"/World/Car": {"colour": "red"}}, r"car.usda: /World/Car: no variant set 'colour'; its variant sets: paint, "
                                         "shape"),
     ({"/World/Car": {"paint": "green"}}, r"car.usda: /World/Car: variant set 'paint' has no variant 'green'; its "
@@ -87,6 +87,17 @@ def test_variants_switch_colour_and_geometry_on_the_session_layer(stage):
 def test_bad_selections_name_the_file_prim_and_choices(stage, variants, message):
     with pytest.raises(wrt.SceneError, match=message):
         wrt.load_usd(stage, variants=variants)
+
+
+@pytest.mark.parametrize("selection, meant", [("/World/Car:paint=bleu", "'blue'"), ("/World/Car:pant=red", "'paint'"),
+                                              ("/World/Cra:paint=red", "'/World/Car'")])
+def test_a_misspelt_variant_set_or_prim_names_the_one_meant(stage, tmp_path, capsys, selection, meant):
+    """The errors listed the variants, sets or prims there are, but named none as the one meant, as --camera, --builder
+    and the other misspelt names of the command line do."""
+    assert main(["render", str(stage), "-o", str(tmp_path / "x.npy"), "-q", *SIZE, "--variant", selection]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and f"(did you mean {meant}?)" in errors[0], errors
+    assert not (tmp_path / "x.npy").exists()
 
 
 def test_cli_variant_renders_the_selection(stage, tmp_path, capsys):

@@ -288,8 +288,9 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
         found = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
         what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
         what = f"an inactive {prim.GetTypeName()}" if prim and not prim.IsActive() else what
-        found = ", ".join(found) or "none"
-        problem = f"is {what}, not a RenderSettings prim; RenderSettings prims in the stage: {found}"
+        meant = did_you_mean(path, found) if given else ""  # a stale renderSettingsPrimPath is no typo of the user's
+        problem = f"is {what}, not a RenderSettings prim{meant}; RenderSettings prims in the stage: " + (
+            ", ".join(found) or "none")
         if given:
             raise SceneError(f"{path} {problem}", path=source)
         # Metadata left behind when the settings were deleted or renamed: the stage still renders (as usdview draws

@@ -7,7 +7,7 @@ variant set that exists only inside another variant (nested variants) can be sel
 
 from __future__ import annotations
 
-from .errors import SceneError
+from .errors import SceneError, did_you_mean
 
 MAX_LISTED = 12  # prims with variant sets named in an error about a prim that has none
 
@@ -55,8 +55,11 @@ def apply_variants(stage, source: str, variants) -> None:
             valid = Sdf.Path.IsValidPathString(path) and Sdf.Path(path).IsAbsolutePath()
             prim = stage.GetPrimAtPath(path) if valid else None
             if not prim:
-                raise SceneError(f"no prim at {path} to select variants on; prims with variant sets: "
-                                 f"{_prims_with_variants(stage)}", path=source)
+                found = _prims_with_variants(stage)
+                listed = [f"{p} ({', '.join(names)})" for p, names in found[:MAX_LISTED]]
+                listed += ["..."] if len(found) > MAX_LISTED else []
+                raise SceneError(f"no prim at {path} to select variants on{did_you_mean(path, [p for p, _ in found])};"
+                                 f" prims with variant sets: {', '.join(listed) or 'none'}", path=source)
             if prim.IsInstanceProxy():  # USD refuses to author there (a Tf error): the prototype is shared
                 raise SceneError("is inside a native instance, whose prims every instance shares; select the variant "
                                  "on the prim the instance brings in, or make the instance not instanceable",
@@ -64,24 +67,16 @@ def apply_variants(stage, source: str, variants) -> None:
             for name, variant in selections.items():
                 sets = prim.GetVariantSets()
                 if name not in sets.GetNames():
-                    raise SceneError(f"no variant set {name!r}; its variant sets: "
+                    raise SceneError(f"no variant set {name!r}{did_you_mean(name, sets.GetNames())}; its variant sets: "
                                      f"{', '.join(sets.GetNames()) or 'none'}", path=source, prim=path)
                 choices = sets.GetVariantSet(name).GetVariantNames()
                 if variant not in choices:
-                    raise SceneError(f"variant set {name!r} has no variant {variant!r}; its variants: "
+                    meant = did_you_mean(variant, choices)
+                    raise SceneError(f"variant set {name!r} has no variant {variant!r}{meant}; its variants: "
                                      f"{', '.join(choices)}", path=source, prim=path)
                 sets.GetVariantSet(name).SetVariantSelection(variant)
 
 
-def _prims_with_variants(stage) -> str:
-    """The prims of ``stage`` that have variant sets, with their sets, for an error message."""
-    found = []
-    for prim in stage.Traverse():
-        names = prim.GetVariantSets().GetNames()
-        if names:
-            found.append(f"{prim.GetPath()} ({', '.join(names)})")
-            if len(found) > MAX_LISTED:
-                found[-1] = "..."
-                break
-    return ", ".join(found) or "none"
-
+def _prims_with_variants(stage) -> list[tuple[str, list[str]]]:
+    """``(path, variant set names)`` of each prim of ``stage`` that has variant sets, for an error message."""
+    return [(str(prim.GetPath()), names) for prim in stage.Traverse() if (names := prim.GetVariantSets().GetNames())]
