@@ -154,6 +154,19 @@ def test_resume_skips_measured_rows(tmp_path):
     assert len(after) == len(before) + 2 and len(rows) == len(after)
 
 
+def test_resume_without_rows_to_resume_says_so_naming_the_file(tmp_path, capsys):
+    """--resume into a folder without rows.jsonl (a misspelt -o) measured every row again without a word, where
+    wrt render --resume names the log it did not find."""
+    out = tmp_path / "bench-ouy"
+    args = ["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+            "--n-rays", "100", "--repeats", "1", "-q", "-o", str(out), "--resume"]
+    assert main(args) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "nothing to resume" in line]
+    assert len(warned) == 1 and warned[0].startswith("wrt: warning:") and str(out / "rows.jsonl") in warned[0], warned
+    assert main(args) == 0  # now there are rows: resumed without a warning
+    assert not [line for line in capsys.readouterr().err.splitlines() if "nothing to resume" in line]
+
+
 def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
     """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)

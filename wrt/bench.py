@@ -997,6 +997,10 @@ def run_grid(
             _check_resumed_settings(out / SETTINGS_FILE, grid)
             rows = _resumed_rows(jsonl)
             resumed = {row_key(r): r for r in rows}
+        elif resume:  # said: a misspelt output folder measured every row again without a word
+            import warnings
+
+            warnings.warn(f"nothing to resume: no rows at {jsonl}; every row is measured")
     begun = False  # whether out/ holds this run's results yet
 
     grid = grid.validated()
