@@ -596,6 +596,24 @@ def test_an_output_placeholder_other_than_stem_is_warned_about(tmp_path, capsys)
     assert "{name} is no placeholder" in lines[0] and "names one image for 2 scenes" in lines[1], lines
 
 
+@pytest.mark.parametrize("command", ["render", "preview"])
+def test_an_image_name_given_as_a_scene_is_refused_pointing_at_dash_o(tmp_path, capsys, monkeypatch, command):
+    """'wrt render scene.usda out.png' rendered scene.usda to scene.png, not out.png, then failed on out.png as a
+    scene ('file not found', or 'USD cannot open this file' where an earlier out.png exists), status 1."""
+    monkeypatch.chdir(tmp_path)
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    scenes = [str(stage), "out.png"] if command == "render" else ["out.png"]
+    with pytest.raises(SystemExit) as exit_info:
+        sys.exit(main([command, *scenes, "--width", "8", "--height", "6", "-q"]))
+    assert exit_info.value.code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "out.png" in errors[0] and "-o out.png" in errors[0], errors
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tri.usda"]  # nothing rendered
+
+
 @pytest.mark.parametrize("frames", [False, True])
 def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames):
     """--exposure scales PNGs only: with .exr or .npy output it did nothing, without a word."""

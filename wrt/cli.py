@@ -393,6 +393,14 @@ def _warn_unknown_placeholders(output: str) -> None:
                           "without extension, and with --frames a run of #, the frame number", stacklevel=2)
 
 
+def _refuse_images_as_scenes(paths: list, formats: tuple) -> None:
+    """Raises ValueError for a scene argument named as an image the command writes: 'wrt render scene.usda out.png'
+    rendered scene.png, then failed on out.png as a scene that was not found."""
+    for path in paths:
+        if path.suffix.lower() in formats:
+            raise ValueError(f"{path} is an image name, not a USD scene; name the image to write with -o {path}")
+
+
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
     if not several:  # {stem} too: a script's pattern works for one scene as for several
@@ -663,6 +671,9 @@ def _run_render(args) -> int:
 
     progress = _Progress(args.quiet)
     paths = [Path(s) for s in args.scene] or [default_scene_path()]
+    from .image import IMAGE_FORMATS
+
+    _refuse_images_as_scenes(paths, IMAGE_FORMATS)
     # Options that another one overrides would be dropped without a word.
     if args.workers is not None and args.dask != "":
         raise ValueError("--workers sizes the LocalCluster of --dask without an ADDRESS; it applies to nothing else")
@@ -991,6 +1002,7 @@ def _run_preview(args) -> int:
 
     progress = _Progress(args.quiet)
     path = Path(args.scene) if args.scene else default_scene_path()
+    _refuse_images_as_scenes([path], (".png",))
     output = args.output
     no_window = None  # why no window opens without -o, if none does
     if output is None:
