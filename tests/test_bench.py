@@ -167,6 +167,15 @@ def test_resume_without_rows_to_resume_says_so_naming_the_file(tmp_path, capsys)
     assert not [line for line in capsys.readouterr().err.splitlines() if "nothing to resume" in line]
 
 
+def test_the_summary_names_an_output_folder_given_with_a_slash_once(tmp_path, capsys):
+    """'-o out/' was summed up as 'results in out//'."""
+    out = f"{tmp_path}/out/"
+    assert main(["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+                 "--n-rays", "100", "--repeats", "1", "-q", "-o", out]) == 0
+    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    assert summary == [f"wrt: 1 row measured, 0 resumed, 0 failed; results in {tmp_path}/out/"], summary
+
+
 def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
     """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)

@@ -1161,7 +1161,7 @@ def _run_bench(args) -> int:
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
     summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed; results in "
-               f"{args.out}/")
+               f"{os.path.join(args.out, '')}")  # one separator after the folder, given with one or not
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
