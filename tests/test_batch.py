@@ -240,9 +240,19 @@ def test_a_misspelt_aov_name_lists_the_names_there_are():
     one = wrt.render(scene, camera=ring_of_cameras(1)[0], width=8, height=6, device="cpu")
     batch = wrt.render_batch(scene, ring_of_cameras(2), 8, 6, device="cpu")
     for aovs in (one.aovs, batch.aovs, batch.image(1).aovs):
-        with pytest.raises(KeyError, match=r"no AOV 'dpth'; this image has: .*\bdepth\b"):
+        with pytest.raises(KeyError, match=r"no AOV 'dpth'.*; this image has: .*\bdepth\b"):
             aovs["dpth"]
         assert "dpth" not in aovs and aovs.get("dpth") is None and aovs["depth"] is dict.__getitem__(aovs, "depth")
+
+
+@pytest.mark.parametrize("name, meant", [("dpth", "depth"), ("Normal", "normal"), ("geometric-normal",
+                                                                                   "geometric_normal")])
+def test_a_misspelt_aov_name_names_the_one_meant(name, meant):
+    """The KeyError listed the AOVs there are but named none as the one meant, as the misspelt names of the
+    command line (--aov dept: 'did you mean 'depth'?') and of wrt.render's arguments do."""
+    image = wrt.render(sensor_scene(), camera=ring_of_cameras(1)[0], width=8, height=6, device="cpu")
+    with pytest.raises(KeyError, match=rf"no AOV '{name}' \(did you mean '{meant}'\?\); this image has: "):
+        image.aovs[name]
 
 
 def _pinhole_and_lens_renders(device: str):

@@ -290,11 +290,11 @@ def check_image_path(path) -> Path:
 
 
 class Aovs(dict):
-    """AOV name -> array: a name it lacks (a typo, ``"dpth"``) is a KeyError that lists the names it has; a plain dict's
-    said only ``'dpth'``."""
+    """AOV name -> array: a name it lacks (a typo, ``"dpth"``) is a KeyError that names the closest and lists the names
+    it has; a plain dict's said only ``'dpth'``."""
 
     def __missing__(self, name):
-        raise KeyError(f"no AOV {name!r}; this image has: {', '.join(self) or 'none'}")
+        raise KeyError(f"no AOV {name!r}{did_you_mean(name, self)}; this image has: {', '.join(self) or 'none'}")
 
 
 @dataclasses.dataclass
