@@ -176,6 +176,17 @@ def test_the_summary_names_an_output_folder_given_with_a_slash_once(tmp_path, ca
     assert summary == [f"wrt: 1 row measured, 0 resumed, 0 failed; results in {tmp_path}/out/"], summary
 
 
+def test_an_error_row_printed_as_it_comes_names_its_device(tmp_path, capsys):
+    """The line printed as an error row came said 'scene / accel / rays' only: with several devices it did not say
+    which one failed, where the summary's line names it ('scene / accel / device / rays'); and it went to stdout,
+    away from the run's other messages on stderr."""
+    assert main(["bench", "--scenes", "no/such.usda", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+                 "--n-rays", "100", "--repeats", "1", "-o", str(tmp_path)]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if "no/such.usda" in line]
+    assert len(lines) == 2, lines  # as the row came (on stdout, it was), and in the summary
+    assert all("no/such.usda / * / cpu / primary: " in line for line in lines), lines
+
+
 def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
     """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)

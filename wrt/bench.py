@@ -31,6 +31,7 @@ import math
 import os
 import platform
 import statistics
+import sys
 import time
 import traceback
 from pathlib import Path
@@ -1047,7 +1048,9 @@ def run_grid(
                 f.write(strict_json(row) + "\n")
                 f.flush()
         if "error" in row:
-            tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")
+            # The device too, as the summary names it; on stderr, under the bar, with the run's other messages.
+            tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['device']} / {row['rays']}: {row['error']}",
+                       file=sys.stderr)
 
     try:
         if dask:
