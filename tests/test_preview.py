@@ -494,6 +494,16 @@ def test_missing_pyvista_says_how_to_install(monkeypatch):
         import_pyvista()
 
 
+@pytest.mark.parametrize("output", [[], ["-o", "view.png"]])
+def test_cli_without_pyvista_says_how_to_install_it_with_status_1(tmp_path, capsys, monkeypatch, output):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setitem(sys.modules, "pyvista", None)
+    assert main(["preview", "--window", "64x48", "-q", *output]) == 1
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "pip install 'wrt[preview]'" in errors[0], errors
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_no_offscreen_backend_is_a_clear_error_not_a_crash(monkeypatch):
     monkeypatch.setattr(preview_module, "_backend", None)
     monkeypatch.setattr(preview_module, "has_display", lambda: False)
