@@ -275,6 +275,23 @@ def test_stage_without_products_is_an_error(tmp_path):
         wrt.render_products(scene, tmp_path / "out")
 
 
+def test_settings_the_stage_does_not_choose_are_named_when_no_product_is_written(tmp_path, capsys):
+    """A stage with RenderSettings and products but no renderSettingsPrimPath was refused with 'no render settings,
+    so no RenderProduct to write', as if it had none: the message names the settings there are and how to choose."""
+    path = write_stage(tmp_path, product("Beauty", ["color"], "beauty.png"), ["Beauty"])
+    text = open(path).read().replace('    renderSettingsPrimPath = "/Render/Settings"\n', "")
+    open(path, "w").write(text)
+    assert main(["render", path, "--products", str(tmp_path / "out"), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "RenderSettings prims in the stage: /Render/Settings" in errors[0], errors
+    assert "--render-settings" in errors[0]
+    with pytest.raises(ValueError, match=r"RenderSettings prims in the stage: /Render/Settings.*render_settings="):
+        wrt.render_products(wrt.load_usd(path), tmp_path / "out")
+    chosen = ["--render-settings", "/Render/Settings"]
+    assert main(["render", path, "--products", str(tmp_path / "out"), "-q", *chosen]) == 0
+    assert (tmp_path / "out" / "beauty.png").is_file()  # as the message says
+
+
 @pytest.mark.parametrize("directory, error, message", [
     ("", ValueError, r"render_products: directory '' is empty"),  # Path('') is the current folder: written there
     # Refused at the first write, after the renders: 'cannot write notes.txt/out/a.png: notes.txt is a file, ...'.

@@ -306,6 +306,22 @@ def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, 
                 yield key, batch_image.image(k)
 
 
+def _unchosen(source) -> str:
+    """What to add to 'no render settings' where the stage file ``source`` has RenderSettings prims that neither its
+    ``renderSettingsPrimPath`` nor the caller chose: it read as if the stage had none."""
+    if not source or not os.path.isfile(source):
+        return ""
+    from pxr import Usd
+
+    from .render_settings import settings_prims
+
+    found = settings_prims(Usd.Stage.Open(str(source)))
+    if not found:
+        return ""
+    return (f"; RenderSettings prims in the stage: {', '.join(found)}, none chosen by its renderSettingsPrimPath: "
+            "choose one with --render-settings PRIM (load_usd(..., render_settings=PRIM))")
+
+
 def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 0, builder: str = "sah",
                     accel: str = "wrt", integrator: str = "whitted", max_depth: int | None = None,
                     ao_radius: float | None = None, batch: int | None = None, progress: bool = False,
@@ -332,7 +348,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
     products = settings.products if settings is not None else ()
     if not products:
         what = f"{settings.path} has no RenderProduct" if settings else "no render settings, so no RenderProduct"
-        raise ValueError(f"{scene.source or 'scene'}: {what} to write")
+        raise ValueError(f"{scene.source or 'scene'}: {what} to write{'' if settings else _unchosen(scene.source)}")
     exposure = check_exposure(exposure)
     where = os.path.basename(settings.source)
     if exposure != 0.0 and integrator in DATA_INTEGRATORS:  # said once, before the renders; the EXRs' note is moot

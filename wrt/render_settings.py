@@ -261,6 +261,13 @@ class RenderSettings:
         return cropped, j1 - j0, k1 - k0
 
 
+def settings_prims(stage) -> list[str]:
+    """The paths of the ``RenderSettings`` prims of ``stage`` (active ones), for a message naming those to choose."""
+    from pxr import UsdRender
+
+    return [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
+
+
 def read_render_settings(stage, source: str, path: str | None = None, time=None) -> RenderSettings | None:
     """The render settings at prim ``path``, else those ``renderSettingsPrimPath`` names; ``None`` when neither, or
     (with a warning) when the metadata names no ``RenderSettings`` prim. Their attributes are read at ``time`` (a
@@ -285,7 +292,7 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
             return None
     prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) and Sdf.Path(path).IsAbsolutePath() else None
     if not (prim and prim.IsActive() and prim.IsA(UsdRender.Settings)):
-        found = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
+        found = settings_prims(stage)
         what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
         what = f"an inactive {prim.GetTypeName()}" if prim and not prim.IsActive() else what
         meant = did_you_mean(path, found) if given else ""  # a stale renderSettingsPrimPath is no typo of the user's
