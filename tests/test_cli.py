@@ -612,6 +612,10 @@ def test_an_image_name_given_as_a_scene_is_refused_pointing_at_dash_o(tmp_path, 
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(errors) == 1 and "out.png" in errors[0] and "-o out.png" in errors[0], errors
     assert sorted(p.name for p in tmp_path.iterdir()) == ["tri.usda"]  # nothing rendered
+    if command == "render":  # an image that exists ('wrt render scenes/*' took in a thumbnail): the batch goes on
+        (tmp_path / "thumb.png").write_bytes(b"\x89PNG\r\n\x1a\n")
+        assert main([command, str(stage), "thumb.png", "-o", "out/", "--width", "8", "--height", "6", "-q"]) == 1
+        assert (tmp_path / "out" / "tri.png").is_file()
 
 
 @pytest.mark.parametrize("frames", [False, True])

@@ -394,10 +394,11 @@ def _warn_unknown_placeholders(output: str) -> None:
 
 
 def _refuse_images_as_scenes(paths: list, formats: tuple) -> None:
-    """Raises ValueError for a scene argument named as an image the command writes: 'wrt render scene.usda out.png'
-    rendered scene.png, then failed on out.png as a scene that was not found."""
+    """Raises ValueError for a scene argument named as an image the command writes, and not there: 'wrt render
+    scene.usda out.png' rendered scene.png, then failed on out.png as a scene that was not found. An image that
+    exists (a thumbnail a glob took in) fails as a scene of its own, and a batch goes on past it."""
     for path in paths:
-        if path.suffix.lower() in formats:
+        if path.suffix.lower() in formats and not path.exists():
             raise ValueError(f"{path} is an image name, not a USD scene; name the image to write with -o {path}")
 
 
