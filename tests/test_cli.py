@@ -758,9 +758,19 @@ def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, comm
     size = [] if command[0] == "bvh-stats" else ["--width", "8", "--height", "6"]
     assert main([*argv, *(["gpu"] if option == "--devices" else ["--device", "gpu"]), *size]) == 2
     (line,) = error_lines(capsys.readouterr().err)  # no 'loaded' line
-    assert line == f"wrt: error: {option} gpu: unknown or unavailable device 'gpu'; available devices: " + ", ".join(
-        d.alias for d in wp.get_devices()), line
+    # 'gpu' names the one meant, as wrt bench --devices gpu does.
+    assert line == (f"wrt: error: {option} gpu: unknown or unavailable device 'gpu' (did you mean 'cuda'?); available "
+                    "devices: " + ", ".join(d.alias for d in wp.get_devices())), line
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("device", ["CPU", "cpu:0", "cpuu"])
+def test_a_misspelt_device_names_the_one_meant(tmp_path, capsys, device):
+    """--device CPU said 'unknown or unavailable device' and listed the devices, where --devices of wrt bench says
+    '(did you mean 'cpu'?)'."""
+    assert main(["render", "no/such.usda", "--device", device, "-o", str(tmp_path / "x.png")]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert f"unknown or unavailable device {device!r} (did you mean 'cpu'?)" in line, line
 
 
 def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, ctrl_c_after):

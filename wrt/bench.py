@@ -40,6 +40,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import Builder
+from .bvh.common import device_name_hint, is_device_name
 from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
@@ -240,21 +241,13 @@ class Grid:
         return threads, accels, scaling
 
 
-def _is_device_name(name: str) -> bool:
-    """Whether ``name`` is a Warp device name: ``cpu``, ``cuda`` or ``cuda:N``."""
-    kind, colon, ordinal = name.partition(":")
-    return name in ("cpu", "cuda") or bool(kind == "cuda" and colon and ordinal.isdigit() and ordinal.isascii())
-
-
 def check_device_name(name: str, index: int | None = None) -> None:
     """Raises GridError naming ``name`` (entry ``index`` of ``devices``) unless it is a Warp device name, with the
     one meant: ``'CPU'``, ``'Cuda:0'``, ``'gpu'`` (Warp's names are lowercase; ``wp.get_device('CPU')`` fails)."""
-    if isinstance(name, str) and _is_device_name(name):
+    if isinstance(name, str) and is_device_name(name):
         return
-    meant = str(name).strip().lower()
-    meant = {"gpu": "cuda"}.get(meant, meant)
-    hint = f" (did you mean {meant!r}?)" if _is_device_name(meant) else did_you_mean(name, ("cpu", "cuda"))
-    raise GridError("devices", f"unknown device {name!r}{hint}; devices are cpu, cuda and cuda:N", index)
+    raise GridError("devices", f"unknown device {name!r}{device_name_hint(name)}; devices are cpu, cuda and cuda:N",
+                    index)
 
 
 class GridError(ValueError):

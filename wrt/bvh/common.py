@@ -179,6 +179,24 @@ def reduce_bounds_kernel(
     wp.atomic_max(bounds, 3, c_hi)
 
 
+def is_device_name(name: str) -> bool:
+    """Whether ``name`` is a Warp device name: ``cpu``, ``cuda`` or ``cuda:N``."""
+    kind, colon, ordinal = name.partition(":")
+    return name in ("cpu", "cuda") or bool(kind == "cuda" and colon and ordinal.isdigit() and ordinal.isascii())
+
+
+def device_name_hint(name) -> str:
+    """`` (did you mean 'cpu'?)`` for a misspelt device name (``'CPU'``, ``'cpu:0'``, ``'Cuda:0'``, ``'gpu'``:
+    Warp's names are lowercase), or an empty string."""
+    from ..errors import did_you_mean
+
+    if is_device_name(str(name)):  # a name Warp knows, of a device this machine lacks: nothing to correct
+        return ""
+    meant = str(name).strip().lower()
+    meant = {"gpu": "cuda"}.get(meant, meant)
+    return f" (did you mean {meant!r}?)" if is_device_name(meant) else did_you_mean(name, ("cpu", "cuda"))
+
+
 def resolve_device(device) -> wp.Device:
     """``wp.get_device`` with a one-line ``ValueError`` naming the available devices (Warp's own error for
     ``"cuda"`` on a machine without one is a RuntimeError from deep inside)."""
@@ -193,7 +211,8 @@ def resolve_device(device) -> wp.Device:
         except (RuntimeError, ValueError, TypeError) as e:
             error = e
     available = ", ".join(d.alias for d in wp.get_devices())
-    raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from error
+    hint = device_name_hint(device) if isinstance(device, str) else ""
+    raise ValueError(f"unknown or unavailable device {device!r}{hint}; available devices: {available}") from error
 
 
 def resolve_device_option(value: str, option: str = "--device") -> wp.Device:
