@@ -73,6 +73,15 @@ def test_help_explains_the_options():
         assert "(default: [])" not in text, command  # --variant, --aov: repeatable, none unless given
 
 
+def test_the_preview_window_size_help_names_its_unit(capsys):
+    """--window said 'window (or PNG) size (default: 1280x800)': sizes of what, it did not say, where --width and
+    --height say 'in pixels'."""
+    with pytest.raises(SystemExit):
+        main(["preview", "--help"])
+    assert "window (or PNG) size in pixels, WIDTHxHEIGHT (default: 1280x800)" in " ".join(
+        capsys.readouterr().out.split())
+
+
 @pytest.mark.parametrize("args, message", [
     (["render", "--wdith", "8"], "unrecognized arguments: --wdith (did you mean '--width'?) (see 'wrt render --help')"),
     (["preview", "--bvh-leafs"], "(did you mean '--bvh-leaves'?) (see 'wrt preview --help')"),

@@ -980,7 +980,8 @@ def _add_preview(sub) -> None:
                    "stage's RenderSettings resolution, else 640 (given alone: the camera's aspect fixes the height)")
     p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
                    "resolution, else 480 (given alone: the camera's aspect fixes the width)")
-    p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH", help="window (or PNG) size")
+    p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH",
+                   help="window (or PNG) size in pixels, WIDTHxHEIGHT")
     p.add_argument(
         "--max-triangles",
         type=positive_int,
