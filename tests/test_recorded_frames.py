@@ -13,6 +13,14 @@ import warp as wp
 import wrt
 from wrt.procedural import ring_of_cameras, sensor_scene
 
+# Warp records graphs on the CPU too; on a CUDA host the same tests run the CUDA graph path.
+CUDA = pytest.mark.skipif(not wp.is_cuda_available(), reason="no CUDA device")
+
+
+@pytest.fixture(params=["cpu", pytest.param("cuda:0", marks=CUDA)])
+def device(request) -> str:
+    return request.param
+
 
 def _lens_camera() -> wrt.Camera:
     cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
@@ -40,59 +48,59 @@ EDITS = {"to_world": _move, "focal_length": _zoom, "vertical_aperture": _widen_f
 
 
 @pytest.mark.parametrize("field", EDITS)
-def test_a_camera_edited_after_the_recording_is_refused_until_uploaded(field):
+def test_a_camera_edited_after_the_recording_is_refused_until_uploaded(field, device):
     """The graph reads the cameras as last uploaded: a camera moved, zoomed, given a new film (a new image size) or
     refocused after the recording replayed its old view, and frame_image returned it without a word. Now it names
     the edit; once launch_frame() has uploaded the camera, a new recording replays what a fresh render draws."""
     scene, cam = sensor_scene(), _lens_camera()
     height = None if field == "vertical_aperture" else 6
-    renderer = wrt.Renderer(scene, camera=cam, width=8, height=height, device="cpu")
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=height, device=device)
     renderer.launch_frame(seed=3)
-    with wp.ScopedCapture(device="cpu") as capture:
+    with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
     EDITS[field](cam)
     wp.capture_launch(capture.graph)
     with pytest.raises(RuntimeError, match=rf"^camera \({field}\) changed since the cameras were uploaded"):
         renderer.frame_image()
     renderer.launch_frame(seed=3)  # outside the capture: uploads the camera
-    with wp.ScopedCapture(device="cpu") as capture:
+    with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
     wp.capture_launch(capture.graph)
-    fresh = wrt.render(scene, camera=cam, width=8, height=height, seed=3, device="cpu")
+    fresh = wrt.render(scene, camera=cam, width=8, height=height, seed=3, device=device)
     np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.rgb)
 
 
-def test_a_frame_drawn_before_set_cameras_is_refused_until_drawn_again():
+def test_a_frame_drawn_before_set_cameras_is_refused_until_drawn_again(device):
     """A frame drawn, then set_cameras with as many cameras (uploaded into the arrays a graph reads): frame_image
     returned the old poses, with nothing replayed since. Refused now; a replay draws the new cameras."""
     scene, cams = sensor_scene(), ring_of_cameras(4)
-    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
-    with wp.ScopedCapture(device="cpu") as capture:
+    with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
     renderer.set_cameras(cams[2:])
     with pytest.raises(RuntimeError, match=r"drawn \(or its graph replayed\) before the cameras last changed"):
         renderer.frame_image()
     wp.capture_launch(capture.graph)
-    expected = wrt.render_batch(scene, cams[2:], 8, 6, seed=3, device="cpu").rgb.numpy()
+    expected = wrt.render_batch(scene, cams[2:], 8, 6, seed=3, device=device).rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
 
 
-def test_a_graph_older_than_the_last_recording_keeps_what_it_reads_and_its_frame_is_refused():
+def test_a_graph_older_than_the_last_recording_keeps_what_it_reads_and_its_frame_is_refused(device):
     """The Renderer kept what the last recorded graph reads until the next recording only: a graph recorded before
     a scene edit and a second recording replayed kernels on the freed BVH and frame buffers (README: "must not be
     replayed"). Each graph now keeps its own for as long as it lives; its replay's frame is refused, the newer
     graph's replay still draws what a fresh render does, and dropping the old graph frees what it kept."""
     scene, cams = sensor_scene(), ring_of_cameras(2)
-    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
-    with wp.ScopedCapture(device="cpu") as old:
+    with wp.ScopedCapture(device=device) as old:
         renderer.launch_frame(seed=3)
     kept = [weakref.ref(renderer.accel), weakref.ref(renderer.device_scene), weakref.ref(renderer._frame[0])]
     mesh = scene.meshes[0]
     scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.5, 0.0]))
     renderer.launch_frame(seed=3)  # builds the edited scene again
-    with wp.ScopedCapture(device="cpu") as new:
+    with wp.ScopedCapture(device=device) as new:
         renderer.launch_frame(seed=3)
     gc.collect()
     assert all(ref() is not None for ref in kept)  # the old graph's BVH, scene and buffers
@@ -100,87 +108,87 @@ def test_a_graph_older_than_the_last_recording_keeps_what_it_reads_and_its_frame
     with pytest.raises(RuntimeError, match=r"before the scene changed.*record the frame again"):
         renderer.frame_image()
     wp.capture_launch(new.graph)
-    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device="cpu").rgb.numpy()
+    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device=device).rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
     del old
     gc.collect()
     assert all(ref() is None for ref in kept)
 
 
-def test_a_batch_frame_image_keeps_its_aovs_when_the_next_frame_is_drawn():
+def test_a_batch_frame_image_keeps_its_aovs_when_the_next_frame_is_drawn(device):
     """frame_image's BatchImage had views of the frame's AOV buffers (its rgb a new array): the next frame (a graph's
     replay, a launch_frame) rewrote the AOVs of an image already returned, whose depth then was another frame's."""
     scene, cams = sensor_scene(), ring_of_cameras(4)
-    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
     first = renderer.frame_image()
     renderer.set_cameras(cams[2:])
     renderer.launch_frame(seed=3)
-    expected = wrt.render_batch(scene, cams[:2], 8, 6, seed=3, device="cpu")
+    expected = wrt.render_batch(scene, cams[:2], 8, 6, seed=3, device=device)
     for name in ("depth", "prim", "normal", "coverage"):
         np.testing.assert_array_equal(first.aovs[name].numpy(), expected.aovs[name].numpy())
     np.testing.assert_array_equal(first.rgb.numpy(), expected.rgb.numpy())
 
 
-def test_set_cameras_inside_a_capture_is_refused():
+def test_set_cameras_inside_a_capture_is_refused(device):
     """set_cameras inside a capture recorded its uploads: every replay copied the poses given then (from an array
     freed since) over the cameras set later, and drew those. Refused; the renderer keeps its cameras, and a graph
     recorded without it replays the cameras set outside."""
     scene, cams = sensor_scene(), ring_of_cameras(6)
-    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
     with pytest.raises(RuntimeError, match=r"set_cameras\(\) cannot be recorded in a graph"):
-        with wp.ScopedCapture(device="cpu"):
+        with wp.ScopedCapture(device=device):
             renderer.set_cameras(cams[2:4])
-    with wp.ScopedCapture(device="cpu") as capture:
+    with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
     renderer.set_cameras(cams[4:6])
     wp.capture_launch(capture.graph)
-    expected = wrt.render_batch(scene, cams[4:6], 8, 6, seed=3, device="cpu").rgb.numpy()
+    expected = wrt.render_batch(scene, cams[4:6], 8, 6, seed=3, device=device).rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
 
 
 @pytest.mark.parametrize("call", ["render", "frame_image", "image_so_far"])
-def test_a_call_that_reads_back_is_refused_inside_a_capture(call):
+def test_a_call_that_reads_back_is_refused_inside_a_capture(call, device):
     """render() inside a capture recorded its launches and read back buffers they had not written: an image of
     garbage (a mean of 5e32 on the CPU); frame_image()'s and image_so_far()'s coverage kernels were only recorded,
     their coverage garbage. Each is refused naming the call; afterwards the renderer draws as a fresh one."""
     scene = sensor_scene()
     cam = wrt.Camera.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
-    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device=device)
     renderer.render(seed=1)
     renderer.launch_frame(seed=1)
     with pytest.raises(RuntimeError, match=rf"^{call}\(\) cannot be recorded in a graph"):
-        with wp.ScopedCapture(device="cpu"):
+        with wp.ScopedCapture(device=device):
             getattr(renderer, call)()
-    fresh = wrt.render(scene, camera=cam, width=8, height=6, seed=1, device="cpu")
+    fresh = wrt.render(scene, camera=cam, width=8, height=6, seed=1, device=device)
     for image in (renderer.render(seed=1), renderer.frame_image(), renderer.image_so_far()):
         np.testing.assert_array_equal(image.rgb, fresh.rgb)
         np.testing.assert_array_equal(image.aovs["coverage"], fresh.aovs["coverage"])
 
 
-def test_a_batch_camera_edited_after_the_frame_is_named_by_its_index():
+def test_a_batch_camera_edited_after_the_frame_is_named_by_its_index(device):
     """In a batch the refusal names the edited camera by its index (each camera made in Python is just "camera")."""
     scene, cams = sensor_scene(), ring_of_cameras(2)
-    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
     cams[1].focal_length *= 2.0
     cams[1].exposure_scale = 2.0
     with pytest.raises(RuntimeError, match=r"^cameras\[1\] of 2 \(focal_length, exposure_scale\) changed since"):
         renderer.frame_image()
     renderer.launch_frame(seed=3)
-    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device="cpu").rgb.numpy()
+    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device=device).rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
 
 
-def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path():
+def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path(device):
     """A renderer of a camera path names it in the refusal: replaced in scene.cameras, or gone from it (that was
     called "the camera wrt frames the scene with", a camera the renderer never drew)."""
     scene = sensor_scene()
     cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
     cam.path = "/Cam"
     scene.cameras["/Cam"] = cam
-    renderer = wrt.Renderer(scene, camera="/Cam", width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, camera="/Cam", width=8, height=6, device=device)
     renderer.launch_frame(seed=3)
     scene.cameras["/Cam"] = dataclasses.replace(cam, focal_length=80.0)
     with pytest.raises(RuntimeError, match=r"^camera /Cam \(replaced\) changed since the cameras were uploaded"):
@@ -190,7 +198,7 @@ def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path
         renderer.frame_image()
 
 
-def test_frame_image_counts_the_frames_dropped_samples():
+def test_frame_image_counts_the_frames_dropped_samples(device):
     """Non-finite samples (here sums past float32's range under a dome of 1e38) are counted in dropped_samples, which
     frame_image left at the last render()'s count, of other samples; the frame's own count was never reset, so it
     grew with every frame and replay. frame_image now gives the frame's count, a fresh one-sample render's."""
@@ -200,14 +208,14 @@ def test_frame_image_counts_the_frames_dropped_samples():
     scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
     scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32))]
     cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
-    options = {"camera": cam, "width": 8, "height": 8, "integrator": "path", "device": "cpu"}
+    options = {"camera": cam, "width": 8, "height": 8, "integrator": "path", "device": device}
     fresh = wrt.Renderer(scene, **options)
     fresh.render(spp=1, seed=3)
     assert fresh.dropped_samples > 0
     renderer = wrt.Renderer(scene, **options)
     renderer.render(spp=8, seed=3)
     renderer.launch_frame(seed=3)
-    with wp.ScopedCapture(device="cpu") as capture:
+    with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
     for _ in range(2):
         wp.capture_launch(capture.graph)
