@@ -1333,6 +1333,38 @@ def test_a_file_authored_as_a_string_is_read_as_an_asset_path(tmp_path, where, t
         np.testing.assert_allclose(img[row, col], color, atol=2e-3)
 
 
+@pytest.mark.parametrize("file", ["missing.png", "empty.png", "tiles.<UDIM>.png"])
+def test_a_file_that_cannot_be_read_is_named_with_every_shader_that_reads_it(tmp_path, file):
+    """A file that is missing, empty or a UDIM pattern with no tile, read by the textures of three materials: the
+    warning names each texture's shader, found through USD's own connections (``GetConnectedSources`` of each
+    surface's diffuseColor), and each material reads the fallback. The file's failure was kept and only the first
+    shader named: a look with the same broken path elsewhere drew its fallback without a word."""
+    (tmp_path / "empty.png").write_bytes(b"")
+    stage, path = new_stage(tmp_path)
+    shaders = []
+    for k in range(3):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        material, surface = preview_material(stage, f"/Looks/M{k}")
+        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image{k}")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./" + file)
+        tex.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(0.25, 0.5, 0.75, 1.0))
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(quad, material)
+        (source,), _ = surface.GetInput("diffuseColor").GetConnectedSources()
+        shaders.append(str(source.source.GetPath()))
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    named = [m for m in messages if file in m]
+    assert named, messages
+    for shader in shaders:
+        assert any(shader in m for m in named), (shader, named)
+    for mat in scene.materials:
+        assert mat.textures == {}
+        np.testing.assert_allclose(mat.diffuse_color, (0.25, 0.5, 0.75))
+
+
 @pytest.mark.parametrize("channel, input_name", [("rgb", "diffuseColor"), ("a", "roughness")])
 def test_a_missing_texture_reads_its_fallback_through_scale_and_bias(tmp_path, channel, input_name):
     """The fallback stands in for the texture's value where the file cannot be read, and ``scale`` and ``bias``

@@ -874,6 +874,9 @@ class MaterialReader:
         self.texture_paths: list[str] = []
         self._by_path: dict[str, int] = {}  # material prim path (in its prototype) -> index, -1 for the default
         self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
+        # (resolved path, colour space) -> (reason, detail) of what a file's read found wrong: told again with each
+        # shader that names the file, as a fresh read of that shader would tell it
+        self._file_problems: dict[tuple[str, str], tuple[str, str | None]] = {}
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
     # Bindings
@@ -1548,6 +1551,7 @@ class MaterialReader:
         for cache, size in ((self._images, images), (self._udim, udim)):
             for key in list(cache)[size:]:
                 del cache[key]
+                self._file_problems.pop(key, None)
 
     def _file_images(self, shader, color_space: str, material_path: str, name: str):
         asset = self._constant(shader, name)
@@ -1588,10 +1592,10 @@ class MaterialReader:
                 row = int(tile) - UDIM_FIRST
                 if 0 <= row < UDIM_TILES:
                     tiles[row] = self._load(resolved, resolved, color_space, prim)
-            if not np.any(tiles >= 0):
-                self.skip(f"material {material_path}: texture {authored}: no UDIM tile ({UDIM_FIRST} to "
-                          f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
             self._udim[key] = tiles
+        if not np.any(self._udim[key] >= 0):  # told for each material that reads the pattern, not the first only
+            self.skip(f"material {material_path}: texture {authored}: no UDIM tile ({UDIM_FIRST} to "
+                      f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
         return self._udim[key]
 
     def _image(self, asset, color_space: str, prim) -> int:
@@ -1607,8 +1611,10 @@ class MaterialReader:
             return self._load(resolved, authored, color_space, prim)
         key = (authored, color_space)
         if key not in self._images:
-            self.skip(f"texture {authored}: the file was not found; the texture's fallback value is used", prim)
             self._images[key] = -1
+            self._file_problems[key] = (f"texture {authored}: the file was not found; the texture's fallback value "
+                                        "is used", None)
+        self._tell_file_problem(key, prim)
         return self._images[key]
 
     def _load(self, resolved: str, authored: str, color_space: str, prim) -> int:
@@ -1620,7 +1626,7 @@ class MaterialReader:
                 pixels = load_image(resolved, color_space) if self.memo is None else self.memo.image(
                     resolved, color_space, load_image)
             except TextureError as e:
-                self.skip(f"texture {authored}: {e}; the texture's fallback value is used", prim)
+                self._file_problems[key] = (f"texture {authored}: {e}; the texture's fallback value is used", None)
                 self._images[key] = -1
             else:
                 self._images[key] = len(self.textures)
@@ -1628,9 +1634,18 @@ class MaterialReader:
                 self.texture_paths.append(resolved)
                 unpacked = _unpacked_texels(pixels, resolved)
                 if unpacked:  # pack_images stores float16: they were changed without a word
-                    self.skip(f"texture {authored}: texels that are NaN or past float16's range were changed (NaN "
-                              "read as 0, others clamped to +-65504)", prim, unpacked)
+                    self._file_problems[key] = (f"texture {authored}: texels that are NaN or past float16's range "
+                                                "were changed (NaN read as 0, others clamped to +-65504)", unpacked)
+        self._tell_file_problem(key, prim)
         return self._images[key]
+
+    def _tell_file_problem(self, key: tuple[str, str], prim) -> None:
+        """Warns, naming shader ``prim``, of what the read of the file of ``key`` found wrong, if anything: at each
+        lookup, so that every shader naming a file that cannot be read is named (the first one only was, and the
+        other looks drew their fallback without a word)."""
+        problem = self._file_problems.get(key)
+        if problem is not None:
+            self.skip(problem[0], prim, problem[1])
 
 
 # Files whose decoded texels lie in [0, 1] (8- or 16-bit integers): not scanned (a 4k texture at every kept frame).
