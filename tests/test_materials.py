@@ -1212,6 +1212,37 @@ def test_an_unauthored_unconnected_st_reads_the_mesh_st(tmp_path):
         np.testing.assert_allclose(img[row, col], color, atol=2e-3)
 
 
+@pytest.mark.parametrize("varname", [None, "", "token"])
+def test_a_primvar_reader_that_names_no_primvar_reads_its_fallback_st(tmp_path, varname):
+    """A UsdPrimvarReader_float2 whose ``varname`` is unauthored (Sdr's default, checked here, is the empty string)
+    or empty names no primvar: Storm's primvar redirect then has no primvar to read and gives the reader's
+    ``fallback`` at every point. wrt read the mesh's ``st`` without a word, a textured quad where usdview shows one
+    texel. Oracle: the texel at the fallback st, filtered by hand in float64 from the PNG's samples."""
+    from pxr import Sdr
+
+    assert Sdr.Registry().GetShaderNodeByIdentifier("UsdPrimvarReader_float2").GetShaderInput(
+        "varname").GetDefaultValue() == ""
+    samples = np.random.default_rng(21).integers(0, 256, (4, 4, 3))
+    png = write_png(tmp_path / "random.png", samples)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    reader = stage.GetPrimAtPath("/Looks/Tex/St")
+    reader.RemoveProperty("inputs:varname")
+    if varname is not None:
+        reader.CreateAttribute("inputs:varname", Sdf.ValueTypeNames.Token if varname else Sdf.ValueTypeNames.String
+                               ).Set("")
+    UsdShade.Shader(reader).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.3, 0.6))
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"names no primvar.*fallback.*/Looks/Tex/St"):
+        img = albedo(path)
+    x, y = 0.3 * 4 - 0.5, (1 - 0.6) * 4 - 0.5  # texel space, row 0 at the top: (0.7, 1.1)
+    fx, fy = x - 0, y - 1
+    texels = samples / 255.0
+    expected = ((texels[1, 0] * (1 - fx) + texels[1, 1] * fx) * (1 - fy)
+                + (texels[2, 0] * (1 - fx) + texels[2, 1] * fx) * fy)
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
 def write_png16(path, samples):
     """A 16-bit PNG (grey + alpha, RGB or RGBA by the channel count) written here byte by byte, rows filtered with
     Sub, Up, Average and Paeth in turn, so that reading it has to undo every PNG filter."""

@@ -1457,7 +1457,15 @@ class MaterialReader:
             node_id = node.GetShaderId() or ""
             if node_id.startswith(ST_READER_PREFIXES):
                 varname = self._constant(node, "varname")
-                return (str(varname) if varname else "st"), transform, self._st_fallback(node, material_path)
+                fallback = self._st_fallback(node, material_path)
+                if not varname:
+                    # Sdr's varname is "" (names no primvar): Storm's primvar redirect reads nothing and gives the
+                    # fallback; wrt read the mesh's st without a word.
+                    self.skip(f"material {material_path}: a texture-coordinate reader names no primvar (its varname is "
+                              "empty or unauthored); its fallback st is read at every point, as Storm reads it",
+                              node.GetPrim(), detail=f"fallback ({fallback[0]:g}, {fallback[1]:g})")
+                    return None, constant_st_transform(transform, fallback), no_fallback
+                return str(varname), transform, fallback
             if node_id == "ND_texcoord_vector2":  # MaterialX's UV0, USD's st
                 index = self._constant(node, "index")
                 if index not in (None, 0):
