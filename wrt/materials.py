@@ -1441,7 +1441,9 @@ class MaterialReader:
         nor authored reads the mesh's ``st`` primvar, as MaterialX defines the node (``defaultgeomprop="UV0"``) and as
         assets leave it (the usd-wg Mini Car Kit), not the schema's fallback (0, 0). A UsdTransform2d's ``in``
         neither connected nor authored is Sdr's default, (0, 0), as Storm and MaterialX's ``ND_UsdTransform2d`` (no
-        ``defaultgeomprop``) read it, with a warning: the texture shows one point."""
+        ``defaultgeomprop``) read it, with a warning: the texture shows one point. So does a primvar reader whose
+        ``varname`` is empty or unauthored (Sdr's default ``""`` names no primvar): its ``fallback``, as Storm reads
+        it."""
         transform = np.eye(3, dtype=np.float32)
         no_fallback = np.zeros(2, np.float32)
         found, node, name = self._producer(tex, "st"), tex, "st"
