@@ -293,6 +293,73 @@ def test_material_binding_purposes_walk_through_an_instance(tmp_path):
     assert drawn == {("/World/I/Mesh", 0): "/Looks/Outer"}
 
 
+def _bind_collection(holder, members, material, purpose):
+    """A collection on ``holder`` of ``members`` bound to ``material`` for ``purpose`` through USD's own API, which
+    names the relationship ``material:binding:collection:<purpose>:<name>``."""
+    collection = Usd.CollectionAPI.Apply(holder, "looks")
+    for member in members:
+        collection.GetIncludesRel().AddTarget(member)
+    UsdShade.MaterialBindingAPI.Apply(holder).Bind(collection, material, "looks",
+                                                   UsdShade.Tokens.weakerThanDescendants, purpose)
+    assert holder.GetRelationship(f"material:binding:collection:{purpose}:looks")
+
+
+@pytest.mark.parametrize("purpose", ["full", "preview"])
+def test_a_purpose_collection_binding_above_an_instance_beats_an_all_purpose_one_inside(tmp_path, purpose):
+    """A collection bound for a purpose (``material:binding:collection:full:looks``) above a native instance wins
+    over an all-purpose binding inside its prototype, as ``ComputeBoundMaterial`` on the proxy says (``full``; the
+    ``preview`` one where the full walk finds an MDL look wrt cannot read). wrt took the purpose of such a binding
+    for all-purpose (the ``collection`` part of its name), so the instance's walk found no binding of the purpose and
+    the prototype's inner look was drawn."""
+    path = str(tmp_path / "collection_purpose.usda")
+    stage = Usd.Stage.CreateNew(path)
+    inner, outer = _inner_and_outer(stage)
+    if purpose == "preview":  # the inner look is one wrt cannot read: the preview binding is drawn instead
+        inner = UsdShade.Material.Define(stage, "/Looks/Mdl")
+        mdl = UsdShade.Shader.Define(stage, "/Looks/Mdl/Shader")
+        mdl.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+        inner.CreateSurfaceOutput("mdl").ConnectToSource(mdl.ConnectableAPI(), "out")
+    stage.DefinePrim("/Protos/P", "Xform")
+    _bind(_quads(stage, "/Protos/P/Mesh", 1), inner)
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
+    world = stage.DefinePrim("/World", "Xform")
+    instance = stage.DefinePrim("/World/I", "Xform")
+    instance.GetReferences().AddInternalReference("/Protos/P")
+    instance.SetInstanceable(True)
+    _bind_collection(world, ["/World/I"], outer, purpose)
+    stage.GetRootLayer().Save()
+    drawn = _drawn_materials(load(path))
+    stage = Usd.Stage.Open(path)
+    proxy = stage.GetPrimAtPath("/World/I/Mesh")
+    want = UsdShade.MaterialBindingAPI(proxy).ComputeBoundMaterial(purpose)[0].GetPath()
+    assert str(want) == "/Looks/Outer"
+    assert drawn == {("/World/I/Mesh", 0): "/Looks/Outer"}
+
+
+@pytest.mark.parametrize("purpose", ["full", "preview"])
+def test_material_binding_purposes_find_a_collection_bound_for_that_purpose(tmp_path, purpose):
+    """Under the render settings' ``materialBindingPurposes = [purpose]`` a collection bound for that purpose binds
+    its members, as ``ComputeBoundMaterial(purpose)`` gives; wrt found no binding of the purpose (it read the
+    collection binding's purpose as all-purpose) and drew the default grey."""
+    from pxr import UsdRender
+
+    path = str(tmp_path / "purposes.usda")
+    stage = Usd.Stage.CreateNew(path)
+    inner, outer = _inner_and_outer(stage)
+    world = stage.DefinePrim("/World", "Xform")
+    _bind(_quads(stage, "/World/Mesh", 1), inner)
+    _bind_collection(world, ["/World/Mesh"], outer, purpose)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateMaterialBindingPurposesAttr([purpose])
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.GetRootLayer().Save()
+    drawn = _drawn_materials(load(path))
+    stage = Usd.Stage.Open(path)
+    mesh = stage.GetPrimAtPath("/World/Mesh")
+    assert str(UsdShade.MaterialBindingAPI(mesh).ComputeBoundMaterial(purpose)[0].GetPath()) == "/Looks/Outer"
+    assert drawn == {("/World/Mesh", 0): "/Looks/Outer"}
+
+
 @pytest.mark.parametrize("value_type", ["int64[]", "float[]", "string", "string[]"])
 def test_a_materialbind_subset_whose_indices_are_not_int_binds_no_face(tmp_path, value_type):
     """A ``materialBind`` subset's ``indices`` are ``int[]``; USD reads none from another type (its own

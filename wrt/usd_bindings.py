@@ -43,9 +43,15 @@ class Found(NamedTuple):
 
 
 def binding_purpose(rel: Usd.Relationship) -> str:
-    """The purpose of binding relationship ``rel``: ``material:binding[:purpose][:collection:name]``."""
+    """The purpose of binding relationship ``rel``: ``material:binding[:purpose]`` (direct) or
+    ``material:binding:collection[:purpose]:name`` (a collection binding; USD's ``GetCollectionBindingRels`` tells
+    the purpose by the count of its parts). A collection's purpose was read as all-purpose (the name was taken for
+    ``material:binding[:purpose][:collection:name]``): a ``full`` collection above a native instance lost to an
+    all-purpose binding inside it, and ``materialBindingPurposes`` found no binding of its purposes in one."""
     parts = rel.GetName().split(":")
-    return parts[2] if len(parts) > 2 and parts[2] != "collection" else ALL_PURPOSE
+    if len(parts) > 2 and parts[2] == "collection":
+        return parts[3] if len(parts) > 4 else ALL_PURPOSE
+    return parts[2] if len(parts) > 2 else ALL_PURPOSE
 
 
 def is_stronger(rel) -> bool:
