@@ -257,8 +257,8 @@ class _Generator:
         api = UsdShade.MaterialBindingAPI.Apply(prim)
         purpose = rng.choice(PURPOSES)
         rel = api.GetCollectionBindingRel(name, purpose)
-        if not rel:
-            rel_name = ("material:binding:" + (purpose + ":" if purpose else "") + "collection:" + name)
+        if not rel:  # (an unauthored one: USD's name for it, material:binding:collection[:purpose]:name)
+            rel_name = "material:binding:collection:" + (purpose + ":" if purpose else "") + name
             rel = prim.CreateRelationship(rel_name, custom=False)
         rel.SetTargets([coll.GetCollectionPath(), Sdf.Path(target)])
         if rng.random() < 0.4:
