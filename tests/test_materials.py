@@ -1396,6 +1396,34 @@ def test_a_file_that_cannot_be_read_is_named_with_every_shader_that_reads_it(tmp
         np.testing.assert_allclose(mat.diffuse_color, (0.25, 0.5, 0.75))
 
 
+def test_a_udim_tile_that_cannot_be_read_is_named_with_every_shader_that_reads_it(tmp_path):
+    """Tile 1002 of a UDIM pattern is an empty file, tile 1001 a good one; two materials read the pattern: the
+    warning about the tile names both textures' shaders (USD's ``GetConnectedSources``). The pattern's tiles were
+    kept, so the second material's read told nothing."""
+    write_png(tmp_path / "body.1001.png", CHECKER)
+    (tmp_path / "body.1002.png").write_bytes(b"")
+    stage, path = new_stage(tmp_path)
+    shaders = []
+    for k in range(2):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        material, surface = preview_material(stage, f"/Looks/M{k}")
+        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image{k}")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./body.<UDIM>.png")
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(quad, material)
+        (source,), _ = surface.GetInput("diffuseColor").GetConnectedSources()
+        shaders.append(str(source.source.GetPath()))
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    named = [m for m in messages if "body.1002.png" in m and "empty" in m]
+    assert len(named) == 1, messages
+    for shader in shaders:
+        assert shader in named[0], (shader, named)
+    assert all("diffuseColor" in mat.textures for mat in scene.materials)  # tile 1001 is read
+
+
 @pytest.mark.parametrize("channel, input_name", [("rgb", "diffuseColor"), ("a", "roughness")])
 def test_a_missing_texture_reads_its_fallback_through_scale_and_bias(tmp_path, channel, input_name):
     """The fallback stands in for the texture's value where the file cannot be read, and ``scale`` and ``bias``

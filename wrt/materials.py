@@ -878,6 +878,7 @@ class MaterialReader:
         # shader that names the file, as a fresh read of that shader would tell it
         self._file_problems: dict[tuple[str, str], tuple[str, str | None]] = {}
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
+        self._udim_files: dict[tuple, list] = {}  # the same key -> the _images keys of its tiles' files
 
     # Bindings
 
@@ -1562,6 +1563,7 @@ class MaterialReader:
             for key in list(cache)[size:]:
                 del cache[key]
                 self._file_problems.pop(key, None)
+                self._udim_files.pop(key, None)
 
     def _file_images(self, shader, color_space: str, material_path: str, name: str):
         asset = self._constant(shader, name)
@@ -1598,11 +1600,17 @@ class MaterialReader:
         key = (authored, layer.identifier if layer else "", color_space)
         if key not in self._udim:
             tiles = np.full(UDIM_TILES, -1, np.int32)
+            files = []
             for resolved, tile in UsdShade.UdimUtils.ResolveUdimTilePaths(authored, layer) if layer else []:
                 row = int(tile) - UDIM_FIRST
                 if 0 <= row < UDIM_TILES:
                     tiles[row] = self._load(resolved, resolved, color_space, prim)
+                    files.append((resolved, color_space))
             self._udim[key] = tiles
+            self._udim_files[key] = files
+        else:  # a tile that could not be read is told for each shader that reads the pattern, not the first only
+            for file_key in self._udim_files[key]:
+                self._tell_file_problem(file_key, prim)
         if not np.any(self._udim[key] >= 0):  # told for each material that reads the pattern, not the first only
             self.skip(f"material {material_path}: texture {authored}: no UDIM tile ({UDIM_FIRST} to "
                       f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
