@@ -1333,6 +1333,20 @@ def test_a_texture_without_a_file_reads_its_fallback_with_a_warning(tmp_path):
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
 
 
+def test_a_texture_whose_file_is_an_empty_asset_path_reads_its_fallback_naming_no_file(tmp_path):
+    """A ``file`` authored as the empty asset path ``@@`` names no file, as an unauthored one: the warning says so
+    and names the shader; it said ``texture @@: the file was not found``, a file no one named."""
+    path = textured_stage(tmp_path, str(tmp_path / "unused.png"))
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/Image").GetInput("file").Set(Sdf.AssetPath(""))
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert [m for m in messages if "names no file" in m and "/Looks/Tex/Image" in m], messages
+    assert not [m for m in messages if "texture @@" in m or "not found" in m], messages
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
 def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
     path = textured_stage(tmp_path, str(tmp_path / "nope.png"))
     with pytest.warns(UserWarning, match="nope.png"):

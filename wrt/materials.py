@@ -1619,9 +1619,15 @@ class MaterialReader:
     def _image(self, asset, color_space: str, prim) -> int:
         """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures`; -1 (with a warning) when
         it cannot be read."""
+        from pxr import Sdf
+
         if asset is None:  # no file authored (or one fed by a node): the fallback, as for a file not found
             self.skip("a texture names no file (its file input has no value); the texture's fallback value is used",
                       prim)
+            return -1
+        if isinstance(asset, Sdf.AssetPath) and not asset.path:  # @@: it was "texture @@: the file was not found"
+            self.skip("a texture names no file (its file input is the empty asset path @@); the texture's fallback "
+                      "value is used", prim)
             return -1
         resolved = getattr(asset, "resolvedPath", "") or ""
         authored = getattr(asset, "path", "") or str(asset)
