@@ -1243,6 +1243,57 @@ def test_a_primvar_reader_that_names_no_primvar_reads_its_fallback_st(tmp_path, 
     np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("what", ["st", "tint"])
+@pytest.mark.parametrize("holder", ["mesh", "gprim", "parent"])
+def test_a_constant_primvar_authored_as_one_value_rather_than_an_array_is_read(tmp_path, what, holder):
+    """A constant primvar may hold one value rather than an array of one (``texCoord2f primvars:st = (0.3, 0.6)``,
+    ``color3f primvars:tint = (0.2, 0.4, 0.6)``): USD's ``ComputeFlattened`` gives that value, and Hydra hands it to
+    the shader as the constant. wrt dropped it as "not an array of 2-vectors" (3-vectors) on meshes, gprims and from
+    a parent: the texture showed at the reader's fallback st, the colour at its fallback, black. Oracles: the texel
+    at (0.3, 0.6), filtered by hand in float64 from the PNG's samples; the authored colour."""
+    samples = np.random.default_rng(22).integers(0, 256, (4, 4, 3))
+    png = write_png(tmp_path / "random.png", samples)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    mesh = stage.GetPrimAtPath("/Quad")
+    UsdGeom.PrimvarsAPI(mesh).RemovePrimvar("st")
+    target = mesh
+    if holder == "gprim":
+        stage.RemovePrim("/Quad")
+        target = UsdGeom.Cube.Define(stage, "/Quad").GetPrim()  # 2 wide: the camera sees its +Z face
+        bind(target, UsdShade.Material.Get(stage, "/Looks/Tex"))
+    owner = UsdGeom.Xform.Define(stage, "/Group").GetPrim() if holder == "parent" else target
+    if holder == "parent":
+        Sdf.CopySpec(stage.GetRootLayer(), "/Quad", stage.GetRootLayer(), "/Group/Quad")
+        stage.RemovePrim("/Quad")
+        target = stage.GetPrimAtPath("/Group/Quad")
+    primvars = UsdGeom.PrimvarsAPI(owner)
+    if what == "st":
+        primvars.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2f, UsdGeom.Tokens.constant).Set(Gf.Vec2f(0.3, 0.6))
+        x, y = 0.3 * 4 - 0.5, (1 - 0.6) * 4 - 0.5  # texel space, row 0 at the top: (0.7, 1.1)
+        fx, fy = x - 0, y - 1
+        texels = samples / 255.0
+        expected = ((texels[1, 0] * (1 - fx) + texels[1, 1] * fx) * (1 - fy)
+                    + (texels[2, 0] * (1 - fx) + texels[2, 1] * fx) * fy)
+    else:
+        primvars.CreatePrimvar("tint", Sdf.ValueTypeNames.Color3f, UsdGeom.Tokens.constant).Set(
+            Gf.Vec3f(0.2, 0.4, 0.6))
+        reader = UsdShade.Shader.Define(stage, "/Looks/Tex/Tint")
+        reader.CreateIdAttr("UsdPrimvarReader_float3")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+        surface = UsdShade.Shader.Get(stage, "/Looks/Tex/Surface")
+        surface.GetInput("diffuseColor").GetAttr().ClearConnections()
+        surface.GetInput("diffuseColor").ConnectToSource(reader.ConnectableAPI(), "result")
+        expected = np.array([0.2, 0.4, 0.6])
+    assert UsdGeom.PrimvarsAPI(target).FindPrimvarWithInheritance(what).ComputeFlattened() is not None
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # no primvar is dropped, no fallback read
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
 def write_png16(path, samples):
     """A 16-bit PNG (grey + alpha, RGB or RGBA by the channel count) written here byte by byte, rows filtered with
     Sub, Up, Average and Paeth in turn, so that reading it has to undo every PNG filter."""

@@ -12,6 +12,7 @@ from .usd_primvars import (
     finite_colors,
     first_of_constant,
     indices_type_problem,
+    one_value_as_array,
     past_float32_as_inf,
     unit_opacities,
 )
@@ -141,7 +142,7 @@ class MeshPrimvarReading:
         """
         counts, face_indices, tri_corners, face_ids, n_points, refinement = topology
         name = attr.GetName()
-        raw = value_at(attr, self.time)
+        raw = one_value_as_array(value_at(attr, self.time), attr, interpolation)
         values = np.asarray(raw) if raw is not None else np.zeros((0, components))
         if components == 1 and values.ndim == 1:  # float[]: one-number elements
             values = values[:, None]

@@ -75,7 +75,22 @@ def flattened(primvar, time: Usd.TimeCode, prim, skip):
         problem = index_problem(primvar, time)
         if problem is not None:
             skip(PRIMVAR_DROPPED, prim, problem)
-    return raw
+    return one_value_as_array(raw, primvar.GetAttr(), primvar.GetInterpolation())
+
+
+def one_value_as_array(raw, attr: Usd.Attribute, interpolation: str):
+    """``raw`` (the value of primvar attribute ``attr``) as an array of one value where a constant primvar holds one
+    value rather than an array (``texCoord2f primvars:st = (0.3, 0.6)``, ``color3f primvars:tint = (1, 0, 0)``), as
+    ``ComputeFlattened`` gives it and UsdImaging hands it to the shader as the constant; else ``raw`` as it is. The
+    readers take arrays only: such a primvar was dropped as "not an array of 2-vectors", and its texture drawn at
+    the reader's fallback st, its colour at the reader's fallback. ``displayColor`` and ``displayOpacity`` stay as
+    they are (dropped): UsdImaging reads those two into typed arrays (``UsdImagingGprimAdapter::GetColor``), which a
+    single value does not fill."""
+    if raw is None or interpolation != "constant" or attr.GetTypeName().isArray:
+        return raw
+    if attr.GetName() in ("primvars:displayColor", "primvars:displayOpacity"):
+        return raw
+    return [raw]
 
 
 def _flattened_apart(primvar, values_time: Usd.TimeCode, indices_time: Usd.TimeCode):
@@ -228,5 +243,5 @@ class FieldReader:
 
 
 __all__ = ["CONSTANT_OF_SEVERAL", "PRIMVAR_DROPPED", "FieldReader", "finite_colors", "first_of_constant", "flattened",
-           "index_problem", "indices_type_problem", "quaternion_typed",
+           "index_problem", "indices_type_problem", "one_value_as_array", "quaternion_typed",
            "unit_opacities"]
