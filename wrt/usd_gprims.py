@@ -99,8 +99,8 @@ class GprimReading:
         if not primvar.HasValue():  # BLOCKED: a non-constant one above
             return None
         if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
-            self._skip("gprims read only a constant texture-coordinate primvar; their textures show at the primvar "
-                       "reader's fallback st", prim, f"{uv_set}: {primvar.GetInterpolation()}")
+            self._skip("gprims, Points and curves read only a constant texture-coordinate primvar; their textures show "
+                       "at the primvar reader's fallback st", prim, f"{uv_set}: {primvar.GetInterpolation()}")
             return None
         # Flattened as other primvars are (values and indices each at their first sample with time=None; indices
         # USD reads none from dropped with a warning): ComputeFlattened at the reader's time ignored sampled values
@@ -286,10 +286,13 @@ class GprimReading:
         axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color
         double_sided = bool(self._typed(prim, UsdGeom.Gprim(prim).GetDoubleSidedAttr()))
+        # Their constant st (own, inherited or handed down), as a gprim's: it was never read, and their textures
+        # showed at the reader's fallback st without a word.
+        st = self._gprim_st(prim, material_id, ctx)
         path = str(prim.GetPath())
         for group in groups:
             shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
-                          material_id, double_sided, opacity)
+                          material_id, double_sided, opacity, st=st)
             content = Content(path)
             content.tube = (group.kind == "sphere", axis)
             if self.segments:
