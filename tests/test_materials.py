@@ -2040,6 +2040,29 @@ def test_texture_transforms_past_float32_warn_only_in_wrts_words(tmp_path, case)
     assert "float32" in str(caught[0].message)
 
 
+@pytest.mark.parametrize("source, name_input, default_input", [("ND_geompropvalue_vector2", "geomprop", "default"),
+                                                                ("ND_UsdPrimvarReader_vector2", "varname", "fallback")])
+def test_a_materialx_texcoord_reader_that_names_no_primvar_gives_its_default_everywhere(tmp_path, source, name_input,
+                                                                                      default_input):
+    """An ``ND_geompropvalue_vector2`` or ``ND_UsdPrimvarReader_vector2`` feeding an ``ND_UsdUVTexture``'s ``st``
+    (through its ``ND_UsdTransform2d``, scale 2) with an empty primvar name reads no primvar: its default (0.125,
+    0.375), scaled to (0.25, 0.75), CHECKER's top-left block (red) on every point, with a warning naming the node.
+    The geompropvalue read the mesh's ``st`` without a word: the checker tiled twice."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = materialx_preview_stage(tmp_path, png, None, source)
+    stage = Usd.Stage.Open(path)
+    reader = UsdShade.Shader.Get(stage, "/Looks/Mx/Reader")
+    reader.GetPrim().RemoveProperty("inputs:varname")
+    reader.SetShaderId(source)
+    reader.CreateInput(name_input, Sdf.ValueTypeNames.String).Set("")
+    reader.CreateInput(default_input, Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.125, 0.375))
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert any("names no primvar" in m and "/Looks/Mx/Reader" in m for m in messages), messages
+    img = albedo_of(scene, res=8)
+    np.testing.assert_allclose(img, np.broadcast_to([1.0, 0.0, 0.0], img.shape), atol=2e-3)
+
+
 @pytest.mark.parametrize("source", ["ND_texcoord_vector2", "ND_geompropvalue_vector2"])
 def test_materialx_texcoord_nodes_feed_a_materialx_usd_uv_texture(tmp_path, source):
     """MaterialX's own texture-coordinate nodes feeding an ``ND_UsdUVTexture``'s ``st`` (through its

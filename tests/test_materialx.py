@@ -588,6 +588,23 @@ def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primva
     np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
 
 
+@pytest.mark.parametrize("reader", list(READER_INPUTS))
+def test_a_texcoord_reader_that_names_no_primvar_gives_its_default_everywhere(tmp_path, reader):
+    """A texcoord reader whose primvar name (``geomprop``, ``varname``) is empty names no primvar (the nodedefs'
+    and Sdr's default is ``""``): its ``default`` (``fallback``) on every point, with a warning naming the node,
+    though the mesh has ``st``. wrt read the mesh's ``st`` without a word: the four texels where one, the
+    bottom-right (white), belongs."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    path = texcoord_stage(tmp_path, png, (reader, "", (0.75, 0.25)))
+    stage = Usd.Stage.Open(path)
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad")).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set([(0, 0), (1, 0), (0, 1), (1, 1)])
+    stage.Save()
+    scene, messages = load(path)
+    assert any("names no primvar" in m and "/Looks/Coords/Reader" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
+
+
 def test_a_constant_texcoord_reads_one_point_of_the_image(tmp_path):
     """An image node's ``texcoord`` authored as a constant is where the image is read, on every point; it was
     named in a warning and the mesh's ``st`` read (here the mesh has none, and needs none: no warning)."""

@@ -1477,8 +1477,13 @@ class MaterialReader:
                 return "st", transform, no_fallback
             if node_id == "ND_geompropvalue_vector2":  # MaterialX's primvar reader: geomprop, default
                 geomprop = self._constant(node, "geomprop")
-                return (str(geomprop) if geomprop else "st"), transform, self._st_fallback(node, material_path,
-                                                                                          "default")
+                fallback = self._st_fallback(node, material_path, "default")
+                if not geomprop:  # names no primvar, as an empty varname (above)
+                    self.skip(f"material {material_path}: a texture-coordinate reader names no primvar (its geomprop "
+                              "is empty or unauthored); its default st is read at every point", node.GetPrim(),
+                              detail=f"default ({fallback[0]:g}, {fallback[1]:g})")
+                    return None, constant_st_transform(transform, fallback), no_fallback
+                return str(geomprop), transform, fallback
             if node_id in TRANSFORM2D_IDS:
                 rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
                                                 for name, default in TRANSFORM2D_DEFAULTS)

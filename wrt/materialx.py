@@ -649,7 +649,11 @@ class _Graph:
             if default is not None and st_fallback is None:
                 self.notes.append(f"the default of {source.GetPath()} is not two finite numbers; (0, 0) is used")
             st_fallback = no_fallback if st_fallback is None else st_fallback.astype(np.float32)
-            return (str(name) if name else "st"), st_fallback, None
+            if not name:  # the nodedefs' (and Sdr's) "": no primvar is read, its default is; the mesh's st was read
+                self.notes.append(f"the texcoord reader {source.GetPath()} names no primvar (its {name_input} is "
+                                  f"empty or unauthored); its {default_input} is read on every point")
+                return None, no_fallback, st_fallback.astype(np.float64)
+            return str(name), st_fallback, None
         self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
