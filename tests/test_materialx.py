@@ -588,6 +588,35 @@ def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primva
     np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
 
 
+@pytest.mark.parametrize("surface", ["UsdPreviewSurface", "standard_surface"])
+def test_a_colour_primvar_reader_that_names_no_primvar_gives_its_fallback(tmp_path, surface):
+    """A colour primvar reader (USD's ``UsdPrimvarReader_float3``, MaterialX's ``ND_geompropvalue_color3``) whose
+    primvar name is empty, Sdr's and the nodedefs' default, names no primvar: Storm's primvar redirect reads none and
+    gives the reader's fallback (default), here (0.3, 0.5, 0.7), though the mesh has displayColor (red). wrt kept the
+    surface's own constant (UsdPreviewSurface's diffuseColor 0.18, standard_surface's base_color 0.8)."""
+    stage, path = new_stage(tmp_path, f"{surface}.usda")
+    quad = add_quad(stage, "/Quad")
+    UsdGeom.Mesh(quad).CreateDisplayColorAttr([(1.0, 0.0, 0.0)])
+    if surface == "UsdPreviewSurface":
+        material, shader = preview_material(stage, "/Looks/M")
+        reader_id, name_input, fallback_input, target = "UsdPrimvarReader_float3", "varname", "fallback", "diffuseColor"
+    else:
+        material, shader = mtlx_material(stage, "/Looks/M", base=1.0)
+        reader_id, name_input, fallback_input, target = "ND_geompropvalue_color3", "geomprop", "default", "base_color"
+    reader = UsdShade.Shader.Define(stage, "/Looks/M/Reader")
+    reader.CreateIdAttr(reader_id)
+    reader.CreateInput(name_input, Sdf.ValueTypeNames.String).Set("")
+    reader.CreateInput(fallback_input, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.3, 0.5, 0.7))
+    reader.CreateOutput("result" if surface == "UsdPreviewSurface" else "out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput(target, Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.ConnectableAPI(), "result" if surface == "UsdPreviewSurface" else "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("names no primvar" in m and "/Looks/M/Reader" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0.3, 0.5, 0.7], (2, 2, 3)), atol=1e-3)
+
+
 @pytest.mark.parametrize("reader", list(READER_INPUTS))
 def test_a_texcoord_reader_that_names_no_primvar_gives_its_default_everywhere(tmp_path, reader):
     """A texcoord reader whose primvar name (``geomprop``, ``varname``) is empty names no primvar (the nodedefs'

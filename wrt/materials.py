@@ -1241,8 +1241,10 @@ class MaterialReader:
                 self._set_constant(mat, name, field, is_color, value, source.GetPrim())
         elif name == "diffuseColor" and source_id in COLOR_PRIMVAR_READERS:
             primvar = self.color_primvar_input(source, mat.path)
-            if primvar is not None:
+            if primvar.name:
                 primvar.apply(mat)
+            else:  # names no primvar: its fallback
+                mat.diffuse_color = np.asarray(primvar.fallback * primvar.scale, np.float32)
         elif source_id.startswith(ST_READER_PREFIXES):
             varname = self._constant(source, "varname")
             fallback = self._constant(source, "fallback")
@@ -1259,17 +1261,19 @@ class MaterialReader:
                 source.GetPrim(),
             )
 
-    def color_primvar_input(self, reader, material_path: str) -> PrimvarInput | None:
-        """The :class:`PrimvarInput` of ``reader`` (a shader of :data:`COLOR_PRIMVAR_READERS`); None, with a warning,
-        when it names no primvar."""
+    def color_primvar_input(self, reader, material_path: str) -> PrimvarInput:
+        """The :class:`PrimvarInput` of ``reader`` (a shader of :data:`COLOR_PRIMVAR_READERS`). One that names no
+        primvar (an empty name: Sdr's and the nodedefs' default) has ``name`` ``""``, with a warning: Storm's primvar
+        redirect reads none then and gives the reader's fallback, which the caller takes as the input's constant (the
+        input kept the surface's own constant)."""
         name_input, fallback_input = COLOR_PRIMVAR_READERS[reader.GetShaderId()]
         varname = str(self._constant(reader, name_input) or "").strip()  # a token or a string, or an interface input's
-        if not varname:
-            self.skip(f"material {material_path}: a primvar reader names no primvar; the input keeps its constant",
-                      reader.GetPrim())
-            return None
         fallback = _rgb(self._constant(reader, fallback_input))
-        return PrimvarInput(varname, np.zeros(3, np.float32) if fallback is None else fallback.astype(np.float32))
+        fallback = np.zeros(3, np.float32) if fallback is None else fallback.astype(np.float32)
+        if not varname:
+            self.skip(f"material {material_path}: a primvar reader names no primvar; its fallback is the input's "
+                      "value, as Storm reads it", reader.GetPrim(), detail=f"{name_input} is empty")
+        return PrimvarInput(varname, fallback)
 
     def _read_normal_map(self, shader, mat: Material):
         """``normal``: a ``UsdUVTexture``'s ``rgb`` output is a tangent-space normal map, used as its ``scale`` and

@@ -249,7 +249,8 @@ class _Graph:
                 return Folded(*self._image(source, source_id))
             if role == "base_color" and source_id in COLOR_PRIMVAR_READERS:
                 primvar = self.reader.color_primvar_input(source, self.path)
-                return Folded(constant) if primvar is None else Folded(primvar.fallback.astype(np.float64), primvar)
+                value = primvar.fallback.astype(np.float64)
+                return Folded(value, primvar) if primvar.name else Folded(value)  # no name: its fallback, a constant
             return None
 
         try:
