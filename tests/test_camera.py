@@ -1294,3 +1294,65 @@ def test_orthographic_camera_of_negative_near_sees_a_light_behind_its_plane(inte
     camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, 10.0))
     img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
     np.testing.assert_allclose(img.rgb, 3.0, rtol=1e-6)
+
+
+def _usd_camera_stage(tmp_path, **attrs) -> str:
+    """A stage with one camera ``/Cam`` (apertures 20 x 15, so a 4:3 image needs no conforming) whose attributes
+    ``attrs`` (USD names: ``focalLength=1e-30``) are authored as floats."""
+    path = str(tmp_path / "cam.usda")
+    stage = Usd.Stage.CreateNew(path)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    attrs = {"horizontalAperture": 20.0, "verticalAperture": 15.0, **attrs}
+    for name, value in attrs.items():
+        cam.GetPrim().GetAttribute(name).Set(float(value))
+    stage.Save()
+    return path
+
+
+def _pick_directions(path: str, width: int, height: int) -> np.ndarray:
+    """Unit directions, float64, of ``Gf.Frustum.ComputePickRay`` of ``/Cam`` through each pixel centre."""
+    stage = Usd.Stage.Open(path)  # held: a prim of a stage that was let go is invalid
+    frustum = UsdGeom.Camera(stage.GetPrimAtPath("/Cam")).GetCamera(Usd.TimeCode.Default()).frustum
+    rays = []
+    for i in range(height):
+        for j in range(width):
+            d = np.array(frustum.ComputePickRay(Gf.Vec2d(2 * (j + 0.5) / width - 1, 1 - 2 * (i + 0.5) / height))
+                         .direction)
+            rays.append(d / np.linalg.norm(d))
+    return np.array(rays)
+
+
+@pytest.mark.parametrize("attrs", [
+    {"focalLength": 1e-30},  # a field of view of almost 180 degrees: rays almost square to the view
+    {"focalLength": 1e30},  # one of almost 0
+    {"horizontalAperture": 1e30, "verticalAperture": 7.5e29},
+    {"horizontalAperture": 2e-30, "verticalAperture": 1.5e-30},
+])
+def test_extreme_film_to_focal_ratios_cast_usds_rays(tmp_path, attrs):
+    """Films 1e30 times wider or narrower than the focal length, within float32's range: each pixel's ray is the
+    direction of ``Gf.Frustum.ComputePickRay`` through its centre."""
+    path = _usd_camera_stage(tmp_path, **attrs)
+    _, directions = camera_rays(wrt.load_usd(path), "/Cam", width=4, height=3)
+    np.testing.assert_allclose(directions, _pick_directions(path, 4, 3), atol=1e-6)
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_a_film_too_wide_for_float32_rays_is_refused_naming_the_camera_and_fields(tmp_path, projection):
+    """Apertures of 1e30 over a focal length of 1e-30 put the film's corners 1e60 focal lengths off the view, past
+    float32's range (an orthographic aperture of 1e40 tenths of a unit likewise): USD's frustum casts finite rays
+    (``ComputePickRay``), but wrt's rays were NaN, and the image was background without a word. Such a camera is
+    refused, naming it and the fields that make its film."""
+    if projection == "perspective":
+        path = _usd_camera_stage(tmp_path, focalLength=1e-30, horizontalAperture=1e30, verticalAperture=7.5e29)
+        assert np.all(np.isfinite(_pick_directions(path, 4, 3)))  # the oracle has rays
+        scene = wrt.load_usd(path)
+        camera = "/Cam"
+    else:
+        scene = quad_scene(-1.0, 1.0, -1.0, 1.0, 0.0)
+        camera = wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), height=1e39, path="/Ortho")
+    label = "/Cam" if projection == "perspective" else "/Ortho"
+    message = rf"camera {label}: its film .* past float32's range .*focal_length=.*horizontal_aperture="
+    with pytest.raises(ValueError, match=message):
+        camera_rays(scene, camera, width=4, height=3)
+    with pytest.raises(ValueError, match=message):
+        wrt.render(scene, camera=camera, width=4, height=3, device="cpu")

@@ -428,6 +428,7 @@ class Camera:
             scale = 1.0 / self.focal_length  # film units -> direction units at unit depth
         else:
             scale = APERTURE_UNIT  # film units -> scene units
+        self._check_film_reach(film_w * scale, film_h * scale, offset * scale, width, height)
         s = DeviceCamera()
         s.origin = wp.vec3(*m[:3, 3])
         s.right = wp.vec3(*right)
@@ -453,6 +454,27 @@ class Camera:
         s.planes_b = wp.mat44(*rows[4:].astype(np.float32).reshape(-1))
         s.num_planes = len(planes)
         return s
+
+    def _check_film_reach(self, film_w: float, film_h: float, offset: np.ndarray, width: int, height: int) -> None:
+        """ValueError naming the fields that make the film where its corner rays leave float32's range (a film 1e60
+        focal lengths wide: apertures of 1e30 over a focal length of 1e-30). Those rays (a perspective camera's
+        directions, an orthographic one's origins) were NaN, and the image background without a word, where USD's
+        frustum casts finite rays. The sizes are :meth:`to_struct`'s, in direction or scene units; a quarter of
+        float32's range leaves room for the sums and the length the kernel takes."""
+        m = self.to_world
+        with np.errstate(over="ignore", invalid="ignore"):
+            across = ((0.5 * film_w + abs(offset[0])) * np.linalg.norm(m[:3, 0])
+                      + (0.5 * film_h + abs(offset[1])) * np.linalg.norm(m[:3, 1]))
+            base = np.linalg.norm(m[:3, 2] if self.projection == "perspective" else m[:3, 3])
+            reach = float(across + base)
+        if reach < FLOAT32_MAX / 4:
+            return
+        unit = "focal lengths off its view" if self.projection == "perspective" else "scene units from the origin"
+        raise ValueError(
+            f"{self.label()}: its film reaches {reach:.3g} {unit} for a {width}x{height} image, past float32's range "
+            f"(its rays would be NaN): focal_length={_show(self.focal_length)}, horizontal_aperture="
+            f"{_show(self.horizontal_aperture)}, vertical_aperture={_show(self.vertical_aperture)}, offsets "
+            f"{_show(self.horizontal_aperture_offset)}, {_show(self.vertical_aperture_offset)} (fit {self.fit!r})")
 
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
