@@ -3,6 +3,7 @@ mirrors and glass, ambient occlusion, quick looks, depth of field, determinism a
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -705,3 +706,21 @@ def test_a_coarse_mirror_sphere_whose_normal_map_has_no_frame_shows_the_dome_eve
     hit = img.aovs["prim"] >= 0
     assert hit.mean() > 0.5
     np.testing.assert_allclose(img.rgb[hit], 1.0, atol=1e-4)
+
+
+@pytest.mark.parametrize("lens", [
+    dict(f_stop=1e-40, focus_distance=5.0),  # USD's float fStop of 1e-40: a lens 2.5e40 units wide
+    dict(f_stop=2.0, focus_distance=1e-40),  # a lens 1.25 wide focused 1e-40 ahead: rays 1e40 steep
+])
+def test_a_thin_lens_past_float32s_range_is_refused_naming_the_camera_and_fields(lens):
+    """The thin lens's radius ``focalLength / fStop / 2`` (tenths of a unit) and the slope its rays take to the focus
+    plane, ``radius / focusDistance``, went past float32's range: the lens samples' rays were NaN, and the image was
+    background with numpy's 'overflow encountered in cast', which named no camera. It is refused, naming the camera
+    and its fStop and focusDistance."""
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (4, 0, 0), (0, 4, 0))])
+    cam = wrt.Camera.look_at((0, 0, 5), (0, 0, 0), path="/Lens", **lens)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # numpy's overflow is no answer
+        with pytest.raises(ValueError, match=r"camera /Lens: its thin lens .* past float32's range .*f_stop="
+                                             r".*focus_distance="):
+            wrt.render(scene, camera=cam, width=4, height=3, spp=2, device="cpu")

@@ -19,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .camera import APERTURE_UNIT, CAMERA_FIELDS, Camera, DeviceCamera, frame_scene
+from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
@@ -929,7 +929,18 @@ class Renderer:
         """
         if cam.projection != "perspective" or not cam.f_stop > 0.0 or not cam.focus_distance > 0.0:
             return 0.0, 1.0
-        return cam.focal_length * APERTURE_UNIT / (2.0 * cam.f_stop), float(cam.focus_distance)
+        with np.errstate(over="ignore", divide="ignore"):
+            radius = np.float64(cam.focal_length) * APERTURE_UNIT / (2.0 * np.float64(cam.f_stop))
+            # A lens sample moves the ray's origin up to `side` off the eye, and turns it by side / focus_distance
+            # (camera-space depth): past float32's range both made the rays NaN and the image background, unsaid.
+            side = radius * max(np.linalg.norm(cam.to_world[:3, 0]), np.linalg.norm(cam.to_world[:3, 1]))
+            reach = max(side + np.linalg.norm(cam.to_world[:3, 3]), side / np.float64(cam.focus_distance))
+        if not reach < FLOAT32_MAX / 8:  # room for the sums and the length the kernel takes
+            raise ValueError(f"{cam.label()}: its thin lens reaches {reach:.3g} scene units (radius {radius:.3g}), "
+                             f"past float32's range (its rays would be NaN): focal_length={cam.focal_length:.6g}, "
+                             f"f_stop={cam.f_stop:.6g}, focus_distance={cam.focus_distance:.6g}; an f_stop of 0 is a "
+                             "pinhole")
+        return float(radius), float(cam.focus_distance)
 
     def render(
         self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False
