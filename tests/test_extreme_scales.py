@@ -10,6 +10,7 @@ from shading_helpers import uv_sphere
 from test_instancing import barycentric_margins, closest_hits_numpy
 
 import wrt
+from wrt.rays import camera_rays
 
 SCALES = [1.0e-30, 1.0e-25, 1.0e20, 1.0e30]
 
@@ -400,3 +401,36 @@ def test_an_instanced_single_sided_card_is_culled_from_behind_at_any_scale(scale
             np.testing.assert_array_equal(img.aovs["prim"], -1)
         else:
             assert (img.aovs["prim"] >= 0).all()
+
+
+@pytest.mark.parametrize("distance, instanced", [(1e8, False), (1e8, True), (1e30, False)])
+def test_shapes_seen_from_too_far_for_float32_hit_points_are_named_in_a_warning(distance, instanced):
+    """A unit sphere (single-sided) seen from ``distance`` through a lens whose view is 0.2 units wide there: in float64
+    every pixel's ray meets it (the view lies inside its outline), but float32 puts the hit point ``o + t d`` within
+    about ``distance * 2^-23`` (8 units at 1e8) of the sphere, its normal came out sideways, the hit was culled as a
+    back face and the image was background without a word. The camera and the sphere are named in a warning; the
+    same view from 1e4 (a hit point within 1e-3) renders the sphere and says nothing."""
+    ball = wrt.Shape("/ball", "sphere", np.eye(4))
+    if instanced:
+        scene = wrt.Scene(prototypes=[wrt.Prototype("/proto", shapes=[wrt.Shape("/proto/ball", "sphere", np.eye(4))])],
+                          instances=wrt.Instances.from_transforms([0], np.eye(4)[None]))
+    else:
+        scene = wrt.Scene(shapes=[ball])
+    name = "/proto/ball" if instanced else "/ball"
+    for far, expect_hits in ((1e4, True), (distance, False)):
+        to_world = np.eye(4)
+        to_world[2, 3] = far
+        cam = wrt.Camera(to_world=to_world, focal_length=100.0 * far, horizontal_aperture=20.0, vertical_aperture=15.0,
+                         clipping_range=(1.0, 10.0 * far), path="/Far")
+        origins, directions = camera_rays(scene, cam, width=4, height=3)
+        o, d = origins.astype(np.float64), directions.astype(np.float64)
+        closest = o - np.sum(o * d, axis=1, keepdims=True) * d  # float64: every ray passes within 0.13 of the centre
+        assert np.all(np.linalg.norm(closest, axis=1) < 0.2)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            image = wrt.render(scene, camera=cam, width=4, height=3, device="cpu")
+        said = [str(w.message) for w in caught if "float32" in str(w.message) and "hit points" in str(w.message)]
+        if expect_hits:
+            assert not said and (image.aovs["prim"] >= 0).all(), said
+        else:
+            assert len(said) == 1 and "camera /Far" in said[0] and f"1 prim(s): {name}" in said[0], said

@@ -21,6 +21,7 @@ import warp as wp
 
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
+from .far_shapes import warn_shapes_too_far
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -897,6 +898,8 @@ class Renderer:
         structs = camera_structs(cameras, self.width, self.height, batched)
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         lens_list = [self._lens(c) for c in cameras]
+        for cam in cameras:
+            warn_shapes_too_far(self.scene, cam, self.width, self.height)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
