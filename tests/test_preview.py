@@ -1554,3 +1554,23 @@ def test_light_summary_counts_what_is_not_drawn_and_what_is_left_out():
     assert note == "6 lights: 3 drawn, 2 left out, 1 mesh light drawn as its mesh", note
     assert light_glyphs([MeshLight("/M", np.ones(3))], np.zeros(3), np.ones(3)) == (
         None, "1 light: 1 mesh light drawn as its mesh")
+
+
+def test_missing_rays_of_a_very_wide_lens_end_on_the_far_rectangle():
+    """A focal length of 1e-9 over a 20-unit film: the corner rays advance 1e-10 of camera depth per unit of length.
+    A missing ray's end was its far depth over that rate clamped to 1e-6, so it stopped at depth 6e-4, near the eye,
+    where the drawn far rectangle (and the summary's promise) lies 6 deep; it ends on that rectangle now."""
+    scene = wrt.Scene(shapes=[ball(0.0)])
+    scene.shapes[0].to_world[2, 3] = -5.0
+    cam = wrt.Camera(focal_length=1e-9, horizontal_aperture=20.0, vertical_aperture=15.0)
+    plotter = wrt.preview(scene, camera=cam, rays=4, width=40, height=30, window_size=(32, 24), show_text=False)
+    try:
+        assert "rays_hit" not in plotter.actors
+        origins, ends = np.asarray(plotter.actors["rays_miss"].mapper.dataset.points, np.float64).reshape(2, -1, 3)
+        frame = np.asarray(plotter.actors["frustum"].mapper.dataset.points, np.float64)
+    finally:
+        plotter.close()
+    np.testing.assert_allclose(origins, 0.0, atol=1e-12)  # from the eye
+    far = frame[4:8]
+    assert np.allclose(far[:, 2], -5.5)  # the ball's deepest corner, 5.5 along -Z (camera-space depth)
+    np.testing.assert_allclose(ends[:, 2], -5.5, rtol=1e-6)  # the far rectangle's plane, z = -5.5

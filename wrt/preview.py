@@ -947,7 +947,10 @@ def _add_rays(pv, plotter, origins, directions, t, depth_rates, far: float) -> s
     (``depth_rates``: the :func:`view_depths` of the directions)."""
     origins, directions, t = (np.asarray(a, np.float64) for a in (origins, directions, t))
     hit = np.isfinite(t)
-    t_end = np.where(hit, t, far / np.maximum(depth_rates, 1e-6))
+    # Camera rays advance in depth (Camera.to_struct keeps their directions finite), however slowly: a clamp of the
+    # rate to 1e-6 stopped the corner rays of a lens wider than 179.9998 degrees near the eye, off the far rectangle.
+    with np.errstate(divide="ignore"):
+        t_end = np.where(hit, t, np.where(depth_rates > 0.0, far / depth_rates, 0.0))
     ends = origins + t_end[:, None] * directions
     for mask, color, label in ((hit, HIT_COLOR, "rays_hit"), (~hit, MISS_COLOR, "rays_miss")):
         k = int(mask.sum())
