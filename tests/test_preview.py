@@ -1574,3 +1574,23 @@ def test_missing_rays_of_a_very_wide_lens_end_on_the_far_rectangle():
     far = frame[4:8]
     assert np.allclose(far[:, 2], -5.5)  # the ball's deepest corner, 5.5 along -Z (camera-space depth)
     np.testing.assert_allclose(ends[:, 2], -5.5, rtol=1e-6)  # the far rectangle's plane, z = -5.5
+
+
+@pytest.mark.parametrize("x, message", [
+    (np.nan, r"instance 1 \(/instances\[1\]\) has a NaN or infinite transform"),
+    (1e39, r"instance 1 \(/instances\[1\]\) .*(beyond|past) float32's range"),
+])
+def test_an_instance_the_renderer_cannot_place_is_refused_by_the_previews_in_its_words(x, message):
+    """An instance whose transform holds a NaN (or lies past float32's range, where rays are traced) was drawn by
+    ``wrt.preview`` without sample rays, and made a block by ``to_pyvista``, with NaN points (or at 1e39) without a
+    word, where a trace or a render refuses the scene naming the instance. Both previews refuse it so too."""
+    triangle = wrt.Mesh("/P/M", np.float32([[-1, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), [0])
+    to_world = np.tile(np.eye(4), (2, 1, 1))
+    to_world[1, 0, 3] = x
+    scene = wrt.Scene(prototypes=[Prototype("/P", [triangle])], instances=Instances.from_transforms([0, 0], to_world))
+    with pytest.raises(ValueError, match=message):
+        wrt.trace(scene, np.zeros((1, 3), np.float32), np.float32([[0, 0, -1]]))  # the renderer's words
+    with pytest.raises(ValueError, match=message):
+        wrt.preview(scene, window_size=(32, 24)).close()
+    with pytest.raises(ValueError, match=message):
+        to_pyvista(scene)

@@ -58,7 +58,7 @@ from .preview_lights import light_glyphs
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
-from .trace import HitBuffer, get_accelerator, resolve_device
+from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_device
 from .wording import counted
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
@@ -965,16 +965,21 @@ def _add_rays(pv, plotter, origins, directions, t, depth_rates, far: float) -> s
 
 
 def _as_scene(scene) -> Scene:
+    """``scene``, or the USD file it names loaded, checked as the renderer checks it: an instance or shape whose
+    transform holds a NaN or lies past float32's range was drawn with NaN points (or a block of them made) without a
+    word, where a trace or render refuses the scene naming it (:func:`wrt.trace.check_finite_transforms`)."""
     if isinstance(scene, Scene):
         # As a trace or render does: the triangles, colours and bounds drawn are read from the scene's caches, which
         # otherwise still held a mesh replaced since (while the BVH boxes, through get_accelerator, were new).
         scene.drop_stale_caches()
-        return scene
-    if isinstance(scene, (str, os.PathLike)):
+    elif isinstance(scene, (str, os.PathLike)):
         from .usd import load_usd
 
-        return load_usd(scene)
-    raise TypeError(f"scene must be a wrt.Scene or a USD file path, not {type(scene).__name__}")
+        scene = load_usd(scene)
+    else:
+        raise TypeError(f"scene must be a wrt.Scene or a USD file path, not {type(scene).__name__}")
+    check_finite_transforms(scene)
+    return scene
 
 
 def clipping_depths(cam: Camera) -> tuple[float, float]:
