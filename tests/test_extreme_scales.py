@@ -434,3 +434,28 @@ def test_shapes_seen_from_too_far_for_float32_hit_points_are_named_in_a_warning(
             assert not said and (image.aovs["prim"] >= 0).all(), said
         else:
             assert len(said) == 1 and "camera /Far" in said[0] and f"1 prim(s): {name}" in said[0], said
+
+
+def test_a_camera_too_far_from_the_scene_for_float32_depths_is_named_in_a_warning():
+    """A floor and a card 0.5 in front of it, framed from 1e8 by a lens whose view is 2 units wide there: float32
+    resolves distances along the rays only to 8 units, so the ray through the card's centre (float64: it meets the
+    card first) saw the floor behind it, without a word. The camera is named in a warning; the same view from 1e4
+    sees the card and says nothing."""
+    floor = wrt.Mesh("/floor", np.float32([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]), [[0, 1, 2], [0, 2, 3]],
+                     [0, 0], double_sided=True)
+    card = wrt.Mesh("/card", np.float32([[0.15, 0.05, 0.5], [0.45, 0.05, 0.5], [0.45, 0.35, 0.5], [0.15, 0.35, 0.5]]),
+                    [[0, 1, 2], [0, 2, 3]], [0, 0], double_sided=True)
+    scene = wrt.Scene(meshes=[floor, card])
+    for far, expect_card in ((1e4, True), (1e8, False)):
+        to_world = np.eye(4)
+        to_world[:3, 3] = [0.3, 0.2, far]  # the middle pixel's ray runs down the card's centre
+        cam = wrt.Camera(to_world=to_world, focal_length=10.0 * far, horizontal_aperture=20.0,
+                         vertical_aperture=20.0, clipping_range=(1.0, 10.0 * far), path="/Far")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            image = wrt.render(scene, camera=cam, width=3, height=3, device="cpu", integrator="normals")
+        said = [str(w.message) for w in caught if "camera /Far is so far from the scene" in str(w.message)]
+        if expect_card:
+            assert not said and image.aovs["prim"][1, 1] in (2, 3), said  # the card's triangles
+        else:
+            assert len(said) == 1 and "float32" in said[0], said

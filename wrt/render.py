@@ -21,7 +21,7 @@ import warp as wp
 
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
-from .far_shapes import warn_shapes_too_far
+from .far_views import warn_scene_too_far, warn_shapes_too_far
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -899,6 +899,7 @@ class Renderer:
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         lens_list = [self._lens(c) for c in cameras]
         for cam in cameras:
+            warn_scene_too_far(self.scene, cam, self.width, self.height)
             warn_shapes_too_far(self.scene, cam, self.width, self.height)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):

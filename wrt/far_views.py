@@ -1,0 +1,118 @@
+"""Cameras too far from what they see for float32: named in warnings.
+
+Rays are traced in float32, which resolves a distance along a ray only to about ``2^-23`` of the ray's reach (the
+eye's distance from the origin plus the hit's from the eye). A camera 1e8 from a scene four units across, through a
+lens that frames it, resolves depths to 8 units: a card 0.5 in front of a floor was drawn behind it, and a small
+light vanished (:func:`warn_scene_too_far`). An analytic shape's hit is found in its own space, precisely, but it is
+shaded at the world point ``o + t d``: where that error is a good share of the shape's size its normal is wrong and
+a single-sided shape's hits are culled as back faces, so a unit sphere seen from 1e8 vanished
+(:func:`warn_shapes_too_far`). Either matters only where what is lost covers a pixel or more, which, from that far,
+takes a very long lens: a usual camera sees such a scene as a dot, correctly. Both went without a word before.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .camera import APERTURE_UNIT, Camera
+from .errors import user_stacklevel
+
+FLOAT32_STEP = 2.0**-23  # float32's spacing relative to the magnitude (machine epsilon)
+ERROR_SHARE = 0.125  # hit-point error, as a share of the shape's size, past which its normal is visibly wrong
+FLAT_KINDS = ("plane", "disk")  # their normal is the same everywhere: the error does not turn it
+
+
+def _pixel_footprints(cam: Camera, width: int, height: int, centres: np.ndarray, sizes: np.ndarray) -> tuple:
+    """``(footprint, ahead)`` of objects of world ``sizes`` (radii) at world ``centres`` ``(N, 3)``: the world size of
+    one pixel there (film units per pixel, in direction units per unit of camera depth for a perspective camera or in
+    scene units for an orthographic one, times the world length of the camera's y axis), and whether the object is
+    not wholly behind a perspective eye."""
+    film_w, film_h = cam.film_size(width, height)
+    per_pixel = min(film_w / width, film_h / height) * float(np.linalg.norm(cam.to_world[:3, 1]))
+    if cam.projection != "perspective":
+        return np.full(len(centres), per_pixel * APERTURE_UNIT), np.ones(len(centres), bool)
+    depth = -((centres - cam.to_world[:3, 3]) @ np.linalg.inv(cam.to_world)[2, :3])  # camera-space depth
+    ahead = depth + sizes * float(np.linalg.norm(cam.to_world[:3, 2])) > 0.0
+    return per_pixel / cam.focal_length * np.maximum(depth, 0.0), ahead
+
+
+def hit_error(cam: Camera, points: np.ndarray) -> np.ndarray:
+    """``(N,)`` about how far from the true hit float32 puts a hit at world ``points`` seen by ``cam``."""
+    eye = cam.to_world[:3, 3]
+    return FLOAT32_STEP * (np.linalg.norm(eye) + np.linalg.norm(points - eye, axis=1))
+
+
+def warn_scene_too_far(scene, cam: Camera, width: int, height: int) -> None:
+    """Warns naming ``cam`` where its rays resolve distances at the scene to worse than :data:`ERROR_SHARE` of the
+    scene's size while the scene covers a pixel or more (see the module docstring)."""
+    lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
+    with np.errstate(all="ignore"):
+        diagonal = float(np.linalg.norm(upper - lower))
+        centre = (0.5 * (lower + upper))[None]
+        error = float(hit_error(cam, centre)[0] + FLOAT32_STEP * 0.5 * diagonal)
+        footprint, ahead = _pixel_footprints(cam, width, height, centre, np.array([0.5 * diagonal]))
+        lost = bool(ahead[0]) and error > ERROR_SHARE * diagonal and diagonal > footprint[0]
+    if lost:
+        distance = float(np.linalg.norm(centre[0] - cam.to_world[:3, 3]))
+        warnings.warn(f"{scene.source or 'scene'}: {cam.label()} is so far from the scene ({distance:.3g} units; it "
+                      f"is {diagonal:.3g} across) that float32 resolves distances along its rays only to about "
+                      f"{error:.2g} units: surfaces nearer each other than that are drawn in the wrong order, and "
+                      "small lights and shapes vanish (move the camera nearer, with a wider lens)",
+                      stacklevel=user_stacklevel())
+
+
+def _smallest_scale(linear: np.ndarray) -> np.ndarray:
+    """``(N,)`` a lower bound of the smallest singular value of each ``(N, 3, 3)`` matrix, ``|det| / (largest column
+    length)^2``, exact for a uniform scale: a squashed shape counts as small as it is along its thin axis."""
+    widest = np.linalg.norm(linear, axis=1).max(axis=1)
+    return np.abs(np.linalg.det(linear)) / (widest * widest)
+
+
+def shape_centres_and_sizes(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World centres ``(S, 3)``, sizes ``(S,)`` (the smallest world radius of each canonical unit shape, a lower
+    bound, :func:`_smallest_scale`) and indices ``(S,)`` into ``scene._geometry_shapes()`` of every analytic shape
+    as placed: the non-instanced ones, then each prototype's for each of its instances (an instance's size from its
+    cached inverse: ``1 / |A|_F``, a lower bound too, so no ``(S, 4, 4)`` product is made for a million instances)."""
+    geometry = scene._geometry_shapes()
+    if not geometry:
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
+    to_world = np.array([np.asarray(shape.to_world, np.float64) for shape in geometry]).reshape(-1, 4, 4)
+    own_size = _smallest_scale(to_world[:, :3, :3])
+    n = len(scene.shapes)
+    centres, sizes, ids = [to_world[:n, :3, 3]], [own_size[:n]], [np.arange(n)]
+    instances = scene.instances
+    if len(instances) and len(geometry) > n:
+        inverses = scene.instance_inverses()[0]
+        instance_size = 1.0 / np.linalg.norm(inverses[:, :, :3], axis=(1, 2))
+        rows = instances.rows_of_prototypes(len(scene.prototypes))
+        first = n
+        for p, prototype in enumerate(scene.prototypes):
+            for k in range(first, first + len(getattr(prototype, "shapes", []))):
+                m = instances.to_world[rows[p]]
+                centres.append(np.einsum("nij,j->ni", m[:, :3, :3], to_world[k, :3, 3]) + m[:, :3, 3])
+                sizes.append(instance_size[rows[p]] * own_size[k])
+                ids.append(np.full(len(rows[p]), k))
+            first += len(getattr(prototype, "shapes", []))
+    return np.concatenate(centres), np.concatenate(sizes), np.concatenate(ids).astype(np.int64)
+
+
+def warn_shapes_too_far(scene, cam: Camera, width: int, height: int) -> None:
+    """Warns naming ``cam`` and the curved analytic shapes (not planes or disks) that it sees over a pixel or more
+    and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see the module docstring)."""
+    if not scene.shapes and not any(getattr(p, "shapes", None) for p in scene.prototypes):
+        return
+    geometry = scene._geometry_shapes()
+    with np.errstate(all="ignore"):
+        centres, size, ids = shape_centres_and_sizes(scene)
+        curved = np.array([s.kind not in FLAT_KINDS for s in geometry], bool)[ids]
+        error = hit_error(cam, centres)
+        footprint, ahead = _pixel_footprints(cam, width, height, centres, size)
+        lost = curved & ahead & (error > ERROR_SHARE * size) & (2.0 * size > footprint)
+    if lost.any():
+        paths = list(dict.fromkeys(geometry[j].path for j in ids[lost]))
+        worst = float(np.max(error[lost]))
+        scene._warn_prims(f"{cam.label()} sees analytic shapes from so far for their size that float32 places its "
+                          f"hit points on them only to within about {worst:.2g} units: their normals are wrong and "
+                          "single-sided ones vanish (move the camera nearer, or make them meshes)", paths)
