@@ -1356,3 +1356,14 @@ def test_a_film_too_wide_for_float32_rays_is_refused_naming_the_camera_and_field
         camera_rays(scene, camera, width=4, height=3)
     with pytest.raises(ValueError, match=message):
         wrt.render(scene, camera=camera, width=4, height=3, device="cpu")
+
+
+def test_a_camera_scaled_by_1e38_casts_the_unscaled_cameras_rays():
+    """A camera scaled by 1e38 (with its scene) makes directions of about 1e38 per unit of depth, within float32's
+    range: its rays are the unscaled camera's, not refused as a film past that range."""
+    scene = quad_scene(-1.0, 1.0, -1.0, 1.0, -5.0)
+    plain = wrt.Camera(focal_length=35.0, horizontal_aperture=36.0, vertical_aperture=24.0)
+    scaled = wrt.Camera(to_world=np.diag([1e38, 1e38, 1e38, 1.0]), focal_length=35.0, horizontal_aperture=36.0,
+                        vertical_aperture=24.0)
+    expected = camera_rays(scene, plain, width=4, height=3)[1]
+    np.testing.assert_allclose(camera_rays(scene, scaled, width=4, height=3)[1], expected, atol=1e-6)

@@ -459,22 +459,29 @@ class Camera:
         """ValueError naming the fields that make the film where its corner rays leave float32's range (a film 1e60
         focal lengths wide: apertures of 1e30 over a focal length of 1e-30). Those rays (a perspective camera's
         directions, an orthographic one's origins) were NaN, and the image background without a word, where USD's
-        frustum casts finite rays. The sizes are :meth:`to_struct`'s, in direction or scene units; a quarter of
-        float32's range leaves room for the sums and the length the kernel takes."""
+        frustum casts finite rays. The sizes are :meth:`to_struct`'s (direction or scene units); the corner rays are
+        made as the kernel makes them, each term, and the rays themselves within half of float32's range, which
+        leaves room for the length the kernel takes (a camera scaled by 1e38 still renders)."""
         m = self.to_world
+        half = float(FLOAT32_MAX) / 2.0
         with np.errstate(over="ignore", invalid="ignore"):
-            across = ((0.5 * film_w + abs(offset[0])) * np.linalg.norm(m[:3, 0])
-                      + (0.5 * film_h + abs(offset[1])) * np.linalg.norm(m[:3, 1]))
-            base = np.linalg.norm(m[:3, 2] if self.projection == "perspective" else m[:3, 3])
-            reach = float(across + base)
-        if reach < FLOAT32_MAX / 4:
-            return
-        unit = "focal lengths off its view" if self.projection == "perspective" else "scene units from the origin"
+            xs = np.array([-0.5, 0.5]) * film_w + offset[0]
+            ys = np.array([-0.5, 0.5]) * film_h + offset[1]
+            across = (xs[:, None, None] * m[:3, 0] + ys[None, :, None] * m[:3, 1]).reshape(-1, 3)
+            base = -m[:3, 2] if self.projection == "perspective" else m[:3, 3]
+            terms = np.concatenate([np.abs(xs), np.abs(ys), np.abs(np.outer(xs, m[:3, 0])).ravel(),
+                                    np.abs(np.outer(ys, m[:3, 1])).ravel()])
+            reach = float(np.abs(base + across).max())
+            if terms.max() < half and reach < half:
+                return
+            reach = max(reach, float(terms.max()))
+        unit = "direction units per unit of depth" if self.projection == "perspective" else "scene units"
         raise ValueError(
-            f"{self.label()}: its film reaches {reach:.3g} {unit} for a {width}x{height} image, past float32's range "
-            f"(its rays would be NaN): focal_length={_show(self.focal_length)}, horizontal_aperture="
-            f"{_show(self.horizontal_aperture)}, vertical_aperture={_show(self.vertical_aperture)}, offsets "
-            f"{_show(self.horizontal_aperture_offset)}, {_show(self.vertical_aperture_offset)} (fit {self.fit!r})")
+            f"{self.label()}: its film (with its to_world scale) puts the corner rays of a {width}x{height} image "
+            f"{reach:.3g} {unit} off, past float32's range (its rays would be NaN): focal_length="
+            f"{_show(self.focal_length)}, horizontal_aperture={_show(self.horizontal_aperture)}, vertical_aperture="
+            f"{_show(self.vertical_aperture)}, offsets {_show(self.horizontal_aperture_offset)}, "
+            f"{_show(self.vertical_aperture_offset)} (fit {self.fit!r})")
 
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
