@@ -1367,3 +1367,12 @@ def test_a_camera_scaled_by_1e38_casts_the_unscaled_cameras_rays():
                         vertical_aperture=24.0)
     expected = camera_rays(scene, plain, width=4, height=3)[1]
     np.testing.assert_allclose(camera_rays(scene, scaled, width=4, height=3)[1], expected, atol=1e-6)
+
+
+def test_a_film_past_float32s_range_through_its_pixel_aspect_ratio_names_it():
+    """Square apertures under ``fit="horizontal"`` and a pixel aspect ratio of 1e-40 make the film 7.5e40 times
+    taller than wide: the refusal names the pixel aspect ratio too, which the apertures and focal length alone do not
+    explain."""
+    cam = wrt.Camera(horizontal_aperture=20.0, vertical_aperture=20.0, pixel_aspect_ratio=1e-40, path="/Thin")
+    with pytest.raises(ValueError, match=r"camera /Thin: its film .* past float32's range .*pixel_aspect_ratio=1e-40"):
+        cam.to_struct(4, 3)

@@ -481,7 +481,8 @@ class Camera:
             f"{reach:.3g} {unit} off, past float32's range (its rays would be NaN): focal_length="
             f"{_show(self.focal_length)}, horizontal_aperture={_show(self.horizontal_aperture)}, vertical_aperture="
             f"{_show(self.vertical_aperture)}, offsets {_show(self.horizontal_aperture_offset)}, "
-            f"{_show(self.vertical_aperture_offset)} (fit {self.fit!r})")
+            f"{_show(self.vertical_aperture_offset)} (fit {self.fit!r}, pixel_aspect_ratio="
+            f"{_show(self.pixel_aspect_ratio)})")
 
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
