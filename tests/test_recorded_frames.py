@@ -130,6 +130,22 @@ def test_a_batch_frame_image_keeps_its_aovs_when_the_next_frame_is_drawn(device)
     np.testing.assert_array_equal(first.rgb.numpy(), expected.rgb.numpy())
 
 
+def test_a_frame_image_of_one_camera_keeps_its_aovs_when_the_next_frame_is_drawn(device):
+    """The one-camera Image of frame_image took its AOVs with ``wp.array.numpy()``, a view of the frame's buffers on
+    the CPU: the next frame (a launch_frame, a graph's replay) rewrote the depth, prim and normals of an image already
+    returned, which then were another view's. Oracle: a fresh render of the first view."""
+    scene, cam = sensor_scene(), ring_of_cameras(1)[0]
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device=device)
+    renderer.launch_frame(seed=3)
+    first = renderer.frame_image()
+    expected = wrt.render(scene, camera=cam, width=8, height=6, seed=3, device=device)
+    cam.to_world[0, 3] += 1.5
+    renderer.launch_frame(seed=3)
+    for name in ("depth", "prim", "normal", "coverage"):
+        np.testing.assert_array_equal(first.aovs[name], expected.aovs[name])
+    np.testing.assert_array_equal(first.rgb, expected.rgb)
+
+
 def test_set_cameras_inside_a_capture_is_refused(device):
     """set_cameras inside a capture recorded its uploads: every replay copied the poses given then (from an array
     freed since) over the cameras set later, and drew those. Refused; the renderer keeps its cameras, and a graph

@@ -1336,15 +1336,18 @@ class Renderer:
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel;
         ``kept_buffers``: ``aovs`` are buffers that later launches write again (:meth:`launch_frame`'s), which a
-        :class:`BatchImage` then copies."""
+        :class:`BatchImage` (and, on the CPU, an :class:`Image`) then copies."""
         if self.batched:
             return self._batch_image(image_sum, samples, aovs, kept_buffers)
-        return self._image(image_sum, samples, aovs)
+        return self._image(image_sum, samples, aovs, kept_buffers)
 
-    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
+    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False) -> Image:
         rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
-        image = finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
-                             self.integrator, self.scene)
+        host = aovs.numpy(self.height, self.width, samples)
+        if kept_buffers and wp.get_device(self.device).is_cpu:
+            # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image)
+            host = {name: np.array(a) if name in aovs.arrays else a for name, a in host.items()}
+        image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator, self.scene)
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
         image.window = self._windows[0]
         return image
