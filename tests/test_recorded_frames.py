@@ -237,3 +237,24 @@ def test_frame_image_counts_the_frames_dropped_samples(device):
         wp.capture_launch(capture.graph)
         renderer.frame_image()
         assert renderer.dropped_samples == fresh.dropped_samples
+
+
+def test_a_graph_keeps_the_arrays_of_the_structs_it_reads(device):
+    """A graph kept the Renderer's attributes, not the arrays inside its Warp structs: set_cameras with another camera
+    count gave DeviceLights a new headlight array (a scene without lights is lit by a headlight per camera), and the
+    old one, which the older graph reads, was freed on CUDA. The graph keeps it for as long as it lives."""
+    scene, cams = sensor_scene(), ring_of_cameras(3)
+    scene.lights = []
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device=device)
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device=device) as old:
+        renderer.launch_frame(seed=3)
+    headlight = weakref.ref(renderer.device_lights.headlight_dirs)
+    renderer.set_cameras(cams)
+    renderer.launch_frame(seed=3)
+    assert renderer.device_lights.headlight_dirs is not headlight()  # three cameras: a new array
+    gc.collect()
+    assert headlight() is not None
+    del old
+    gc.collect()
+    assert headlight() is None

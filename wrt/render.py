@@ -384,6 +384,18 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
     run_in_chunks(work, n, resolve_threads(None, device), [kernel])  # one piece on a GPU
 
 
+def held_values(values) -> tuple:
+    """``values`` and, for each Warp struct among them, its fields (recursively): what a recorded graph must keep.
+    A struct's array may be replaced while the struct stays (``set_cameras`` with another camera count gives
+    ``DeviceLights`` a new headlight array), and the old one, which an older graph reads, was freed."""
+    held = []
+    for value in values:
+        held.append(value)
+        if wp.types.is_struct(value):
+            held.extend(held_values(vars(value).values()))
+    return tuple(held)
+
+
 def capturing_graph(device) -> wp.Graph | None:
     """The :class:`wp.Graph` that ``device`` is recording now, or None: Warp keeps a CUDA capture's graph per stream
     (``Device.captures``) and a CPU capture's in its runtime, and has no public call that returns it."""
@@ -1093,8 +1105,8 @@ class Renderer:
             # it was recorded with, and its replay launched kernels on freed memory. They are kept (every attribute as
             # it is now, but render's own buffers) by the graph itself, for as long as it lives: kept by the renderer
             # until the next recording only, a graph older than that replayed on freed memory.
-            recorded = tuple(value for name, value in vars(self).items()
-                             if name not in ("_recorded", "_wavefront", "_progressive"))
+            recorded = held_values(value for name, value in vars(self).items()
+                                   if name not in ("_recorded", "_wavefront", "_progressive"))
             graph = capturing_graph(self.device)
             if graph is not None:
                 graph.__dict__.setdefault("wrt_recorded", []).append(recorded)
