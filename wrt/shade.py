@@ -55,6 +55,7 @@ from .transforms import (
     inverse_transform_magnitude,
     inverse_transform_point,
     inverse_transform_vector,
+    local_ray_point,
     normal_to_world,
     transform_point,
 )
@@ -174,13 +175,21 @@ def corner_err(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
     """World-space point, front normal (not normalised), reach (``HitPoint.reach``: the point's distance from the
     shape's centre, the scale of the canonical test's rounding) and ``HitPoint.err`` of the hit at ``t`` on analytic
-    shape ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface and moved back."""
+    shape ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface and moved back.
+
+    The point is summed in the frame it is moved into (:func:`local_ray_point`: ``A ((o - c) + t d)``), relative to
+    the instance's and the shape's origin, so it is rounded at the scale of its distance from the ray's origin and
+    the shape, as the trace's own canonical ray is. Taken as the world point ``o + t d`` first, it was rounded at the
+    scale of its distance from the world origin: a sphere of radius 1 at 1e5 had normals 0.2 degrees off (a cone's
+    up to 2.4 degrees near its apex), 0.03 at 1e4, however near the camera."""
     j = prim - scene.num_prims
-    p = o + t * d
-    if instance >= 0:
-        p = transform_point(scene.world_to_local[instance], p)
     m = scene.shape_to_local[j]
-    q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], transform_point(m, p))
+    if instance >= 0:
+        p = local_ray_point(scene.world_to_local[instance], o, d, t)
+        local = transform_point(m, p)
+    else:
+        local = local_ray_point(m, o, d, t)
+    q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], local)
     n = normal_to_world(m, n)
     p = inverse_transform_point(m, q)
     err = inverse_transform_magnitude(m, abs_vec(q))

@@ -41,6 +41,14 @@ def transform_point(m: mat34, p: wp.vec3):
 
 
 @wp.func
+def local_ray_point(m: mat34, o: wp.vec3, d: wp.vec3, t: float):
+    """``A ((o - c) + t d)``: the point at ``t`` of the world ray ``o + t d`` in local space, summed relative to the
+    local origin ``c``, so that it is rounded at the scale of the ray's way there, not of the point's distance from
+    the world origin (``transform_point(m, o + t d)``; 8e-3 for a point at 1e5)."""
+    return linear_part(m) * ((o - translation(m)) + t * d)
+
+
+@wp.func
 def transform_vector(m: mat34, v: wp.vec3):
     """``A v``."""
     return m * wp.vec4(v[0], v[1], v[2], 0.0)

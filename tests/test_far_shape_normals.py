@@ -1,0 +1,156 @@
+"""Normals of analytic gprims far from the world origin, against the float64 oracle written from the UsdGeom schema
+(:mod:`gprim_oracle`): a shape's normal comes from the hit in its own frame, so its error is float32's rounding of
+the way from the ray's origin to the shape, however far both lie from the world origin.
+
+The shading normal of a shape hit (:func:`wrt.shade.shape_frame`) was taken from the world point ``o + t d``, rounded
+at the scale of its distance from the world origin (8e-3 at 1e5): a sphere of radius 1 seen from 8 units away had
+normals 0.2 degrees off at 1e5, 0.03 at 1e4, against 1e-4 at the origin.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import gprim_oracle as oracle
+import numpy as np
+import pytest
+from gprim_compare import hit_normals
+from pxr import Gf, Usd, UsdGeom
+
+import wrt
+from wrt.rays import camera_rays
+
+EPS32 = 2.0**-24  # float32's unit roundoff
+EYE_DISTANCE = 8.0  # from each gprim's centre to the ray origins aimed at it
+# Each gprim: attributes, and its own transform (column vectors) in the world or in its prototype.
+GPRIMS = {
+    "Sphere": {"radius": 1.0},
+    "Cylinder": {"radius": 0.7, "height": 1.5},
+    "Cone": {"radius": 0.8, "height": 1.6},
+}
+TURN = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])  # about z, so z offsets stay exact
+
+
+def affine(linear, translate) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = linear
+    m[:3, 3] = translate
+    return m
+
+
+def set_transform(prim: Usd.Prim, m: np.ndarray) -> None:
+    UsdGeom.Xformable(prim).AddTransformOp().Set(Gf.Matrix4d(np.asarray(m, np.float64).T.tolist()))
+
+
+def write_far_stage(path: str, position: float, instanced: bool) -> tuple[Usd.Stage, list[np.ndarray]]:
+    """The gprims side by side near ``(position, -position / 2, position / 4)``, scaled non-uniformly and turned:
+    each placed directly, or by an instanceable prim (scale ``(2, 0.5, 1)``) of a prototype holding it (scaled
+    ``(0.5, 3, 0.75)``, raised by 1), so that both show the same world shape. The world centres are float32 numbers,
+    as the traced shapes' are. Returns the stage and each gprim's world centre."""
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Xform.Define(stage, "/World")
+    if instanced:
+        stage.CreateClassPrim("/Protos")
+    centres = []
+    for k, (type_name, attrs) in enumerate(GPRIMS.items()):
+        base = np.array([position + 4.0 * k, -position / 2.0, position / 4.0])
+        if instanced:
+            UsdGeom.Xform.Define(stage, f"/Protos/P{k}")
+            prim = stage.DefinePrim(f"/Protos/P{k}/G", type_name)
+            set_transform(prim, affine(np.diag([0.5, 3.0, 0.75]), (0.0, 0.0, 1.0)))
+            instance = UsdGeom.Xform.Define(stage, f"/World/I{k}").GetPrim()
+            instance.GetReferences().AddInternalReference(f"/Protos/P{k}")
+            instance.SetInstanceable(True)
+            set_transform(instance, affine(TURN @ np.diag([2.0, 0.5, 1.0]), base))
+            centres.append(base + [0.0, 0.0, 1.0])
+        else:
+            prim = stage.DefinePrim(f"/World/G{k}", type_name)
+            set_transform(prim, affine(TURN @ np.diag([1.0, 1.5, 0.75]), base))
+            centres.append(base)
+        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
+        for key, value in attrs.items():
+            prim.GetAttribute(key).Set(value)
+    stage.GetRootLayer().Save()
+    return stage, centres
+
+
+def aimed_rays(centres, rng, per_gprim: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from ``EYE_DISTANCE`` away from each centre (in random directions) at random points within 1.2 of it,
+    float32 values as wrt traces them, in float64."""
+    origins, directions = [], []
+    for centre in centres:
+        away = rng.normal(size=(per_gprim, 3))
+        eye = centre + EYE_DISTANCE * away / np.linalg.norm(away, axis=1, keepdims=True)
+        target = centre + rng.uniform(-1.2, 1.2, (per_gprim, 3))
+        origins.append(eye.astype(np.float32))
+        directions.append((target - eye.astype(np.float32)).astype(np.float32))
+    return np.concatenate(origins).astype(np.float64), np.concatenate(directions).astype(np.float64)
+
+
+def angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles in radians between rows of ``a`` and ``b`` (``atan2`` of the cross and dot products: ``arccos`` of a
+    float32 unit vector's dot product is off by ``sqrt(2 eps)``)."""
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+
+
+def facing(normals: np.ndarray, d: np.ndarray) -> np.ndarray:
+    return normals * -np.sign(np.einsum("ij,ij->i", normals, d))[:, None]
+
+
+def load(path: str) -> wrt.Scene:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return wrt.load_usd(path)
+
+
+# The normal's error allowed: float32's rounding of the local problem, 16 ulps of the way from the ray's origin to the
+# surface over the surface's smallest radius (0.35: the cylinder's 0.7 times 0.5). Measured: about 1 such ulp at 1e2,
+# 1e4 and 1e5; taken from the world point, 9 at 1e2, 1000 at 1e4, 5000 at 1e5.
+ALLOWED = 16.0 * EPS32 * EYE_DISTANCE / 0.35
+
+
+@pytest.mark.parametrize("instanced", [False, True], ids=["world", "instanced"])
+@pytest.mark.parametrize("position", [1e2, 1e4, 1e5])
+def test_shape_normals_far_from_the_origin_keep_float32s_local_precision(tmp_path, position, instanced):
+    """Normals of sphere, cylinder and cone hits (non-uniformly scaled and turned, in the world or instanced) seen
+    from 8 units away are as exact at 1e5 as at 1e2: within a few float32 ulps of the local problem."""
+    path = str(tmp_path / "far.usda")
+    stage, centres = write_far_stage(path, position, instanced)
+    scene = load(path)
+    o, d = aimed_rays(centres, np.random.default_rng(5), 60)
+    ref = oracle.trace(stage, o, d)
+    hits = wrt.trace(scene, o, d)
+    if instanced:
+        assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
+    paths, _ = scene.hit_paths(hits)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    expected = facing(ref["normal"], d)
+    # Sharp hits (not at rims) on the gprim the oracle hits, not grazing (there the normal's conditioning is poor).
+    seen = np.einsum("ij,ij->i", expected, -unit) > 0.2
+    clear = np.isfinite(ref["t"]) & ref["sharp"] & (paths == ref["path"]) & seen
+    assert clear.sum() > 80
+    got = facing(hit_normals(scene, hits, o, d), d)
+    error = angles(got[clear], expected[clear])
+    assert error.max() <= ALLOWED, f"{np.degrees(error.max()):.2e} degrees at {position:g}"
+
+
+def test_the_normals_aov_of_a_shape_at_1e5_keeps_float32s_local_precision(tmp_path):
+    """The ``normal`` and ``geometric_normal`` AOVs of a tiny render of the instanced gprims at 1e5 (a camera 8 units
+    from the cone) against the oracle, as for the traced hits."""
+    path = str(tmp_path / "far.usda")
+    stage, centres = write_far_stage(path, 1e5, instanced=True)
+    scene = load(path)
+    eye = centres[2] + EYE_DISTANCE * np.array([0.48, 0.6, 0.64])
+    camera = wrt.Camera.look_at(eye, centres[2], (0, 0, 1), 20.0, clipping_range=(0.1, 100.0))
+    image = wrt.render(scene, camera=camera, width=24, height=24, integrator="normals", device="cpu")
+    o, d = (np.asarray(a, np.float64) for a in camera_rays(scene, camera, 24, 24))
+    ref = oracle.trace(stage, o, d)
+    expected = facing(ref["normal"], d)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    prim = image.aovs["prim"].reshape(-1)
+    clear = (prim >= 0) & np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    assert clear.sum() > 40
+    for aov in ("normal", "geometric_normal"):
+        got = image.aovs[aov].reshape(-1, 3).astype(np.float64)
+        error = angles(got[clear], expected[clear])
+        assert error.max() <= ALLOWED, f"{aov}: {np.degrees(error.max()):.2e} degrees"
