@@ -459,3 +459,31 @@ def test_a_camera_too_far_from_the_scene_for_float32_depths_is_named_in_a_warnin
             assert not said and image.aovs["prim"][1, 1] in (2, 3), said  # the card's triangles
         else:
             assert len(said) == 1 and "float32" in said[0], said
+
+
+def test_an_animated_far_camera_is_warned_of_once_per_renderer():
+    """A camera flying at 1e8 from a unit sphere (its view 0.2 units wide there), given anew by ``set_cameras`` each
+    frame: each far-view warning (the scene too far for float32 depths, the shape too far for its hit points) is
+    said once by the Renderer, as its clipping warnings are; it was said again at every camera upload, once per
+    frame, with the camera's distance of that frame."""
+    scene = wrt.Scene(shapes=[wrt.Shape("/ball", "sphere", np.eye(4))])
+
+    def far_camera(frame: int) -> wrt.Camera:
+        to_world = np.eye(4)
+        to_world[:3, 3] = [0.0, 0.0, 1e8 + 1e3 * frame]
+        return wrt.Camera(to_world=to_world, focal_length=1e10, horizontal_aperture=20.0, vertical_aperture=15.0,
+                          clipping_range=(1.0, 1e9), path="/Far")
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer = wrt.Renderer(scene, camera=far_camera(0), width=4, height=3, device="cpu", integrator="normals")
+        renderer.render()
+        for frame in range(1, 4):
+            renderer.set_cameras([far_camera(frame)])
+            renderer.render()
+        renderer.render()
+    said = [str(w.message) for w in caught if "camera /Far" in str(w.message)]
+    scene_too_far = [m for m in said if "is so far from the scene" in m]
+    shapes_too_far = [m for m in said if "sees analytic shapes from so far" in m]
+    assert len(scene_too_far) == 1 and len(shapes_too_far) == 1, said
+    assert len(said) == 2, said

@@ -8,6 +8,10 @@ shaded at the world point ``o + t d``: where that error is a good share of the s
 a single-sided shape's hits are culled as back faces, so a unit sphere seen from 1e8 vanished
 (:func:`warn_shapes_too_far`). Either matters only where what is lost covers a pixel or more, which, from that far,
 takes a very long lens: a usual camera sees such a scene as a dot, correctly. Both went without a word before.
+
+A Renderer says each warning once (``shown``): one for each camera label, and for each set of shapes, not one per
+camera upload, which an animated far camera given by ``set_cameras`` makes every frame (its distance in the words
+changing with it).
 """
 
 from __future__ import annotations
@@ -44,9 +48,13 @@ def hit_error(cam: Camera, points: np.ndarray) -> np.ndarray:
     return FLOAT32_STEP * (np.linalg.norm(eye) + np.linalg.norm(points - eye, axis=1))
 
 
-def warn_scene_too_far(scene, cam: Camera, width: int, height: int) -> None:
+def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None) -> None:
     """Warns naming ``cam`` where its rays resolve distances at the scene to worse than :data:`ERROR_SHARE` of the
-    scene's size while the scene covers a pixel or more (see the module docstring)."""
+    scene's size while the scene covers a pixel or more (see the module docstring); not where ``shown`` holds the
+    warning of a camera of that label already (each one given is added to it)."""
+    key = ("scene too far", cam.label())
+    if shown is not None and key in shown:
+        return
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     with np.errstate(all="ignore"):
         diagonal = float(np.linalg.norm(upper - lower))
@@ -55,6 +63,8 @@ def warn_scene_too_far(scene, cam: Camera, width: int, height: int) -> None:
         footprint, ahead = _pixel_footprints(cam, width, height, centre, np.array([0.5 * diagonal]))
         lost = bool(ahead[0]) and error > ERROR_SHARE * diagonal and diagonal > footprint[0]
     if lost:
+        if shown is not None:
+            shown.add(key)
         distance = float(np.linalg.norm(centre[0] - cam.to_world[:3, 3]))
         warnings.warn(f"{scene.source or 'scene'}: {cam.label()} is so far from the scene ({distance:.3g} units; it "
                       f"is {diagonal:.3g} across) that float32 resolves distances along its rays only to about "
@@ -98,9 +108,10 @@ def shape_centres_and_sizes(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(centres), np.concatenate(sizes), np.concatenate(ids).astype(np.int64)
 
 
-def warn_shapes_too_far(scene, cam: Camera, width: int, height: int) -> None:
+def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None) -> None:
     """Warns naming ``cam`` and the curved analytic shapes (not planes or disks) that it sees over a pixel or more
-    and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see the module docstring)."""
+    and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see the module docstring); not
+    where ``shown`` holds the warning of a camera of that label and those shapes already (each one given is added)."""
     if not scene.shapes and not any(getattr(p, "shapes", None) for p in scene.prototypes):
         return
     geometry = scene._geometry_shapes()
@@ -112,6 +123,11 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int) -> None:
         lost = curved & ahead & (error > ERROR_SHARE * size) & (2.0 * size > footprint)
     if lost.any():
         paths = list(dict.fromkeys(geometry[j].path for j in ids[lost]))
+        key = ("shapes too far", cam.label(), tuple(paths))
+        if shown is not None:
+            if key in shown:
+                return
+            shown.add(key)
         worst = float(np.max(error[lost]))
         scene._warn_prims(f"{cam.label()} sees analytic shapes from so far for their size that float32 places its "
                           f"hit points on them only to within about {worst:.2g} units: their normals are wrong and "

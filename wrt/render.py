@@ -615,6 +615,9 @@ class Renderer:
         self._camera_uploads = 0
         self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
         self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
+        # Far-view warnings said (wrt.far_views), each once: every camera upload (set_cameras each frame of an
+        # animation, a rebuild) repeated them.
+        self._far_warnings = set()
         self._build()
         self._camera_key = self._camera_sources_key()
         self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
@@ -911,8 +914,8 @@ class Renderer:
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         lens_list = [self._lens(c) for c in cameras]
         for cam in cameras:
-            warn_scene_too_far(self.scene, cam, self.width, self.height)
-            warn_shapes_too_far(self.scene, cam, self.width, self.height)
+            warn_scene_too_far(self.scene, cam, self.width, self.height, self._far_warnings)
+            warn_shapes_too_far(self.scene, cam, self.width, self.height, self._far_warnings)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
