@@ -3,9 +3,10 @@
 Rays are traced in float32, which resolves a distance along a ray only to about ``2^-23`` of the ray's reach (the
 eye's distance from the origin plus the hit's from the eye). A camera 1e8 from a scene four units across, through a
 lens that frames it, resolves depths to 8 units: a card 0.5 in front of a floor was drawn behind it, and a small
-light vanished (:func:`warn_scene_too_far`). An analytic shape's hit is found in its own space, precisely, but it is
-shaded at the world point ``o + t d``: where that error is a good share of the shape's size its normal is wrong and
-a single-sided shape's hits are culled as back faces, so a unit sphere seen from 1e8 vanished
+light vanished (:func:`warn_scene_too_far`). An analytic shape's hit is found and shaded in its own space, but
+from a ray whose float32 origin and ``t`` carry that error (``wrt.shade.shape_frame`` sums the point relative to the
+shape, so the shape's own distance from the origin adds none): where it is a good share of the shape's size its
+normal is wrong and a single-sided shape's hits are culled as back faces, so a unit sphere seen from 1e8 vanished
 (:func:`warn_shapes_too_far`). Either matters only where what is lost covers a pixel or more, which, from that far,
 takes a very long lens: a usual camera sees such a scene as a dot, correctly. Both went without a word before.
 
