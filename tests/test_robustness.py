@@ -1017,3 +1017,78 @@ def test_culled_back_faces_reveal_the_surface_just_behind_them_at_any_scale(scal
                              clipping_range=(0.01 * scale, 100.0 * scale))
     img = wrt.render(scene, camera=cam, width=16, height=16, device="cpu", integrator="depth")
     assert np.isin(img.aovs["prim"], (2, 3)).all()  # the front quad's two triangles, never the background
+
+
+TEXTURED_STAGES = {  # where the texture is read: a material's UsdUVTexture, a RectLight's or a DomeLight's file
+    "material": '''def Mesh "Quad" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+    texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = "vertex")
+    rel material:binding = </Looks/Tex>
+}
+def Scope "Looks"
+{
+    def Material "Tex"
+    {
+        token outputs:surface.connect = </Looks/Tex/Surface.outputs:surface>
+        def Shader "Surface"
+        {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor.connect = </Looks/Tex/Image.outputs:rgb>
+            token outputs:surface
+        }
+        def Shader "St"
+        {
+            uniform token info:id = "UsdPrimvarReader_float2"
+            token inputs:varname = "st"
+            float2 outputs:result
+        }
+        def Shader "Image"
+        {
+            uniform token info:id = "UsdUVTexture"
+            asset inputs:file = @tex.png@
+            float2 inputs:st.connect = </Looks/Tex/St.outputs:result>
+            float3 outputs:rgb
+        }
+    }
+}
+''',
+    "rect light": 'def Sphere "Ball"\n{\n}\ndef RectLight "Panel"\n{\n    asset inputs:texture:file = @tex.png@\n}\n',
+    "dome light": 'def Sphere "Ball"\n{\n}\ndef DomeLight "Sky"\n{\n    asset inputs:texture:file = @tex.png@\n}\n',
+}
+
+
+@pytest.mark.parametrize("where", list(TEXTURED_STAGES))
+def test_the_memory_estimate_counts_the_textures_uploaded(tmp_path, monkeypatch, where):
+    """``wrt render``'s memory check before allocating counted triangles and the render's buffers but no texture: the
+    same stage with a 512 x 256 texture instead of a 1 x 1 one must need more by the texture's device size, its texels
+    in the type wrt uploads them as: RGBA float16 for a material's texture (wrt.textures.pack_images), RGB float32
+    for a light's (and at least that for a dome, whose sampling tables come on top)."""
+    from PIL import Image as PilImage
+
+    from wrt.cli import main
+
+    needed = []
+
+    def stop(n, *args, **kwargs):
+        needed.append(n)
+        raise MemoryError("stopped before allocating")
+
+    monkeypatch.setattr("wrt.resources.check_memory", stop)
+    for height, width in ((1, 1), (256, 512)):
+        folder = tmp_path / f"{width}x{height}"
+        folder.mkdir()
+        PilImage.fromarray(np.full((height, width, 3), 200, np.uint8)).save(folder / "tex.png")
+        (folder / "s.usda").write_text('#usda 1.0\n(\n    upAxis = "Z"\n)\n' + TEXTURED_STAGES[where])
+        assert main(["render", str(folder / "s.usda"), "-o", str(folder / "x.png"), "--width", "8", "--height", "8",
+                     "-q"]) == 2
+    grown = needed[1] - needed[0]
+    texels = 512 * 256 - 1
+    if where == "material":
+        assert grown == texels * 4 * np.dtype(np.float16).itemsize
+    elif where == "rect light":
+        assert grown == texels * 3 * np.dtype(np.float32).itemsize
+    else:
+        assert texels * 3 * np.dtype(np.float32).itemsize <= grown <= 2 * texels * 3 * np.dtype(np.float32).itemsize

@@ -579,7 +579,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     import wrt
 
     from .render import resolve_view
-    from .resources import check_memory, estimate_render_bytes
+    from .resources import check_memory, device_texture_bytes, estimate_render_bytes
 
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time, **_load_options(args))
@@ -595,7 +595,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     if settings is not None:
         progress(_view_summary(args, settings, camera, width, height))
     _check_view_pixels(args, width, height, settings)  # the limit is the clearer error where both apply
-    needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp)
+    needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp, device_texture_bytes(scene))
     check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)

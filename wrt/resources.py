@@ -1,8 +1,9 @@
 """Memory planning: predict what a render will allocate and refuse it before allocating when it cannot fit.
 
 The estimate counts the large buffers: triangles and per-corner shading data, the BVH (at most ``2N - 1`` nodes of
-32 bytes plus ``40`` bytes of leaf-ordered triangle data per triangle) and the render's path and pixel buffers
-(:func:`wrt.render.render_bytes`, summed from the buffers themselves). It is an upper bound within a small factor,
+32 bytes plus ``40`` bytes of leaf-ordered triangle data per triangle), the textures as uploaded
+(:func:`device_texture_bytes`) and the render's path and pixel buffers (:func:`wrt.render.render_bytes`, summed from
+the buffers themselves). It is an upper bound within a small factor,
 good enough to turn an absurd request into a clear message instead of an allocation failure deep inside a kernel
 launch.
 """
@@ -25,13 +26,43 @@ def parse_bytes(text: str) -> int:
     return int(float(match.group(1)) * _UNITS[match.group(2).lower()])
 
 
-def estimate_render_bytes(triangles: int, width: int, height: int, spp: int = 1) -> int:
+def estimate_render_bytes(triangles: int, width: int, height: int, spp: int = 1, textures: int = 0) -> int:
     """Upper-bound bytes a render of ``width x height`` pixels and ``spp`` samples over ``triangles`` triangles
-    allocates (a small image takes several samples per launch: its paths count)."""
+    allocates (a small image takes several samples per launch: its paths count), ``textures`` bytes of textures
+    (:func:`device_texture_bytes`) included."""
     from .render import render_bytes, samples_per_launch
 
     pixels = int(width) * int(height)
-    return int(triangles) * TRIANGLE_BYTES + render_bytes(pixels, pixels * samples_per_launch(pixels, spp))
+    return (int(triangles) * TRIANGLE_BYTES + int(textures)
+            + render_bytes(pixels, pixels * samples_per_launch(pixels, spp)))
+
+
+def device_texture_bytes(scene) -> int:
+    """Device bytes of ``scene``'s textures as a render uploads them: the materials' images packed as RGBA half floats
+    (:func:`wrt.textures.pack_images`: a ``vec4h`` per texel, an int32 first texel and a ``vec2i`` size per image, at
+    least one of each), and the lights' images as RGB float32 (:mod:`wrt.light_table`: a ``vec3`` per texel, each
+    image once however many lights share it), with a dome's sampling CDFs (a float per row, and per texel and row).
+    Left out, they were no part of the checks, though an 8k texture alone takes 512 MiB."""
+    import numpy as np
+    import warp as wp
+
+    from .lights import DomeLight
+
+    size = wp.types.type_size_in_bytes
+    shapes = [np.shape(texture) for texture in scene.textures]
+    texels = sum(shape[0] * shape[1] for shape in shapes)
+    total = max(texels, 1) * size(wp.vec4h) + max(len(shapes), 1) * (size(wp.int32) + size(wp.vec2i))
+    seen = set()
+    for light in scene.lights:
+        texture = getattr(light, "texture", None)
+        if texture is None or id(texture) in seen:
+            continue
+        seen.add(id(texture))
+        height, width = np.shape(texture)[:2]
+        total += height * width * size(wp.vec3)
+        if isinstance(light, DomeLight):
+            total += (height + 1 + height * (width + 1)) * size(wp.float32)
+    return total
 
 
 def format_bytes(n: float) -> str:
