@@ -367,7 +367,7 @@ def test_a_light_with_no_instances_places_none():
 
 def reference_input_reader(prim, time):
     """The light input reader as it was (every input's ``HasAuthoredValue`` asked twice, every old name looked up):
-    the slow reference the faster one must agree with."""
+    the slow reference the faster one must agree with on inputs of the schema's types (none mistyped)."""
     from wrt.usd_lights import INPUTS_PREFIX
     from wrt.usd_values import value_at
 
@@ -384,7 +384,7 @@ def reference_input_reader(prim, time):
         value = value_at(attr, time) if attr else None
         return default if value is None else value
 
-    return get, legacy
+    return get, legacy, []
 
 
 def test_plain_lights_are_the_lights_the_reference_reader_reads(tmp_path, monkeypatch):
