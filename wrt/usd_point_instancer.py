@@ -145,6 +145,8 @@ class PointInstancerReading(InstancerPrimvarReading):
         times its own in the prototype): sizes, normalization, shaping and links as there. Each is named by its
         path (an instance-proxy path inside native instances) and its index in each instancer, outermost first
         (``/Lamps/Proto/Light[3]``); warnings name it so. They come in instance order, as the instances do."""
+        if not any(content.placed_lights for content in self.contents.values()):
+            return  # walking every placement (64,000 nested instances: a second) to find no light
         found, sources = [], {}  # (world-level source, indices at each level, light); source -> stage order
         for placement in placements(world, self.contents):
             for prim, to_space in placement.content.placed_lights:
