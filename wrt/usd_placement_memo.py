@@ -41,6 +41,7 @@ class PlacementMemo:
         self.counts = {"transforms": 0}  # transforms given again, for tests
         self.purposes = ComputedPurposes()  # the stage reader's computed_purposes at every load
         self.primvars = InheritedPrimvars()  # its inherited_primvars, likewise
+        self.stage_has_motion = None  # its layers hold time samples at two times or more (usd_cameras), None: unasked
 
     def visible(self, time: Usd.TimeCode) -> dict:
         """The kept visibility answers at times of ``time``'s kind: ``(prim path, stop path or None) -> visible``
