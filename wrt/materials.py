@@ -712,7 +712,7 @@ def readable_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in readable), None)
 
 
-def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> tuple:
+def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None, readable=readable_surface) -> tuple:
     """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
     ``UsdShade.Material`` when none, and the binding relationship that binds it (None for one bound above a native
     instance).
@@ -730,7 +730,7 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> 
 
     ``walk(purpose)``: the :class:`wrt.usd_bindings.Found` of the bindings of that purpose alone, or None (see
     :class:`wrt.usd_bindings.OwnWalks`, the default), as ``ComputeBoundMaterial`` walks them before it falls back
-    to all-purpose ones."""
+    to all-purpose ones. ``readable``: :func:`readable_surface`, or a reader's kept answers of it."""
     from pxr import Usd, UsdShade
 
     from .usd_bindings import ALL_PURPOSE, OwnWalks
@@ -749,17 +749,17 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> 
             material, rel = (walk(purpose) or nothing)[:2]
             if not material:
                 continue
-            if readable_surface(material):
+            if readable(material):
                 return material, rel
             found.append((material, rel))
         return found[0] if found else nothing
     full, full_binding = with_fallback(UsdShade.Tokens.full)
-    if full and readable_surface(full):
+    if full and readable(full):
         return full, full_binding
     # USD's full render stops at all-purpose bindings; a preview look wrt can read is the asset's own look, drawn
     # rather than the default grey, whatever surface it is (UsdPreviewSurface, standard_surface, OpenPBR).
     preview, preview_binding = with_fallback(UsdShade.Tokens.preview)
-    if preview and readable_surface(preview):
+    if preview and readable(preview):
         return preview, preview_binding
     return full, full_binding
 
@@ -873,6 +873,7 @@ class MaterialReader:
         self.textures: list[np.ndarray] = []
         self.texture_paths: list[str] = []
         self._by_path: dict[str, int] = {}  # material prim path (in its prototype) -> index, -1 for the default
+        self._readable: dict = {}  # material prim path (Sdf.Path) -> its readable_surface
         self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
         # (resolved path, colour space) -> (reason, detail) of what a file's read found wrong: told again with each
         # shader that names the file, as a fresh read of that shader would tell it
@@ -881,6 +882,14 @@ class MaterialReader:
         self._udim_files: dict[tuple, list] = {}  # the same key -> the _images keys of its tiles' files
 
     # Bindings
+
+    def readable_surface(self, material):
+        """:func:`readable_surface` of ``material``, asked once per material of this load: each mesh's binding asked
+        it again of the material's outputs and shaders (20,000 meshes bound to 500 materials: 40,000 walks)."""
+        path = material.GetPath()
+        if path not in self._readable:
+            self._readable[path] = readable_surface(material)
+        return self._readable[path]
 
     def bound(self, prim, outer: tuple | None = None, missing: set | None = None) -> tuple:
         """:func:`bound_material` of ``prim`` (under this reader's purposes); inside a native prototype ``outer``
@@ -894,7 +903,8 @@ class MaterialReader:
         kept = None if self.memo is None else self.memo.bindings.get(key)
         if kept is None:
             missed = set()
-            kept = (*bound_material(prim, self.purposes, self._walk(prim, outer, missed)), frozenset(missed))
+            kept = (*bound_material(prim, self.purposes, self._walk(prim, outer, missed), self.readable_surface),
+                    frozenset(missed))
             if self.memo is not None:
                 self.memo.bindings[key] = kept
         else:
@@ -1095,7 +1105,7 @@ class MaterialReader:
 
         prim = material.GetPrim()
         path = str(prim.GetPath())
-        readable = readable_surface(material)  # render contexts' outputs before the universal one, as Storm
+        readable = self.readable_surface(material)  # render contexts' outputs before the universal one, as Storm
         if readable and readable.GetShaderId() in MODELS:  # standard_surface or OpenPBR (wrt/materialx.py)
             self._check_displacement(material)
             return read_materialx_surface(self, readable, path)
