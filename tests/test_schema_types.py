@@ -87,6 +87,29 @@ def test_gprim_sizes_of_another_type_than_the_schemas_are_read_as_bbox_cache_rea
         assert name in wrong[0]
 
 
+
+def test_a_value_block_of_another_type_than_the_schemas_blocks_weaker_opinions(tmp_path):
+    """A ``float radius = None`` between a ``float radius = 3`` and a weaker layer's ``double radius = 4`` blocks
+    the weaker value: a block is no value of any type, so USD's typed read stops there (``ComputeExtent`` gets no
+    radius, where without the block it has 4) and UsdImaging draws its default radius, the schema's fallback 1;
+    wrt passed over the float-typed block as a value of another type and drew radius 4."""
+    (tmp_path / "weak.usda").write_text('#usda 1.0\nover "Ball" {\n    double radius = 4\n}\n')
+    (tmp_path / "block.usda").write_text('#usda 1.0\nover "Ball" {\n    float radius = None\n}\n')
+    path = tmp_path / "blocked.usda"
+    path.write_text('#usda 1.0\n(\n    subLayers = [@./block.usda@, @./weak.usda@]\n)\n'
+                    'def Sphere "Ball" {\n    float radius = 3\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    ball = stage.GetPrimAtPath("/Ball")
+    assert UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Sphere(ball), Usd.TimeCode.Default()) is None
+    stage.GetRootLayer().subLayerPaths.remove("./block.usda")
+    assert UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Sphere(ball), Usd.TimeCode.Default())[1][0] == 4
+    stage.GetRootLayer().subLayerPaths.insert(0, "./block.usda")  # (load_usd opens this layer as it is held)
+    scene, messages = _load(path, tessellate_gprims=256)
+    (mesh,) = scene.meshes
+    fallback = ball.GetPrimDefinition().GetAttributeFallbackValue("radius")
+    np.testing.assert_allclose(mesh.points.max(0), [fallback] * 3, atol=2e-3)
+    assert any("float radius = 3" in m for m in messages), messages
+
 CAMERAS = """#usda 1.0
 (
     subLayers = [@./weak.usda@]

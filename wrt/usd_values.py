@@ -67,8 +67,8 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
         samples = not at.IsDefault() and spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
         if not (samples or spec.HasDefaultValue()):
             continue  # an opinion of no value (metadata, a connection)
-        if spec.typeName.type == want:
-            if wrong is None:
+        if spec.typeName.type == want or (not samples and isinstance(spec.default, Sdf.ValueBlock)):
+            if wrong is None:  # (a block, of whatever type name, blocks weaker values as one of the schema's does)
                 return value, None  # the value read is of the schema's type
             default = spec.default
             return (fallback() if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
