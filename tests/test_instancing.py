@@ -663,6 +663,31 @@ def test_orientations_are_read_where_orientationsf_is_empty_as_usd_picks_them(tm
         np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-6)
 
 
+
+@pytest.mark.parametrize("authored", ["quath[]", "float4[]"])
+def test_an_orientationsf_of_another_type_beside_orientations_reads_orientations_as_usd_does(tmp_path, authored):
+    """``UsesOrientationsf`` reads ``orientationsf`` as ``quatf[]`` only: one authored as ``quath[]`` or ``float4[]``
+    gives it no value, so ``ComputeInstanceTransformsAtTime`` turns the instances by the ``orientations`` beside it.
+    wrt took any non-empty ``orientationsf``: it turned them by the quath[] one, and drew them unrotated (with a
+    warning) for the float4[] one. The oracle is ``ComputeInstanceTransformsAtTime``."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=3)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(0.6, 0.8, 0, 0), Gf.Quath(0.6, 0, 0.8, 0),
+                                             Gf.Quath(0, 0, 0.6, 0.8)]))
+    spec = Sdf.AttributeSpec(stage.GetRootLayer().GetPrimAtPath("/PI"), "orientationsf", Sdf.ValueTypeNames.Find(
+        authored))  # (USD's own API refuses a value of another type than the schema's)
+    spec.default = (Vt.QuathArray([Gf.Quath(0, 1, 0, 0)] * 3) if authored == "quath[]" else
+                    Vt.Vec4fArray([Gf.Vec4f(0, 0, 1, 0)] * 3))
+    stage.Save()
+    passed_over = rf"orientationsf authored as another type than quatf\[\].*orientationsf is {re.escape(authored)}"
+    with pytest.warns(UserWarning, match=passed_over):
+        scene = wrt.load_usd(path)
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert expected.shape == (3, 4, 4) and not np.allclose(expected[:, :3, :3], np.eye(3))
+    np.testing.assert_allclose(scene.instances.to_world, expected, atol=2e-3)
+
 def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
     """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
     ``ComputeMaskAtTime`` computes it (``ids`` of another length than ``protoIndices``: see the test below)."""

@@ -231,7 +231,10 @@ class PointInstancerReading(InstancerPrimvarReading):
             return array[:n] if default is not None else array  # positions: the caller checks the length
 
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
-        orient_attr = _orientations_attr(pi)
+        orient_attr, passed_over = _orientations_attr(pi)
+        if passed_over is not None:
+            self._skip("PointInstancer orientationsf authored as another type than quatf[] was passed over for the "
+                       "orientations beside it, as USD reads them", prim, f"orientationsf is {passed_over}")
         # ComputeInstanceTransformsAtTime reads each as its schema type only (point3f[], quath[] or quatf[], float3[]):
         # positions of another (float[], double3[]) give no instances, orientations or scales of another are none. A
         # float[] raised SceneError; a double3[] or float4[] one was read as if of the schema's type.
@@ -372,14 +375,23 @@ class PointInstancerReading(InstancerPrimvarReading):
         return raw
 
 
-def _orientations_attr(pi: UsdGeom.PointInstancer) -> Usd.Attribute:
-    """The orientations attribute of ``pi`` that USD reads (``UsesOrientationsf``): ``orientationsf`` where its value
-    at the earliest time is a non-empty array, else ``orientations`` at every time. Any authored ``orientationsf``
-    was taken: an empty one, which exporters write beside the ``quath[]`` they fill, left every instance unrotated."""
-    orientationsf = pi.GetOrientationsfAttr()
+def _orientations_attr(pi: UsdGeom.PointInstancer) -> tuple[Usd.Attribute, str | None]:
+    """``(attr, passed_over)``: the orientations attribute of ``pi`` that USD reads (``UsesOrientationsf``):
+    ``orientationsf`` where its value at the earliest time is a non-empty ``quatf[]``, else ``orientations`` at every
+    time; and the type of an ``orientationsf`` of another type passed over for ``orientations`` (else None). Any
+    authored ``orientationsf`` was taken: an empty one, which exporters write beside the ``quath[]`` they fill, left
+    every instance unrotated, and a ``quath[]`` or ``float4[]`` one, which USD's typed read gets no value from,
+    replaced the ``orientations`` beside it. A lone ``quath[] orientationsf`` is still read as the rotation it plainly
+    is (:meth:`PointInstancerReading._of_schema_type`)."""
+    orientationsf, orientations = pi.GetOrientationsfAttr(), pi.GetOrientationsAttr()
     earliest = orientationsf.Get(Usd.TimeCode.EarliestTime()) if orientationsf.HasValue() else None
     filled = earliest is not None and hasattr(earliest, "__len__") and len(earliest) > 0  # (a scalar: mistyped)
-    return orientationsf if filled else pi.GetOrientationsAttr()
+    if not filled or isinstance(earliest, Vt.QuatfArray):
+        return (orientationsf if filled else orientations), None
+    if not orientations.HasValue():
+        return orientationsf, None
+    stack = orientationsf.GetPropertyStack(Usd.TimeCode.EarliestTime())
+    return orientations, str(stack[0].typeName) if stack else type(earliest).__name__
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
