@@ -155,3 +155,20 @@ def test_non_finite_instance_st_reads_the_fallback_with_a_warning(tmp_path, valu
     assert [m for m in messages if "not finite" in m and m.endswith("/PI")], messages
     assert not [m for m in messages if "overflow" in m], messages
     np.testing.assert_allclose(albedo_of_instances(scene), expected_texels(path), atol=2e-3)
+
+
+@pytest.mark.parametrize("beneath", [False, True])
+def test_a_constant_st_on_the_instancer_holding_one_value_rather_than_an_array_reaches_every_instance(tmp_path,
+                                                                                                      beneath):
+    """A constant ``texCoord2f primvars:st = (0.75, 0.25)`` (one value, not an array of one) is that value, as
+    ``ComputeFlattened`` gives it and as it is on a mesh, a gprim or inherited (e151e21): on an instancer whose
+    prototypes lie elsewhere it was ignored as "cannot be read", every instance at the reader's fallback."""
+    path = instancer_st_stage(tmp_path, "constant", beneath, values=Gf.Vec2f(*STS[0]),
+                              type_name=Sdf.ValueTypeNames.TexCoord2f)
+    stage = Usd.Stage.Open(path)
+    flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("st").ComputeFlattened()
+    s, t = flattened  # the oracle: USD's value, one st for all
+    scene, messages = load_quietly(path)
+    assert not [m for m in messages if "PointInstancer st" in m], messages
+    np.testing.assert_allclose(albedo_of_instances(scene), [CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255] * 3,
+                               atol=2e-3)

@@ -18,6 +18,7 @@ from .usd_primvars import (
     finite_colors,
     first_of_constant,
     indices_type_problem,
+    one_value_as_array,
     past_float32_as_inf,
     quaternion_typed,
     unit_opacities,
@@ -156,7 +157,8 @@ class InstancerPrimvarReading:
         warning. None, with a warning naming it and what was expected, when it cannot be used: another type,
         interpolation, or a length other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
-        raw = read(primvar.GetAttr(), self.time)
+        # (a constant one holding one value rather than an array is that value, as on a gprim: it was unreadable)
+        raw = one_value_as_array(read(primvar.GetAttr(), self.time), primvar.GetAttr(), primvar.GetInterpolation())
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
         try:
             values = np.asarray(raw if raw is not None else [], np.float64)
