@@ -51,16 +51,18 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
     of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``. ``read``: the value the caller
     read already (a mesh's points, not read twice), or None.
     """
+    def fallback():
+        return attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+
+    if not attr.HasAuthoredValue():  # nothing authored (most gprims' orientation, doubleSided), or blocked: no type
+        value = attr.Get(time) if read is None else read  # to check, and no specs to walk (a third of the cost)
+        return (fallback() if value is None else value), None
     at = read_time(attr, time)
     value = attr.Get(at) if read is None else read
     want = attr.GetTypeName().type  # a schema attribute's type name is the schema's whatever the layers author
     if type(value) is (want.pythonClass or _PYTHON_TYPES.get(want.typeName)):
         return value, None  # a Gf, Vt or bool value is of one C++ type: no walk over the specs (a mesh's points)
-
-    def fallback():
-        return attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
-
-    if value is None:  # blocked, or nothing authored
+    if value is None:  # blocked
         return fallback(), None
     wrong = None
     for spec in property_stack(attr, at):
