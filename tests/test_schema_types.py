@@ -384,3 +384,27 @@ def test_an_xform_op_order_of_another_type_than_token_is_read_as_xform_cache_rea
         np.testing.assert_allclose(mesh.points, world[:, :3], atol=1e-6, err_msg=mesh.path)
     wrong = [m for m in messages if "xformOpOrder" in m and "another type" in m]
     assert len(wrong) == 1 and "/StringOrder" in wrong[0] and "/OverWeaker" in wrong[0], messages
+
+
+def test_an_empty_string_xform_op_order_over_a_weaker_token_one_is_read_as_xform_cache_reads_it(tmp_path):
+    """An empty ``uniform string[] xformOpOrder = []`` is passed over by USD's typed read as a filled one is: the
+    weaker layer's ``token[]`` order applies (``XformCache`` translates the child by (0, 7, 0)). Under a parent read
+    op by op (its own string[] order), wrt took the empty text for no ops and drew the child untranslated."""
+    (tmp_path / "weak.usda").write_text('#usda 1.0\nover "Parent" {\n    over "Child" {\n'
+                                        '        uniform token[] xformOpOrder = ["xformOp:translate"]\n    }\n}\n')
+    path = tmp_path / "orders.usda"
+    path.write_text('#usda 1.0\n(\n    subLayers = [@./weak.usda@]\n)\ndef Xform "Parent" {\n'
+                    '    double3 xformOp:translate = (5, 0, 0)\n'
+                    '    uniform string[] xformOpOrder = ["xformOp:translate"]\n'
+                    '    def Mesh "Child" {\n        double3 xformOp:translate = (0, 7, 0)\n'
+                    '        uniform string[] xformOpOrder = []\n'
+                    '        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n'
+                    '        int[] faceVertexCounts = [3]\n        int[] faceVertexIndices = [0, 1, 2]\n    }\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    scene, _ = _load(path)
+    prim = stage.GetPrimAtPath("/Parent/Child")
+    local = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get(), np.float64)
+    world = np.c_[local, np.ones(len(local))] @ np.array(UsdGeom.XformCache().GetLocalToWorldTransform(prim))
+    assert not np.allclose(world[:, :3], local)  # the weaker order's translate applies
+    (mesh,) = scene.meshes
+    np.testing.assert_allclose(mesh.points, world[:, :3], atol=1e-6)

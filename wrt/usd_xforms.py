@@ -129,7 +129,8 @@ class Xforms:
             return Gf.Matrix4d(1.0), False
         attr = UsdGeom.Xformable(prim).GetXformOpOrderAttr()
         order = attr.Get()
-        if order and not isinstance(order, Vt.TokenArray):  # a string[]: USD's typed read passes it over
+        if order is not None and not isinstance(order, Vt.TokenArray):  # a string[] (an empty one too): USD's typed
+            # read passes it over
             order, wrong = schema_typed_value(attr, DEFAULT)
             self._warn(MISTYPED_ORDER, prim, wrong)
         order = [str(name) for name in order or []]
