@@ -408,3 +408,28 @@ def test_an_empty_string_xform_op_order_over_a_weaker_token_one_is_read_as_xform
     assert not np.allclose(world[:, :3], local)  # the weaker order's translate applies
     (mesh,) = scene.meshes
     np.testing.assert_allclose(mesh.points, world[:, :3], atol=1e-6)
+
+
+def test_a_light_texture_of_another_type_over_a_weaker_asset_is_the_weaker_asset_resolved_from_its_layer(tmp_path):
+    """A ``string inputs:texture:file`` over a weaker layer's ``asset inputs:texture:file = @./sky.png@`` is passed
+    over for the weaker asset, which USD resolves against the layer that authors it (here a subfolder's). wrt took
+    the weaker spec's default as it is, an asset path with no resolved path, and dropped the dome's texture as "not
+    found". The oracle: USD's resolved path of the weaker opinion alone (the string one removed)."""
+    from PIL import Image
+
+    (tmp_path / "sub").mkdir()
+    Image.fromarray(np.full((8, 16, 3), 200, np.uint8)).save(tmp_path / "sub" / "sky.png")
+    (tmp_path / "sub" / "weak.usda").write_text('#usda 1.0\nover "Dome" {\n'
+                                                '    asset inputs:texture:file = @./sky.png@\n}\n')
+    path = tmp_path / "dome.usda"
+    path.write_text('#usda 1.0\n(\n    subLayers = [@./sub/weak.usda@]\n)\n'
+                    'def DomeLight "Dome" {\n    string inputs:texture:file = "elsewhere.png"\n}\n')
+    scene, messages = _load(path)
+    stage = Usd.Stage.Open(str(path))
+    stage.GetRootLayer().GetPrimAtPath("/Dome").RemoveProperty(
+        stage.GetRootLayer().GetPropertyAtPath("/Dome.inputs:texture:file"))
+    resolved = stage.GetPrimAtPath("/Dome").GetAttribute("inputs:texture:file").Get().resolvedPath
+    assert resolved.endswith("sky.png")
+    (dome,) = [light for light in scene.lights if light.path == "/Dome"]
+    assert dome.texture_path == resolved and dome.texture is not None, messages
+    assert any("string inputs:texture:file = 'elsewhere.png'" in m for m in messages), messages

@@ -5,7 +5,7 @@ and orientations moved by their velocities between samples, as USD moves them.""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, Usd
+from pxr import Ar, Sdf, Usd
 
 from .usd_problems import property_stack
 
@@ -73,7 +73,9 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
             if wrong is None:  # (a block, of whatever type name, blocks weaker values as one of the schema's does)
                 return value, None  # the value read is of the schema's type
             default = spec.default
-            return (fallback() if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
+            if default is None or isinstance(default, Sdf.ValueBlock):
+                return fallback(), wrong
+            return _resolved_assets(default, spec.layer), wrong
         if wrong is None:
             shown = repr(value) if isinstance(value, str) else str(value)  # Gf, Vt: (1, 2, 3), [1, 2]
             shown = shown if len(shown) <= 40 else shown[:36] + " ..."  # a mesh's points
@@ -81,6 +83,22 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
         if not at.IsDefault():  # at a time USD's typed read fails on it: its readers use the fallback
             return fallback(), wrong
     return (value, None) if wrong is None else (fallback(), wrong)
+
+
+def _resolved_assets(value, layer: Sdf.Layer):
+    """``value``, a spec's default, with its asset paths resolved against ``layer`` (the one authoring it), as USD's
+    value resolution hands them back: a spec's default holds none (a light's texture was "not found")."""
+    def resolved(asset: Sdf.AssetPath) -> Sdf.AssetPath:
+        if not asset.path:
+            return asset
+        anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, asset.path)
+        return Sdf.AssetPath(asset.path, str(Ar.GetResolver().Resolve(anchored)))
+
+    if isinstance(value, Sdf.AssetPath):
+        return resolved(value)
+    if isinstance(value, Sdf.AssetPathArray):
+        return Sdf.AssetPathArray([resolved(asset) for asset in value])
+    return value
 
 
 _PYTHON_TYPES = {"bool": bool}  # C++ types whose Python values no other C++ type gives (float: float and double)
