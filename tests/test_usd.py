@@ -1114,6 +1114,25 @@ def test_int64_face_counts_are_no_faces_to_usd_and_an_error_to_wrt(tmp_path):
     expect_scene_error(path, "/World/Bad", "faceVertexCounts must be int[], not int64[]")
 
 
+
+def test_int64_face_counts_over_a_weaker_int_array_read_the_weaker_one_as_usd_does(tmp_path):
+    """An ``int64[] faceVertexCounts`` over a weaker layer's ``int[]`` one is passed over by USD's typed read for the
+    weaker value (``GetFaceCount`` counts its faces; usdview draws them); wrt stopped the load with SceneError as if
+    the mesh had no int[] counts. It draws USD's faces, with a warning naming the mistyped value."""
+    text = mesh_usda("Mesh").replace("int[] faceVertexCounts", "int64[] faceVertexCounts")
+    (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Mesh" {{\n'
+                                        f'        int[] faceVertexCounts = {fmt(COUNTS)}\n    }}\n}}\n')
+    path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text + "}\n",
+                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+    stage = Usd.Stage.Open(path)
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Mesh"))
+    assert mesh.GetFaceCount() == len(COUNTS)
+    with pytest.warns(UserWarning, match="int64\\[\\] faceVertexCounts"):
+        scene = wrt.load_usd(path)
+    (loaded,) = scene.meshes
+    counts = np.array(mesh.GetFaceVertexCountsAttr().Get(Usd.TimeCode.Default()))
+    assert len(loaded.indices) == int(np.sum(counts - 2))
+
 @pytest.mark.parametrize(
     "layer_meta, arc, fragment",
     [

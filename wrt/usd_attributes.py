@@ -38,6 +38,13 @@ class AttributeReading:
                 faces to USD, whose typed read gets no value from them: ``GetFaceCount`` 0, usdview draws nothing).
         """
         value = value_at(attr, self.time)
+        if value is not None and not isinstance(value, Vt.IntArray):
+            # USD's typed read passes it over for a weaker int[] opinion (an int64[] over an int[]: GetFaceCount
+            # counts the int[] faces), read here; with none (the schema's fallback) it is refused below.
+            typed, _ = schema_typed_value(attr, self.time)
+            fallback = prim.GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+            if isinstance(typed, Vt.IntArray) and (fallback is None or typed != fallback):
+                value = self._typed(prim, attr)  # (again, for its warning naming the value passed over)
         if value is None:
             return np.zeros(0, np.int64)
         array = np.asarray(value)
