@@ -73,7 +73,7 @@ from .textures import (
     stored_texels,
     udim_tile,
 )
-from .usd_values import value_at
+from .usd_values import asset_in_layer, value_at
 
 SLOTS = (  # the texturable inputs, in device slot order
     "diffuseColor",
@@ -1601,13 +1601,9 @@ class MaterialReader:
         the ``Sdf.AssetPath`` it names, resolved against the layer that authored it (its resolved path empty where
         there is no such file), with a warning naming the prim. Storm takes a string ``file`` as the path to open;
         it was reported as a file that was not found, the fallback drawn, though the file was there."""
-        from pxr import Ar, Sdf
-
         self.skip("image files authored as a string rather than an asset were resolved as asset paths",
                   shader.GetPrim(), detail=f"{name} = {text!r}")
-        layer = _authoring_layer(_source_attribute(shader, name), self.time)
-        anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, text) if layer else text
-        return Sdf.AssetPath(text, str(Ar.GetResolver().Resolve(anchored)))
+        return asset_in_layer(text, _authoring_layer(_source_attribute(shader, name), self.time))
 
     def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str) -> np.ndarray:
         """``(UDIM_TILES,)`` int32 images of the tiles of UDIM pattern ``authored`` (-1: no such file), found as

@@ -85,19 +85,22 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
     return (value, None) if wrong is None else (fallback(), wrong)
 
 
+def asset_in_layer(path: str, layer: Sdf.Layer | None) -> Sdf.AssetPath:
+    """The ``Sdf.AssetPath`` of ``path`` as authored in ``layer``, resolved against it as USD's value resolution
+    resolves asset paths (its resolved path empty where there is no such file)."""
+    if not path:
+        return Sdf.AssetPath(path)
+    anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, path) if layer else path
+    return Sdf.AssetPath(path, str(Ar.GetResolver().Resolve(anchored)))
+
+
 def _resolved_assets(value, layer: Sdf.Layer):
     """``value``, a spec's default, with its asset paths resolved against ``layer`` (the one authoring it), as USD's
     value resolution hands them back: a spec's default holds none (a light's texture was "not found")."""
-    def resolved(asset: Sdf.AssetPath) -> Sdf.AssetPath:
-        if not asset.path:
-            return asset
-        anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, asset.path)
-        return Sdf.AssetPath(asset.path, str(Ar.GetResolver().Resolve(anchored)))
-
     if isinstance(value, Sdf.AssetPath):
-        return resolved(value)
+        return asset_in_layer(value.path, layer)
     if isinstance(value, Sdf.AssetPathArray):
-        return Sdf.AssetPathArray([resolved(asset) for asset in value])
+        return Sdf.AssetPathArray([asset_in_layer(asset.path, layer) for asset in value])
     return value
 
 
