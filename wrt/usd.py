@@ -338,6 +338,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
         # native prototype path -> whether a PointInstancer or a UsdGeomVisibilityAPI prim is in it (_instance_purpose)
         self.purpose_readers = {}
+        # native prototype path -> the purposes authored in it (nested ones too), None with a PointInstancer in it
+        self.prototype_purposes = {}
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)

@@ -30,6 +30,7 @@ class NativeInstanceReading:
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)
             return
+        hidden = self._hidden_inside(prototype, purpose, hidden)  # only those some prim inside can take
         # The walk of each binding purpose from a prim of the prototype goes on through the instance and its
         # ancestors (ComputeBoundMaterial on the instance proxies): what it finds there completes the walks inside.
         binding_prim = self._binding_prim(prim, ctx)

@@ -119,6 +119,36 @@ class Visibility:
                 for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate))
         return self.purpose_readers[key]
 
+    def _hidden_inside(self, prototype: Usd.Prim, purpose, hidden: frozenset) -> frozenset:
+        """The purposes of ``hidden`` that some prim of native ``prototype`` can take: the one its instance hands down
+        (``purpose``, :meth:`_instance_purpose`) or one authored in it or in a nested prototype; all of them where a
+        PointInstancer is in it (it may draw prototypes from outside by purpose). The prototype is read once per such
+        set: keyed by every hidden purpose, it was read (and its BLAS built) again for an instance under a
+        renderVisibility = invisible opinion though it held only prims of default purpose."""
+        if not hidden:
+            return hidden
+        inside = self._purposes_inside(prototype)
+        return hidden if inside is None else hidden & (inside | {purpose})
+
+    def _purposes_inside(self, prototype: Usd.Prim):
+        """The purposes authored on the prims of native ``prototype`` and of the prototypes of the instances in it, or
+        None where a PointInstancer is among them; each prototype's answer kept."""
+        key = prototype.GetPath()
+        if key not in self.prototype_purposes:
+            found = set()
+            for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate):
+                nested = self._purposes_inside(p.GetPrototype()) if p.IsInstance() and p.GetPrototype() else set()
+                if p.IsA(UsdGeom.PointInstancer) or nested is None:
+                    found = None
+                    break
+                found |= nested
+                img = UsdGeom.Imageable(p)
+                attr = img.GetPurposeAttr() if img else None
+                if attr is not None and attr.HasAuthoredValue() and token_typed(attr):
+                    found.add(attr.Get())
+            self.prototype_purposes[key] = None if found is None else frozenset(found)
+        return self.prototype_purposes[key]
+
     def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
         ``ctx.outer_purpose``), or None where none does and the schema's fallback applies."""
