@@ -44,8 +44,10 @@ class Found(NamedTuple):
 
 def binding_purpose(rel: Usd.Relationship) -> str:
     """The purpose of binding relationship ``rel``: ``material:binding[:purpose]`` (direct) or
-    ``material:binding:collection[:purpose]:name`` (a collection binding; USD's ``GetCollectionBindingRels`` tells
-    the purpose by the count of its parts). A collection's purpose was read as all-purpose (the name was taken for
+    ``material:binding:collection[:purpose]:name`` (a collection binding: its fourth part is the purpose where more
+    follow, as ``ComputeBoundMaterial`` reads it, so ``...:collection:full:a:b`` binds for ``full`` alone; USD's
+    ``GetCollectionBindingRels`` lists names of six parts or more under all-purpose, which it does not bind for).
+    A collection's purpose was read as all-purpose (the name was taken for
     ``material:binding[:purpose][:collection:name]``): a ``full`` collection above a native instance lost to an
     all-purpose binding inside it, and ``materialBindingPurposes`` found no binding of its purposes in one."""
     parts = rel.GetName().split(":")
