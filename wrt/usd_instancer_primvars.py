@@ -96,8 +96,9 @@ class InstancerPrimvarReading:
         primvar ``name`` (the first two components; NaN where not finite in float32, with a warning), or None without
         a usable one (see :meth:`_instance_values`). A constant one reaches the prototypes beneath the instancer by
         inheritance instead, read with their geometry, as a constant colour does."""
-        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
-        if not primvar.HasValue() or (beneath and primvar.GetInterpolation() == UsdGeom.Tokens.constant):
+        if beneath and self._constant_primvar(prim, name):  # the prototypes inherit it instead
+            return None
+        if not UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).HasValue():
             return None
         values = self._instance_values(prim, n, read, name, (2, 3, 4))
         if values is None:
@@ -117,8 +118,9 @@ class InstancerPrimvarReading:
         each instance's is a constant widths at the root of its prototype, sizing its points and curves that have no
         widths primvar of their own; a constant one reaches the prototypes beneath the instancer by inheritance
         instead, read with their geometry. Only that one was read: the others were dropped without a word."""
-        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths")
-        if not primvar.HasValue() or (beneath and primvar.GetInterpolation() == UsdGeom.Tokens.constant):
+        if beneath and self._constant_primvar(prim, "widths"):  # the prototypes inherit it instead
+            return None
+        if not UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths").HasValue():
             return None
         values = self._instance_values(prim, n, read, "widths", (1,))
         return None if values is None else np.broadcast_to(values[:, 0], (n,))
