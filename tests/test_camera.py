@@ -627,6 +627,29 @@ def test_python_camera_film_values_must_be_finite(kwargs):
         wrt.Camera.look_at((0, 0, 10), (0, 0, 0), **kwargs)
 
 
+@pytest.mark.parametrize("kwargs, shown", [
+    (dict(f_stop=-2.0, focus_distance=5.0), "f_stop=-2"),
+    (dict(f_stop=2.0, focus_distance=-5.0), "focus_distance=-5"),
+    (dict(f_stop=-2.0), "f_stop=-2"),  # focus_distance 0: was a pinhole all the same, unsaid
+])
+def test_python_camera_lens_values_must_not_be_negative(kwargs, shown):
+    """USD's fStop "defaults to 0.0, which turns off focusing"; focusDistance is a distance: a negative one of
+    either has no meaning, and such a camera rendered as a pinhole without a word. Refused as a negative aperture is."""
+    with pytest.raises(ValueError, match=rf"^camera needs a non-negative fStop and focusDistance.*{shown}$"):
+        wrt.Camera.look_at((0, 0, 10), (0, 0, 0), **kwargs)
+
+
+@pytest.mark.parametrize("attr", ["fStop", "focusDistance"])
+def test_usd_camera_of_negative_lens_value_is_skipped(tmp_path, attr):
+    """A UsdGeom.Camera of fStop or focusDistance -2 rendered as a pinhole, unsaid: skipped with a warning naming it,
+    as a camera of a negative aperture is, and asking for it raises naming the value."""
+    other = "focusDistance" if attr == "fStop" else "fStop"
+    path = tmp_path / "cam.usda"
+    path.write_text(f'#usda 1.0\ndef Camera "C"\n{{\n    float {attr} = -2\n    float {other} = 4\n}}\n')
+    with pytest.raises(wrt.SceneError, match=r"cam\.usda: /C: camera needs a non-negative fStop and focusDistance"):
+        asked_for(path, "/C")
+
+
 @pytest.mark.parametrize("height", [INF, NAN, "2"])
 def test_orthographic_height_must_be_finite(height):
     with pytest.raises(ValueError, match="orthographic height must be a finite positive number"):

@@ -194,8 +194,8 @@ class Camera:
             ``adjustApertureWidth`` / ``adjustApertureHeight`` change that one, and ``adjustPixelAspectRatio``
             keeps both (the pixels take the apertures' aspect).
         pixel_aspect_ratio: width / height of one pixel (UsdRender's ``pixelAspectRatio``); 1: square pixels.
-        f_stop: lens f-number; 0 means a pinhole.
-        focus_distance: camera-space depth of the plane in focus.
+        f_stop: lens f-number, not negative; 0 means a pinhole.
+        focus_distance: camera-space depth of the plane in focus, not negative (0: a pinhole).
         exposure_scale: factor on the radiance the camera sees (``path`` and ``whitted`` images), USD's
             ``ComputeLinearExposureScale``: ``2^exposure * exposure:time * exposure:iso / 100 *
             exposure:responsivity / exposure:fStop^2``; 1 with USD's fallbacks.
@@ -275,6 +275,12 @@ class Camera:
         bad = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if not _finite(v))
         if bad:
             raise ValueError(f"{self.label()} needs finite film offsets, fStop and focusDistance, got {bad}")
+        # USD's fStop "defaults to 0.0, which turns off focusing" and focusDistance is a distance: a negative one has
+        # no meaning, and rendered as a pinhole without a word. Refused as a negative aperture is.
+        negative = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if k in ("f_stop", "focus_distance") and v < 0)
+        if negative:
+            raise ValueError(f"{self.label()} needs a non-negative fStop and focusDistance (an fStop of 0 is a "
+                             f"pinhole), got {negative}")
         # At most float32's largest: the image is float32, and a larger scale made every lit pixel inf.
         if not (_finite(self.exposure_scale) and 0 <= self.exposure_scale <= FLOAT32_MAX):
             raise ValueError(f"{self.label()} needs a non-negative exposure scale of at most {FLOAT32_MAX:.4g} (from "
