@@ -164,3 +164,28 @@ def test_whitted_reflects_a_textured_dome_in_a_glossy_wall_as_its_lobe_sees_it()
     img = wrt.render(scene, camera=cam, width=8, height=8, spp=64, device="cpu", integrator="whitted", seed=5)
     assert_converges_to(img.rgb.reshape(-1, 3).astype(np.float64), white_metal_reflection(-view, 0.4**2,
                                                                                           two_colour_radiance))
+
+
+@pytest.mark.parametrize("textured", [False, True])
+def test_whitted_lights_a_floor_under_a_dome_near_float32s_largest(textured):
+    """A dome of radiance 1e38 (float32 holds it) lights an open white Lambertian floor with 1e38: the irradiance over
+    pi of a constant dome is its radiance. The stored band-0 coefficient, about 3.5 times the radiance, overflowed
+    float32 to inf, and Whitted's pixels were inf (and dropped) where the path tracer's are finite."""
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 0, -40), material=0)  # front +Y
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    texture = np.ones((8, 16, 4), np.float32) if textured else None
+    dome = DomeLight(color=np.full(3, 1e38, np.float32), texture=texture)
+    scene = wrt.Scene(meshes=[plane], materials=[LAMBERT], lights=[dome])
+    img = wrt.render(scene, camera=cam, width=2, height=2, spp=1, device="cpu", integrator="whitted", max_depth=1)
+    np.testing.assert_allclose(img.rgb.reshape(-1, 3).astype(np.float64), np.float64(np.float32(1e38)), rtol=1e-3)
+
+
+def test_whitted_warns_of_a_dome_too_bright_for_float32_naming_it():
+    """A dome of colour 1e38 over texels of 10 has radiance 1e39, past float32: its harmonics cannot be held, and the
+    warning names the dome where its pixels were inf and dropped without a word of it."""
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 0, -40), material=0)
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    dome = DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((8, 16, 4), 10.0, np.float32), path="/Sky")
+    scene = wrt.Scene(meshes=[plane], materials=[LAMBERT], lights=[dome])
+    with pytest.warns(UserWarning, match="dome light /Sky is too bright for Whitted's irradiance in float32"):
+        wrt.render(scene, camera=cam, width=2, height=2, spp=1, device="cpu", integrator="whitted", max_depth=1)

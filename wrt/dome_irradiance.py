@@ -16,6 +16,8 @@ directions into it with ``DeviceLights.dome_to_local``.
 import numpy as np
 import warp as wp
 
+from .floats import FLOAT32_MAX
+
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
 # Real spherical harmonics of bands 0-2 at unit (x, y, z): Y_k = NORMS[k] * monomial k (see _basis).
@@ -29,17 +31,28 @@ ROWS_PER_CHUNK = 256  # texel rows converted to float64 at a time
 
 @wp.func
 def sh_irradiance(coeffs: wp.array[wp.vec3], d: wp.vec3):
-    """``E(d) / pi`` of the nine coefficients ``coeffs`` (:func:`irradiance_coefficients`) at unit direction ``d``
-    of their frame, clamped at 0 (a bright sun's truncated series dips below 0 opposite it)."""
+    """``E(d) / pi`` of the nine coefficients ``coeffs`` (:func:`device_coefficients`: each times its harmonic's
+    norm) at unit direction ``d`` of their frame, clamped at 0 (a bright sun's truncated series dips below 0
+    opposite it)."""
     x = d[0]
     y = d[1]
     z = d[2]
-    e = coeffs[0] * 0.28209479177387814
-    e += (coeffs[1] * x + coeffs[2] * y + coeffs[3] * z) * 0.4886025119029199
-    e += (coeffs[4] * (x * y) + coeffs[5] * (y * z) + coeffs[6] * (x * z)) * 1.0925484305920792
-    e += coeffs[7] * (0.31539156525252005 * (3.0 * y * y - 1.0))
-    e += coeffs[8] * (0.5462742152960396 * (z * z - x * x))
+    e = coeffs[0] + coeffs[1] * x + coeffs[2] * y + coeffs[3] * z
+    e += coeffs[4] * (x * y) + coeffs[5] * (y * z) + coeffs[6] * (x * z)
+    e += coeffs[7] * (3.0 * y * y - 1.0) + coeffs[8] * (z * z - x * x)
     return wp.max(e, wp.vec3(0.0))
+
+
+def device_coefficients(coeffs: np.ndarray) -> tuple[np.ndarray, bool]:
+    """``(9, 3)`` float32 ``coeffs`` (:func:`irradiance_coefficients`) each times its harmonic's norm, as
+    :func:`sh_irradiance` reads them, and whether one was past float32's range (clamped to its largest).
+
+    Scaled so, a constant dome's band 0 is its radiance, which float32 holds whenever the dome's colour does: the
+    bare coefficient, about 3.5 times the radiance, overflowed to inf for a dome of 1e38, and Whitted's pixels
+    with it. A textured dome's others stay below about twice its mean radiance."""
+    scaled = np.asarray(coeffs, np.float64) * np.array(NORMS)[:, None]
+    past = not bool(np.all(np.abs(scaled) <= FLOAT32_MAX))
+    return np.clip(np.nan_to_num(scaled), -FLOAT32_MAX, FLOAT32_MAX).astype(np.float32), past
 
 
 def _basis(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .dome_irradiance import irradiance_coefficients
+from .dome_irradiance import device_coefficients, irradiance_coefficients
 from .errors import SceneError
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
@@ -467,7 +467,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     row_cdf = np.array([0.0, 1.0], np.float32)
     col_cdf = np.array([0.0, 1.0], np.float32)
     dome_mean = np.zeros(3, np.float32)
-    dome_sh = np.zeros((9, 3))
+    dome_sh = np.zeros((9, 3), np.float32)
     dome_rot = np.eye(3)
     if dome is not None:
         dome_rot = _nearest_rotation(np.asarray(dome.to_world, np.float64)[:3, :3]).T
@@ -477,7 +477,10 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             texels = h.texture[dome_index] = _emitted_texels(dome.texture)
             row_cdf, col_cdf, mean = _dome_distribution(texels)
             dome_mean = (dome_mean * mean).astype(np.float32)
-        dome_sh = irradiance_coefficients(dome.color, texels)
+        dome_sh, past = device_coefficients(irradiance_coefficients(dome.color, texels))
+        if past:
+            warnings.warn(f"dome light {dome.path or '<dome>'} is too bright for Whitted's irradiance in float32 (a "
+                          "harmonic past 3.4e38): its dome term is clamped to float32's largest", stacklevel=3)
         if num_analytic:
             h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
 
@@ -543,7 +546,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     d.dome_textured = 1 if (dome is not None and dome.texture is not None) else 0
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
-    d.dome_sh = wp.array(dome_sh.astype(np.float32), dtype=wp.vec3, device=device)
+    d.dome_sh = wp.array(dome_sh, dtype=wp.vec3, device=device)
     d.texture, d.texels = _upload_textures(h.texture, num_analytic, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
