@@ -394,3 +394,31 @@ def test_a_materialbind_subset_whose_indices_are_not_int_binds_no_face(tmp_path,
     with pytest.warns(UserWarning, match=rf"(?s)indices are not int\[\].*indices is {re.escape(value_type)}.*/M/Red"):
         scene = wrt.load_usd(path)
     assert (scene.triangle_materials() == 0).all()  # every face of the mesh's own (default) look
+
+
+def test_a_collection_binding_of_six_name_parts_is_named_as_ambiguous(tmp_path):
+    """``material:binding:collection:full:a:b`` binds for ``full`` to ``ComputeBoundMaterial`` (which wrt follows),
+    while ``GetCollectionBindingRels("")`` lists it among all-purpose bindings: USD's two calls disagree on its
+    purpose, and wrt read it without a word. One warning names the prim and the relationship."""
+    path = str(tmp_path / "six_parts.usda")
+    stage = Usd.Stage.CreateNew(path)
+    _, outer = _inner_and_outer(stage)
+    world = stage.DefinePrim("/World", "Xform")
+    _quads(stage, "/World/Mesh", 1)
+    collection = Usd.CollectionAPI.Apply(world, "looks")
+    collection.GetIncludesRel().AddTarget("/World/Mesh")
+    UsdShade.MaterialBindingAPI.Apply(world)
+    name = "material:binding:collection:full:a:b"
+    world.CreateRelationship(name).SetTargets([collection.GetCollectionPath(), outer.GetPath()])
+    stage.GetRootLayer().Save()
+    # The disagreement, from USD itself.
+    all_purpose = UsdShade.MaterialBindingAPI(world).GetCollectionBindingRels(UsdShade.Tokens.allPurpose)
+    assert name in [r.GetName() for r in all_purpose]
+    mesh = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/Mesh"))
+    assert str(mesh.ComputeBoundMaterial(UsdShade.Tokens.full)[0].GetPath()) == "/Looks/Outer"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(path)
+    named = [str(w.message) for w in caught if name in str(w.message)]
+    assert len(named) == 1 and "/World" in named[0] and "ambiguous" in named[0], [str(w.message) for w in caught]
+    assert named[0].count(name) == 1

@@ -916,9 +916,12 @@ class MaterialReader:
     def _walk(self, prim, outer, missing):
         """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
         joined with ``outer``, or None (see :meth:`bound`)."""
-        from .usd_bindings import OwnWalks, combine, outer_entry
+        from .usd_bindings import AMBIGUOUS_PURPOSE, OwnWalks, combine, outer_entry
 
-        own = OwnWalks(prim) if self.bindings_above.any(prim) else (lambda purpose: None)
+        binds = self.bindings_above.any(prim)
+        for p, name in self.bindings_above.ambiguous(prim) if binds else ():
+            self.skip(AMBIGUOUS_PURPOSE, p, name)
+        own = OwnWalks(prim) if binds else (lambda purpose: None)
         if outer is None and missing is None:
             return own
 

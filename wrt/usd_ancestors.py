@@ -181,6 +181,20 @@ class BindingsAbove:
 
     def __init__(self):
         self.memo = AncestorMemo(_binds_here, default=False)
+        self.checked = set()  # paths of the prims ambiguous() has looked at
 
     def any(self, prim: Usd.Prim) -> bool:
         return bool(self.memo(prim))
+
+    def ambiguous(self, prim: Usd.Prim) -> list:
+        """``[(p, name)]``: the binding relationships of ``prim`` and its ancestors not asked before whose purpose
+        USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`), each prim looked at once."""
+        from .usd_bindings import has_ambiguous_purpose
+
+        found = []
+        p = prim
+        while p and not p.IsPseudoRoot() and p.GetPath() not in self.checked:
+            self.checked.add(p.GetPath())
+            found += [(p, name) for name in p.GetAuthoredPropertyNames() if has_ambiguous_purpose(name)]
+            p = p.GetParent()
+        return found

@@ -56,6 +56,18 @@ def binding_purpose(rel: Usd.Relationship) -> str:
     return parts[2] if len(parts) > 2 else ALL_PURPOSE
 
 
+AMBIGUOUS_PURPOSE = ("collection bindings named in six or more parts (material:binding:collection:<purpose>:<ns>:"
+                     "<name>) have a purpose ambiguous between USD's calls: ComputeBoundMaterial, which wrt follows, "
+                     "binds them for their fourth part alone, GetCollectionBindingRels lists them as all-purpose")
+
+
+def has_ambiguous_purpose(name: str) -> bool:
+    """Binding relationship name ``name`` is a collection binding of six or more parts, whose purpose
+    :func:`binding_purpose` reads as ``ComputeBoundMaterial`` does, where ``GetCollectionBindingRels`` differs."""
+    parts = name.split(":")
+    return len(parts) > 5 and parts[:3] == ["material", "binding", "collection"]
+
+
 def is_stronger(rel) -> bool:
     """Binding relationship ``rel`` says ``bindMaterialAs = strongerThanDescendants``."""
     return UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(rel) == UsdShade.Tokens.strongerThanDescendants
