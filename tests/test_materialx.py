@@ -273,6 +273,40 @@ def albedo(scene, res):
     return wrt.render(scene, camera=cam, width=res, height=res, device="cpu").aovs["albedo"]
 
 
+# Six texels (3 wide, 2 high), each a different colour, for the nearest-texel oracles.
+PIXELS = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+
+
+def closest_image(stage, material, png, texcoord=None, node_id="ND_image_color3"):
+    """A ``node_id`` image node of ``png`` at ``{material}/Image`` with filtertype ``closest``, read at the ``out`` of
+    shader ``texcoord`` when one is given, feeding the ``base_color`` of ``{material}/Surface``."""
+    image = UsdShade.Shader.Define(stage, f"{material}/Image")
+    image.CreateIdAttr(node_id)
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    if texcoord is not None:
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
+    UsdShade.Shader.Get(stage, f"{material}/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    return image
+
+
+def pixel_centre_st(res):
+    """The st of each of ``res`` x ``res`` pixel centres over the unit square, row 0 at the top (t near 1)."""
+    centres = (np.arange(res) + 0.5) / res
+    s, t = np.meshgrid(centres, centres[::-1])
+    return np.stack([s, t], axis=-1)
+
+
+def assert_reads_the_texels_at(scene, texels, st):
+    """The albedo of each pixel is texel ``(floor(s w) mod w, floor((1 - t) h) mod h)`` of ``texels`` at its ``st``
+    (float64), but where a pixel centre within float32 rounding of a texel edge may fall either side of it."""
+    h, w = texels.shape[:2]
+    expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
+    near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
+    np.testing.assert_allclose(albedo(scene, len(st))[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)
+
+
 def test_interface_inputs_and_a_tiled_image_in_a_node_graph(tmp_path):
     """Inputs connected to the Material's interface take its values; a NodeGraph's ``ND_tiledimage_color3`` becomes
     the base colour texture (sRGB decoded), ``uvtiling`` 2 repeats it twice. It was a Lambertian of base_color."""
@@ -914,16 +948,11 @@ def test_closest_filtertype_reads_the_texel_under_each_point(tmp_path, node_id):
     Maya's file nodes with filtering off) reads the one texel whose square holds ``st``, wrapped by the address mode.
     It was filtered bilinearly without a word: between texel centres the colours blended. The oracle: texel
     ``(floor(s w) mod w, floor((1 - t) h) mod h)`` of the image, at the ``st`` of each pixel centre."""
-    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    texels = PIXELS
     png = write_png(tmp_path / "pixels.png", texels)
     stage, path = new_stage(tmp_path, "closest.usda")
     bind(add_quad(stage, "/Quad", st_range=2.0), mtlx_material(stage, "/Looks/Pixels")[0])
-    shader = UsdShade.Shader.Get(stage, "/Looks/Pixels/Surface")
-    image = UsdShade.Shader.Define(stage, "/Looks/Pixels/Image")
-    image.CreateIdAttr(node_id)
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Pixels", png, node_id=node_id)
     stage.Save()
     scene, messages = load(path)
     assert not messages, messages
@@ -984,13 +1013,8 @@ def test_an_address_mode_materialx_does_not_define_is_named_and_read_as_periodic
     png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
     stage, path = new_stage(tmp_path, "address.usda")
     bind(add_quad(stage, "/Quad", st_range=2.0), mtlx_material(stage, "/Looks/Pair")[0])
-    image = UsdShade.Shader.Define(stage, "/Looks/Pair/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image = closest_image(stage, "/Looks/Pair", png)
     image.CreateInput("uaddressmode", Sdf.ValueTypeNames.String).Set("repeat")
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    UsdShade.Shader.Get(stage, "/Looks/Pair/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
     stage.Save()
     scene, messages = load(path)
     assert any("/Looks/Pair/Image" in m and "uaddressmode 'repeat'" in m for m in messages), messages
@@ -1019,7 +1043,7 @@ def test_a_place2d_node_maps_the_texture_coordinates(tmp_path, order):
     writes every file texture) moves the image by its pivot, scale, rotate, offset and operationorder, as MaterialX's
     node graph defines it; its own ``texcoord`` (here a ``geompropvalue`` of primvar ``uv``) is read. It was named
     as unsupported and primvar ``st`` read, unplaced. Oracle: the texel under each pixel centre's placed st."""
-    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    texels = PIXELS
     png = write_png(tmp_path / "pixels.png", texels)
     stage, path = new_stage(tmp_path, f"place{order}.usda")
     quad = add_quad(stage, "/Quad")
@@ -1039,27 +1063,13 @@ def test_a_place2d_node_maps_the_texture_coordinates(tmp_path, order):
         type_name = Sdf.ValueTypeNames.Float if name == "rotate" else Sdf.ValueTypeNames.Float2
         place.CreateInput(name, type_name).Set(value)
     place.CreateInput("operationorder", Sdf.ValueTypeNames.Int).Set(order)
-    image = UsdShade.Shader.Define(stage, "/Looks/Placed/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
-    UsdShade.Shader.Get(stage, "/Looks/Placed/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                    ).ConnectToSource(image.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Placed", png, place)
     stage.Save()
     scene, messages = load(path)
     assert not messages, messages
-    res = 16
-    centres = (np.arange(res) + 0.5) / res
-    s, t = np.meshgrid(centres, centres[::-1])
-    st = place2d_oracle(np.stack([s, t], axis=-1), np.array(inputs["pivot"]), np.array(inputs["scale"]),
-                        inputs["rotate"], np.array(inputs["offset"]), order)
-    h, w = texels.shape[:2]
-    expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
-    got = albedo(scene, res)
-    # A pixel centre within float32 rounding of a texel edge may fall either side of it.
-    near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
-    np.testing.assert_allclose(got[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)
+    st = place2d_oracle(pixel_centre_st(16), np.array(inputs["pivot"]), np.array(inputs["scale"]), inputs["rotate"],
+                        np.array(inputs["offset"]), order)
+    assert_reads_the_texels_at(scene, texels, st)
 
 
 def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
@@ -1073,13 +1083,7 @@ def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
     place = UsdShade.Shader.Define(stage, "/Looks/Fed/Place")
     place.CreateIdAttr("ND_place2d_vector2")
     place.CreateInput("offset", Sdf.ValueTypeNames.Float2).ConnectToSource(offset.ConnectableAPI(), "out")
-    image = UsdShade.Shader.Define(stage, "/Looks/Fed/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
-    UsdShade.Shader.Get(stage, "/Looks/Fed/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                 ).ConnectToSource(image.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Fed", png, place)
     stage.Save()
     scene, messages = load(path)
     assert any("/Looks/Fed/Place: offset comes from a node; the place2d is ignored" in m for m in messages), messages
@@ -1115,7 +1119,7 @@ def test_vector2_math_of_constants_on_texture_coordinates_maps_them(tmp_path, ch
     wire them), map the coordinates as MaterialX defines those nodes. They were named as unsupported and primvar st
     read unmapped. Oracle: the texel under each pixel centre's mapped st (closest filter, periodic)."""
     nodes, oracle = TEXCOORD_CHAINS[chain]
-    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    texels = PIXELS
     png = write_png(tmp_path / "pixels.png", texels)
     stage, path = new_stage(tmp_path, "math.usda")
     bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Math")[0])
@@ -1129,24 +1133,11 @@ def test_vector2_math_of_constants_on_texture_coordinates_maps_them(tmp_path, ch
         node.CreateInput(other_input, Sdf.ValueTypeNames.Float if scalar else Sdf.ValueTypeNames.Float2).Set(
             constant if scalar else Gf.Vec2f(*constant))
         source = node
-    image = UsdShade.Shader.Define(stage, "/Looks/Math/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(source.ConnectableAPI(), "out")
-    UsdShade.Shader.Get(stage, "/Looks/Math/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Math", png, source)
     stage.Save()
     scene, messages = load(path)
     assert not messages, messages
-    res = 16
-    centres = (np.arange(res) + 0.5) / res
-    s, t = np.meshgrid(centres, centres[::-1])
-    st = oracle(np.stack([s, t], axis=-1))
-    h, w = texels.shape[:2]
-    expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
-    near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
-    np.testing.assert_allclose(albedo(scene, res)[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)
+    assert_reads_the_texels_at(scene, texels, oracle(pixel_centre_st(16)))
 
 
 # base_color chains on an image (colour3 or float, read raw): (nodes from the image on: id, input the chain enters,
@@ -1211,15 +1202,9 @@ def test_a_multiply_whose_other_input_is_unauthored_takes_that_inputs_default(tm
     times = UsdShade.Shader.Define(stage, "/Looks/Zero/Times")
     times.CreateIdAttr("ND_multiply_vector2")
     times.CreateInput("in2", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
-    image = UsdShade.Shader.Define(stage, "/Looks/Zero/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
-    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(times.ConnectableAPI(), "out")
+    image = closest_image(stage, "/Looks/Zero", png, times)
     for key in ("uaddressmode", "vaddressmode"):  # st (0, 0) is on the image's edge: keep it in the bottom row
         image.CreateInput(key, Sdf.ValueTypeNames.String).Set("clamp")
-    UsdShade.Shader.Get(stage, "/Looks/Zero/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
     stage.Save()
     scene, messages = load(path)
     assert not messages, messages
