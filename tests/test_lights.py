@@ -184,11 +184,16 @@ def sample_light_kernel(
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 
 
+def light_renderer(light, device="cpu"):
+    """A 2 x 2 renderer of ``light`` alone over a far quad (the scene needs a mesh), for its device lights."""
+    scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))], lights=[light])
+    return wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device=device)
+
+
 def light_estimates(light, p, n, device="cpu", count=40000):
     """Irradiance estimates from ``light`` at ``p`` (normal ``n``) by ``sample_light``, and the per-sample pdf
     ratios."""
-    scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))], lights=[light])
-    r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device=device)
+    r = light_renderer(light, device)
     irradiance, ratio = (wp.zeros(count, dtype=float, device=r.device) for _ in range(2))
     wp.launch(sample_light_kernel, count, inputs=[r.device_lights, r.device_scene, r.materials, r.surfaces, 0,
                                                   wp.vec3(*p), wp.vec3(*n)], outputs=[irradiance, ratio],
@@ -1141,6 +1146,16 @@ def environment_kernel(
     radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0), 1, wp.vec3(0.0), 0)[0]
 
 
+def radiance_seen(kernel, light, dirs):
+    """``kernel``'s radiance along each direction of ``dirs`` (float64, rounded to float32) from ``light`` alone, on
+    the renderer's device (a GPU's under render_on_cuda)."""
+    r = light_renderer(light)
+    radiance = wp.empty(len(dirs), dtype=float, device=r.device)
+    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=r.device)
+    wp.launch(kernel, len(dirs), inputs=[r.device_lights, directions], outputs=[radiance], device=r.device)
+    return radiance.numpy()
+
+
 def cap_directions(axis, one_minus_max, count, rng):
     """``count`` unit directions uniform in the cap ``1 - cos <= one_minus_max`` around unit ``axis`` (float64),
     and their ``1 - cos``."""
@@ -1162,17 +1177,13 @@ def test_a_small_sun_seen_by_rays_delivers_its_illuminance(angle, np_rng):
     and 25% at 0.05; light sampling (uniform in that cone, reporting pdf 1 / (2 pi (1 - cos))) drew from it too."""
     direction = np.array([0.3, -0.2, -1.0]) / np.linalg.norm([0.3, -0.2, -1.0])
     light = wrt.DistantLight(direction=direction, color=np.full(3, 2.0), angle=angle, normalize=True)  # E = 2
-    r = wrt.Renderer(wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))], lights=[light]),
-                     camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu")
     # Directions uniform in a float64 cap of twice the disc's half-angle around the sun.
     count, cap_half = 200_000, math.radians(angle)
     axis = -direction
     dirs, one_minus = cap_directions(axis, 1.0 - math.cos(cap_half), count, np_rng)
-    radiance = wp.empty(count, dtype=float, device=r.device)  # (the renderer's: a GPU's under render_on_cuda)
-    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=r.device)
-    wp.launch(environment_kernel, count, inputs=[r.device_lights, directions], outputs=[radiance], device=r.device)
     cap = 2.0 * math.pi * (1.0 - math.cos(cap_half))
-    estimate = radiance.numpy() * (1.0 - one_minus)  # times the cosine at normal incidence
+    # Times the cosine at normal incidence.
+    estimate = radiance_seen(environment_kernel, light, dirs) * (1.0 - one_minus)
     error = estimate.std() * cap / math.sqrt(count)
     assert abs(estimate.mean() * cap - 2.0) < max(4.0 * error, 2e-3), (estimate.mean() * cap, error)
 
@@ -1201,17 +1212,12 @@ def test_a_far_sphere_light_seen_by_rays_has_its_solid_angle(distance, radius, n
     away looked 15% too large (30 radii of 0.01: 5% too small), while light sampling reported the exact cone."""
     axis = np.array([0.3, 0.5, 1.0]) / np.linalg.norm([0.3, 0.5, 1.0])
     light = SphereLight(position=axis * distance, radius=radius, color=np.ones(3))
-    r = wrt.Renderer(wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))], lights=[light]),
-                     camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu")
     sin2 = (radius / distance) ** 2
     exact = 2.0 * math.pi * sin2 / (1.0 + math.sqrt(1.0 - sin2))  # 2 pi (1 - cos) without cancellation
     count = 200_000
     cap = 4.0 * exact / (2.0 * math.pi)  # 1 - cos of a cap of twice the light's angular radius (about)
     dirs, _ = cap_directions(axis, cap, count, np_rng)
-    radiance = wp.empty(count, dtype=float, device=r.device)  # (the renderer's: a GPU's under render_on_cuda)
-    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=r.device)
-    wp.launch(lights_on_ray_kernel, count, inputs=[r.device_lights, directions], outputs=[radiance], device=r.device)
-    hits = radiance.numpy()
+    hits = radiance_seen(lights_on_ray_kernel, light, dirs)
     seen = hits.mean() * 2.0 * math.pi * cap
     error = hits.std() * 2.0 * math.pi * cap / math.sqrt(count)
     assert abs(seen - exact) < 4.0 * error, (seen / exact, error / exact)
