@@ -472,10 +472,32 @@ QUADS_X = (0.5, 2.0, 3.5)  # /PI's instances: x centres of quads 1.2 wide, |y| <
 BALL = ((6.0, 0.0, 0.0), 1.0)  # /Ball: centre and radius
 
 
+def add_shot(stage, camera: str, width: int, height: int, product_name: str, vars_: dict):
+    """The stage's RenderSettings ``/Render/Settings`` of ``camera`` at ``width`` x ``height``, with one RenderProduct
+    ``/Render/Shot`` named ``product_name`` of the RenderVars ``{name: (sourceName, aov name or None)}``; returns
+    ``(settings, shot)``."""
+    from pxr import Gf, Sdf, UsdRender
+
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets([camera])
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    shot = UsdRender.Product.Define(stage, "/Render/Shot")
+    shot.CreateProductNameAttr(product_name)
+    settings.CreateProductsRel().SetTargets(["/Render/Shot"])
+    for var_name, (source, aov_name) in vars_.items():
+        var = UsdRender.Var.Define(stage, f"/Render/Vars/{var_name}")
+        var.CreateSourceNameAttr(source)
+        if aov_name is not None:
+            var.GetPrim().CreateAttribute("driver:parameters:aov:name", Sdf.ValueTypeNames.String).Set(aov_name)
+        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    return settings, shot
+
+
 def planar_stage(tmp_path, vars_: dict, window=(0.0, 0.0, 1.0, 1.0), name: str = "ids.usda") -> str:
     """The stage above with one RenderProduct ``/Render/Shot`` of the RenderVars ``{name: (sourceName, aov name or
     None)}`` and ``dataWindowNDC`` ``window``."""
-    from pxr import Gf, Sdf, Usd, UsdGeom, UsdRender
+    from pxr import Gf, Usd, UsdGeom
 
     path = str(tmp_path / name)
     stage = Usd.Stage.CreateNew(path)
@@ -503,20 +525,7 @@ def planar_stage(tmp_path, vars_: dict, window=(0.0, 0.0, 1.0, 1.0), name: str =
     cam.CreateVerticalApertureAttr(20.0)
     cam.AddTranslateOp().Set(Gf.Vec3d(1, 0.5, 10))
     cam.AddRotateYOp().Set(8.0)
-    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
-    settings.CreateCameraRel().SetTargets(["/Cam"])
-    settings.CreateResolutionAttr(Gf.Vec2i(48, 24))
-    shot = UsdRender.Product.Define(stage, "/Render/Shot")
-    shot.CreateProductNameAttr("shot.exr")
-    shot.CreateDataWindowNDCAttr(Gf.Vec4f(*window))
-    settings.CreateProductsRel().SetTargets(["/Render/Shot"])
-    for var_name, (source, aov_name) in vars_.items():
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{var_name}")
-        var.CreateSourceNameAttr(source)
-        if aov_name is not None:
-            var.GetPrim().CreateAttribute("driver:parameters:aov:name", Sdf.ValueTypeNames.String).Set(aov_name)
-        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
-    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    add_shot(stage, "/Cam", 48, 24, "shot.exr", vars_)[1].CreateDataWindowNDCAttr(Gf.Vec4f(*window))
     stage.Save()
     return path
 
@@ -606,7 +615,7 @@ def test_camera_space_positions_keep_their_digits_far_from_the_world_origin(tmp_
     1000000.3125 there), and Peye subtracted the float64 eye from their hits, an error of 0.0125 in x (a tenth of the
     values near the image centre) where cameraDepth and depth keep every digit. The oracle: each pixel centre's ray
     of pxr's frustum met with the plane z = 0 in float64, moved by pxr's view matrix."""
-    from pxr import Gf, Usd, UsdGeom, UsdRender
+    from pxr import Gf, Usd, UsdGeom
 
     x = 1.0e6 + 0.3
     path = str(tmp_path / "far.usda")
@@ -618,19 +627,10 @@ def test_camera_space_positions_keep_their_digits_far_from_the_world_origin(tmp_
     cam = UsdGeom.Camera.Define(stage, "/Cam")
     cam.AddTranslateOp().Set(Gf.Vec3d(x, 0.2, 5.0))
     cam.AddRotateXYZOp().Set(Gf.Vec3f(-10.0, 15.0, 0.0))
-    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
-    settings.CreateCameraRel().SetTargets(["/Cam"])
     width, height = 12, 8
-    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    settings, _ = add_shot(stage, "/Cam", width, height, "far.exr",
+                           {name: (name, None) for name in ("Peye", "cameraDepth")})
     settings.CreateAspectRatioConformPolicyAttr("adjustApertureHeight")  # the frustum's window, height set below
-    shot = UsdRender.Product.Define(stage, "/Render/Shot")
-    shot.CreateProductNameAttr("far.exr")
-    settings.CreateProductsRel().SetTargets(["/Render/Shot"])
-    for name in ("Peye", "cameraDepth"):
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-        var.CreateSourceNameAttr(name)
-        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
-    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
     stage.Save()
     exr = read_exr(wrt.render_products(load(path), tmp_path / "out", device="cpu")["/Render/Shot"])
     frustum = cam.GetCamera(Usd.TimeCode.Default()).frustum
@@ -841,7 +841,7 @@ def test_camera_depth_is_camera_space_depth_under_a_sheared_and_scaled_camera(tm
     whole transform), the ``Peye`` beside it, -z. Under a sheared and scaled parent it was wrt's ``z`` AOV (world
     units along the world view axis), 2.5 to 3 times it here. Oracle: float64 hits of each pixel centre's
     camera-space ray moved by pxr's ComputeLocalToWorldTransform, through pxr's inverse of it."""
-    from pxr import Gf, Usd, UsdGeom, UsdRender
+    from pxr import Gf, Usd, UsdGeom
 
     path = str(tmp_path / "sheared.usda")
     stage = Usd.Stage.CreateNew(path)
@@ -864,18 +864,8 @@ def test_camera_depth_is_camera_space_depth_under_a_sheared_and_scaled_camera(tm
     plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     plane.CreateSubdivisionSchemeAttr("none")
     plane.CreateDoubleSidedAttr(True)
-    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
-    settings.CreateCameraRel().SetTargets(["/P/Cam"])
     width, height = 6, 4
-    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
-    shot = UsdRender.Product.Define(stage, "/Render/Shot")
-    shot.CreateProductNameAttr("shot.exr")
-    settings.CreateProductsRel().SetTargets([shot.GetPath()])
-    for name in ("cameraDepth", "Peye"):
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-        var.CreateSourceNameAttr(name)
-        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
-    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    add_shot(stage, "/P/Cam", width, height, "shot.exr", {name: (name, None) for name in ("cameraDepth", "Peye")})
     stage.Save()
 
     exr = read_exr(wrt.render_products(load(path), tmp_path / "out", device="cpu")["/Render/Shot"])
