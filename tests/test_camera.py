@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import warp as wp
 from pxr import Gf, Usd, UsdGeom, UsdRender
+from test_transform_edge_cases import triangle
 
 import wrt
 from wrt.camera import generate_rays_kernel
@@ -784,10 +785,7 @@ def test_zero_scaled_camera_is_refused_only_when_used(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "zero.usda"))
     UsdGeom.Camera.Define(stage, "/Good").AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
     UsdGeom.Camera.Define(stage, "/Flat").AddScaleOp().Set(Gf.Vec3f(0, 1, 1))
-    mesh = UsdGeom.Mesh.Define(stage, "/Tri")
-    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-    mesh.CreateFaceVertexCountsAttr([3])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    triangle(stage, "/Tri")
     stage.Save()
     scene = wrt.load_usd(tmp_path / "zero.usda")
     assert wrt.render(scene, camera="/Good", width=4, height=4, device="cpu").rgb.shape == (4, 4, 3)
@@ -799,10 +797,7 @@ def test_a_zero_scaled_only_camera_is_skipped_with_a_warning_and_the_scene_frame
     """The stage's first camera is the default view: a singular one stopped a plain render with a ValueError."""
     stage = Usd.Stage.CreateNew(str(tmp_path / "flat.usda"))
     UsdGeom.Camera.Define(stage, "/Flat").AddScaleOp().Set(Gf.Vec3f(0, 0, 0))
-    mesh = UsdGeom.Mesh.Define(stage, "/Tri")
-    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-    mesh.CreateFaceVertexCountsAttr([3])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    triangle(stage, "/Tri")
     stage.Save()
     with pytest.warns(UserWarning, match=r"cameras wrt cannot use were skipped.*singular.*/Flat"):
         scene = wrt.load_usd(tmp_path / "flat.usda")
@@ -1262,14 +1257,16 @@ def test_every_sample_of_several_spreads_over_the_pixel(spp):
     np.testing.assert_array_equal(renderer.render(spp=spp - 1, seed=2, resume=True).rgb, img.rgb)
 
 
-@pytest.mark.parametrize("integrator", ["normals", "path"])
-def test_orthographic_camera_of_negative_near_sees_past_a_culled_back_face_behind_its_plane(integrator):
-    """An orthographic camera at z = 0 looking down -Z with its near plane 10 behind it (clipping range (-10, 10)): a
-    single-sided quad at z = 5, behind the camera's plane and facing -Z, shows the rays (from z = 10) its back
+@pytest.mark.parametrize("far, integrator", [(10.0, "normals"), (10.0, "path"), (-1.0, "path"), (-1.0, "whitted")])
+def test_orthographic_camera_clipping_behind_its_plane_sees_past_a_culled_back_face(far, integrator):
+    """An orthographic camera at z = 0 looking down -Z with its near plane 10 behind it (clipping range (-10, far)):
+    a single-sided quad at z = 5, behind the camera's plane and facing -Z, shows the rays (from z = 10) its back
     face, which camera rays cull; the double-sided quad at z = 2, also behind the plane, lies beyond it along the
     rays and fills every pixel. The culled hit lies at t = -5: the re-trace started from t plus a step of
     ``t * 1e-6``, negative there, or 2^-125, which is no step at that t, found the culled face again at every pass,
-    and the camera drew it instead of the quad beyond it."""
+    and the camera drew it instead of the quad beyond it. With ``far`` -1 the clipping range lies entirely behind
+    the camera's plane and every ray's range ends at a negative ``t``: the culled face was re-traced, but the
+    re-trace was marked by ``t_max > 0`` and its hit never replaced the culled one (the back face, prim 0 or 1)."""
     back = [[-2, -2, 5], [-2, 2, 5], [2, 2, 5], [2, -2, 5]]  # clockwise seen from +Z, where the rays come from
     seen = [[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]]
     scene = wrt.Scene(meshes=[
@@ -1277,25 +1274,7 @@ def test_orthographic_camera_of_negative_near_sees_past_a_culled_back_face_behin
                  double_sided=False),
         wrt.Mesh("/seen", np.array(seen, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32)),
     ])
-    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, 10.0))
-    img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
-    np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the quad beyond the culled face
-    np.testing.assert_allclose(img.aovs["depth"], -2.0)  # its plane z = 2 lies 2 behind the camera's plane
-
-
-@pytest.mark.parametrize("integrator", ["path", "whitted"])
-def test_orthographic_camera_clipping_only_behind_its_plane_sees_past_a_culled_back_face(integrator):
-    """As above, with a clipping range entirely behind the camera's plane, (-10, -1): every ray's range ends at a
-    negative ``t``. The culled face at t = -5 was re-traced, but the re-trace was marked by ``t_max > 0`` and its hit
-    never replaced the culled one: the camera drew the back face (prim 0 or 1) instead of the quad beyond it."""
-    back = [[-2, -2, 5], [-2, 2, 5], [2, 2, 5], [2, -2, 5]]  # clockwise seen from +Z, where the rays come from
-    seen = [[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]]
-    scene = wrt.Scene(meshes=[
-        wrt.Mesh("/back", np.array(back, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32),
-                 double_sided=False),
-        wrt.Mesh("/seen", np.array(seen, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32)),
-    ])
-    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, -1.0))
+    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, far))
     img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
     np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the quad beyond the culled face
     np.testing.assert_allclose(img.aovs["depth"], -2.0)  # its plane z = 2 lies 2 behind the camera's plane
