@@ -651,46 +651,29 @@ def grey_fallback_stage(tmp_path) -> tuple:
 
 @pytest.mark.parametrize("tessellate", [False, True])
 @pytest.mark.parametrize("holder", ["/Group/Shape", "/Group"])
-def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessellate):
+@pytest.mark.parametrize("kind", ["Sphere", "Points", "BasisCurves"])
+def test_gprims_points_and_curves_read_their_texture_at_their_constant_st(tmp_path, kind, holder, tessellate):
     """A constant ``st`` primvar on a gprim, or inherited from a prim above it, is where its textures read (as
     Storm hands constant primvars to the meshes it makes of gprims, and as a mesh reads one): here (0.25, 0.75),
-    CHECKER's top-left block, red, not the reader's fallback (0.75, 0.25). It was ignored."""
+    CHECKER's top-left block, red, not the reader's fallback (0.75, 0.25). It was ignored. Points and curves, drawn
+    as spheres and tubes, read theirs as gprims do (Storm hands constant primvars to them as to any gprim): their st
+    was never read, and the texture showed at the reader's fallback, grey, without a word."""
     path, stage = grey_fallback_stage(tmp_path)
     UsdGeom.Xform.Define(stage, "/Group")
-    shape = UsdGeom.Sphere.Define(stage, "/Group/Shape")
-    shape.CreateRadiusAttr(0.5)
-    bind(shape, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
-    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(holder)).CreatePrimvar(
-        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set([(0.25, 0.75)])
-    stage.Save()
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # read without a word
-        scene = wrt.load_usd(path, tessellate_gprims=tessellate)
-    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
-    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
-    np.testing.assert_allclose(img, np.broadcast_to([1.0, 0.0, 0.0], img.shape), atol=2e-3)
-
-
-@pytest.mark.parametrize("tessellate", [False, True])
-@pytest.mark.parametrize("holder", ["/Group/Shape", "/Group"])
-@pytest.mark.parametrize("kind", ["Points", "BasisCurves"])
-def test_points_and_curves_read_their_texture_at_their_constant_st(tmp_path, kind, holder, tessellate):
-    """Points and curves, drawn as spheres and tubes, read their textures at their constant ``st`` (own or inherited)
-    as gprims do (Storm hands constant primvars to them as to any gprim): CHECKER's top-left block, red, at (0.25,
-    0.75). Their st was never read: the texture showed at the reader's fallback (0.75, 0.25), grey, without a
-    word."""
-    path, stage = grey_fallback_stage(tmp_path)
-    UsdGeom.Xform.Define(stage, "/Group")
-    if kind == "Points":
+    if kind == "Sphere":
+        shape = UsdGeom.Sphere.Define(stage, "/Group/Shape")
+        shape.CreateRadiusAttr(0.5)
+    elif kind == "Points":
         shape = UsdGeom.Points.Define(stage, "/Group/Shape")
         shape.CreatePointsAttr([(0.0, 0.0, 0.0)])
+        shape.CreateWidthsAttr([1.0])
     else:
         shape = UsdGeom.BasisCurves.Define(stage, "/Group/Shape")
         shape.CreateTypeAttr(UsdGeom.Tokens.linear)
         shape.CreateCurveVertexCountsAttr([2])
         shape.CreatePointsAttr([(-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
         shape.SetWidthsInterpolation(UsdGeom.Tokens.constant)
-    shape.CreateWidthsAttr([1.0])
+        shape.CreateWidthsAttr([1.0])
     bind(shape, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
     UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(holder)).CreatePrimvar(
         "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set([(0.25, 0.75)])
