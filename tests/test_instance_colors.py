@@ -140,6 +140,16 @@ def test_constant_display_color_colours_every_instance(tmp_path):
     np.testing.assert_allclose(albedo, [(0.2, 0.4, 0.8)] * 3, atol=1e-6)
 
 
+def move_prototypes_beneath_the_instancer(path):
+    """Moves the prototype of an ``instancer_stage`` at ``path`` from /Protos to /PI/Protos, beneath the instancer,
+    where a constant primvar of the instancer reaches it by inheritance."""
+    stage = Usd.Stage.Open(path)
+    Sdf.CopySpec(stage.GetRootLayer(), "/Protos", stage.GetRootLayer(), "/PI/Protos")
+    stage.RemovePrim("/Protos")
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets(["/PI/Protos/Shape"])
+    stage.GetRootLayer().Save()
+
+
 @pytest.mark.parametrize("beneath", [False, True])
 def test_uniform_display_color_colours_every_instance_as_constant_does(tmp_path, beneath):
     """UsdGeomPointInstancer's primvar rules: a ``constant`` or ``uniform`` primvar on the instancer applies its
@@ -147,11 +157,7 @@ def test_uniform_display_color_colours_every_instance_as_constant_does(tmp_path,
     ignored with a warning, every instance grey. The oracle is USD's flattened value."""
     path = instancer_stage(tmp_path / "pi.usda", colors=[(0.2, 0.4, 0.8)], interpolation="uniform")
     if beneath:  # the prototype under the instancer, where a constant one would reach it by inheritance
-        stage = Usd.Stage.Open(path)
-        Sdf.CopySpec(stage.GetRootLayer(), "/Protos", stage.GetRootLayer(), "/PI/Protos")
-        stage.RemovePrim("/Protos")
-        UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets(["/PI/Protos/Shape"])
-        stage.GetRootLayer().Save()
+        move_prototypes_beneath_the_instancer(path)
     stage = Usd.Stage.Open(path)
     flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor").ComputeFlattened()
     with warnings.catch_warnings():
@@ -170,11 +176,7 @@ def test_a_constant_display_color_of_several_values_gives_every_instance_its_fir
     where the prototypes lie elsewhere it was ignored (every instance grey). The oracle is USD's flattened value."""
     path = instancer_stage(tmp_path / "pi.usda", colors=RGB, interpolation=interpolation)
     if beneath:
-        stage = Usd.Stage.Open(path)
-        Sdf.CopySpec(stage.GetRootLayer(), "/Protos", stage.GetRootLayer(), "/PI/Protos")
-        stage.RemovePrim("/Protos")
-        UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets(["/PI/Protos/Shape"])
-        stage.GetRootLayer().Save()
+        move_prototypes_beneath_the_instancer(path)
     stage = Usd.Stage.Open(path)
     flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor").ComputeFlattened()
     with pytest.warns(UserWarning, match=r"constant primvars holding several values were read as their first value"):
