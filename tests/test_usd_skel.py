@@ -240,15 +240,7 @@ def test_influences_whose_indices_have_only_time_samples_are_read_at_their_first
     animation's first) are posed at ``time=None`` as BakeSkinning poses them at time 1. ``ComputeFlattened`` at the
     default time raised on them, and the bar was drawn unposed with a warning."""
     path = write(tmp_path, skel_root())
-    stage = Usd.Stage.Open(path)
-    for name in ("skel:jointIndices", "skel:jointWeights"):
-        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Root/Bar")).GetPrimvar(name)
-        values = list(primvar.Get())
-        pairs = [tuple(values[i:i + 2]) for i in range(0, len(values), 2)]  # elementSize 2: an index per pair
-        distinct = sorted(set(pairs))
-        primvar.Set(primvar.GetTypeName().type.pythonClass([v for pair in distinct for v in pair]))
-        primvar.CreateIndicesAttr().Set([distinct.index(pair) for pair in pairs], Usd.TimeCode(1))
-    stage.Save()
+    indexed_influences(path, time=Usd.TimeCode(1))
     expected, _ = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(1))
     mesh = {m.path: m for m in loaded(path, None).meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
@@ -333,9 +325,11 @@ UNUSABLE_INFLUENCES = {  # joint influences UsdSkel's typed reads fail on: (text
 }
 
 
-def indexed_influences(path: str, indices_type=Sdf.ValueTypeNames.IntArray, first=None) -> None:
+def indexed_influences(path: str, indices_type=Sdf.ValueTypeNames.IntArray, first=None,
+                       time=Usd.TimeCode.Default()) -> None:
     """The bar's jointIndices and jointWeights of ``path`` stored as indexed primvars (their distinct pairs, an index
-    per point), the indices authored as ``indices_type``; ``first``: the weights' first index, when given."""
+    per point), the indices authored as ``indices_type`` at ``time`` (a time sample only, where not the default);
+    ``first``: the weights' first index, when given."""
     stage = Usd.Stage.Open(path)
     for name in ("skel:jointIndices", "skel:jointWeights"):
         primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Root/Bar")).GetPrimvar(name)
@@ -347,7 +341,8 @@ def indexed_influences(path: str, indices_type=Sdf.ValueTypeNames.IntArray, firs
         if first is not None and name == "skel:jointWeights":
             indices[0] = first
         holder = primvar.GetAttr().GetPrim()
-        holder.CreateAttribute(f"primvars:{name}:indices", indices_type).Set(indices_type.type.pythonClass(indices))
+        attr = holder.CreateAttribute(f"primvars:{name}:indices", indices_type)
+        attr.Set(indices_type.type.pythonClass(indices), time)
     stage.Save()
 
 
