@@ -1378,3 +1378,21 @@ def test_a_film_past_float32s_range_through_its_pixel_aspect_ratio_names_it():
     cam = wrt.Camera(horizontal_aperture=20.0, vertical_aperture=20.0, pixel_aspect_ratio=1e-40, path="/Thin")
     with pytest.raises(ValueError, match=r"camera /Thin: its film .* past float32's range .*pixel_aspect_ratio=1e-40"):
         cam.to_struct(4, 3)
+
+
+@pytest.mark.parametrize("up_axis", ["Y", "Z"])
+@pytest.mark.parametrize("far, half", [(1e15, 1.0), (1e30, 1.0)])
+def test_the_default_camera_of_a_box_far_from_the_origin_looks_as_it_does_near_it(far, half, up_axis):
+    """frame_scene took its view from the rounded eye minus the centre: at 1e15 the eye's offset (about 2) rounded
+    by 1/8 turned the view, and at 1e30 (where a box 2 across has no size in double either) the offsets vanished, the
+    view turned straight down, refused as parallel to Y up, and a fuzzed stage failed to render. The camera now turns
+    as it does for the same box at the origin, placed at the centre plus its offset."""
+    from wrt.camera import frame_scene
+
+    lower, upper = np.array([far - half, -half, far - half]), np.array([far + half, half, far + half])
+    size = upper - lower  # in double: none at 1e30
+    near = frame_scene(-size / 2, size / 2, up_axis)
+    camera = frame_scene(lower, upper, up_axis)
+    np.testing.assert_allclose(camera.to_world[:3, :3], near.to_world[:3, :3], rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(camera.to_world[:3, 3], (lower + upper) / 2 + near.to_world[:3, 3])
+    assert camera.clipping_range == near.clipping_range

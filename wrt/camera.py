@@ -570,7 +570,10 @@ def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Ca
         up, view = np.array([0.0, 0.0, 1.0]), np.array([0.4, -1.0, 0.5])
     else:
         up, view = np.array([0.0, 1.0, 0.0]), np.array([0.4, 0.5, 1.0])
-    eye = center + _normalized(view) * distance
-    return Camera.look_at(
-        eye, center, up, fov_y_deg, clipping_range=(distance * 1e-4, distance + 4.0 * radius)
-    )
+    # Turned from its offset, placed at the eye after: a box far from the origin (1e30) rounds the eye's offset
+    # away along some axes, and eye - center turned the view to look straight down (or refused it as along up).
+    offset = _normalized(view) * distance
+    camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg,
+                            clipping_range=(distance * 1e-4, distance + 4.0 * radius))
+    camera.to_world[:3, 3] = center + offset
+    return camera
