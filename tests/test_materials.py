@@ -1444,6 +1444,29 @@ def test_a_file_authored_as_a_string_is_read_as_an_asset_path(tmp_path, where, t
         np.testing.assert_allclose(img[row, col], color, atol=2e-3)
 
 
+def quads_reading_one_file(tmp_path, n: int, file: str, fallback=None) -> tuple:
+    """``(path, shaders)``: a stage of ``n`` quads, each bound to its own UsdPreviewSurface whose diffuseColor reads
+    ``file`` through its own UsdUVTexture (of ``fallback`` where given), and those textures' shader paths as USD's
+    ``GetConnectedSources`` finds them."""
+    stage, path = new_stage(tmp_path)
+    shaders = []
+    for k in range(n):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        material, surface = preview_material(stage, f"/Looks/M{k}")
+        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image{k}")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./" + file)
+        if fallback is not None:
+            tex.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*fallback))
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(quad, material)
+        (source,), _ = surface.GetInput("diffuseColor").GetConnectedSources()
+        shaders.append(str(source.source.GetPath()))
+    stage.Save()
+    return path, shaders
+
+
 @pytest.mark.parametrize("file", ["missing.png", "empty.png", "tiles.<UDIM>.png"])
 def test_a_file_that_cannot_be_read_is_named_with_every_shader_that_reads_it(tmp_path, file):
     """A file that is missing, empty or a UDIM pattern with no tile, read by the textures of three materials: the
@@ -1451,21 +1474,7 @@ def test_a_file_that_cannot_be_read_is_named_with_every_shader_that_reads_it(tmp
     surface's diffuseColor), and each material reads the fallback. The file's failure was kept and only the first
     shader named: a look with the same broken path elsewhere drew its fallback without a word."""
     (tmp_path / "empty.png").write_bytes(b"")
-    stage, path = new_stage(tmp_path)
-    shaders = []
-    for k in range(3):
-        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
-        material, surface = preview_material(stage, f"/Looks/M{k}")
-        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image{k}")
-        tex.CreateIdAttr("UsdUVTexture")
-        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./" + file)
-        tex.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(0.25, 0.5, 0.75, 1.0))
-        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
-        bind(quad, material)
-        (source,), _ = surface.GetInput("diffuseColor").GetConnectedSources()
-        shaders.append(str(source.source.GetPath()))
-    stage.Save()
+    path, shaders = quads_reading_one_file(tmp_path, 3, file, fallback=(0.25, 0.5, 0.75, 1.0))
     scene, messages = load_with_messages(path)
     named = [m for m in messages if file in m]
     assert named, messages
@@ -1482,20 +1491,7 @@ def test_a_udim_tile_that_cannot_be_read_is_named_with_every_shader_that_reads_i
     kept, so the second material's read told nothing."""
     write_png(tmp_path / "body.1001.png", CHECKER)
     (tmp_path / "body.1002.png").write_bytes(b"")
-    stage, path = new_stage(tmp_path)
-    shaders = []
-    for k in range(2):
-        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
-        material, surface = preview_material(stage, f"/Looks/M{k}")
-        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image{k}")
-        tex.CreateIdAttr("UsdUVTexture")
-        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./body.<UDIM>.png")
-        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
-        bind(quad, material)
-        (source,), _ = surface.GetInput("diffuseColor").GetConnectedSources()
-        shaders.append(str(source.source.GetPath()))
-    stage.Save()
+    path, shaders = quads_reading_one_file(tmp_path, 2, "body.<UDIM>.png")
     scene, messages = load_with_messages(path)
     named = [m for m in messages if "body.1002.png" in m and "empty" in m]
     assert len(named) == 1, messages
