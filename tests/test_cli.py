@@ -1036,3 +1036,22 @@ def test_an_image_too_large_names_the_render_settings_that_sized_it(tmp_path, ca
         assert line == f"wrt: error: {source}: {width}x{height} is {width * height:,} pixels; at most {2**26:,} are " \
                        "supported", line
     assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("text, value", [("1e5", 100_000), ("2E6", 2_000_000), ("1.5e1", 15), ("300", 300)])
+def test_integer_options_take_whole_numbers_in_exponent_notation(text, value):
+    """``wrt bench --n-rays 1e5`` was refused as 'not an integer' while ``--scenes sphere:1e6`` is taken: whole
+    numbers in exponent notation are integers now; fractions, overflows and words still are not."""
+    from wrt.cli import build_parser
+
+    assert build_parser().parse_args(["bench", "--n-rays", text]).n_rays == value
+
+
+@pytest.mark.parametrize("text", ["2.5", "2.5e0", "1e400", "nan", "inf", "1e", "e5", "five"])
+def test_integer_options_refuse_what_is_no_whole_number(text, capsys):
+    from wrt.cli import build_parser
+
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args(["bench", "--n-rays", text])
+    assert exit_.value.code == 2
+    assert f"{text!r} is not an integer" in capsys.readouterr().err

@@ -151,15 +151,30 @@ def int_at_least(minimum: int, what: str, maximum: int | None = None):
     """An argparse type: an integer >= ``minimum`` (and <= ``maximum``), else an error saying it must be ``what``."""
 
     def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        value = _whole_number(text)
+        if value is None:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
         if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"must be {what}, got {value}")
         return value
 
     return parse
+
+
+def _whole_number(text: str) -> int | None:
+    """``text`` as an int, also where written in exponent notation (``--n-rays 1e5``, as a ``sphere:1e6`` scene name
+    is: it was refused as 'not an integer'); None for anything else, a fraction (``2.5``, ``2.5e0``) included."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    if "e" not in text.lower():
+        return None
+    try:
+        number = float(text)
+    except ValueError:
+        return None
+    return int(number) if math.isfinite(number) and number == int(number) else None
 
 
 positive_int = int_at_least(1, "a positive integer")
