@@ -277,18 +277,25 @@ def albedo(scene, res):
 PIXELS = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
 
 
-def closest_image(stage, material, png, texcoord=None, node_id="ND_image_color3"):
-    """A ``node_id`` image node of ``png`` at ``{material}/Image`` with filtertype ``closest``, read at the ``out`` of
-    shader ``texcoord`` when one is given, feeding the ``base_color`` of ``{material}/Surface``."""
+def base_color_image(stage, material, png, texcoord=None, node_id="ND_image_color3", **strings):
+    """A ``node_id`` image node of ``png`` at ``{material}/Image`` with the string inputs ``strings`` (``filtertype``,
+    ``layer``), read at the ``out`` of shader ``texcoord`` when one is given, feeding the ``base_color`` of
+    ``{material}/Surface``."""
     image = UsdShade.Shader.Define(stage, f"{material}/Image")
     image.CreateIdAttr(node_id)
     image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    for name, value in strings.items():
+        image.CreateInput(name, Sdf.ValueTypeNames.String).Set(value)
     if texcoord is not None:
         image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
     UsdShade.Shader.Get(stage, f"{material}/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
                                                                   ).ConnectToSource(image.ConnectableAPI(), "out")
     return image
+
+
+def closest_image(stage, material, png, texcoord=None, node_id="ND_image_color3"):
+    """:func:`base_color_image` with filtertype ``closest``."""
+    return base_color_image(stage, material, png, texcoord, node_id, filtertype="closest")
 
 
 def pixel_centre_st(res):
@@ -972,12 +979,7 @@ def test_a_filtertype_other_than_closest_or_linear_is_named_and_read_as_linear(t
     png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
     stage, path = new_stage(tmp_path, f"{filtertype}.usda")
     bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Pair")[0])
-    image = UsdShade.Shader.Define(stage, "/Looks/Pair/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set(filtertype)
-    UsdShade.Shader.Get(stage, "/Looks/Pair/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    base_color_image(stage, "/Looks/Pair", png, filtertype=filtertype)
     stage.Save()
     scene, messages = load(path)
     assert any("/Looks/Pair/Image" in m and note in m for m in messages), messages
@@ -993,12 +995,7 @@ def test_an_image_layer_is_named_as_not_read(tmp_path, layer):
     png = write_png(tmp_path / "red.png", [[[255, 0, 0]]])
     stage, path = new_stage(tmp_path, "layer.usda")
     bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Layered")[0])
-    image = UsdShade.Shader.Define(stage, "/Looks/Layered/Image")
-    image.CreateIdAttr("ND_image_color3")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-    image.CreateInput("layer", Sdf.ValueTypeNames.String).Set(layer)
-    UsdShade.Shader.Get(stage, "/Looks/Layered/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
-                                                                     ).ConnectToSource(image.ConnectableAPI(), "out")
+    base_color_image(stage, "/Looks/Layered", png, layer=layer)
     stage.Save()
     scene, messages = load(path)
     named = [m for m in messages if "/Looks/Layered/Image" in m and "layer 'diffuse'" in m]
