@@ -305,9 +305,10 @@ def test_a_graph_recorded_before_the_camera_got_depth_of_field_is_refused_after_
 def test_a_graph_recorded_before_a_scene_edit_is_refused_after_its_replay_and_its_buffers_kept(device):
     """A scene edit's rebuild (at the next launch_frame outside a capture) dropped the BVH, device scene and frame
     buffers a recorded graph holds raw pointers to: a CUDA replay launched kernels on freed memory, and frame_image
-    then read the new buffers, the last frame drawn outside the graph, without a word. The recorded frame's objects
-    are kept until the next recording, and frame_image refuses the old graph's frame; a new recording replays the
-    edited scene as a fresh render draws it."""
+    then read the new buffers, the last frame drawn outside the graph, without a word. The recorded graph keeps its
+    objects for as long as it lives (``tests/test_recorded_frames.py`` keeps an older graph past a new recording),
+    frame_image refuses the old graph's frame, and a new recording replays the edited scene as a fresh render
+    draws it."""
     if device != "cpu" and not wp.is_cuda_available():
         pytest.skip("no CUDA device")
     import dataclasses
@@ -335,7 +336,7 @@ def test_a_graph_recorded_before_a_scene_edit_is_refused_after_its_replay_and_it
     expected = wrt.render_batch(scene, cams, 32, 24, seed=3, device=device).rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
     gc.collect()
-    assert all(ref() is None for ref in recorded)  # released at the next recording
+    assert all(ref() is None for ref in recorded)  # released with the old graph, which `capture` no longer holds
 
 
 def test_a_graph_replayed_after_a_scene_edit_with_no_launch_since_is_refused():
