@@ -755,6 +755,15 @@ def test_an_st_authored_as_quaternions_reads_the_fallback_st(tmp_path, on, geome
     np.testing.assert_allclose(img, np.full(img.shape, CHECKER[7, 7, 0] / 255.0), atol=2e-3)  # (0.75, 0.25): grey
 
 
+def add_textured_prototype_ball(stage) -> None:
+    """A class prim ``/Proto`` holding a Sphere of radius 0.5 bound to ``/Looks/Tex`` (:func:`grey_fallback_stage`'s
+    textured look), for native instances to inherit."""
+    stage.DefinePrim("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
+    ball.CreateRadiusAttr(0.5)
+    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+
+
 @pytest.mark.parametrize("tessellate", [False, True])
 def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, tessellate):
     """Two native instances of one prototype holding a textured Sphere, each with its own constant ``st`` (a palette
@@ -762,11 +771,7 @@ def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, t
     block (red) at (0.25, 0.75) and its top-right one (green) at (0.75, 0.75). The gprim read the reader's fallback,
     (0.75, 0.25), grey, in both."""
     path, stage = grey_fallback_stage(tmp_path)
-    proto = stage.DefinePrim("/Proto")
-    proto.SetSpecifier(Sdf.SpecifierClass)
-    ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
-    ball.CreateRadiusAttr(0.5)
-    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    add_textured_prototype_ball(stage)
     for name, x, st in (("Left", -0.75, (0.25, 0.75)), ("Right", 0.75, (0.75, 0.75))):
         inst = UsdGeom.Xform.Define(stage, f"/{name}")
         inst.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
@@ -791,11 +796,7 @@ def test_a_non_finite_st_handed_to_a_prototype_gprim_reads_the_fallback_st(tmp_p
     CHECKER's bottom-right block (grey 128, read raw), as for a non-finite ``st`` of its own, with a warning. The
     load stopped with SceneError ('st must be 2 finite numbers or None')."""
     path, stage = grey_fallback_stage(tmp_path)
-    proto = stage.DefinePrim("/Proto")
-    proto.SetSpecifier(Sdf.SpecifierClass)
-    ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
-    ball.CreateRadiusAttr(0.5)
-    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    add_textured_prototype_ball(stage)
     inst = UsdGeom.Xform.Define(stage, "/Inst")
     inst.GetPrim().GetInherits().AddInherit("/Proto")
     inst.GetPrim().SetInstanceable(True)
