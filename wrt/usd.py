@@ -336,10 +336,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
-        # native prototype path -> whether a PointInstancer or a UsdGeomVisibilityAPI prim is in it (_instance_purpose)
-        self.purpose_readers = {}
-        # native prototype path -> the purposes authored in it (nested ones too), None with a PointInstancer in it
-        self.prototype_purposes = {}
+        # native prototype path -> (whether a PointInstancer or a UsdGeomVisibilityAPI prim is in it, the purposes
+        # authored in it, nested ones too, None with a PointInstancer in it): _prototype_contents
+        self.prototype_contents = {}
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)

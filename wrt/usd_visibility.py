@@ -108,16 +108,8 @@ class Visibility:
 
     def _reads_purpose(self, prototype: Usd.Prim) -> bool:
         """Whether native ``prototype`` holds a PointInstancer or a UsdGeomVisibilityAPI prim, in it or in the
-        prototype of an instance in it, each prototype's answer kept. Walked through instance proxies, every nested
-        prototype was walked again for each instance of it: a stage of three levels of 40 nested instances loaded 8
-        times slower."""
-        key = prototype.GetPath()
-        if key not in self.purpose_readers:
-            self.purpose_readers[key] = any(
-                p.IsA(UsdGeom.PointInstancer) or p.HasAPI(UsdGeom.VisibilityAPI)
-                or (p.IsInstance() and self._reads_purpose(p.GetPrototype()))
-                for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate))
-        return self.purpose_readers[key]
+        prototype of an instance in it (:meth:`_prototype_contents`)."""
+        return self._prototype_contents(prototype)[0]
 
     def _hidden_inside(self, prototype: Usd.Prim, purpose, hidden: frozenset) -> frozenset:
         """The purposes of ``hidden`` that some prim of native ``prototype`` can take: the one its instance hands down
@@ -127,27 +119,32 @@ class Visibility:
         renderVisibility = invisible opinion though it held only prims of default purpose."""
         if not hidden:
             return hidden
-        inside = self._purposes_inside(prototype)
+        inside = self._prototype_contents(prototype)[1]
         return hidden if inside is None else hidden & (inside | {purpose})
 
-    def _purposes_inside(self, prototype: Usd.Prim):
-        """The purposes authored on the prims of native ``prototype`` and of the prototypes of the instances in it, or
-        None where a PointInstancer is among them; each prototype's answer kept."""
+    def _prototype_contents(self, prototype: Usd.Prim) -> tuple:
+        """``(reads_purpose, purposes)`` of native ``prototype``, from one walk of its prims and of the prototypes of
+        the instances in it, each prototype's answer kept (walked through instance proxies, every nested prototype
+        was walked again for each instance of it: three levels of 40 nested instances loaded 8 times slower):
+        whether a PointInstancer or a UsdGeomVisibilityAPI prim is among them (:meth:`_instance_purpose`), and the
+        purposes authored on them, None where a PointInstancer is among them (:meth:`_hidden_inside`)."""
         key = prototype.GetPath()
-        if key not in self.prototype_purposes:
-            found = set()
+        if key not in self.prototype_contents:
+            reads, found = False, set()
             for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate):
-                nested = self._purposes_inside(p.GetPrototype()) if p.IsInstance() and p.GetPrototype() else set()
-                if p.IsA(UsdGeom.PointInstancer) or nested is None:
-                    found = None
+                nested = self._prototype_contents(p.GetPrototype()) if p.IsInstance() and p.GetPrototype() else None
+                if p.IsA(UsdGeom.PointInstancer) or (nested is not None and nested[1] is None):
+                    reads, found = True, None
                     break
-                found |= nested
+                reads = reads or p.HasAPI(UsdGeom.VisibilityAPI) or (nested is not None and nested[0])
+                if nested is not None:
+                    found |= nested[1]
                 img = UsdGeom.Imageable(p)
                 attr = img.GetPurposeAttr() if img else None
                 if attr is not None and attr.HasAuthoredValue() and token_typed(attr):
                     found.add(attr.Get())
-            self.prototype_purposes[key] = None if found is None else frozenset(found)
-        return self.prototype_purposes[key]
+            self.prototype_contents[key] = (reads, None if found is None else frozenset(found))
+        return self.prototype_contents[key]
 
     def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
