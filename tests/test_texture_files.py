@@ -189,24 +189,27 @@ def write_exr(path, channels):
     return str(path)
 
 
-# Channel sets and the RGBA each reads as, the letters naming the channels written: R, G and B in their places
-# (missing ones 0), Y grey, alpha 1 without A (OpenEXR's RGBA interface; Hydra's reader for the sets it reads whole).
-# The documented sources: OpenEXR's ImfRgbaFile.cpp, RgbaInputFile::setFrameBuffer, gives R, G and B a fillValue of
-# 0.0 and A one of 1.0; Hio's EXR reader keeps R G as a two-channel (HioFormatFloat16Vec2) texture, which Storm does
-# not swizzle (only one-channel textures become (c, c, c, 1)) and the GPU samples as (r, g, 0, 1).
+# Channel sets and the RGBA each reads as, the letters naming the channels written, by the UsdPreviewSurface
+# specification's rule for a texture's channel count (UsdUVTexture's outputs): the channels wrt reads (R, G, B, A,
+# or Y without colour; others such as Z are ignored) taken in R G B A order, one channel is grey with alpha 1, two
+# are grey (the first) and alpha (the second), three or four sit in their places (a missing colour channel 0,
+# alpha 1 without A, as OpenEXR's RGBA interface fills them).
 EXR_CHANNEL_SETS = {
-    "R G": ({"R": "R", "G": "G"}, ("R", "G", 0, 1)),
+    "R G": ({"R": "R", "G": "G"}, ("R", "R", "R", "G")),
     "R G B": ({"R": "R", "G": "G", "B": "B"}, ("R", "G", "B", 1)),
     "R G B A Z": ({"R": "R", "G": "G", "B": "B", "A": "A", "Z": "Z"}, ("R", "G", "B", "A")),
-    "R A": ({"R": "R", "A": "A"}, ("R", 0, 0, "A")),
-    "B G": ({"B": "B", "G": "G"}, (0, "G", "B", 1)),
+    "R G A": ({"R": "R", "G": "G", "A": "A"}, ("R", "G", 0, "A")),
+    "R A": ({"R": "R", "A": "A"}, ("R", "R", "R", "A")),
+    "B G": ({"B": "B", "G": "G"}, ("G", "G", "G", "B")),
+    "G A Z": ({"G": "G", "A": "A", "Z": "Z"}, ("G", "G", "G", "A")),
     "Y": ({"Y": "Y"}, ("Y", "Y", "Y", 1)),
     "Y A": ({"Y": "Y", "A": "A"}, ("Y", "Y", "Y", "A")),
-    "A": ({"A": "A"}, (0, 0, 0, "A")),
-    "R only": ({"R": "R"}, ("R", "R", "R", 1)),  # one channel: grey, as Storm draws one-channel textures
+    "A": ({"A": "A"}, ("A", "A", "A", 1)),
+    "R only": ({"R": "R"}, ("R", "R", "R", 1)),
+    "R Z": ({"R": "R", "Z": "Z"}, ("R", "R", "R", 1)),  # Z is no channel wrt reads: one channel, grey
     "words": ({"red": "R", "Green": "G", "BLUE": "B", "alpha": "A"}, ("R", "G", "B", "A")),
     "lower case": ({"r": "R", "g": "G", "b": "B"}, ("R", "G", "B", 1)),
-    "layer R G": ({"diffuse.R": "R", "diffuse.G": "G", "Z": "Z"}, ("R", "G", 0, 1)),
+    "layer R G": ({"diffuse.R": "R", "diffuse.G": "G", "Z": "Z"}, ("R", "R", "R", "G")),
     "unnamed layer first": ({"R": "R", "G": "G", "B": "B", "spec.R": "Z", "spec.G": "Z", "spec.B": "Z"},
                             ("R", "G", "B", 1)),
 }
@@ -214,10 +217,12 @@ EXR_CHANNEL_SETS = {
 
 @pytest.mark.parametrize("half", [False, True], ids=["float", "half"])
 @pytest.mark.parametrize("case", list(EXR_CHANNEL_SETS))
-def test_exr_channel_subsets_map_as_openexr_and_hydra_read_them(tmp_path, case, half):
+def test_exr_channel_subsets_map_by_the_specifications_channel_count_rule(tmp_path, case, half):
     """EXRs of part of R, G, B, A, or of luminance, or with the channels named as words, in lower case or in a
-    layer: R G (a two-channel map), R A and names such as ``red`` were refused as having no RGB or Y channels, and
-    an alpha-only file was read as opaque grey."""
+    layer: R G (a two-channel map), R A and names such as ``red`` were refused as having no RGB or Y channels. Two
+    channels were read in their places (R G as ``(R, G, 0, 1)``, R A as ``(R, 0, 0, A)``) where the specification
+    reads any two-channel texture as grey and alpha, as wrt reads a grey + alpha PNG; an alpha-only file as
+    ``(0, 0, 0, A)`` and R beside an ignored Z as ``(R, 0, 0, 1)`` where a one-channel texture is grey, alpha 1."""
     names, expected_letters = EXR_CHANNEL_SETS[case]
     rng = np.random.default_rng(11)
     values = {letter: rng.random((3, 5)).astype(np.float16 if half else np.float32) for letter in "RGBAYZ"}

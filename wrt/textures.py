@@ -320,15 +320,19 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
     each name (after its layer's ``.``), single letters or words in any case (:data:`EXR_CHANNEL_ROLES`), as
     Hydra's EXR reader matches them: the unnamed layer's channels, else those of the one layer that has any.
 
-    - ``R``, ``G``, ``B``: each in its place, a missing one 0, alpha ``A`` or 1 (OpenEXR's RGBA interface; Hydra's
-      reader for ``R G``, ``R G B`` and ``R G B A``: a two-channel texture samples as ``(R, G, 0, 1)``). A file of
-      one colour channel reads as grey, as Storm draws every one-channel texture ``(c, c, c, 1)``.
-    - ``Y`` without colour: grey, alpha ``A`` or 1 (luminance images). With chroma ``RY``/``BY`` beside it (a
-      luminance-chroma file, full-size or one sample per 2 x 2 pixels) RGB as OpenEXR's ``RgbaInputFile``
-      reconstructs it (:func:`wrt.exr_yca.yca_rgba`), the luminance weights from ``chromaticities`` (the file's
-      attribute, 8 numbers; None: Rec.709). Storm reads such files grey.
-    - ``A`` alone: ``(0, 0, 0, A)``, as OpenEXR's RGBA interface reads it (Hydra's reader writes it outside the
-      pixel's texel).
+    The channels so read, in R G B A order (``Y`` only without colour), are the texture's channels as the
+    UsdPreviewSurface specification counts them for UsdUVTexture's outputs (as wrt reads a grey or grey + alpha PNG):
+
+    - one (``R``, ``G``, ``B``, ``Y`` or ``A``): grey ``(c, c, c, 1)``;
+    - two (``R G``, ``R A``, ``Y A``, ...): the first grey, the second alpha: ``R G`` is ``(R, R, R, G)``;
+    - three or four: ``R``, ``G``, ``B`` each in its place, a missing one 0, alpha ``A`` or 1 (OpenEXR's RGBA
+      interface).
+
+    Hydra's reader differs for two channels (Storm samples ``R G`` as ``(R, G, 0, 1)``) and ``A`` alone (written
+    outside the pixel's texel). ``Y`` with chroma ``RY``/``BY`` beside it (a luminance-chroma file, full-size or one
+    sample per 2 x 2 pixels) is RGB as OpenEXR's ``RgbaInputFile`` reconstructs it (:func:`wrt.exr_yca.yca_rgba`),
+    the luminance weights from ``chromaticities`` (the file's attribute, 8 numbers; None: Rec.709); Storm reads such
+    files grey.
 
     Other channels (``Z``, other layers' beside the unnamed one) are ignored, of any sample type.
 
@@ -370,28 +374,24 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
     if integer:
         raise TextureError(f"EXR {name}: channel {', '.join(integer)} holds unsigned integers (UINT: ids or "
                            "counts), which Storm does not read as colour")
-    if colour and len(channels) > 1:
-        # Each channel cast into its place as it is copied there (float16 to float32 is exact, float64 rounds as
-        # astype does): a float32 copy of each first cost a fifth of loading a scene of 2k textures.
-        rgba = np.zeros(next(iter(mapped.values())).shape + (4,), np.float32)
-        for k, c in enumerate("RGB"):
-            if c in mapped:
-                rgba[..., k] = mapped[c]
-        rgba[..., 3] = mapped.get("A", 1.0)
-        return rgba
-    mapped = {k: np.asarray(v, np.float32) for k, v in mapped.items()}
-    alpha = mapped.get("A")
     if chroma:
+        mapped = {k: np.asarray(v, np.float32) for k, v in mapped.items()}
         try:
-            return yca_rgba(mapped["Y"], chroma.get("RY"), chroma.get("BY"), alpha, chromaticities)
+            return yca_rgba(mapped["Y"], chroma.get("RY"), chroma.get("BY"), mapped.get("A"), chromaticities)
         except ValueError as e:
             raise TextureError(f"EXR {name}: {e}") from None
-    if colour:  # one colour channel and nothing else: grey
-        return _grey_rgba(mapped[colour[0]], None)
-    if "Y" in mapped:
-        return _grey_rgba(mapped["Y"], alpha)
-    rgba = np.zeros(next(iter(mapped.values())).shape + (4,), np.float32)  # alpha alone
-    rgba[..., 3] = 1.0 if alpha is None else alpha
+    # The channels read, in R G B A order (Y only without colour), are the texture's channels as the specification
+    # counts them: Z or another layer's beside them made R alone read red, and R G read (R, G, 0, 1).
+    read = (colour or [c for c in "Y" if c in mapped]) + [c for c in "A" if c in mapped]
+    if len(read) <= 2:  # grey, alpha the second channel or 1
+        return _grey_rgba(mapped[read[0]], mapped[read[1]] if len(read) == 2 else None)
+    # Each channel cast into its place as it is copied there (float16 to float32 is exact, float64 rounds as astype
+    # does): a float32 copy of each first cost a fifth of loading a scene of 2k textures.
+    rgba = np.zeros(next(iter(mapped.values())).shape + (4,), np.float32)
+    for k, c in enumerate("RGB"):
+        if c in mapped:
+            rgba[..., k] = mapped[c]
+    rgba[..., 3] = mapped.get("A", 1.0)
     return rgba
 
 
