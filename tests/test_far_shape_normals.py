@@ -154,3 +154,89 @@ def test_the_normals_aov_of_a_shape_at_1e5_keeps_float32s_local_precision(tmp_pa
         got = image.aovs[aov].reshape(-1, 3).astype(np.float64)
         error = angles(got[clear], expected[clear])
         assert error.max() <= ALLOWED, f"{aov}: {np.degrees(error.max()):.2e} degrees"
+
+
+# Gprims of one prototype, each off the prototype's origin by a translate that a turned instance makes a world offset
+# of no float32 value: (attributes, translate in the prototype).
+OFF_CENTRE = {
+    "Sphere": ({"radius": 1.0}, (-5.63, 0.71, -0.29)),
+    "Cylinder": ({"radius": 0.7, "height": 1.5}, (-2.41, -0.37, 0.53)),
+    "Cone": ({"radius": 0.8, "height": 1.6}, (0.37, 0.61, -0.23)),
+    "Capsule": ({"radius": 0.5, "height": 1.0}, (3.13, -0.53, 0.41)),
+    "Cube": ({"size": 1.2}, (6.29, 0.17, 0.67)),
+}
+ORIENTATION = Gf.Quath(0.7, 0.3, -0.5, 0.4)  # the point instance's turn (normalised by USD)
+TURN_XYZ = (23.0, -41.0, 67.0)  # the native instance's rotateXYZ, in degrees
+
+
+def write_off_centre_stage(path: str, position: float, instancer: str) -> Usd.Stage:
+    """The gprims of :data:`OFF_CENTRE` in one prototype, drawn once, turned, at ``(position, -position / 2,
+    position / 4)`` (float32 numbers): by a PointInstancer (whose positions are float32 anyway) or a native instance."""
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Xform.Define(stage, "/World")
+    where = Gf.Vec3f(position, -position / 2.0, position / 4.0)
+    if instancer == "point_instancer":
+        points = UsdGeom.PointInstancer.Define(stage, "/World/Points")
+        UsdGeom.Xform.Define(stage, "/World/Points/Proto")
+        points.CreatePrototypesRel().SetTargets(["/World/Points/Proto"])
+        points.CreateProtoIndicesAttr([0])
+        points.CreatePositionsAttr([where])
+        points.CreateOrientationsAttr([ORIENTATION])
+        proto = "/World/Points/Proto"
+    else:
+        stage.CreateClassPrim("/Protos")
+        UsdGeom.Xform.Define(stage, "/Protos/P")
+        instance = UsdGeom.Xform.Define(stage, "/World/I")
+        instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
+        instance.GetPrim().SetInstanceable(True)
+        instance.AddTranslateOp().Set(Gf.Vec3d(where))
+        instance.AddRotateXYZOp().Set(Gf.Vec3f(*TURN_XYZ))
+        proto = "/Protos/P"
+    for type_name, (attrs, translate) in OFF_CENTRE.items():
+        prim = stage.DefinePrim(f"{proto}/{type_name}", type_name)
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(*translate))
+        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
+        for key, value in attrs.items():
+            prim.GetAttribute(key).Set(value)
+    stage.GetRootLayer().Save()
+    return stage
+
+
+# The largest way from a ray's origin, through the instance's origin, to the surface it hits in these tests (the eye 8
+# from a gprim, moved up to 7 by float32 at 1e8, the gprim up to 7 from the instance's origin), over the smallest
+# radius (the capsule's 0.5): the normal's error allowed is 16 float32 ulps of it.
+OFF_CENTRE_ALLOWED = 16.0 * EPS32 * 24.0 / 0.5
+
+
+@pytest.mark.parametrize("instancer", ["point_instancer", "native"])
+@pytest.mark.parametrize("position", [1e5, 1e8])
+def test_instanced_shapes_off_their_prototype_origin_keep_float32s_local_precision(tmp_path, position, instancer):
+    """Gprims placed off their prototype's origin, in a turned instance at 1e5 or 1e8 (its position a float32 number),
+    are hit where the float64 oracle hits them and shaded with its normals, to a few float32 ulps of the local problem.
+    The trace placed each shape at its world centre rounded to float32 (off by up to 0.004 at 1e5 and 4 at 1e8) and
+    shading at the instance's origin plus the shape's offset: hits 0.004 off the surface at 1e5 with normals 0.5
+    degrees off, and at 1e8 a third of the rays missed or hit a sphere 2 units off, their normals up to 90 degrees
+    off."""
+    path = str(tmp_path / "off_centre.usda")
+    stage = write_off_centre_stage(path, position, instancer)
+    scene = load(path)
+    centres = [m[3, :3] for _, _, m in oracle.placements(stage)]
+    assert len(centres) == len(OFF_CENTRE)
+    o, d = aimed_rays(centres, np.random.default_rng(11), 60)
+    ref = oracle.trace(stage, o, d)
+    hits = wrt.trace(scene, o, d)
+    assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
+    paths, _ = scene.hit_paths(hits)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    expected = facing(ref["normal"], d)
+    seen = np.einsum("ij,ij->i", expected, -unit) > 0.2
+    clear = np.isfinite(ref["t"]) & ref["sharp"] & seen
+    assert clear.sum() > 100
+    wrong = clear & (paths != ref["path"])
+    assert not wrong.any(), f"{wrong.sum()} rays the oracle sees squarely missed or hit another prim at {position:g}"
+    length = np.linalg.norm(d, axis=1)
+    off_surface = np.abs(hits.t[clear] - ref["t"][clear]) * length[clear]
+    assert off_surface.max() <= 16.0 * EPS32 * 24.0, f"hits {off_surface.max():.2e} off the surface at {position:g}"
+    got = facing(hit_normals(scene, hits, o, d), d)
+    error = angles(got[clear], expected[clear])
+    assert error.max() <= OFF_CENTRE_ALLOWED, f"{np.degrees(error.max()):.2e} degrees at {position:g}"

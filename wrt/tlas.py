@@ -18,8 +18,9 @@ animated scenes using coherent grid traversal"/"two-level BVH" as in every produ
 ``Transform``/``BVHAggregate`` over instances, Embree/OptiX instance acceleration structures).
 
 Analytic shapes (:mod:`wrt.primitives`) are entries of their own, one per shape and instance: the entry holds the
-world-to-canonical transform (the instance's and the shape's composed) and is intersected by
-:func:`wrt.primitives.intersect_shape` at the TLAS leaf, with no BLAS.
+world-to-canonical transform (the instance's and the shape's composed; an instanced shape's placed relative to its
+instance's origin, :func:`shape_entry_transforms`) and is intersected by :func:`wrt.primitives.intersect_shape` at
+the TLAS leaf, with no BLAS.
 
 Hits report the geometry id of the triangle or shape (:meth:`wrt.Scene.geometry` row, so prototype triangles appear
 once; shapes after the triangles) and the instance (-1 for world-space geometry). Shape hits carry the
@@ -97,7 +98,8 @@ class DeviceTlas:
     world_to_local: wp.array[mat34]  # per instance: world -> prototype space
     blases: wp.array[DeviceBvh]  # one BLAS per prototype (prototype space) plus the world-space one
     blas_first: wp.array[wp.int32]  # geometry id of triangle 0 of each BLAS
-    shape_xforms: wp.array[mat34]  # per shape entry: world -> the shape's canonical space
+    shape_xforms: wp.array[mat34]  # per shape entry: world -> the shape's canonical space (an instanced shape's
+    # translation is its offset from its instance's origin: shape_entry_transforms)
     shape_rows: wp.array[wp.int32]  # per shape entry: geometry id of the shape
     shape_kinds: wp.array[wp.int32]  # per unique shape (geometry id - num_triangles): primitives.SHAPE_*
     shape_params: wp.array[wp.vec4]  # per unique shape: its parameters
@@ -197,9 +199,13 @@ def shifted_limit(limit: float, t0: float):
 
 
 @wp.func
-def shape_entry(tlas: DeviceTlas, b: int, origin: wp.vec3, direction: wp.vec3):
-    """The ray in the canonical space of the analytic shape of entry ``b`` (``b = -1 - k`` for shape entry ``k``),
-    moved to ``t0`` as an instance's (:func:`moved_ray`), and that shape's geometry id, kind and parameters."""
+def shape_entry(tlas: DeviceTlas, b: int, instance: int, origin: wp.vec3, direction: wp.vec3):
+    """The ray in the canonical space of the analytic shape of entry ``b`` (``b = -1 - k`` for shape entry ``k``) of
+    ``instance`` (-1: a world-space shape), moved to ``t0`` as an instance's (:func:`moved_ray`), and that shape's
+    geometry id, kind and parameters.
+
+    An instanced shape's entry holds its offset from the instance's origin (:func:`shape_entry_transforms`): the ray's
+    origin is taken relative to the instance's origin first, as shading takes it (:func:`wrt.shade.shape_frame`)."""
     e = -1 - b
     row = tlas.shape_rows[e]
     j = row - tlas.num_triangles
@@ -208,7 +214,10 @@ def shape_entry(tlas: DeviceTlas, b: int, origin: wp.vec3, direction: wp.vec3):
     reach = float(1.0)  # canonical shapes lie in [-1, 1]^3; (tapered) capsules out to h + 1 (h + rho) along z
     if kind == SHAPE_CAPSULE or kind == SHAPE_TAPERED:
         reach += wp.abs(params[0]) + wp.abs(params[1])
-    o, d, t0 = moved_ray(tlas.shape_xforms[e], origin, direction, reach)
+    start = origin
+    if instance >= 0:
+        start = origin - translation(tlas.world_to_local[instance])
+    o, d, t0 = moved_ray(tlas.shape_xforms[e], start, direction, reach)
     return o, d, t0, row, kind, params
 
 
@@ -268,7 +277,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                             best_instance = instance
                     else:
                         # An analytic shape, intersected in its canonical space.
-                        o, d, t0, row, kind, params = shape_entry(tlas, b, origin, direction)
+                        o, d, t0, row, kind, params = shape_entry(tlas, b, instance, origin, direction)
                         hi = best_t
                         if t0 != 0.0:
                             hi = next_up(best_t - t0)  # as for a BLAS above
@@ -333,7 +342,8 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                         if bvh_occluded(blas, o, d, lo, shifted_limit(t_max, t0)):
                             found = True
                     elif not found:
-                        o, d, t0, _row, kind, params = shape_entry(tlas, b, origin, direction)
+                        o, d, t0, _row, kind, params = shape_entry(tlas, b, tlas.entry_instance[s], origin,
+                                                                   direction)
                         lo = shifted_limit(t_min, t0)
                         if intersect_shape(kind, params, o, d, lo, shifted_limit(t_max, t0)) < wp.inf:
                             found = True
@@ -546,20 +556,22 @@ class InstancedAccelerator(Accelerator):
             lowers.append(lo)
             uppers.append(hi)
         # Shape entries: the non-instanced shapes, then every instance of a prototype with shapes, per shape.
-        shape_to_world, shape_rows = [], []
+        shape_to_world, shape_rows, shape_instances = [], [], []
         n_tri = scene.num_geometry_triangles
         for k, shape in enumerate(scene.shapes):
             shape_to_world.append(shape.to_world[None])
             shape_rows.append(np.array([n_tri + k]))
-            entry_instance.append(np.array([-1]))
+            shape_instances.append(np.array([-1]))
         for p, (first, count) in enumerate(scene.prototype_shape_ranges()):
             mine = rows[p]
             for k, shape in enumerate(scene.prototypes[p].shapes if count else []):
                 shape_to_world.append(instances.to_world[mine] @ shape.to_world)
                 shape_rows.append(np.full(len(mine), first + k))
-                entry_instance.append(mine)
+                shape_instances.append(mine)
         shape_to_world = np.concatenate(shape_to_world or [np.zeros((0, 4, 4))])
         shape_rows = np.concatenate(shape_rows or [np.zeros(0)]).astype(np.int32)
+        shape_instances = np.concatenate(shape_instances or [np.zeros(0)]).astype(np.int32)
+        entry_instance.append(shape_instances)
         shape_to_local, shape_ok = invert_transforms(shape_to_world)
         if not shape_ok.all():
             # A shape squashed along an axis of its own, turned by its instance, is squashed along a turned axis,
@@ -574,7 +586,9 @@ class InstancedAccelerator(Accelerator):
         # Every entry's box at once, from its shape's canonical box: a Python step per entry made the first trace of
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
         local_lo, local_hi = (b[shape_rows - n_tri] for b in local_boxes(scene._geometry_shapes()))
-        lo, hi = world_boxes(local_lo, local_hi, as_placed(shape_to_world))
+        shape_xforms, placed = shape_entry_transforms(shape_to_world, shape_to_local, shape_instances,
+                                                      instances.to_world)
+        lo, hi = world_boxes(local_lo, local_hi, placed)
         lowers.append(np.where(shape_ok[:, None], lo, np.inf))  # a degenerate shape: a box no ray enters
         uppers.append(np.where(shape_ok[:, None], hi, -np.inf))
         entry_blas.append(-1 - np.arange(len(shape_rows)))
@@ -612,8 +626,7 @@ class InstancedAccelerator(Accelerator):
             t.world_to_local = wp.array(device_transforms(scaled, instances.to_world), dtype=mat34, device=device)
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
-        t.shape_xforms = wp.array(_non_empty(device_transforms(shape_to_local, shape_to_world)), dtype=mat34,
-                                  device=device)
+        t.shape_xforms = wp.array(_non_empty(shape_xforms), dtype=mat34, device=device)
         t.shape_rows = wp.array(_non_empty(shape_rows), dtype=wp.int32, device=device)
         t.shape_kinds, t.shape_params, _ = scene.shape_arrays(device)
         t.num_triangles = n_tri
@@ -768,6 +781,32 @@ def as_placed(to_world: np.ndarray) -> np.ndarray:
     placed = to_world.copy()
     placed[:, :3, 3] = placed[:, :3, 3].astype(np.float32)
     return placed
+
+
+def shape_entry_transforms(shape_to_world: np.ndarray, shape_to_local: np.ndarray, shape_instances: np.ndarray,
+                           instance_to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(xforms (N, 3, 4) float32, placed (N, 4, 4) float64)`` of the shape entries: each shape placed by
+    ``shape_to_world`` (an instanced one's: its instance's transform composed with its own; inverse
+    ``shape_to_local``) in instance ``shape_instances`` (-1: a world-space shape). ``xforms`` are ``[A | c]`` of
+    :mod:`wrt.transforms` for :func:`shape_entry`, where an instanced shape's ``c`` is its offset from its instance's
+    origin; ``placed`` has the translations where the device places the shapes, for their boxes (as :func:`as_placed`).
+
+    An instanced shape lies where shading places it (:func:`wrt.shade.shape_frame`): at its instance's float32 origin
+    plus its offset, each rounded at its own scale. Its world centre rounded to float32 once was up to half an ulp of
+    its distance from the world origin off that place (0.004 at 1e5, 4 at 1e8), so shading snapped the hit onto a
+    shape beside the one traced: hits 0.004 off the surface and normals 0.5 degrees off at 1e5; at 1e8 rays that a
+    unit sphere should stop missed it, and hits were 2 units off, their normals up to 90 degrees off."""
+    offsets = shape_to_world[:, :3, 3].copy()
+    origins = np.zeros_like(offsets)
+    instanced = shape_instances >= 0
+    # The composed translation less the instance's (float64: exact where the shape sits at its prototype's origin).
+    origins[instanced] = instance_to_world[shape_instances[instanced], :3, 3]
+    offsets -= origins
+    placed = shape_to_world.copy()
+    placed[:, :3, 3] = origins.astype(np.float32).astype(np.float64) + offsets.astype(np.float32)
+    relative = shape_to_world.copy()
+    relative[:, :3, 3] = offsets
+    return device_transforms(shape_to_local, relative), placed
 
 
 def _non_empty(a: np.ndarray) -> np.ndarray:
