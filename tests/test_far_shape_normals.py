@@ -240,3 +240,30 @@ def test_instanced_shapes_off_their_prototype_origin_keep_float32s_local_precisi
     got = facing(hit_normals(scene, hits, o, d), d)
     error = angles(got[clear], expected[clear])
     assert error.max() <= OFF_CENTRE_ALLOWED, f"{np.degrees(error.max()):.2e} degrees at {position:g}"
+
+
+def test_the_normals_aov_of_a_point_instanced_sphere_off_its_prototype_origin_at_1e8(tmp_path):
+    """The ``normal`` AOV of a tiny render of the point-instanced gprims at 1e8, a camera 8 units from the sphere,
+    against the oracle, as for the traced hits. The trace placed the sphere at its world centre rounded to float32,
+    units off where shading places it: 250 of the 256 pixels where the oracle meets it squarely missed it."""
+    path = str(tmp_path / "off_centre.usda")
+    stage = write_off_centre_stage(path, 1e8, "point_instancer")
+    scene = load(path)
+    centre = [m[3, :3] for name, _, m in oracle.placements(stage) if name.endswith("/Sphere")][0]
+    # A float32 eye (as the rays start there): looking from the float64 one, the rays were aimed from 4 units away.
+    eye = (centre + EYE_DISTANCE * np.array([0.48, 0.6, 0.64])).astype(np.float32).astype(np.float64)
+    camera = wrt.Camera.look_at(eye, centre, (0, 0, 1), 20.0, clipping_range=(0.1, 100.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a camera this far from the world origin is named in a warning
+        image = wrt.render(scene, camera=camera, width=24, height=24, integrator="normals", device="cpu")
+    o, d = (np.asarray(a, np.float64) for a in camera_rays(scene, camera, 24, 24))
+    ref = oracle.trace(stage, o, d)
+    expected = facing(ref["normal"], d)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    prim = image.aovs["prim"].reshape(-1)
+    clear = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    assert clear.sum() > 200
+    assert (prim[clear] >= 0).all(), f"{(prim[clear] < 0).sum()} pixels the oracle sees squarely missed"
+    got = image.aovs["normal"].reshape(-1, 3).astype(np.float64)
+    error = angles(got[clear], expected[clear])
+    assert error.max() <= OFF_CENTRE_ALLOWED, f"{np.degrees(error.max()):.2e} degrees"
