@@ -900,6 +900,9 @@ class MaterialReader:
         hierarchy with a mesh at each level). The answer is kept in :attr:`memo` for the next loads of its kept stage
         (:class:`wrt.usd_material_memo.MaterialMemo`: no binding can differ there)."""
         key = (prim.GetPath(), outer, self.purposes)
+        # Named at every load, a kept binding too: kept, its walk (which named them) was not made again, and a kept
+        # stage's later loads went without the warning that a fresh load gives.
+        self._name_ambiguous_bindings(prim)
         kept = None if self.memo is None else self.memo.bindings.get(key)
         if kept is None:
             missed = set()
@@ -916,12 +919,9 @@ class MaterialReader:
     def _walk(self, prim, outer, missing):
         """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
         joined with ``outer``, or None (see :meth:`bound`)."""
-        from .usd_bindings import AMBIGUOUS_PURPOSE, OwnWalks, combine, outer_entry
+        from .usd_bindings import OwnWalks, combine, outer_entry
 
-        binds = self.bindings_above.any(prim)
-        for p, name in self.bindings_above.ambiguous(prim) if binds else ():
-            self.skip(AMBIGUOUS_PURPOSE, p, name)
-        own = OwnWalks(prim) if binds else (lambda purpose: None)
+        own = OwnWalks(prim) if self._name_ambiguous_bindings(prim) else (lambda purpose: None)
         if outer is None and missing is None:
             return own
 
@@ -932,6 +932,16 @@ class MaterialReader:
             return combine(found, outer_entry(outer, purpose), self._material_at)
 
         return walk
+
+    def _name_ambiguous_bindings(self, prim) -> bool:
+        """Whether ``prim`` or an ancestor binds anything (:attr:`bindings_above`); where one does, a warning names
+        each binding on them, not named before in this load, whose purpose USD's calls disagree on."""
+        from .usd_bindings import AMBIGUOUS_PURPOSE
+
+        binds = self.bindings_above.any(prim)
+        for p, name in self.bindings_above.ambiguous(prim) if binds else ():
+            self.skip(AMBIGUOUS_PURPOSE, p, name)
+        return binds
 
     def _material_at(self, path: str):
         from pxr import UsdShade
