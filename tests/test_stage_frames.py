@@ -1391,3 +1391,29 @@ def test_loads_inside_a_stage_cache_context_read_the_file_and_leave_the_cached_s
     assert cached.GetSessionLayer().ExportToString() == session
     assert cached.GetPrimAtPath("/Rig").GetVariantSet("size").GetVariantSelection() == "small"
     assert cache.Size() == 1
+
+
+def test_a_kept_mesh_of_mistyped_face_counts_warns_at_every_frame_as_a_fresh_load(tmp_path):
+    """An ``int64[] faceVertexCounts`` over a weaker layer's ``int[]`` one is read as USD's typed read reads it (the
+    weaker one: ``GetFaceCount``), with a warning at every load. A kept stage's later loads reuse the mesh and take its
+    face count from the kept read, whose warnings were recorded only from after the counts' read: the warning came
+    with the first frame alone. The mesh is bound to a shader wrt cannot read, whose warning comes between."""
+    (tmp_path / "weak.usda").write_text('#usda 1.0\nover "Tri" {\n    int[] faceVertexCounts = [3]\n}\n')
+    path = tmp_path / "mistyped_counts.usda"
+    path.write_text('#usda 1.0\n(\n    subLayers = [@./weak.usda@]\n)\n'
+                    'def Mesh "Tri" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n) {\n'
+                    '    rel material:binding = </Odd>\n'
+                    '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n'
+                    '    int64[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n}\n'
+                    'def Material "Odd" {\n    token outputs:surface.connect = </Odd/Shader.outputs:surface>\n'
+                    '    def Shader "Shader" {\n        uniform token info:id = "OddSurface"\n'
+                    '        token outputs:surface\n    }\n}\n')
+    assert UsdGeom.Mesh(Usd.Stage.Open(str(path)).GetPrimAtPath("/Tri")).GetFaceCount() == 1
+    frames = StageFrames(path)
+    for t in (None, None, None):  # (at a time code USD's typed read gets no counts: wrt refuses the mesh)
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert any("faceVertexCounts" in w for w in fresh_warned), fresh_warned
+        assert warned == fresh_warned, (t, warned)
+    assert frames.memo.counts["reused"] > 0

@@ -62,6 +62,7 @@ class KeptMesh(NamedTuple):
 
     inputs: MeshInputs
     n_faces: int  # len(faceVertexCounts)
+    count_skips: tuple  # (reason, path, detail) recorded while reading faceVertexCounts (before the materials)
     to_space: bytes  # the (4, 4) float64 transform baked in
     local: LocalMesh  # the mesh in its own space, refined, its smooth normals made (cage None)
     mesh: Mesh  # as baked with to_space; its arrays are read-only
@@ -92,24 +93,27 @@ class MeshMemo:
         # blocked_opaque (with world) decides how displayOpacity is read: Context.keep_opaque and blocked_opaque.
         return (str(prim.GetPath()), ctx.content.path, ctx.world, ctx.blocked_opaque, time.IsDefault())
 
-    def n_faces(self, key: tuple | None) -> int | None:
-        """The face count of a kept read under ``key`` (they all have the same), or None."""
+    def counted(self, key: tuple | None) -> tuple[int, tuple] | None:
+        """``(face count, warnings its read of faceVertexCounts recorded)`` of a kept read under ``key`` (they all
+        have the same), or None."""
         kept = self._kept.get(key) if key is not None else None
-        return kept[0].n_faces if kept else None
+        return (kept[0].n_faces, kept[0].count_skips) if kept else None
 
     def find(self, key: tuple, inputs: MeshInputs) -> KeptMesh | None:
         return next((k for k in self._kept.get(key, ()) if k.inputs == inputs), None)
 
-    def keep(self, key: tuple, inputs: MeshInputs, n_faces: int, to_space: np.ndarray, local: LocalMesh, mesh: Mesh,
-             read_skips: list, bake_skips: list) -> None:
+    def keep(self, key: tuple, inputs: MeshInputs, counted: tuple[int, list], to_space: np.ndarray, local: LocalMesh,
+             mesh: Mesh, read_skips: list, bake_skips: list) -> None:
         """Keeps a fresh read of a mesh: ``local`` as :meth:`MeshReading._read_mesh` baked it (smooth normals made),
-        and the ``mesh`` it gave with ``to_space``."""
+        and the ``mesh`` it gave with ``to_space``; ``counted``: its face count and the warnings the read of its
+        faceVertexCounts recorded (:meth:`counted`)."""
         self.counts["read"] += 1
+        n_faces, count_skips = counted
         kept_local = copy.copy(local)
         kept_local.cage = None  # its smooth normals are made: a bake makes none anew
         kept_local.refinement = None  # applied to its points already
-        entry = KeptMesh(inputs, n_faces, np.ascontiguousarray(to_space, np.float64).tobytes(), kept_local,
-                         copy.copy(mesh), tuple(read_skips), tuple(bake_skips))
+        entry = KeptMesh(inputs, n_faces, tuple(count_skips), np.ascontiguousarray(to_space, np.float64).tobytes(),
+                         kept_local, copy.copy(mesh), tuple(read_skips), tuple(bake_skips))
         _freeze([vars(entry.mesh), vars(entry.local)])  # shared by the scenes of every read that reuses it
         kept = self._kept.setdefault(key, [])
         kept[:] = [k for k in kept if k.inputs != entry.inputs][-(KEPT_PER_KEY - 1):] + [entry]

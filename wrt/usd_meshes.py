@@ -98,11 +98,15 @@ class MeshReading:
         read of it reused where nothing it is made from differs (``mesh_memo``, :mod:`wrt.usd_mesh_memo`)."""
         memo = self.mesh_memo
         key = None if memo is None else memo.key(prim, ctx, self.time, self.skel.skel_root)
-        n_faces = None if key is None else memo.n_faces(key)  # a kept read's: its counts cannot differ
+        counted = None if key is None else memo.counted(key)  # a kept read's: its counts cannot differ
         counts = None
-        if n_faces is None:
+        if counted is None:
+            before = len(self.skipped)
             counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
-            n_faces = len(counts)
+            n_faces, count_skips = len(counts), self.skipped[before:]
+        else:  # the warnings of the counts' read (a mistyped one passed over) recorded again, where a read gives them
+            n_faces, count_skips = counted
+            self.skipped += count_skips
         # Materials first: the texture-coordinate primvar to read depends on them.
         face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
@@ -128,7 +132,9 @@ class MeshReading:
             if kept is not None:
                 return self._reuse_mesh(prim, m, ctx, kept, face_materials, color_names)
             if counts is None:
+                before = len(self.skipped)
                 counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
+                del self.skipped[before:]  # recorded again from the kept read above
         start = len(self.skipped)  # the warnings from here on are this read's, kept with it
         local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
                                       ctx.blocked_opaque)
@@ -151,7 +157,8 @@ class MeshReading:
         baked = len(self.skipped)
         mesh = self._bake(prim, m, ctx, local, face_materials, color_names)
         if key is not None and posed is None and mesh is not None:
-            memo.keep(key, inputs, n_faces, m, local, mesh, self.skipped[start:baked], self.skipped[baked:])
+            memo.keep(key, inputs, (n_faces, count_skips), m, local, mesh, self.skipped[start:baked],
+                      self.skipped[baked:])
         return mesh
 
     def _reuse_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: Context, kept, face_materials, color_names: list):
