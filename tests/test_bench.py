@@ -81,7 +81,7 @@ def test_bad_and_oversized_sphere_sizes_are_refused_or_error_rows_that_name_them
     """sphere:N was read with float(): 'abc' failed as "could not convert string to float", 'inf' with an
     OverflowError, and a size beyond the host's memory was generated until the system killed the process. A size
     that is no size is refused before the run; one beyond the memory is an error row (the memory is the loader's)."""
-    for name in ("sphere:abc", "sphere:inf", "sphere:4"):
+    for name in ("sphere:abc", "sphere:inf", "sphere:4", "sphere:1.00000000000000001e3"):  # (not 1000: a fraction)
         with pytest.raises(ValueError, match=f"{name}: N must be a whole number of triangles"):
             tiny_grid(scenes=["sphere:2000", name]).validated()
     monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)  # 1 GiB: room for the small sphere

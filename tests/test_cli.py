@@ -1047,8 +1047,23 @@ def test_integer_options_take_whole_numbers_in_exponent_notation(text, value):
     assert build_parser().parse_args(["bench", "--n-rays", text]).n_rays == value
 
 
-@pytest.mark.parametrize("text", ["2.5", "2.5e0", "1e400", "nan", "inf", "1e", "e5", "five"])
+@pytest.mark.parametrize("text", ["12345678901234567e0", "123456789012345678900e-2", "9007199254740993E0"])
+def test_integer_options_in_exponent_notation_are_read_exactly(text):
+    """A float rounded a whole number of more than 16 digits (``12345678901234567e0`` to ...568). The oracle:
+    Python's exact rational reading of the text."""
+    from fractions import Fraction
+
+    from wrt.cli import build_parser
+
+    exact = Fraction(text.lower())
+    assert exact.denominator == 1
+    assert build_parser().parse_args(["bench", "--n-rays", text]).n_rays == exact.numerator
+
+
+@pytest.mark.parametrize("text", ["2.5", "2.5e0", "1e400", "nan", "inf", "1e", "e5", "five", "1.00000000000000001e0",
+                                  "1000000000000000.1e0"])
 def test_integer_options_refuse_what_is_no_whole_number(text, capsys):
+    """A fraction that a float rounds to a whole number (``1.00000000000000001e0``: 1) is still a fraction."""
     from wrt.cli import build_parser
 
     with pytest.raises(SystemExit) as exit_:

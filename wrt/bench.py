@@ -482,14 +482,13 @@ def sphere_triangles(name: str) -> int:
 def sphere_count(name: str) -> int:
     """The triangle count ``N`` of a ``sphere:N`` scene name; ValueError naming it unless ``N`` is a whole number,
     8 or more (the memory it needs is checked when it is made, on the machine that makes it)."""
+    from .cli import whole_number
+
     text = name.split(":", 1)[1]
-    try:
-        count = float(text)
-    except ValueError:
-        count = float("nan")
-    if not (math.isfinite(count) and count >= 8 and count == int(count)):
+    count = whole_number(text)  # exactly: float() took 1.00000000000000001e3 for 1000
+    if count is None or count < 8:
         raise ValueError(f"{name}: N must be a whole number of triangles, 8 or more (e.g. sphere:1e6), got {text!r}")
-    return int(count)
+    return count
 
 
 def asset_path(asset_id: str) -> Path:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import decimal
 import math
 import os
 import re
@@ -168,13 +169,20 @@ def _whole_number(text: str) -> int | None:
         return int(text)
     except ValueError:
         pass
-    if "e" not in text.lower():
-        return None
+    return whole_number(text) if "e" in text.lower() else None
+
+
+def whole_number(text: str) -> int | None:
+    """The int that decimal number ``text`` (``1e5``, ``2.5e1``, ``1000.0``) writes exactly, or None where it writes
+    none: a fraction, a word, NaN, infinity, or a number past 1e300 (its digits would be spelt out). Read in decimal:
+    a float rounded ``1.00000000000000001e0`` to 1, a whole number, and ``12345678901234567e0`` to ...568."""
     try:
-        number = float(text)
-    except ValueError:
+        number = decimal.Decimal(text)
+    except decimal.InvalidOperation:
         return None
-    return int(number) if math.isfinite(number) and number == int(number) else None
+    if not number.is_finite() or number.adjusted() > 300 or number != number.to_integral_value():
+        return None
+    return int(number)
 
 
 positive_int = int_at_least(1, "a positive integer")
