@@ -106,19 +106,41 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     """Warns about layers the stage composes (references, payloads, subLayers) that author a ``metersPerUnit`` or
     ``upAxis`` other than the stage's. USD does not convert them and neither does wrt (their geometry is drawn as
     authored), so a robot authored in metres referenced into a centimetre stage was drawn 100 times too small, and a
-    Z-up one in a Y-up stage on its side, without a word; a reference that scales or turns it itself is right."""
+    Z-up one in a Y-up stage on its side, without a word; a reference that scales or turns it itself is right.
+
+    A referenced or payload layer that authors no ``metersPerUnit`` is in USD's fallback, centimetres (what
+    ``GetStageMetersPerUnit`` gives it opened alone): in a stage of other units it is named too (it was silent: a
+    centimetre asset in a metre stage drawn 100 times too big). A sublayer that authors none shares its layer stack's
+    units (the root's, or the referenced layer's that lists it), and a value clip the stage's, so neither is named."""
 
     def shown(value) -> str:
         return f"{value:g}" if isinstance(value, float) else str(value)
 
+    def differ(key, value, stage_value) -> bool:
+        if key == "metersPerUnit":
+            return not UsdGeom.LinearUnitsAre(float(value), float(stage_value))
+        return value != stage_value
+
     own = (stage.GetRootLayer(), stage.GetSessionLayer())
+    used = stage.GetUsedLayers()
+    # Value clips and their manifests hold values of the stage's prims, in its units: none is an asset of its own.
+    shares_units = _sublayer_identifiers(used) | ({layer.identifier for layer in used}
+                                                 - {layer.identifier for layer in stage.GetUsedLayers(False)})
     stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
     for key, value in stage_values.items():
-        others = sorted(
-            f"{os.path.basename(layer.identifier)}: {shown(layer.pseudoRoot.GetInfo(key))}"
-            for layer in stage.GetUsedLayers()
-            if layer not in own and layer.pseudoRoot.HasInfo(key) and layer.pseudoRoot.GetInfo(key) != value
-        )
+        others = []
+        for layer in used:
+            if layer in own:
+                continue
+            name = os.path.basename(layer.identifier)
+            if layer.pseudoRoot.HasInfo(key):
+                authored = layer.pseudoRoot.GetInfo(key)
+                if differ(key, authored, value):
+                    others.append(f"{name}: {shown(authored)}")
+            elif (key == "metersPerUnit" and layer.identifier not in shares_units
+                  and differ(key, UsdGeom.LinearUnits.centimeters, value)):
+                others.append(f"{name}: none authored, so USD's fallback {shown(UsdGeom.LinearUnits.centimeters)}")
+        others.sort()
         if others:
             warnings.warn(
                 f"{os.path.basename(source)}: {key} = {shown(value)}, but {len(others)} layer(s) it composes author "
@@ -126,6 +148,17 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
                 "neither does wrt: they are drawn as authored",
                 stacklevel=user_stacklevel(),
             )
+
+
+def _sublayer_identifiers(layers) -> set[str]:
+    """The identifiers of the layers that one of ``layers`` lists in its ``subLayers`` (and which are open)."""
+    found = set()
+    for layer in layers:
+        for path in layer.subLayerPaths:
+            child = Sdf.Layer.FindRelativeToLayer(layer, path)
+            if child is not None:
+                found.add(child.identifier)
+    return found
 
 
 def check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
