@@ -615,6 +615,48 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+def define_tet_or_patch(stage, kind: str):
+    """A TetMesh (one tetrahedron whose base covers the square [-1, 1]^2 in z = 0, its apex above) or a bilinear
+    NurbsPatch (the square [-2, 2]^2 in z = 0), double-sided, at ``/Surface``."""
+    if kind == "TetMesh":
+        surface = UsdGeom.TetMesh.Define(stage, "/Surface")
+        surface.CreatePointsAttr([(-4, -4, 0), (4, -4, 0), (0, 6, 0), (0, 0, 1)])
+        surface.CreateTetVertexIndicesAttr([Gf.Vec4i(0, 1, 2, 3)])
+    else:
+        surface = UsdGeom.NurbsPatch.Define(stage, "/Surface")
+        surface.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (-2, 2, 0), (2, 2, 0)])
+        for attr, value in (("uVertexCount", 2), ("vVertexCount", 2), ("uOrder", 2), ("vOrder", 2)):
+            getattr(surface, f"Create{attr[0].upper()}{attr[1:]}Attr")(value)
+        surface.CreateUKnotsAttr([0, 0, 1, 1])
+        surface.CreateVKnotsAttr([0, 0, 1, 1])
+    surface.CreateDoubleSidedAttr(True)
+    return surface
+
+
+@pytest.mark.parametrize("kind", ["TetMesh", "NurbsPatch"])
+def test_tet_meshes_and_nurbs_patches_read_their_texture_at_the_readers_fallback_st(tmp_path, kind):
+    """A TetMesh or NurbsPatch has no texture coordinates in wrt, so a texture its material reads shows at the
+    UsdPrimvarReader_float2's ``fallback`` st, as on a mesh without the primvar (and on a gprim). The render did so,
+    while the warning said the prim was left untextured; it now names the primvar and the fallback read."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St"))
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.75, 0.25))  # the grey block's middle
+    stage.RemovePrim("/Quad")
+    bind(define_tet_or_patch(stage, kind), UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    stage.Save()
+    fallback = reader.GetInput("fallback").Get()
+    scene, messages = load_with_messages(path)
+    (message,) = [m for m in messages if "/Surface" in m]
+    assert "untextured" not in message, message
+    assert "reader's fallback st" in message, message
+    assert f"st, fallback ({fallback[0]:g}, {fallback[1]:g})" in message, message
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's texel at the fallback st
+
+
 @pytest.mark.parametrize("tessellate", [False, True])
 @pytest.mark.parametrize("gprim", ["Cube", "Sphere"])
 def test_a_gprim_reads_its_texture_at_the_readers_fallback_st(tmp_path, gprim, tessellate):

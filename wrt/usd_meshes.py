@@ -179,8 +179,13 @@ class MeshReading:
         (:mod:`wrt.usd_surfaces`), with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         face_materials = self._face_materials(prim, 1, ctx)
         color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
-        if self.materials.uv_set(face_materials, prim):
-            self._skip("TetMesh and NurbsPatch prims have no texture coordinates in wrt; left untextured", prim)
+        uv_set = self.materials.uv_set(face_materials, prim)
+        st = None if uv_set is None else self.materials.st_fallback(face_materials, uv_set)
+        if st is not None:
+            # Read at the reader's fallback, as a mesh without the primvar is (and a gprim); the warning said the
+            # prim was left untextured while the render showed the texture at that st.
+            self._skip("TetMesh and NurbsPatch prims have no texture coordinates in wrt: their textures show at the "
+                       "primvar reader's fallback st", prim, f"{uv_set}, fallback ({st[0]:g}, {st[1]:g})")
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
@@ -200,8 +205,9 @@ class MeshReading:
         default = face_materials is None or face_materials[0] < 0
         opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque) if default else None
         opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
+        uvs = None if st is None else (np.asarray(st, np.float64).reshape(1, 2), np.zeros_like(surface.triangles))
         local = LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
-                           cage=cage, opacities=opacities)
+                          uvs=uvs, cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_source: tuple | None,
