@@ -44,6 +44,7 @@ def octahedron(stage, path, color=(0.8, 0.3, 0.2)):
     mesh.CreatePointsAttr([Gf.Vec3f(*p) for p in pts])
     mesh.CreateFaceVertexCountsAttr([3] * len(faces))
     mesh.CreateFaceVertexIndicesAttr([i for f in faces for i in f])
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)  # polygonal: USD ignores a subdivision mesh's normals
     mesh.CreateNormalsAttr([Gf.Vec3f(*p) for p in pts])
     mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     mesh.CreateDisplayColorPrimvar().Set([Gf.Vec3f(*color)])

@@ -345,8 +345,12 @@ def make_stage(tmp_path, name="scene.usda"):
     return stage, path
 
 
-def define_mesh(stage, prim_path="/Mesh", left_handed=False):
+def define_mesh(stage, prim_path="/Mesh", left_handed=False, scheme=None):
+    """The quad and pentagon at ``prim_path``; ``scheme``: a subdivisionScheme to author ("none" where the test authors
+    normals: USD and Storm ignore those of a subdivision mesh, and the fallback scheme is catmullClark)."""
     mesh = UsdGeom.Mesh.Define(stage, prim_path)
+    if scheme is not None:
+        mesh.CreateSubdivisionSchemeAttr(scheme)
     mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in POINTS]))
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray(COUNTS))
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray(INDICES))
@@ -359,7 +363,7 @@ def define_mesh(stage, prim_path="/Mesh", left_handed=False):
 @pytest.mark.parametrize("where", ["primvar", "attribute"])
 def test_normals_interpolation(tmp_path, interpolation, where):
     stage, path = make_stage(tmp_path)
-    mesh = define_mesh(stage)
+    mesh = define_mesh(stage, scheme="none")
     values = unit_vectors(ELEMENTS[interpolation])
     vt = Vt.Vec3fArray.FromNumpy(values.astype(np.float32))
     if where == "primvar":
@@ -438,7 +442,7 @@ def test_non_finite_display_colors_warn_and_fall_back_to_grey(tmp_path):
 @pytest.mark.parametrize("interpolation", ["vertex", "faceVarying", "uniform"])
 def test_indexed_primvars(tmp_path, interpolation):
     stage, path = make_stage(tmp_path)
-    mesh = define_mesh(stage, left_handed=True)
+    mesh = define_mesh(stage, left_handed=True, scheme="none")
     table = unit_vectors(3, seed=5)
     element_ids = np.random.default_rng(1).integers(0, 3, ELEMENTS[interpolation])
     normals = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, interpolation)
@@ -510,7 +514,7 @@ def test_smooth_vertex_normals_sum_every_corner_in_face_order(dtype):
 
 def test_primvar_normals_override_attribute(tmp_path):
     stage, path = make_stage(tmp_path)
-    mesh = define_mesh(stage)
+    mesh = define_mesh(stage, scheme="none")
     mesh.CreateNormalsAttr(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0)] * len(POINTS)))
     mesh.SetNormalsInterpolation("vertex")
     UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, "constant").Set(
@@ -525,7 +529,7 @@ def test_normals_use_inverse_transpose(tmp_path):
     stage, path = make_stage(tmp_path)
     xform = UsdGeom.Xform.Define(stage, "/X")
     xform.AddScaleOp().Set(Gf.Vec3f(2, 1, -1))  # non-uniform and mirroring
-    mesh = define_mesh(stage, "/X/Mesh")
+    mesh = define_mesh(stage, "/X/Mesh", scheme="none")
     n = np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
     mesh.CreateNormalsAttr(Vt.Vec3fArray([Gf.Vec3f(*n)]))
     mesh.SetNormalsInterpolation("constant")
@@ -550,7 +554,7 @@ def test_general_matrix_points_and_normals(tmp_path, mirror):
     stage, path = make_stage(tmp_path)
     xform = UsdGeom.Xform.Define(stage, "/X")
     xform.AddTransformOp().Set(Gf.Matrix4d(*matrix.ravel().tolist()))
-    mesh = define_mesh(stage, "/X/Mesh")
+    mesh = define_mesh(stage, "/X/Mesh", scheme="none")
     normals = unit_vectors(len(POINTS))
     mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
     mesh.SetNormalsInterpolation("vertex")
@@ -1244,7 +1248,7 @@ def test_primvar_size_mismatch(tmp_path, name, interpolation, count, fragment):
     """A primvar whose length does not fit its interpolation is dropped, as Hydra drops it, the mesh drawn as if it
     had none, with a warning naming the file, the mesh and what is wrong; it stopped the load of the stage."""
     stage, path = make_stage(tmp_path)
-    mesh = define_mesh(stage, "/World/Mesh")
+    mesh = define_mesh(stage, "/World/Mesh", scheme="none")
     values = Vt.Vec3fArray.FromNumpy(unit_vectors(count).astype(np.float32))
     if name == "normals":
         UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, interpolation).Set(values)
@@ -1373,7 +1377,8 @@ def test_a_constant_primvar_warning_names_each_prim_once(tmp_path):
 
 
 def test_normals_attribute_size_mismatch(tmp_path):
-    body = mesh_usda(extra='normal3f[] normals = [(0, 0, 1), (0, 0, 1)] (interpolation = "vertex")')
+    body = mesh_usda(extra='normal3f[] normals = [(0, 0, 1), (0, 0, 1)] (interpolation = "vertex")\n'
+                     '    uniform token subdivisionScheme = "none"')
     expect_primvar_dropped(write_usda(tmp_path, body), "/Mesh", "normals",
                            "normals has 2 values; vertex interpolation needs 7")
 
@@ -1384,7 +1389,7 @@ def test_indexed_primvar_bad_index(tmp_path, name):
     drops it too, the mesh drawn as if it had none, with a warning naming the file, the mesh, the primvar and the
     index. It stopped the load of the stage."""
     stage, path = make_stage(tmp_path)
-    mesh = define_mesh(stage)
+    mesh = define_mesh(stage, scheme="none")
     type_name = {"displayColor": Sdf.ValueTypeNames.Color3fArray, "displayOpacity": Sdf.ValueTypeNames.FloatArray,
                  "normals": Sdf.ValueTypeNames.Normal3fArray}[name]
     primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(name, type_name, "uniform")

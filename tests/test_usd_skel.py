@@ -102,6 +102,7 @@ def SkelRoot "{name}" (
         int[] faceVertexCounts = {fmt(counts)}
         int[] faceVertexIndices = {fmt(indices)}
         point3f[] points = {fmt(points)}
+        uniform token subdivisionScheme = "none"
         normal3f[] normals = {fmt(normals)} (
             interpolation = "vertex"
         )
@@ -451,7 +452,9 @@ def test_refined_skinned_mesh_is_the_refinement_of_its_posed_cage(tmp_path):
     BakeSkinning's posed points (in world space; refinement is affine, so the world transform commutes with it)."""
     from wrt.subdivision import Refinement
 
-    path = write(tmp_path, skel_root())
+    body = skel_root().replace('subdivisionScheme = "none"', 'subdivisionScheme = "catmullClark"')  # the bar's
+    assert body.count("catmullClark") == 1
+    path = write(tmp_path, body)
     stage = baked(path)
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/Root/Bar"))
     time = Usd.TimeCode(7)
@@ -529,6 +532,7 @@ def test_blend_shape_normal_offsets_turn_the_normals_as_bake_skinning_turns_them
             uniform vector3f[] normalOffsets = [(0, 0.5, 0)]
 ''').replace('''        rel skel:blendShapeTargets = </Root/Face/bulge>
 ''', '''        rel skel:blendShapeTargets = </Root/Face/bulge>
+        uniform token subdivisionScheme = "none"
         normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1)] (
             interpolation = "vertex"
         )

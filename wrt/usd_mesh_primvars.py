@@ -46,6 +46,12 @@ class MeshPrimvarReading:
             return self._read_primvar(prim, attr, mesh.GetNormalsInterpolation(), None, topology)
         return None
 
+    @staticmethod
+    def _has_normals(prim, mesh) -> bool:
+        """Whether the mesh has a ``primvars:normals`` or ``normals`` value (those :meth:`_read_normals` reads)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
+        return bool(primvar and primvar.HasValue()) or mesh.GetNormalsAttr().HasValue()
+
     def _read_colors(self, prim, topology, name: str):
         """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
         one the mesh's material reads; its own or inherited, see ``LookReading._color_primvar``; the rgb of a 4-vector

@@ -285,9 +285,17 @@ class MeshReading:
         vertex_ids = polygons[1][tri_corners]
 
         topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
-        # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
         flip = self._left_handed(prim, mesh, t)
-        normals = self._read_normals(prim, mesh, topology) if refinement is None else None
+        normals = None
+        if scheme == "none":
+            normals = self._read_normals(prim, mesh, topology)
+        elif self._has_normals(prim, mesh):
+            # USD: normals "should not be authored on any Mesh that is subdivided", and UsdImaging hands them to Hydra
+            # for "none" meshes only, so Storm shades the others as if they had none, refined or not. wrt shaded an
+            # unrefined one with them (an exporter's hard normals on a mesh left at the default catmullClark looked
+            # faceted here, smooth in usdview) and dropped them from a refined one silently.
+            self._skip('authored normals of subdivision meshes were ignored, as USD and Storm ignore them (author '
+                       'subdivisionScheme = "none" for a polygonal mesh)', prim, f"subdivisionScheme {scheme}")
         if normals is not None:
             normals = self._usable_normals(prim, normals, points[vertex_ids], flip)
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
