@@ -1119,6 +1119,33 @@ def test_int64_face_counts_are_no_faces_to_usd_and_an_error_to_wrt(tmp_path):
 
 
 
+
+@pytest.mark.parametrize("attribute, authored", [("faceVertexCounts", "int64[]"), ("faceVertexIndices", "uint[]"),
+                                                 ("faceVertexIndices", "int64[]")])
+def test_topology_time_samples_of_another_int_type_are_refused_at_any_time(tmp_path, attribute, authored):
+    """Topology authored as time samples of another integer type than ``int[]``, even over a weaker ``int[]``
+    opinion: USD's typed read gets no faces at the time codes (``GetFaceCount(t)`` 0, the samples hide the weaker
+    value), and wrt refuses the mesh at any time with an error naming the file, the prim, the attribute and the
+    type, as it does for such a default value (not a crash, not faces numpy made of the integers)."""
+    old = f"int[] {attribute} = {fmt(COUNTS if attribute == 'faceVertexCounts' else INDICES)}"
+    text = mesh_usda("Bad")
+    assert old in text
+    samples = old.replace("int[]", authored).replace(f"{attribute} = ", f"{attribute}.timeSamples = {{ 1: ") + " }"
+    (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Bad" {{\n        {old}\n    }}\n}}\n')
+    path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text.replace(old, samples) + "}\n",
+                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+    stage = Usd.Stage.Open(path)
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Bad"))
+    for time in (1.0, 2.5):
+        value = mesh.GetPrim().GetAttribute(attribute).Get(time)  # what a typed (VtIntArray) read refuses
+        assert len(value) and not isinstance(value, Vt.IntArray)
+        assert mesh.GetFaceCount(Usd.TimeCode(time)) == (0 if attribute == "faceVertexCounts" else len(COUNTS))
+        with pytest.raises(SceneError, match=f"{path}: /World/Bad: {attribute} must be int\\[\\], not "
+                                             f"{authored.replace('[]', '')}\\[\\]") as caught:
+            load_usd(path, time=time)
+        assert caught.value.prim == "/World/Bad"
+
+
 def test_int64_face_counts_over_a_weaker_int_array_read_the_weaker_one_as_usd_does(tmp_path):
     """An ``int64[] faceVertexCounts`` over a weaker layer's ``int[]`` one is passed over by USD's typed read for the
     weaker value (``GetFaceCount`` counts its faces; usdview draws them); wrt stopped the load with SceneError as if
