@@ -483,9 +483,12 @@ class _Graph:
             self.notes.append(f"the texture transform of {node.GetPath()} passes float32's range; "
                               f"{_format(fallback)} is used")
             return fallback, None
-        return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
-                                      st_fallback=st_fallback, tiles=tiles,
-                                      fallback=four_components(fallback, TEXTURE_FALLBACK), filter=texture_filter)
+        texture = TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
+                               st_fallback=st_fallback, tiles=tiles,
+                               fallback=four_components(fallback, TEXTURE_FALLBACK), filter=texture_filter)
+        if size == 2:  # a vector2 has no third channel: a convert to three gives it 0, not the file's blue
+            texture.scale[2] = 0.0
+        return fallback, texture
 
     def _address_mode(self, node, key: str, modes: dict) -> str:
         """wrt's wrap mode for image node ``node``'s ``uaddressmode`` or ``vaddressmode`` (``key``; unauthored:

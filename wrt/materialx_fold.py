@@ -11,8 +11,8 @@ node (``ND_<node>_*``)  output                                          of a tex
 ``constant``           ``value`` (0)                                   --
 ``dot``                ``in`` (a no-op)                                passed through
 ``convert``            ``in``: a float fills every channel; 3 from 2    passed through (wrt reads rgb, or one
-                       add 0, 4 from 3 add 1 (alpha); fewer drop the   channel broadcast, already)
-                       last
+                       add 0, 4 from 3 add 1 (alpha); fewer drop the   channel broadcast, already; a vector2
+                       last                                            image's third channel is 0)
 ``multiply``           ``in1 (0) * in2 (1)``, per channel               times a constant: its ``scale``
 ``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          plus or minus a constant: its ``bias``
                                                                         (a constant minus it: ``scale`` negated)
@@ -177,8 +177,8 @@ def _offset(node, varying: Folded, offset: np.ndarray, negate: bool, size: int) 
     value = _sized(offset, n) + (-1.0 if negate else 1.0) * _sized(varying.value, n)
     sign = np.full(4, -1.0 if negate else 1.0)
     shift = _sized(offset, 4)
-    if size == 3 and not one_channel:  # colour3: no alpha of its own
-        sign[3], shift[3] = 1.0, 0.0
+    if size in (2, 3) and not one_channel:  # a colour3 has no alpha of its own, a vector2 no third channel either
+        sign[size:], shift[size:] = 1.0, 0.0
     with np.errstate(over="ignore", invalid="ignore"):  # checked below
         source.scale = (source.scale * sign).astype(np.float32)
         source.bias = (source.bias * sign + shift).astype(np.float32)
