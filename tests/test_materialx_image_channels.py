@@ -8,11 +8,15 @@ UsdPreviewSurface specification's rule instead (grey ``(c, c, c, 1)``, grey + al
 tests/test_texture_files.py covers. The expected values here come from the samples each test writes."""
 
 import numpy as np
+import pytest
 from PIL import Image as PilImage
-from pxr import Sdf, UsdShade
+from pxr import Gf, Sdf, UsdShade
 from test_materials import add_quad, bind, new_stage
-from test_materialx import albedo, load, mtlx_material
+from test_materialx import OPEN_PBR, albedo, load, mtlx_material
+from test_stage_frames import counted_frames
 from test_texture_files import write_exr
+
+import wrt
 
 # Per file: how it is written and its channels in the file's order (what MaterialX's output types take).
 PNG_SAMPLES = {"L": [51], "LA": [51, 204], "RGB": [51, 102, 153], "RGBA": [51, 102, 153, 204]}
@@ -83,7 +87,7 @@ def base_color_of(tmp_path, png, node_type, chain) -> np.ndarray:
     bind(add_quad(stage, "/Quad"), material)
     stage.Save()
     scene, messages = load(path)
-    assert not [m for m in messages if "/Looks/Image" in m], messages
+    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
     return albedo(scene, 2).reshape(-1, 3).mean(axis=0)
 
 
@@ -102,6 +106,96 @@ def test_a_vector2_image_converted_to_a_colour_has_no_third_channel(tmp_path):
     bind(add_quad(stage, "/Quad"), material)
     stage.Save()
     scene, messages = load(path)
-    assert not [m for m in messages if "/Looks/Image" in m], messages
+    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
     expected = [channels[0] + 0.1, channels[1] + 0.2, 0.0]
     np.testing.assert_allclose(albedo(scene, 2).reshape(-1, 3), np.tile(expected, (4, 1)), atol=2e-3)
+
+
+@pytest.mark.parametrize("node_type", list(TO_COLOR3))
+@pytest.mark.parametrize("kind", FILES)
+def test_an_image_node_outputs_the_files_first_channels_and_zero_past_them(tmp_path, kind, node_type):
+    """Each output type of an image node of each file, brought to base_color as MaterialX converts it, draws the
+    file's first channels and 0 past them: a color3 of a grey PNG ``(c, 0, 0)``, of grey + alpha ``(c, a, 0)``, a
+    vector2 of an R G EXR ``(R, G)``. The image nodes read the file as UsdUVTexture reads it: a grey file repeated
+    into r, g and b, and the second of two channels as alpha (an R G EXR's vector2 was ``(R, R)``)."""
+    png, channels = write_file(tmp_path, kind)
+    out = materialx_output(channels, SIZES[node_type])
+    expected = np.full(3, out[0]) if out.size == 1 else np.append(out, 0.0)[:3]  # convert: fill, or 0 for a third
+    np.testing.assert_allclose(base_color_of(tmp_path, png, node_type, TO_COLOR3[node_type]), expected, atol=2e-3)
+
+
+@pytest.mark.parametrize("node_type", ["color4", "vector4"])
+@pytest.mark.parametrize("kind", FILES)
+def test_the_fourth_channel_of_an_image_node_is_the_files_fourth_or_one(tmp_path, kind, node_type):
+    """The fourth output of a color4 or vector4 image node (an OpenPBR ``emission_luminance`` through ``extract``
+    index 3, of a surface that reflects nothing) is the file's fourth channel, 1 for a file of fewer: a grey + alpha
+    PNG's alpha is its second channel (the node's g), not its fourth. It was the alpha UsdUVTexture reads, so an
+    R G EXR emitted its G, a grey + alpha PNG its alpha."""
+    png, channels = write_file(tmp_path, kind)
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+    image = image_node(stage, "/Looks/Image", png, node_type)
+    fourth = UsdShade.Shader.Define(stage, "/Looks/Image/Fourth")
+    fourth.CreateIdAttr(f"ND_extract_{node_type}")
+    fourth.CreateInput("in", USD_TYPES[node_type]).ConnectToSource(image.ConnectableAPI(), "out")
+    fourth.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(fourth.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+    np.testing.assert_allclose(rgb, materialx_output(channels, 4)[3], atol=2e-3)
+
+
+def uv_texture_material(stage, path, png):
+    """A UsdPreviewSurface whose diffuseColor is the rgb of a UsdUVTexture of ``png`` (raw)."""
+    material = UsdShade.Material.Define(stage, path)
+    surface = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    texture = UsdShade.Shader.Define(stage, f"{path}/Image")
+    texture.CreateIdAttr("UsdUVTexture")
+    texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+    texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(texture.ConnectableAPI(), "rgb")
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    return material
+
+
+def test_a_file_read_by_materialx_and_usduvtexture_over_the_frames_of_a_kept_stage(tmp_path, monkeypatch):
+    """A grey PNG read by a MaterialX color3 image and by a UsdUVTexture gives each its own texels, ``(c, 0, 0)`` and
+    ``(c, c, c)``; an RGB PNG read by both is one image. Over the frames of a kept stage each material is read once
+    per kind of time (the MaterialX texels are kept with the file's pixels, so a kept read finds the same ones) and
+    every frame equals a fresh load. The MaterialX image of the grey file was ``(c, c, c)``."""
+    grey, grey_channels = write_file(tmp_path, "png L")
+    colour, colour_channels = write_file(tmp_path, "png RGB")
+    stage, path = new_stage(tmp_path, "frames.usda")
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    looks = {}
+    for name, png in (("Grey", grey), ("Colour", colour)):
+        material, shader = mtlx_material(stage, f"/Looks/{name}")
+        last = image_node(stage, f"/Looks/{name}", png, "color3")
+        shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(last.ConnectableAPI(), "out")
+        looks[name] = material
+        looks[f"{name}UV"] = uv_texture_material(stage, f"/Looks/{name}UV", png)
+    for k, (name, material) in enumerate(looks.items()):
+        bind(add_quad(stage, f"/World/{name}", center=(3.0 * k, 0.0, 0.0)), material)
+    mover = add_quad(stage, "/World/Mover", center=(0.0, 3.0, 0.0)).AddTranslateOp()  # the frames differ
+    mover.Set(Gf.Vec3d(0, 0, 0), 1)
+    mover.Set(Gf.Vec3d(0, 0, 2), 3)
+    stage.Save()
+    frames, counts = counted_frames(path, (1, 2, None, 3), monkeypatch)
+    assert counts == {f"/Looks/{name}": 2 for name in looks}, counts
+    scene = frames.load(2)
+    assert len(scene.textures) == 3, len(scene.textures)  # grey twice, colour once
+    texel = {m.path: scene.textures[m.textures["diffuseColor"].image][0, 0].astype(np.float64)
+             for m in scene.materials}
+    np.testing.assert_allclose(texel["/Looks/Grey"], [grey_channels[0], 0.0, 0.0, 1.0], atol=1e-6)
+    np.testing.assert_allclose(texel["/Looks/GreyUV"], [grey_channels[0]] * 3 + [1.0], atol=1e-6)
+    np.testing.assert_allclose(texel["/Looks/Colour"], np.append(colour_channels, 1.0), atol=1e-6)
+    colour_images = {m.textures["diffuseColor"].image for m in scene.materials if "Colour" in m.path}
+    assert len(colour_images) == 1, colour_images

@@ -65,10 +65,12 @@ from .textures import (
     WRAP_CLAMP,
     WRAP_MODES,
     TextureError,
-    load_image,
+    materialx_texels,
     nearest_texel,
     outside_to_fallback,
     pack_images,
+    read_image,
+    reads_in_place,
     sample_image,
     stored_texels,
     udim_tile,
@@ -874,7 +876,10 @@ class MaterialReader:
         self.texture_paths: list[str] = []
         self._by_path: dict[str, int] = {}  # material prim path (in its prototype) -> index, -1 for the default
         self._readable: dict = {}  # material prim path (Sdf.Path) -> its readable_surface
-        self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
+        # (resolved path, colour space) -> image index, -1 unreadable; a MaterialX image node's read of the file, laid
+        # out as it takes the file's channels, under (resolved path, colour space, "materialx")
+        self._images: dict[tuple, int] = {}
+        self._channels: dict[tuple[str, str], tuple[int, ...]] = {}  # the same key -> its file's channels' places
         # (resolved path, colour space) -> (reason, detail) of what a file's read found wrong: told again with each
         # shader that names the file, as a fresh read of that shader would tell it
         self._file_problems: dict[tuple[str, str], tuple[str, str | None]] = {}
@@ -1562,19 +1567,20 @@ class MaterialReader:
             return np.zeros(2, np.float32)
         return v.astype(np.float32)
 
-    def file_images(self, shader, color_space: str, material_path: str, name: str = "file"):
+    def file_images(self, shader, color_space: str, material_path: str, name: str = "file", layout: str = "preview"):
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX
-        image node) in :attr:`textures`: ``image`` is -1 (with a warning) when nothing can be read. ``tiles`` is
-        None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile; a read
-        being kept records the call (:class:`wrt.usd_material_memo.FileLookup`)."""
+        image node) in :attr:`textures`, its texels laid out as ``layout`` (:meth:`_load`) reads them: ``image`` is
+        -1 (with a warning) when nothing can be read. ``tiles`` is None, or for a ``<UDIM>`` file the
+        :attr:`TextureInput.tiles` table, ``image`` being its first tile; a read being kept records the call
+        (:class:`wrt.usd_material_memo.FileLookup`)."""
         if self.lookups is None:
-            return self._file_images(shader, color_space, material_path, name)
+            return self._file_images(shader, color_space, material_path, name, layout)
         from .usd_material_memo import FileLookup
 
         start = len(self.skipped)
-        image, tiles = self._file_images(shader, color_space, material_path, name)
-        self.lookups.append(FileLookup((shader, color_space, material_path, name), (start, len(self.skipped)), image,
-                                       tiles, self.pixels_of(image, tiles)))
+        image, tiles = self._file_images(shader, color_space, material_path, name, layout)
+        self.lookups.append(FileLookup((shader, color_space, material_path, name, layout), (start, len(self.skipped)),
+                                       image, tiles, self.pixels_of(image, tiles)))
         return image, tiles
 
     def pixels_of(self, image: int, tiles) -> tuple:
@@ -1594,18 +1600,19 @@ class MaterialReader:
         for cache, size in ((self._images, images), (self._udim, udim)):
             for key in list(cache)[size:]:
                 del cache[key]
-                self._file_problems.pop(key, None)
+                if key[:2] not in self._images:  # (a MaterialX read's problems are told under its file's key)
+                    self._file_problems.pop(key[:2], None)
                 self._udim_files.pop(key, None)
 
-    def _file_images(self, shader, color_space: str, material_path: str, name: str):
+    def _file_images(self, shader, color_space: str, material_path: str, name: str, layout: str):
         asset = self._constant(shader, name)
         if isinstance(asset, str) and asset:
             asset = self._string_asset(shader, name, asset)
         authored = getattr(asset, "path", "") or ""
         if "<UDIM>" not in authored:
-            return self._image(asset, color_space, shader.GetPrim()), None
+            return self._image(asset, color_space, shader.GetPrim(), layout), None
         tiles = self._udim_tiles(_source_attribute(shader, name), authored, color_space, shader.GetPrim(),
-                                 material_path)
+                                 material_path, layout)
         found = tiles[tiles >= 0]
         return (int(found[0]) if len(found) else -1), tiles
 
@@ -1618,21 +1625,22 @@ class MaterialReader:
                   shader.GetPrim(), detail=f"{name} = {text!r}")
         return asset_in_layer(text, _authoring_layer(_source_attribute(shader, name), self.time))
 
-    def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str) -> np.ndarray:
+    def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str,
+                    layout: str = "preview") -> np.ndarray:
         """``(UDIM_TILES,)`` int32 images of the tiles of UDIM pattern ``authored`` (-1: no such file), found as
         ``UsdShade.UdimUtils`` resolves them: relative to the layer that authored ``attr``'s value (also inside a
         ``.usdz``), tiles 1001 to 1100. No tile at all is reported once per pattern, naming ``material_path``."""
         from pxr import UsdShade
 
         layer = _authoring_layer(attr, self.time)
-        key = (authored, layer.identifier if layer else "", color_space)
+        key = (authored, layer.identifier if layer else "", color_space, layout)
         if key not in self._udim:
             tiles = np.full(UDIM_TILES, -1, np.int32)
             files = []
             for resolved, tile in UsdShade.UdimUtils.ResolveUdimTilePaths(authored, layer) if layer else []:
                 row = int(tile) - UDIM_FIRST
                 if 0 <= row < UDIM_TILES:
-                    tiles[row] = self._load(resolved, resolved, color_space, prim)
+                    tiles[row] = self._load(resolved, resolved, color_space, prim, layout)
                     files.append((resolved, color_space))
             self._udim[key] = tiles
             self._udim_files[key] = files
@@ -1644,9 +1652,9 @@ class MaterialReader:
                       f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
         return self._udim[key]
 
-    def _image(self, asset, color_space: str, prim) -> int:
-        """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures`; -1 (with a warning) when
-        it cannot be read."""
+    def _image(self, asset, color_space: str, prim, layout: str = "preview") -> int:
+        """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures` (laid out as ``layout``:
+        :meth:`_load`); -1 (with a warning) when it cannot be read."""
         from pxr import Sdf
 
         if asset is None:  # no file authored (or one fed by a node): the fallback, as for a file not found
@@ -1660,7 +1668,7 @@ class MaterialReader:
         resolved = getattr(asset, "resolvedPath", "") or ""
         authored = getattr(asset, "path", "") or str(asset)
         if resolved:
-            return self._load(resolved, authored, color_space, prim)
+            return self._load(resolved, authored, color_space, prim, layout)
         key = (authored, color_space)
         if key not in self._images:
             self._images[key] = -1
@@ -1669,27 +1677,77 @@ class MaterialReader:
         self._tell_file_problem(key, prim)
         return self._images[key]
 
-    def _load(self, resolved: str, authored: str, color_space: str, prim) -> int:
-        """Index of the image at ``resolved`` in :attr:`textures`, read on first use; -1 (with a warning naming
-        ``authored``) when it cannot be read."""
-        key = (resolved, color_space)
+    def _load(self, resolved: str, authored: str, color_space: str, prim, layout: str = "preview") -> int:
+        """Index of the image at ``resolved`` in :attr:`textures`, read on first use, its texels laid out as
+        ``layout`` reads them: ``preview`` as :func:`wrt.textures.load_image` decodes them (UsdUVTexture's
+        channels: grey repeated into r, g and b, two channels grey + alpha), ``materialx`` as a MaterialX image node
+        takes the file's channels (:func:`wrt.textures.materialx_texels`; the same image for a colour file, and one
+        read of the file for both); -1 (with a warning naming ``authored``) when it cannot be read."""
+        file_key = (resolved, color_space)
+        key = file_key if layout == "preview" else file_key + (layout,)
         if key not in self._images:
             try:
-                pixels = load_image(resolved, color_space) if self.memo is None else self.memo.image(
-                    resolved, color_space, load_image)
+                pixels, channels = self._file_pixels(resolved, color_space)
             except TextureError as e:
-                self._file_problems[key] = (f"texture {authored}: {e}; the texture's fallback value is used", None)
+                self._file_problems[file_key] = (f"texture {authored}: {e}; the texture's fallback value is used",
+                                                 None)
                 self._images[key] = -1
             else:
-                self._images[key] = len(self.textures)
-                self.textures.append(pixels)
-                self.texture_paths.append(resolved)
-                unpacked = _unpacked_texels(pixels, resolved)
+                texels = pixels if layout == "preview" else self._materialx_texels(file_key, pixels, channels)
+                self._images[key] = self._texture_index(texels, file_key)
+                unpacked = _unpacked_texels(texels, resolved) if self._images[key] == len(self.textures) - 1 else ""
                 if unpacked:  # pack_images stores float16: they were changed without a word
-                    self._file_problems[key] = (f"texture {authored}: texels that are NaN or past float16's range "
-                                                "were changed (NaN read as 0, others clamped to +-65504)", unpacked)
-        self._tell_file_problem(key, prim)
+                    self._file_problems[file_key] = (f"texture {authored}: texels that are NaN or past float16's "
+                                                     "range were changed (NaN read as 0, others clamped to +-65504)",
+                                                     unpacked)
+        self._tell_file_problem(file_key, prim)
         return self._images[key]
+
+    def _file_pixels(self, resolved: str, color_space: str) -> tuple[np.ndarray, tuple[int, ...]]:
+        """:func:`wrt.textures.read_image` of the file: the pixels of a read of it already in :attr:`textures` (a
+        MaterialX read of a colour file is its pixels), else decoded, through the memo where there is one (its
+        pixels kept while the file keeps its stamp, and their channels beside them)."""
+        file_key = (resolved, color_space)
+        channels = self._channels.get(file_key)
+        if channels is not None:
+            for key, same in ((file_key, True), (file_key + ("materialx",), reads_in_place(channels))):
+                if same and self._images.get(key, -1) >= 0:
+                    return self.textures[self._images[key]], channels
+        if self.memo is None:
+            pixels, channels = read_image(resolved, color_space)
+        else:
+            decoded = []
+
+            def load(path, space):
+                pixels, channels = read_image(path, space)
+                decoded.append(channels)
+                return pixels
+
+            pixels = self.memo.image(resolved, color_space, load)
+            # Kept pixels decoded by a light (wrt.usd_lights.LightTextures) have no channels kept: read again.
+            kept = self.memo.derived(resolved, color_space, pixels, "channels", lambda: np.array(
+                decoded[0] if decoded else read_image(resolved, color_space)[1]))
+            channels = tuple(int(c) for c in kept)
+        self._channels[file_key] = channels
+        return pixels, channels
+
+    def _materialx_texels(self, file_key: tuple[str, str], pixels: np.ndarray, channels: tuple) -> np.ndarray:
+        """:func:`wrt.textures.materialx_texels` of a file's ``pixels``, kept with them by the memo (a kept
+        material's replay finds the same array)."""
+        if self.memo is None or reads_in_place(channels):
+            return materialx_texels(pixels, channels)
+        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels))
+
+    def _texture_index(self, texels: np.ndarray, file_key: tuple[str, str]) -> int:
+        """Index of ``texels`` (of the file of ``file_key``) in :attr:`textures`: the one a read of the file in the
+        other layout put there where it is the same array, else ``texels`` added at the end."""
+        for key in (file_key, file_key + ("materialx",)):
+            k = self._images.get(key, -1)
+            if k >= 0 and self.textures[k] is texels:
+                return k
+        self.textures.append(texels)
+        self.texture_paths.append(file_key[0])
+        return len(self.textures) - 1
 
     def _tell_file_problem(self, key: tuple[str, str], prim) -> None:
         """Warns, naming shader ``prim``, of what the read of the file of ``key`` found wrong, if anything: at each

@@ -51,7 +51,11 @@ Approximations, each named in the material's one warning when it changes what is
 
 An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node: ``ND_image_*`` or
 ``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or through a NodeGraph
-output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (for ``color3`` and ``color4`` nodes the
+output. An image node becomes a :class:`wrt.materials.TextureInput`: its output is the file's first channels, 0
+past the file's but for a fourth of 1 (the specification's rule, as MaterialX's GLSL, MSL and OSL sample: a ``color3``
+of a grey file is ``(c, 0, 0)``, a ``vector2`` of an ``R G`` EXR ``(R, G)``, of an RGB file ``(r, g)``, its third
+channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`), ``file`` (for ``color3`` and
+``color4`` nodes the
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
@@ -460,7 +464,8 @@ class _Graph:
                               "(else its one layer of colour channels)")
         # MaterialX colour-manages colour types only: float and vector images (masks, normal maps) are data.
         color_space = self._color_space(file_input) if node_id.endswith(("_color3", "_color4")) else "raw"
-        image, tiles = reader.file_images(node, color_space, self.path)
+        # MaterialX's channels, not UsdUVTexture's: a grey file is (c, 0, 0, 1), two channels (c0, c1, 0, 1)
+        image, tiles = reader.file_images(node, color_space, self.path, layout="materialx")
         if image < 0:
             return fallback, None
         tiled = node_id.startswith("ND_tiledimage_")

@@ -13,7 +13,8 @@ Conventions, stated once:
   8-bit RGB/RGBA images and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and
   raw for everything else (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers
   decide. Missing channels read as grey ``L`` ->
-  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour). 16-bit PNGs and
+  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour), as UsdUVTexture reads
+  them; a MaterialX image node takes a file's channels in order instead (:func:`materialx_texels`). 16-bit PNGs and
   RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
@@ -56,6 +57,10 @@ UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
 UDIM_TILES = 100  # UDIM_COLUMNS * UDIM_ROWS: tiles UDIM_FIRST .. UDIM_FIRST + 99
+# Where a decoded image holds its file's channels, in the file's order (read_image): RGBA places 0 to 3.
+GREY_CHANNELS = (0,)  # one channel, read (c, c, c, 1)
+GREY_ALPHA_CHANNELS = (0, 3)  # two, grey and alpha, read (c, c, c, a)
+COLOUR_CHANNELS = (0, 1, 2, 3)  # colour in its places (an RGB file's alpha 1)
 
 
 class TextureError(ValueError):
@@ -89,6 +94,14 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
     Raises:
         TextureError: the file is missing or no reader understands it.
     """
+    return read_image(resolved_path, color_space)[0]
+
+
+def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarray, tuple[int, ...]]:
+    """:func:`load_image`'s pixels and the RGBA places of the file's channels, in the file's order: grey
+    :data:`GREY_CHANNELS`, grey + alpha :data:`GREY_ALPHA_CHANNELS` (an EXR of two channels too, ``R G`` read as
+    grey + alpha), colour :data:`COLOUR_CHANNELS` (an EXR's colour channels where it has them: ``R G A`` is
+    ``(0, 1, 3)``). :func:`materialx_texels` lays them out as a MaterialX image node reads them."""
     try:
         data = read_asset_bytes(resolved_path)
     except TextureError:
@@ -101,17 +114,40 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
 
     name = resolved_path.lower().rstrip("]")
     if is_radiance(data, name):
-        rgba, auto_srgb = read_radiance(data, resolved_path), False
+        rgba, channels, auto_srgb = read_radiance(data, resolved_path), COLOUR_CHANNELS, False
     elif name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
-        rgba, auto_srgb = _read_exr(data, resolved_path), False
+        (rgba, channels), auto_srgb = _read_exr(data, resolved_path), False
     else:
-        rgba, auto_srgb = _read_pillow(data, resolved_path)
+        rgba, channels, auto_srgb = _read_pillow(data, resolved_path)
     srgb = color_space == "sRGB" or (color_space == "auto" and auto_srgb)
     if rgba.dtype == np.uint8:
-        return _decode_8bit(rgba, srgb)
+        return _decode_8bit(rgba, srgb), channels
     if srgb:
         rgba[..., :3] = srgb_to_linear(rgba[..., :3])
-    return np.ascontiguousarray(rgba, dtype=np.float32)
+    return np.ascontiguousarray(rgba, dtype=np.float32), channels
+
+
+def reads_in_place(channels: tuple[int, ...]) -> bool:
+    """Whether a MaterialX image node reads a file whose channels lie at RGBA places ``channels`` (:func:`read_image`)
+    as they are decoded: colour in its places, alpha (1 where the file has none) fourth."""
+    return tuple(channels[:3]) == (0, 1, 2)
+
+
+def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...]) -> np.ndarray:
+    """``pixels`` (:func:`read_image`'s, the file's channels at RGBA places ``channels``) as a MaterialX image node
+    reads its file: the file's channels first, in its order, 0 past them but for a fourth of 1, as the Standard
+    Nodes specification has it and MaterialX's GLSL, MSL and OSL implementations sample (MaterialX pull requests
+    2985 and 3073): grey ``(c, 0, 0, 1)``, grey + alpha ``(c, a, 0, 1)``, an EXR's ``R G`` ``(R, G, 0, 1)``.
+    UsdUVTexture reads grey as ``(c, c, c)`` and two channels as grey + alpha (the UsdPreviewSurface specification's
+    rule).
+    ``pixels`` itself where they lie so already (colour in its places)."""
+    if reads_in_place(channels):
+        return pixels
+    texels = np.zeros(pixels.shape, np.float32)
+    texels[..., 3] = 1.0
+    for k, place in enumerate(channels):
+        texels[..., k] = pixels[..., place]
+    return texels
 
 
 def _decode_8bit(rgba: np.ndarray, srgb: bool) -> np.ndarray:
@@ -134,11 +170,12 @@ def png_bit_depth(data: bytes) -> int:
     return 0
 
 
-def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
-    """The image as ``(H, W, 4)`` RGBA samples and whether ``auto`` reads it as sRGB: as the file's colour space
-    metadata says (:func:`tagged_srgb`), else for 8-bit colour."""
-    rgba, is_8bit_color, tagged = _read_pillow_samples(data, name)
-    return rgba, is_8bit_color if tagged is None else tagged
+def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, tuple[int, ...], bool]:
+    """The image as ``(H, W, 4)`` RGBA samples, the places of its channels (:func:`read_image`) and whether
+    ``auto`` reads it as sRGB: as the file's colour space metadata says (:func:`tagged_srgb`), else for 8-bit
+    colour."""
+    rgba, channels, is_8bit_color, tagged = _read_pillow_samples(data, name)
+    return rgba, channels, is_8bit_color if tagged is None else tagged
 
 
 def tagged_srgb(img) -> bool | None:
@@ -160,8 +197,9 @@ def tagged_srgb(img) -> bool | None:
     return True if "srgb" in img.info else None
 
 
-def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool | None]:
-    """The samples as :func:`_read_pillow` gives them, whether they are 8-bit colour, and :func:`tagged_srgb`."""
+def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, tuple[int, ...], bool, bool | None]:
+    """The samples and their channels' places as :func:`_read_pillow` gives them, whether they are 8-bit colour,
+    and :func:`tagged_srgb`."""
     from PIL import Image as PilImage
 
     problem = png_chunk_problem(data)
@@ -176,7 +214,7 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
             # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
             # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
             key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
-            return _read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
+            return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
         img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
         raise TextureError(f"cannot read image {name}: no image reader wrt has (Pillow, OpenEXR, Radiance) knows its "
@@ -188,27 +226,28 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
         full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else max(1.0, float(np.max(img)))
         grey = np.asarray(img, dtype=np.float32)
-        return _grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
+        return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
-        return _grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
+        return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
     transparent, depth = img.info.get("transparency"), png_bit_depth(data)
     if mode == "L" and isinstance(transparent, int) and depth in (2, 4):
         # Pillow keeps a 2- or 4-bit grey PNG's tRNS sample as stored but scales the pixels to 8 bits, so its LA
         # conversion made no pixel transparent; stb_image scales the sample too (stbi__depth_scale_table).
         grey = np.asarray(img, dtype=np.float32)
-        return _grey_rgba(grey / 255.0, _transparent_sample_alpha(img, grey, 255 // (2**depth - 1))), False, tagged
+        alpha = _transparent_sample_alpha(img, grey, 255 // (2**depth - 1))
+        return *_grey_rgba(grey / 255.0, alpha), False, tagged
     if mode in ("L", "LA"):
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
-        return _grey_rgba(arr[..., 0], alpha), False, tagged
+        return *_grey_rgba(arr[..., 0], alpha), False, tagged
     arr = np.asarray(img.convert("RGBA"), dtype=np.uint8)  # scaled to [0, 1] by load_image (_decode_8bit)
     if img.format == "BMP" and mode == "RGB":
         alpha = bmp_fourth_byte_alpha(data, arr.shape[:2])
         if alpha is not None:
             arr = arr.copy()
             arr[..., 3] = alpha
-    return arr, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+    return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
 
 
 def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | None:
@@ -241,12 +280,13 @@ def _sixteen_bit_rawmode(img) -> str | None:
     return rawmodes.pop() if len(rawmodes) == 1 and rawmodes <= set(SIXTEEN_BIT_RAWMODES) else None
 
 
-def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> np.ndarray:
+def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray, tuple[int, ...]]:
     """``(H, W, 4)`` float32 RGBA of a 16-bit RGB, RGBA (PNG or TIFF) or grey + alpha (PNG) image at full
-    precision (``rawmode``: one of :data:`SIXTEEN_BIT_RAWMODES`). ``colour_key``: an RGB PNG's tRNS chunk, three
-    16-bit samples; pixels of exactly that colour read alpha 0 (else 1), as the PNG specification defines it and
-    Storm's stb_image reader computes it (``stbi__compute_transparency16``, on the 16-bit samples before it keeps 8
-    bits of them). Pillow takes no notice of it at this depth: a cut-out stored that way had no holes.
+    precision (``rawmode``: one of :data:`SIXTEEN_BIT_RAWMODES`), and the places of its channels
+    (:func:`read_image`). ``colour_key``: an RGB PNG's tRNS chunk, three 16-bit samples; pixels of exactly that
+    colour read alpha 0 (else 1), as the PNG specification defines it and Storm's stb_image reader computes it
+    (``stbi__compute_transparency16``, on the 16-bit samples before it keeps 8 bits of them). Pillow takes no
+    notice of it at this depth: a cut-out stored that way had no holes.
 
     Pillow unpacks these samples to 8 bits (the high byte). Its decoder is run again with the raw mode of the other
     byte order, which takes the other byte of every sample (grey + alpha, 4 bytes per pixel, as 8-bit RGBA: every
@@ -275,7 +315,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> np.ndarray:
     rgba[..., : high.shape[2]] = samples / 65535.0
     if isinstance(colour_key, tuple) and len(colour_key) == 3:
         rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
-    return rgba
+    return rgba, COLOUR_CHANNELS
 
 
 def _transparent_sample_alpha(img, grey: np.ndarray, scale: int = 1) -> np.ndarray | None:
@@ -289,14 +329,15 @@ def _transparent_sample_alpha(img, grey: np.ndarray, scale: int = 1) -> np.ndarr
     return (grey != transparent * scale).astype(np.float32)
 
 
-def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
+def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``(H, W, 4)`` float32 ``(grey, grey, grey, alpha or 1)`` and the places of the file's channels."""
     rgba = np.empty(grey.shape + (4,), np.float32)
     rgba[..., 0] = rgba[..., 1] = rgba[..., 2] = grey
     rgba[..., 3] = 1.0 if alpha is None else alpha
-    return rgba
+    return rgba, GREY_CHANNELS if alpha is None else GREY_ALPHA_CHANNELS
 
 
-def _read_exr(data: bytes, name: str) -> np.ndarray:
+def _read_exr(data: bytes, name: str) -> tuple[np.ndarray, tuple[int, ...]]:
     try:
         import OpenEXR
     except ImportError:
@@ -315,10 +356,11 @@ def _read_exr(data: bytes, name: str) -> np.ndarray:
     return exr_rgba(channels, name, chromaticities)
 
 
-def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) -> np.ndarray:
-    """``(H, W, 4)`` float32 RGBA of an EXR's channels (full name -> ``(H, W)`` samples), mapped by the last part of
-    each name (after its layer's ``.``), single letters or words in any case (:data:`EXR_CHANNEL_ROLES`), as
-    Hydra's EXR reader matches them: the unnamed layer's channels, else those of the one layer that has any.
+def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``(H, W, 4)`` float32 RGBA of an EXR's channels (full name -> ``(H, W)`` samples), and the RGBA places of
+    those read in their order (:func:`read_image`). Channels are mapped by the last part of each name (after its
+    layer's ``.``), single letters or words in any case (:data:`EXR_CHANNEL_ROLES`), as Hydra's EXR reader matches
+    them: the unnamed layer's channels, else those of the one layer that has any.
 
     The channels so read, in R G B A order (``Y`` only without colour), are the texture's channels as the
     UsdPreviewSurface specification counts them for UsdUVTexture's outputs (as wrt reads a grey or grey + alpha PNG):
@@ -377,7 +419,8 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
     if chroma:
         mapped = {k: np.asarray(v, np.float32) for k, v in mapped.items()}
         try:
-            return yca_rgba(mapped["Y"], chroma.get("RY"), chroma.get("BY"), mapped.get("A"), chromaticities)
+            return yca_rgba(mapped["Y"], chroma.get("RY"), chroma.get("BY"), mapped.get("A"),
+                            chromaticities), COLOUR_CHANNELS
         except ValueError as e:
             raise TextureError(f"EXR {name}: {e}") from None
     # The channels read, in R G B A order (Y only without colour), are the texture's channels as the specification
@@ -392,7 +435,7 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
         if c in mapped:
             rgba[..., k] = mapped[c]
     rgba[..., 3] = mapped.get("A", 1.0)
-    return rgba
+    return rgba, tuple("RGBA".index(c) for c in read)
 
 
 def scene_images(textures: list) -> list[np.ndarray]:
