@@ -21,7 +21,10 @@ import wrt
 # Per file: how it is written and its channels in the file's order (what MaterialX's output types take).
 PNG_SAMPLES = {"L": [51], "LA": [51, 204], "RGB": [51, 102, 153], "RGBA": [51, 102, 153, 204]}
 EXR_SAMPLES = {"R": [0.3], "RG": [0.3, 0.7], "RGB": [0.3, 0.7, 0.9], "RGBA": [0.3, 0.7, 0.9, 0.45]}
-FILES = [f"png {mode}" for mode in PNG_SAMPLES] + [f"exr {names}" for names in EXR_SAMPLES]
+# Grey PNGs read by other paths: 16 bits, and 8 bits with a tRNS sample (every pixel that value: alpha 0).
+GREY_PNGS = {"L16": ([13107], 65535.0), "L+tRNS": ([51, 0], 255.0)}
+FILES = ([f"png {mode}" for mode in PNG_SAMPLES] + [f"png {mode}" for mode in GREY_PNGS]
+         + [f"exr {names}" for names in EXR_SAMPLES])
 # Per node type: the nodes after the image that bring its output to base_color (a color3), as MaterialX converts:
 # a float fills all three channels, a vector2 gains a third of 0, four channels drop the last.
 TO_COLOR3 = {"float": ["ND_convert_float_color3"],
@@ -37,6 +40,12 @@ USD_TYPES = {"float": Sdf.ValueTypeNames.Float, "vector2": Sdf.ValueTypeNames.Fl
 def write_file(tmp_path, kind) -> tuple[str, np.ndarray]:
     """A 2 x 2 image of one colour, ``kind`` from :data:`FILES`, and its channels as numbers (float64)."""
     fmt, layout = kind.split()
+    if layout in GREY_PNGS:
+        samples, full = GREY_PNGS[layout]
+        path = str(tmp_path / f"{layout}.png")
+        grey = np.full((2, 2), samples[0], np.uint16 if full > 255 else np.uint8)
+        PilImage.fromarray(grey).save(path, **({"transparency": samples[0]} if len(samples) == 2 else {}))
+        return path, np.asarray(samples, np.float64) / full
     if fmt == "png":
         samples = PNG_SAMPLES[layout]
         path = str(tmp_path / f"{layout}.png")
