@@ -23,22 +23,30 @@ MESH = """def Mesh "{name}"
 """
 
 
-def write(tmp_path, name: str, body: str, meta: str = "") -> str:
+def write(tmp_path, name: str, body: str, meta: str = "", axis: str | None = "Y") -> str:
+    """A layer of ``body`` and metadata ``meta``, of ``upAxis`` ``axis`` (None: none authored)."""
     path = tmp_path / name
-    path.write_text(f'#usda 1.0\n(\n    upAxis = "Y"\n    {meta}\n)\n{body}\n')
+    up = "" if axis is None else f'upAxis = "{axis}"'
+    path.write_text(f'#usda 1.0\n(\n    {up}\n    {meta}\n)\n{body}\n')
     return str(path)
 
 
-def unit_warnings(path) -> list[str]:
+def unit_warnings(path, key: str = "metersPerUnit") -> list[str]:
+    """The messages of the layer warnings about ``key`` (``metersPerUnit`` or ``upAxis``) that loading gives."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         load_usd(path)
-    return [str(w.message) for w in caught if "metersPerUnit" in str(w.message)]
+    return [str(w.message) for w in caught if f": {key} = " in str(w.message)]
 
 
 def units_alone(path) -> float:
     """The oracle: the metersPerUnit USD gives the layer opened as a stage of its own."""
     return UsdGeom.GetStageMetersPerUnit(Usd.Stage.Open(path))
+
+
+def axis_alone(path) -> str:
+    """The oracle: the upAxis USD gives the layer opened as a stage of its own."""
+    return UsdGeom.GetStageUpAxis(Usd.Stage.Open(path))
 
 
 def test_a_referenced_layer_without_meters_per_unit_in_a_metre_stage_is_named(tmp_path):
@@ -85,3 +93,40 @@ def test_value_clips_without_meters_per_unit_are_not_named(tmp_path):
     assert opened.GetAttributeAtPath("/M.points").Get(1) is not None
     assert {"clip1.usda", "manifest.usda"} <= {layer.identifier.rsplit("/", 1)[-1] for layer in opened.GetUsedLayers()}
     assert unit_warnings(stage) == []
+
+
+@pytest.mark.parametrize("arc", ["references", "payload"])
+def test_a_referenced_layer_without_up_axis_in_a_z_up_stage_is_named(tmp_path, arc):
+    """A Y-up asset (no upAxis: USD's fallback Y) referenced or loaded as a payload into a Z-up stage is drawn on its
+    side, as USD composes it (it turns nothing); wrt named only the layers that author another axis, so this was
+    silent. Named as the metersPerUnit warning names a layer without units."""
+    asset = write(tmp_path, "chair.usda", MESH.format(name="Chair"), axis=None)
+    stage = write(tmp_path, "scene.usda", f'def "Chair" (\n    prepend {arc} = @./chair.usda@</Chair>\n)\n{{\n}}\n',
+                  axis="Z")
+    assert axis_alone(asset) == UsdGeom.GetFallbackUpAxis() == "Y" and axis_alone(stage) == "Z"
+    (message,) = unit_warnings(stage, "upAxis")
+    assert message.startswith("scene.usda: upAxis = Z, but 1 layer(s) it composes author another "
+                              "(chair.usda: none authored, so USD's fallback Y)"), message
+
+
+def test_layers_that_share_the_stage_axis_are_not_named(tmp_path):
+    """No upAxis warning where the axes agree: sublayers without one (of the root, and of a referenced Z-up asset)
+    take their layer stack's axis, value clips without one hold the stage's prims, and a referenced layer without one
+    in a stage without one is Y-up as the stage is."""
+    write(tmp_path, "shot_anim.usda", MESH.format(name="Anim"), axis=None)
+    write(tmp_path, "geo.usda", MESH.format(name="Lamp"), axis=None)
+    asset = write(tmp_path, "lamp.usda", "", "subLayers = [@./geo.usda@]", axis="Z")
+    samples = "{ 1: [(0, 0, 0), (1, 0, 0), (0, 1, 0)] }"
+    write(tmp_path, "clip1.usda", f'over "M"\n{{\n    point3f[] points.timeSamples = {samples}\n}}', axis=None)
+    clips = ('clips = {\n        dictionary default = {\n            asset[] assetPaths = [@./clip1.usda@]\n'
+             '            string primPath = "/M"\n            double2[] active = [(1, 0)]\n        }\n    }')
+    body = (f'def Mesh "M" (\n    {clips}\n)\n{{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+            '[0, 1, 2]\n}\ndef "Lamp" (\n    prepend references = @./lamp.usda@</Lamp>\n)\n{\n}\n')
+    stage = write(tmp_path, "scene.usda", body, "subLayers = [@./shot_anim.usda@]\n    startTimeCode = 1\n"
+                  "    endTimeCode = 1", axis="Z")
+    assert axis_alone(stage) == axis_alone(asset) == "Z"
+    assert unit_warnings(stage, "upAxis") == []
+    write(tmp_path, "chair.usda", MESH.format(name="Chair"), axis=None)
+    plain = write(tmp_path, "plain.usda", 'def "Chair" (\n    prepend references = @./chair.usda@</Chair>\n)\n{\n}\n',
+                  axis=None)
+    assert unit_warnings(plain, "upAxis") == []

@@ -110,8 +110,10 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
 
     A referenced or payload layer that authors no ``metersPerUnit`` is in USD's fallback, centimetres (what
     ``GetStageMetersPerUnit`` gives it opened alone): in a stage of other units it is named too (it was silent: a
-    centimetre asset in a metre stage drawn 100 times too big). A sublayer that authors none shares its layer stack's
-    units (the root's, or the referenced layer's that lists it), and a value clip the stage's, so neither is named."""
+    centimetre asset in a metre stage drawn 100 times too big). So is one that authors no ``upAxis`` (USD's fallback,
+    ``GetFallbackUpAxis``, Y) in a Z-up stage: it was drawn on its side without a word. A sublayer that authors none
+    shares its layer stack's units and axis (the root's, or the referenced layer's that lists it), and a value clip
+    the stage's, so neither is named."""
 
     def shown(value) -> str:
         return f"{value:g}" if isinstance(value, float) else str(value)
@@ -127,6 +129,8 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     shares_units = _sublayer_identifiers(used) | ({layer.identifier for layer in used}
                                                  - {layer.identifier for layer in stage.GetUsedLayers(False)})
     stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
+    # What a layer that authors none is in, opened alone (GetStageMetersPerUnit, GetStageUpAxis of it).
+    fallbacks = {"metersPerUnit": UsdGeom.LinearUnits.centimeters, "upAxis": UsdGeom.GetFallbackUpAxis()}
     for key, value in stage_values.items():
         others = []
         for layer in used:
@@ -137,9 +141,8 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
                 authored = layer.pseudoRoot.GetInfo(key)
                 if differ(key, authored, value):
                     others.append(f"{name}: {shown(authored)}")
-            elif (key == "metersPerUnit" and layer.identifier not in shares_units
-                  and differ(key, UsdGeom.LinearUnits.centimeters, value)):
-                others.append(f"{name}: none authored, so USD's fallback {shown(UsdGeom.LinearUnits.centimeters)}")
+            elif layer.identifier not in shares_units and differ(key, fallbacks[key], value):
+                others.append(f"{name}: none authored, so USD's fallback {shown(fallbacks[key])}")
         others.sort()
         if others:
             warnings.warn(
