@@ -10,7 +10,7 @@ import warnings
 import pytest
 
 pytest.importorskip("pxr")
-from pxr import Usd, UsdGeom  # noqa: E402
+from pxr import Usd, UsdGeom, UsdShade  # noqa: E402
 
 from wrt.usd import load_usd  # noqa: E402
 
@@ -130,3 +130,62 @@ def test_layers_that_share_the_stage_axis_are_not_named(tmp_path):
     plain = write(tmp_path, "plain.usda", 'def "Chair" (\n    prepend references = @./chair.usda@</Chair>\n)\n{\n}\n',
                   axis=None)
     assert unit_warnings(plain, "upAxis") == []
+
+
+LOOKS = """def Scope "Looks"
+{
+    def Material "Red"
+    {
+        token outputs:surface.connect = </Looks/Red/Surface.outputs:surface>
+        def Shader "Surface"
+        {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface
+        }
+    }
+}
+"""
+
+
+def referencing(tmp_path, name: str, arcs: str, meta: str = "metersPerUnit = 1") -> str:
+    """A stage ``name`` whose prim ``/Chair`` references ``arcs`` (a reference list's entries)."""
+    return write(tmp_path, name, f'def "Chair" (\n    prepend references = [{arcs}]\n)\n{{\n}}\n', meta)
+
+
+def test_layers_that_hold_nothing_sized_are_not_named(tmp_path):
+    """A material library (materials and shaders only) and a looks layer (material bindings and colours over an
+    asset's prims) hold no length: their units change nothing drawn, so a centimetre one (none authored) in a metre
+    stage is not named; both were."""
+    lib = write(tmp_path, "lib.usda", LOOKS)
+    looks = write(tmp_path, "looks.usda", 'over "Chair"\n{\n    over "Seat" (\n        prepend apiSchemas = '
+                  '["MaterialBindingAPI"]\n    )\n    {\n        rel material:binding = </Chair/Red>\n'
+                  '        color3f[] primvars:displayColor = [(1, 0, 0)]\n    }\n}\n')
+    geo = write(tmp_path, "geo.usda", 'def Xform "Chair"\n{\n' + MESH.format(name="Seat") + "}\n",
+                "metersPerUnit = 1")
+    stage = referencing(tmp_path, "scene.usda", "@./geo.usda@</Chair>, @./looks.usda@</Chair>, @./lib.usda@</Looks>")
+    for layer in (lib, looks):  # the oracle: nothing of either, opened alone, is placed in space or has a size
+        assert units_alone(layer) == 0.01
+        alone = Usd.Stage.Open(layer)
+        assert not any(prim.IsA(UsdGeom.Xformable) for prim in alone.TraverseAll())
+    opened = Usd.Stage.Open(stage)
+    assert UsdGeom.LinearUnitsAre(units_alone(geo), units_alone(stage))  # the geometry is in the stage's units
+    assert UsdGeom.Mesh(opened.GetPrimAtPath("/Chair/Seat")).GetPointsAttr().Get()[1] == (1, 0, 0)
+    assert opened.GetPrimAtPath("/Chair/Red").IsA(UsdShade.Material)
+    assert unit_warnings(stage) == []
+
+
+@pytest.mark.parametrize("sized", ["light", "sublayer"])
+def test_layers_whose_prims_are_sized_are_still_named(tmp_path, sized):
+    """A referenced rect light is sized in its layer's units (its width and height; USD converts none), and an
+    asset's root layer whose geometry is in its sublayer gives that geometry its units: each is named, without
+    metersPerUnit, in a metre stage."""
+    if sized == "light":
+        write(tmp_path, "asset.usda", 'def RectLight "Chair"\n{\n    float inputs:width = 30\n}\n' + LOOKS)
+    else:
+        write(tmp_path, "geo.usda", 'def Xform "Chair"\n{\n' + MESH.format(name="Seat") + "}\n")
+        write(tmp_path, "asset.usda", "", "subLayers = [@./geo.usda@]")
+    stage = referencing(tmp_path, "scene.usda", "@./asset.usda@</Chair>")
+    assert units_alone(str(tmp_path / "asset.usda")) == 0.01
+    (message,) = unit_warnings(stage)
+    assert "(asset.usda: none authored, so USD's fallback 0.01)" in message, message

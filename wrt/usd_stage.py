@@ -9,7 +9,7 @@ import os
 import re
 import warnings
 
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdSkel
 
 from .errors import SceneError, TimeRangeWarning, user_stacklevel
 from .scene import MIN_METERS_PER_UNIT
@@ -113,7 +113,9 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     centimetre asset in a metre stage drawn 100 times too big). So is one that authors no ``upAxis`` (USD's fallback,
     ``GetFallbackUpAxis``, Y) in a Z-up stage: it was drawn on its side without a word. A sublayer that authors none
     shares its layer stack's units and axis (the root's, or the referenced layer's that lists it), and a value clip
-    the stage's, so neither is named."""
+    the stage's, so neither is named. Nor is a layer whose layer stack holds nothing sized or placed in space
+    (:func:`_holds_sized`: a material library, a layer of material bindings and colours): its units and axis change
+    nothing drawn, and it was named."""
 
     def shown(value) -> str:
         return f"{value:g}" if isinstance(value, float) else str(value)
@@ -131,10 +133,15 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
     # What a layer that authors none is in, opened alone (GetStageMetersPerUnit, GetStageUpAxis of it).
     fallbacks = {"metersPerUnit": UsdGeom.LinearUnits.centimeters, "upAxis": UsdGeom.GetFallbackUpAxis()}
+    sized = {}  # layer identifier -> whether its layer stack holds anything sized (_holds_sized, asked once)
     for key, value in stage_values.items():
         others = []
         for layer in used:
             if layer in own:
+                continue
+            if layer.identifier not in sized:
+                sized[layer.identifier] = _holds_sized(layer)
+            if not sized[layer.identifier]:
                 continue
             name = os.path.basename(layer.identifier)
             if layer.pseudoRoot.HasInfo(key):
@@ -151,6 +158,46 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
                 "neither does wrt: they are drawn as authored",
                 stacklevel=user_stacklevel(),
             )
+
+
+# Attributes that hold no length nor direction in space, on any prim: a layer that authors only these (with
+# relationships: material bindings, light links) and shading prims changes nothing drawn by its units or axis.
+_UNSIZED_ATTRIBUTES = ("visibility", "purpose", "doubleSided", "orientation")
+
+
+def _holds_sized(layer: Sdf.Layer) -> bool:
+    """``layer`` or a layer of its layer stack (its subLayers, whose units and axis are its own) holds a prim spec
+    whose values are in its units and axis (:func:`_sized_spec`), in variants too."""
+    seen, layers = set(), [layer]
+    while layers:
+        current = layers.pop()
+        if current is None or current.identifier in seen:
+            continue
+        seen.add(current.identifier)
+        specs = list(current.pseudoRoot.nameChildren)
+        while specs:
+            spec = specs.pop()
+            if _sized_spec(spec):
+                return True
+            specs.extend(spec.nameChildren)
+            specs.extend(variant.primSpec for variant_set in spec.variantSets for variant in variant_set.variants)
+        layers.extend(Sdf.Layer.FindRelativeToLayer(current, path) for path in current.subLayerPaths)
+    return False
+
+
+def _sized_spec(spec: Sdf.PrimSpec) -> bool:
+    """A prim spec that defines something placed in space with sizes of its own (a gprim, light, camera, point
+    instancer, skeleton: types derived from UsdGeom.Xformable, other than a plain Xform), a skeleton animation, or
+    that authors an attribute other than a primvar (``primvars:widths`` is sized) or :data:`_UNSIZED_ATTRIBUTES`
+    on an Xform or a prim of no type (an ``over``: an xformOp, points, a light's radius). Shading prims (Material,
+    Shader, NodeGraph), Scopes and other types not placed in space hold no length."""
+    kind = Usd.SchemaRegistry.GetTypeFromName(spec.typeName) if spec.typeName else Tf.Type.Unknown
+    if kind.IsA(Tf.Type.Find(UsdSkel.Animation)):
+        return True
+    if kind != Tf.Type.Unknown and kind != Tf.Type.Find(UsdGeom.Xform):
+        return kind.IsA(Tf.Type.Find(UsdGeom.Xformable))
+    return any(not (name.startswith("primvars:") and not name.startswith("primvars:widths"))
+               and name not in _UNSIZED_ATTRIBUTES for name in spec.attributes.keys())
 
 
 def _sublayer_identifiers(layers) -> set[str]:
