@@ -635,8 +635,8 @@ def define_tet_or_patch(stage, kind: str):
 
 @pytest.mark.parametrize("kind", ["TetMesh", "NurbsPatch"])
 def test_tet_meshes_and_nurbs_patches_read_their_texture_at_the_readers_fallback_st(tmp_path, kind):
-    """A TetMesh or NurbsPatch has no texture coordinates in wrt, so a texture its material reads shows at the
-    UsdPrimvarReader_float2's ``fallback`` st, as on a mesh without the primvar (and on a gprim). The render did so,
+    """A TetMesh or NurbsPatch without the texture-coordinate primvar shows a texture its material reads at the
+    UsdPrimvarReader_float2's ``fallback`` st, as a mesh without the primvar (and a gprim). The render did so,
     while the warning said the prim was left untextured; it now names the primvar and the fallback read."""
     png = write_png(tmp_path / "checker.png", CHECKER)
     path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
@@ -655,6 +655,64 @@ def test_tet_meshes_and_nurbs_patches_read_their_texture_at_the_readers_fallback
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's texel at the fallback st
+
+
+def textured_tet_or_patch(tmp_path, kind: str):
+    """The CHECKER textured stage (clamped, raw) with a TetMesh or NurbsPatch (:func:`define_tet_or_patch`) in place
+    of its quad, bound to its material: ``(stage, path, surface)``."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    surface = define_tet_or_patch(stage, kind)
+    bind(surface, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    return stage, path, surface
+
+
+@pytest.mark.parametrize("kind, interpolation", [("TetMesh", "vertex"), ("TetMesh", "varying"),
+                                                 ("TetMesh", "uniform"), ("NurbsPatch", "vertex"),
+                                                 ("NurbsPatch", "varying"), ("NurbsPatch", "uniform")])
+def test_tet_meshes_and_nurbs_patches_read_their_texture_coordinates(tmp_path, kind, interpolation):
+    """An authored ``st`` on a TetMesh (its surface faces' points) or a NurbsPatch (its control points, or its
+    knot-interval corners for varying) is read: it was not read at all, the texture shown at the reader's fallback
+    st. The oracle: ``st`` authored as an affine function of the points, ``((x + 1) / 2, (y + 1) / 2)``, which the
+    barycentric (TetMesh) and rational B-spline (affine invariant) interpolations of it keep, so a pixel sees the
+    texel under its centre's (x, y) in the view of [-1, 1]^2; one value per tetrahedron or patch (uniform) is read
+    everywhere on it."""
+    stage, path, surface = textured_tet_or_patch(tmp_path, kind)
+    points = np.array(surface.GetPointsAttr().Get(), np.float64)
+    st = (points[:, :2] + 1.0) / 2.0 if interpolation != "uniform" else np.array([[0.75, 0.25]])
+    primvar = UsdGeom.PrimvarsAPI(surface).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, interpolation)
+    primvar.Set(Vt.Vec2fArray([Gf.Vec2f(*v) for v in st]))
+    stage.Save()
+    assert UsdGeom.PrimvarsAPI(surface).GetPrimvar("st").GetInterpolation() == interpolation
+    scene, messages = load_with_messages(path)
+    assert not [m for m in messages if "/Surface" in m], messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+    centres = -0.75 + 0.5 * np.arange(4)
+    x, y = np.meshgrid(centres, -centres)  # rows from the top
+    s, t = ((x + 1) / 2, (y + 1) / 2) if interpolation != "uniform" else (np.full_like(x, 0.75), np.full_like(y, 0.25))
+    # Each st lies in the middle of a 2x2 texel quarter of one CHECKER block: bilinear filtering reads that block.
+    expected = CHECKER[((1 - t) * 8).astype(int), (s * 8).astype(int)] / 255
+    np.testing.assert_allclose(img, expected, atol=2e-3)
+
+
+def test_a_tet_mesh_st_of_an_interpolation_it_cannot_take_reads_the_fallback_with_a_warning(tmp_path):
+    """A faceVarying ``st`` on a TetMesh (face-vertices of which faces? The schema gives a TetMesh none) is dropped
+    with a warning naming the primvar and its interpolation, and the texture read at the reader's fallback st."""
+    stage, path, surface = textured_tet_or_patch(tmp_path, "TetMesh")
+    primvar = UsdGeom.PrimvarsAPI(surface).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, "faceVarying")
+    primvar.Set(Vt.Vec2fArray([Gf.Vec2f(0, 0)] * 12))
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St"))
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.75, 0.25))  # the grey block's middle
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert any("primvars:st has interpolation 'faceVarying'" in m and "/Surface" in m for m in messages), messages
+    assert any("fallback st" in m and "st, fallback (0.75, 0.25)" in m for m in messages), messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)
 
 
 @pytest.mark.parametrize("tessellate", [False, True])

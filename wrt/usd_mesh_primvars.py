@@ -110,20 +110,24 @@ class MeshPrimvarReading:
             found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
                                        components=width)
             if found is not None:
-                # Kept as they are (a double past float32 as the inf the float32 st holds): texture lookups read the
-                # fallback wherever st is not finite.
-                found = past_float32_as_inf(found[0][:, :2]), found[1]
-                bad = int(np.count_nonzero(~np.isfinite(found[0]).all(axis=1)))
-                if bad:
-                    self._skip("texture coordinates that are not finite were read as none: the textures there show "
-                               "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
-                return found
+                return self._kept_st(prim, uv_set, found[0]), found[1]
             # Dropped (warned about): read as unauthored, the fallback below, not st = (0, 0) at every corner.
         elif outer is not None:
             return np.asarray(outer, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
         if not lacking:
             self._missing_uvs_warning(prim, uv_set, fallback)
         return np.asarray(fallback, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
+
+    def _kept_st(self, prim, uv_set: str, values: np.ndarray) -> np.ndarray:
+        """The first two components of texture coordinates ``values`` (of primvar ``uv_set``), kept as they are (a
+        double past float32 as the inf the float32 st holds): texture lookups read the fallback wherever st is not
+        finite, and a warning names how many are not."""
+        values = past_float32_as_inf(values[:, :2])
+        bad = int(np.count_nonzero(~np.isfinite(values).all(axis=1)))
+        if bad:
+            self._skip("texture coordinates that are not finite were read as none: the textures there show "
+                       "their fallback", prim, f"{uv_set}: {bad} of {len(values)} values")
+        return values
 
     def _missing_uvs_warning(self, prim, uv_set: str, fallback, at: str | None = None, others=None) -> None:
         """Names mesh ``prim`` (at path ``at``, its instance proxy's, where given), which reads its texture at the

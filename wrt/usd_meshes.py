@@ -180,12 +180,8 @@ class MeshReading:
         face_materials = self._face_materials(prim, 1, ctx)
         color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
         uv_set = self.materials.uv_set(face_materials, prim)
-        st = None if uv_set is None else self.materials.st_fallback(face_materials, uv_set)
-        if st is not None:
-            # Read at the reader's fallback, as a mesh without the primvar is (and a gprim); the warning said the
-            # prim was left untextured while the render showed the texture at that st.
-            self._skip("TetMesh and NurbsPatch prims have no texture coordinates in wrt: their textures show at the "
-                       "primvar reader's fallback st", prim, f"{uv_set}, fallback ({st[0]:g}, {st[1]:g})")
+        st_primvar = None if uv_set is None else self.inherited_primvars.find(prim, uv_set)  # own, or a constant above
+        st_primvar = st_primvar if st_primvar and st_primvar.HasValue() else None
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
@@ -194,18 +190,26 @@ class MeshReading:
         gprim = UsdGeom.Gprim(prim)
         flip = self._left_handed(prim, gprim, self.time)
         if prim.IsA(UsdGeom.TetMesh):
-            surface = self.surfaces.tet_mesh(prim, points, primvar, flip)
+            surface = self.surfaces.tet_mesh(prim, points, primvar, flip, st_primvar)
         else:
-            surface = self.surfaces.nurbs_patch(prim, points, primvar)
+            surface = self.surfaces.nurbs_patch(prim, points, primvar, st_primvar)
         if surface is None:
             return None
+        uvs = surface.uvs
+        if uvs is not None:
+            uvs = self._kept_st(prim, uv_set, uvs[0]), uvs[1]
+        elif uv_set is not None:
+            # Without the primvar, or with one dropped (warned about), the texture shows at the reader's fallback st,
+            # as on a mesh; an authored st was not read at all (the fallback read there too).
+            st = self.materials.st_fallback(face_materials, uv_set)
+            self._missing_uvs_warning(prim, uv_set, st)
+            uvs = np.asarray(st, np.float64).reshape(1, 2), np.zeros_like(surface.triangles)
         cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
         double_sided = bool(self._typed(prim, gprim.GetDoubleSidedAttr()))
         colors = {} if surface.colors is None else {color_names[0]: surface.colors}
         default = face_materials is None or face_materials[0] < 0
         opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque) if default else None
         opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
-        uvs = None if st is None else (np.asarray(st, np.float64).reshape(1, 2), np.zeros_like(surface.triangles))
         local = LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
                           uvs=uvs, cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)

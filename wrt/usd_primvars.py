@@ -211,12 +211,14 @@ class FieldReader:
         ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed): None, with a
         warning (:data:`PRIMVAR_DROPPED`), for an interpolation the prim type does not take or the wrong length for
         it, as Hydra drops such a primvar (the prim is drawn as if it had none), and for a value that is not an array
-        of ``components``-vectors (numbers, or 3- or 4-vectors for colours), as meshes drop one
+        of ``components``-vectors (numbers, 3- or 4-vectors for colours, 2-, 3- or 4-vectors for texture
+        coordinates), as meshes drop one
         (:meth:`wrt.usd_mesh_primvars.MeshPrimvarReading._read_primvar`): it stopped the whole load with SceneError.
         """
         values = np.asarray(raw if raw is not None else np.zeros((0, components)))
         name = attr.GetName()
-        shape = (components,) if components == 1 else (3, 4)
+        # Colours: 3- or 4-vectors (the rgb); texture coordinates: 2-, 3- or 4-vectors (the first two, as meshes).
+        shape = {1: (1,), 2: (2, 3, 4)}.get(components, (3, 4))
         if values.size == 0:
             values = np.zeros((0, components))
         elif values.dtype.kind in "fiu":

@@ -15,6 +15,11 @@ trim curves are not applied (a warning names the prim). Colours: ``constant``, `
 patch, ``(nu - uOrder + 1) (nv - vOrder + 1)``, u fastest, as RenderMan's RiNuPatch counts them), ``varying`` (one
 per knot-interval corner, ``(nu - uOrder + 2) (nv - vOrder + 2)``, bilinear) and ``vertex`` (one per control point,
 through the patch's rational basis); ``faceVarying`` is read as ``varying``.
+
+Texture coordinates (the primvar a material's UsdPrimvarReader_float2 names, ``st`` mostly) are read as colours are,
+on both: per point (vertex, varying) through a TetMesh's surface faces, per tetrahedron (uniform), or over the
+patch's control points, knot-interval corners or patches; a faceVarying one on a TetMesh, whose face-vertices the
+schema does not define, is dropped with a warning (the texture is then read at the reader's fallback st).
 """
 
 from __future__ import annotations
@@ -41,6 +46,8 @@ class Surface:
         face_ids: ``(T,)`` int64 tetrahedron (TetMesh) or knot-interval patch (NurbsPatch) of each triangle.
         colors: ``(values (K, 3) float32, corner index (T, 3))`` or None.
         smooth: shade with smooth vertex normals of the triangles (a NURBS surface) rather than flat.
+        uvs: ``(values (K, 2) float64, corner index (T, 3))`` of the texture-coordinate primvar asked for, or None
+            (none asked for, or dropped with a warning).
     """
 
     points: np.ndarray
@@ -48,13 +55,17 @@ class Surface:
     face_ids: np.ndarray
     colors: tuple | None
     smooth: bool
+    uvs: tuple | None = None
 
 
 class SurfaceReader(FieldReader):
     """Reads TetMesh and NurbsPatch prims at one time code (see :class:`wrt.usd_primvars.FieldReader`)."""
 
-    def tet_mesh(self, prim: Usd.Prim, points: np.ndarray, color_primvar, left_handed: bool) -> Surface | None:
-        """The boundary of TetMesh ``prim`` of ``points`` ``(n, 3)``, or None when it has no tetrahedra.
+    def tet_mesh(self, prim: Usd.Prim, points: np.ndarray, color_primvar, left_handed: bool,
+                 st_primvar=None) -> Surface | None:
+        """The boundary of TetMesh ``prim`` of ``points`` ``(n, 3)``, or None when it has no tetrahedra; colours from
+        ``color_primvar`` and texture coordinates from ``st_primvar`` (2-, 3- or 4-vectors: their first two
+        components), each None or read as the module docstring says.
 
         Raises:
             SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, or a point is not finite
@@ -79,17 +90,27 @@ class SurfaceReader(FieldReader):
             self.skip("TetMesh tetrahedra inverted for their orientation have faces that point inwards", prim,
                       f"{int(flipped.sum())} of {len(tets)}, first tetVertexIndices[{int(np.argmax(flipped))}]")
         faces, tet = surface_faces(tets, len(points))
-        colors = None
-        if color_primvar is not None:
-            sizes = {"constant": 1, "uniform": len(tets), "vertex": len(points), "varying": len(points)}
-            field = self.field(prim, color_primvar, sizes, 3)
-            if field is not None:
-                corner = {"constant": np.zeros_like(faces), "uniform": np.repeat(tet[:, None], 3, axis=1)}
-                colors = field[1].astype(np.float32), corner.get(field[0], faces)
-        return Surface(points, faces, tet, colors, smooth=False)
+        colors = self._tet_field(prim, color_primvar, 3, len(tets), len(points), faces, tet)
+        colors = None if colors is None else (colors[0].astype(np.float32), colors[1])
+        uvs = self._tet_field(prim, st_primvar, 2, len(tets), len(points), faces, tet)
+        return Surface(points, faces, tet, colors, smooth=False, uvs=uvs)
 
-    def nurbs_patch(self, prim: Usd.Prim, points: np.ndarray, color_primvar) -> Surface:
-        """NurbsPatch ``prim`` of control ``points`` ``(nu * nv, 3)`` tessellated (see the module docstring).
+    def _tet_field(self, prim, primvar, components, n_tets, n_points, faces, tet):
+        """``(values (K, components) float64, corner index (T, 3))`` of a TetMesh's ``primvar`` on its surface
+        ``faces`` (of tetrahedra ``tet``), or None: one per tetrahedron (uniform) or per point (vertex, varying: the
+        faces' corners are points); faceVarying, of face-vertices the schema does not define, is dropped."""
+        if primvar is None:
+            return None
+        sizes = {"constant": 1, "uniform": n_tets, "vertex": n_points, "varying": n_points}
+        field = self.field(prim, primvar, sizes, components)
+        if field is None:
+            return None
+        corner = {"constant": np.zeros_like(faces), "uniform": np.repeat(tet[:, None], 3, axis=1)}
+        return field[1], corner.get(field[0], faces)
+
+    def nurbs_patch(self, prim: Usd.Prim, points: np.ndarray, color_primvar, st_primvar=None) -> Surface:
+        """NurbsPatch ``prim`` of control ``points`` ``(nu * nv, 3)`` tessellated (see the module docstring), with
+        colours from ``color_primvar`` and texture coordinates from ``st_primvar`` (each None or read alike).
 
         Raises:
             SceneError: vertex counts that do not match the points, orders, knots or ranges that make no B-spline,
@@ -141,33 +162,37 @@ class SurfaceReader(FieldReader):
         cell = np.arange(len(triangles)) // 2
         cu, cv = cell % (len(u.u) - 1), cell // (len(u.u) - 1)
         face_ids = v.segment[cv] * u.n_segments + u.segment[cu]  # the knot-interval patch of each triangle
-        colors = self._patch_colors(prim, color_primvar, u, v, points, weights, nu, face_ids, triangles)
-        return Surface(grid, triangles, face_ids, colors, smooth=True)
+        grid_of = (u, v, points, weights, nu, face_ids, triangles)
+        colors = self._patch_field(prim, color_primvar, 3, *grid_of)
+        colors = None if colors is None else (colors[0].astype(np.float32), colors[1])
+        uvs = self._patch_field(prim, st_primvar, 2, *grid_of)
+        return Surface(grid, triangles, face_ids, colors, smooth=True, uvs=uvs)
 
-    def _patch_colors(self, prim, primvar, u, v, points, weights, nu, face_ids, triangles):
-        """``(values, corner index)`` of a patch's colour primvar on its tessellation, or None."""
+    def _patch_field(self, prim, primvar, components, u, v, points, weights, nu, face_ids, triangles):
+        """``(values (K, components) float64, corner index)`` of a patch's ``primvar`` on its tessellation, or
+        None."""
         if primvar is None:
             return None
         n_varying = (u.n_segments + 1) * (v.n_segments + 1)
         sizes = {"constant": 1, "uniform": u.n_segments * v.n_segments, "vertex": len(points), "varying": n_varying,
                  "faceVarying": n_varying}
-        field = self.field(prim, primvar, sizes, 3)
+        field = self.field(prim, primvar, sizes, components)
         if field is None:
             return None
         interpolation, values = field
         if interpolation == "constant":
-            return values.astype(np.float32), np.zeros_like(triangles)
+            return values, np.zeros_like(triangles)
         if interpolation == "uniform":
-            return values.astype(np.float32), np.repeat(face_ids[:, None], 3, axis=1)
+            return values, np.repeat(face_ids[:, None], 3, axis=1)
         if interpolation == "vertex":
             per_vertex = patch_values(u, v, values, weights, nu)
         else:  # varying: bilinear in each knot-interval patch
-            corners = values.reshape(v.n_segments + 1, u.n_segments + 1, 3)
+            corners = values.reshape(v.n_segments + 1, u.n_segments + 1, components)
             su, sv = u.segment[None, :], v.segment[:, None]
             tu, tv = u.segment_t[None, :, None], v.segment_t[:, None, None]
             per_vertex = ((1 - tv) * ((1 - tu) * corners[sv, su] + tu * corners[sv, su + 1])
                           + tv * ((1 - tu) * corners[sv + 1, su] + tu * corners[sv + 1, su + 1]))
-        return per_vertex.reshape(-1, 3).astype(np.float32), triangles
+        return per_vertex.reshape(-1, components), triangles
 
     def _check_finite(self, prim, points):
         """Raises SceneError naming the first point that is not finite, as for meshes."""
