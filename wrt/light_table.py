@@ -780,7 +780,10 @@ def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     lum = 0.75 * lum + 0.125 * (np.roll(lum, 1, axis=1) + np.roll(lum, -1, axis=1))
     rows = np.concatenate([lum[:1], lum, lum[-1:]])
     lum = 0.75 * rows[1:-1] + 0.125 * (rows[:-2] + rows[2:])
-    f = lum * sin_t + 1e-8 * (sin_t + 1e-6)  # a black image still has directions to draw
+    # A black image still has directions to draw: a floor relative to the brightest texel (a floor of 1e-8 alone
+    # outweighed a dome of texels 1e-20 lit by a colour of 1e20, which was then sampled uniformly, not by its image).
+    brightest = float(lum.max())
+    f = lum * sin_t + 1e-8 * (brightest if brightest > 0.0 else 1.0) * (sin_t + 1e-6)
     col = np.concatenate([np.zeros((hgt, 1)), np.cumsum(f, axis=1)], axis=1)
     row_sums = col[:, -1]
     row = np.concatenate([[0.0], np.cumsum(row_sums)])
