@@ -1020,6 +1020,26 @@ def test_light_exposure_that_overflows_is_skipped_with_a_warning(tmp_path, expos
     assert [light.path for light in scene.lights] == ["/Sun"]
 
 
+def test_light_exposure_that_underflows_float32_is_skipped_with_a_warning(tmp_path):
+    """An intensity of 1e-30 at exposure -80 is a colour of 8e-55 (float64), which float32 cannot hold: the light's
+    colour was 0 and it lit nothing without a word. It is skipped with a warning naming it and the product; an
+    intensity of 1e30 at exposure -80 (8.3e5) is the light of that colour (float64 numpy)."""
+
+    def build(stage):
+        dim = UsdLux.SphereLight.Define(stage, "/Dim")
+        dim.CreateIntensityAttr(1e-30)
+        dim.CreateExposureAttr(-80.0)
+        bright = UsdLux.SphereLight.Define(stage, "/Bright")
+        bright.CreateIntensityAttr(1e30)
+        bright.CreateExposureAttr(-80.0)
+
+    with pytest.warns(UserWarning, match=r"lights whose colour \* intensity \* 2\^exposure lies below float32's normal "
+                                         r"range .*largest component 1e-30 \* 2\^-80.*: /Dim$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert [light.path for light in scene.lights] == ["/Bright"]
+    np.testing.assert_allclose(scene.lights[0].color, np.float64(np.float32(1e30)) * 2.0**-80, rtol=1e-7)
+
+
 def test_light_colour_temperature_that_is_nan_is_skipped_with_a_warning(tmp_path):
     """``UsdLux.BlackbodyTemperatureAsRgb`` crashes the process (a segfault) on a NaN temperature, and load_usd
     passed the authored ``colorTemperature`` to it: loading the stage killed Python. Such a light is skipped with a

@@ -29,6 +29,7 @@ from .scene import DistantLight
 from .usd_xforms import affine_part
 
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32 (1.2e-38)
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")
@@ -239,13 +240,19 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
     # An exposure of 1024 or more overflows 2.0**exposure (a bare OverflowError out of load_usd): let it become
     # inf in numpy instead, and be skipped below like any other colour that is not finite.
-    with np.errstate(over="ignore", invalid="ignore"):
-        color = (color * intensity * np.exp2(exposure)).astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        unexposed = color * intensity
+        color = (unexposed * np.exp2(exposure)).astype(np.float32)
     normalize = flag(get, light.GetNormalizeAttr(), False, warn_flag)
     m = np.asarray(to_world, dtype=np.float64)
     path = str(prim.GetPath())
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
         skip("lights whose colour * intensity * 2^exposure or transform is not finite were skipped", prim)
+        return None
+    dimmest = _below_float32(unexposed, exposure)
+    if dimmest:
+        skip("lights whose colour * intensity * 2^exposure lies below float32's normal range (1.2e-38: their colour "
+             "is 0, or keeps few of its digits) were skipped", prim, dimmest)
         return None
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
@@ -277,6 +284,18 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         result.shadow_falloff, result.shadow_falloff_gamma = falloff
         result.diffuse, result.specular = multipliers
     return result
+
+
+def _below_float32(unexposed: np.ndarray, exposure: float) -> str:
+    """What of a light's ``unexposed`` colour (``(3,)`` float64 ``color * intensity``) times ``2^exposure`` lies below
+    float32's smallest normal number, though it is not 0, for the warning ("" where it does not): a light of
+    intensity 1e-30 and exposure -80 (8e-55) became a float32 colour of 0 and lit nothing without a word."""
+    largest = float(np.max(np.abs(unexposed)))
+    if not (largest > 0.0 and math.isfinite(largest) and math.isfinite(exposure)):
+        return ""
+    if math.log2(largest) + exposure >= math.log2(FLOAT32_TINY):  # in logs: 2^exposure may underflow float64
+        return ""
+    return f"largest component {largest:.3g} * 2^{exposure:g}"
 
 
 def _tiny_normalized(light, prim, skip):
