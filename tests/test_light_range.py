@@ -3,6 +3,7 @@ radiance near float32's largest. The oracle is the same scene with its values sc
 image scaled back: exact in float32), or float64 numpy of the expected radiance."""
 
 import numpy as np
+import pytest
 from shading_helpers import quad
 
 import wrt
@@ -29,3 +30,60 @@ def test_a_dim_texture_under_a_bright_dome_colour_is_sampled_as_its_image():
     reference = dome_lit_plane(wrt.DomeLight(color=np.ones(3, np.float32), texture=FURNACE_DOME))
     scaled = wrt.DomeLight(color=np.full(3, 2.0**100, np.float32), texture=FURNACE_DOME * np.float32(2.0**-100))
     np.testing.assert_allclose(dome_lit_plane(scaled), reference, rtol=1e-6)
+
+
+def test_a_dome_near_float32s_largest_lights_a_plane_as_numpy_says():
+    """A grey plane under a constant dome of 3e38 shows 0.5 * 3e38, which float32 holds: every path sample divides the
+    dome's radiance by a cosine pdf (past 3.4e38) and the pixel sums samples, so all were dropped and the image was
+    black. A camera exposure of 2^-100 scales it exactly; a batch of two cameras gives each the same."""
+    radiance = 3e38
+    dome = wrt.DomeLight(color=np.full(3, radiance, np.float32), path="/Dome")
+    expected = 0.5 * np.float64(np.float32(radiance))  # albedo times the dome (float64)
+    for integrator in ("path", "whitted"):
+        np.testing.assert_allclose(dome_lit_plane(dome, spp=4, integrator=integrator), expected, rtol=1e-6)
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cams = [wrt.Camera.orthographic(eye=(x, 3, 0), target=(x, 0, 0), up=(0, 0, -1), height=0.5) for x in (0, 1)]
+    cams[1].exposure_scale = 2.0**-100
+    batch = wrt.render_batch(wrt.Scene(meshes=[plane], lights=[dome]), cams, 4, 4, spp=4, device="cpu",
+                             integrator="path", max_depth=1)
+    np.testing.assert_allclose(batch.rgb.numpy()[0], expected, rtol=1e-6)
+    np.testing.assert_allclose(batch.rgb.numpy()[1], expected * 2.0**-100, rtol=1e-6)
+
+
+def test_an_emissive_surface_near_float32s_largest_is_seen_as_it_glows():
+    """A quad glowing 2e38 (which float32 holds) seen over 4 samples: their sum passed 3.4e38 and was dropped, and the
+    pixel was black."""
+    glow = wrt.Material(path="/Glow", emissive_color=np.full(3, 2e38, np.float32))
+    mesh = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/quad", material=0)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
+    img = wrt.render(wrt.Scene(meshes=[mesh], materials=[glow]), camera=cam, width=4, height=4, spp=4, device="cpu",
+                     integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, np.float64(np.float32(2e38)), rtol=1e-6)
+
+
+def test_pixels_past_float32_after_the_camera_exposure_are_its_largest_with_a_warning():
+    """A dome of 1e38 over a grey plane, through a camera exposure of 2^10: the plane's 5e37 times 1024 is past
+    float32's range. Its pixels are float32's largest, with a warning (inf reached the image, and its PNG's tone
+    mapping); those of a dimmer camera (exposure 2^-10) are numpy's. So they are through an exposure of 1e30 of a dome
+    of 1e10, whose batch mean the device takes."""
+    dome = wrt.DomeLight(color=np.full(3, 1e38, np.float32), path="/Dome")
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cams = [wrt.Camera.orthographic(eye=(x, 3, 0), target=(x, 0, 0), up=(0, 0, -1), height=0.5) for x in (0, 1)]
+    cams[0].exposure_scale, cams[1].exposure_scale = 2.0**10, 2.0**-10
+    scene = wrt.Scene(meshes=[plane], lights=[dome])
+    largest = np.finfo(np.float32).max
+    with pytest.warns(UserWarning, match=r"16 pixel\(s\) of radiance times the camera's exposure past float32's range "
+                                         r"were clamped to its largest"):
+        img = wrt.render(scene, camera=cams[0], width=4, height=4, spp=2, device="cpu", integrator="path", max_depth=1)
+    assert np.all(img.rgb == largest)
+    with pytest.warns(UserWarning, match=r"16 pixel\(s\) of radiance .* were clamped"):
+        batch = wrt.render_batch(scene, cams, 4, 4, spp=2, device="cpu", integrator="path", max_depth=1).rgb.numpy()
+    assert np.all(batch[0] == largest)
+    np.testing.assert_allclose(batch[1], 0.5 * np.float64(np.float32(1e38)) * 2.0**-10, rtol=1e-6)
+    # A dome of 1e10, held unscaled, through an exposure of 1e30: the device's mean of the batch clamps
+    cams[0].exposure_scale = 1e30
+    scene.lights = [wrt.DomeLight(color=np.full(3, 1e10, np.float32), path="/Dome")]
+    with pytest.warns(UserWarning, match=r"16 pixel\(s\) of radiance .* were clamped"):
+        batch = wrt.render_batch(scene, cams, 4, 4, spp=2, device="cpu", integrator="path", max_depth=1).rgb.numpy()
+    assert np.all(batch[0] == largest)
+    np.testing.assert_allclose(batch[1], 0.5e10 * 2.0**-10, rtol=1e-6)

@@ -215,14 +215,15 @@ def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path
 
 
 def test_frame_image_counts_the_frames_dropped_samples(device):
-    """Non-finite samples (here sums past float32's range under a dome of 1e38) are counted in dropped_samples, which
-    frame_image left at the last render()'s count, of other samples; the frame's own count was never reset, so it
-    grew with every frame and replay. frame_image now gives the frame's count, a fresh one-sample render's."""
+    """Non-finite samples (here past float32's range under a dome of 1e38 times a texture of 1e38) are counted in
+    dropped_samples, which frame_image left at the last render()'s count, of other samples; the frame's own count was
+    never reset, so it grew with every frame and replay. frame_image now gives the frame's count, a fresh one-sample
+    render's."""
     from wrt.lights import DomeLight
 
     quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
     scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
-    scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32))]
+    scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((2, 4, 3), 1e38, np.float32))]
     cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
     options = {"camera": cam, "width": 8, "height": 8, "integrator": "path", "device": device}
     fresh = wrt.Renderer(scene, **options)

@@ -181,11 +181,13 @@ def test_whitted_lights_a_floor_under_a_dome_near_float32s_largest(textured):
 
 
 def test_whitted_warns_of_a_dome_too_bright_for_float32_naming_it():
-    """A dome of colour 1e38 over texels of 10 has radiance 1e39, past float32: its harmonics cannot be held, and the
-    warning names the dome where its pixels were inf and dropped without a word of it."""
+    """A dome of colour 1e38 over texels of 10 has radiance 1e39, past float32: no image can hold what sees it, and the
+    warning names the dome where its pixels were inf and dropped without a word of it (its harmonics, held scaled by
+    a power of two, wrt.radiance_scale, now fit)."""
     plane = quad((0, 0, 0), (40, 0, 0), (0, 0, -40), material=0)
     cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
     dome = DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((8, 16, 4), 10.0, np.float32), path="/Sky")
     scene = wrt.Scene(meshes=[plane], materials=[LAMBERT], lights=[dome])
-    with pytest.warns(UserWarning, match="dome light /Sky is too bright for Whitted's irradiance in float32"):
+    with pytest.warns(UserWarning, match=r"DomeLight /Sky: its radiance \(1e\+38: .* texels \(up to 10\) "
+                                         r"reaches 1e\+39, past float32's range"):
         wrt.render(scene, camera=cam, width=2, height=2, spp=1, device="cpu", integrator="whitted", max_depth=1)

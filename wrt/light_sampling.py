@@ -114,6 +114,7 @@ class DeviceLights:
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
+    radiance_scale: float  # power of two every emitted radiance is held times (wrt.radiance_scale; unread here)
     num_analytic: int  # number of UsdLux lights but mesh lights (they come first; then emissive and mesh triangles)
     dome: int  # index of the dome light, -1 without one
     dome_to_local: wp.mat33  # world direction -> dome frame

@@ -15,6 +15,7 @@ import warp as wp
 
 from .dome_irradiance import device_coefficients, irradiance_coefficients
 from .errors import SceneError
+from .floats import FLOAT32_MAX
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -47,6 +48,7 @@ from .lights import (
     normalized_radiance,
     shadow_api_row,
 )
+from .radiance_scale import radiance_scale
 from .scene import DistantLight
 
 
@@ -348,15 +350,20 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
-def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
+def build_lights(lights: list, scene, material_emission: list, device,
+                 glow: np.ndarray | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
-    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`.
+    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`. Radiance is held times
+    ``radiance_scale`` (:func:`wrt.radiance_scale.radiance_scale` of the brightest light or glow): the materials'
+    emission must be scaled by it too (:func:`wrt.radiance_scale.scaled_materials`), and the image divided by it.
 
     Args:
         lights: the UsdLux lights (scene lights or :func:`wrt.lights.default_lights`).
         scene: the :class:`wrt.Scene` (for emissive triangles and the scene radius).
         material_emission: per device material (index 0 = default material) a ``(3,)`` emission estimate.
         device: Warp device.
+        glow: ``(M,)`` per device material a bound on the radiance it emits (:func:`wrt.radiance_scale.glow_bounds`);
+            None: the largest component of its estimate.
     """
     lower, upper = scene.bounds()
     # The scene's own radius however small (1e-6 for a point): the distant and dome lights' selection weights are
@@ -371,6 +378,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     dome_index, dome = -1, None
     mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
     emitted = {}  # id of a light's texture -> (it, its texels, their mean): see _shared_texels
+    textured = {}  # row of h -> the textured light (rect or dome) it holds
     for light in lights:
         if isinstance(light, MeshLight):
             continue  # its triangles come after the analytic lights
@@ -417,6 +425,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             n = _emitting_normal(u, v, z)
             L = light.radiance
             texels, mean = (None, np.ones(3)) if light.texture is None else _shared_texels(emitted, light.texture)
+            textured[len(h.kinds)] = light
             down = length_scale(u, v)
             _add(h, LIGHT_RECT, L, origin, u, v, n, (0, down, light.area * down**2, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L * mean))
@@ -471,18 +480,32 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     dome_rot = np.eye(3)
     if dome is not None:
         dome_rot = _nearest_rotation(np.asarray(dome.to_world, np.float64)[:3, :3]).T
-        dome_mean = np.asarray(dome.color, np.float32)
+        dome_mean = np.asarray(dome.color, np.float64)
         texels = None
         if dome.texture is not None:
             texels = h.texture[dome_index] = _emitted_texels(dome.texture)
+            textured[dome_index] = dome
             row_cdf, col_cdf, mean = _dome_distribution(texels)
-            dome_mean = (dome_mean * mean).astype(np.float32)
-        dome_sh, past = device_coefficients(irradiance_coefficients(dome.color, texels))
+            dome_mean = dome_mean * mean  # in float64: a colour of 1e30 times texels of 1e10 passed float32
+        dome_sh = irradiance_coefficients(dome.color, texels)
+        if num_analytic:
+            h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
+
+    # Every emitted radiance times a power of two that brings the brightest near 1 (wrt.radiance_scale): the lights'
+    # radiance, the dome's harmonics and the triangles' radiance factors that do not multiply their material's glow
+    # (which is scaled with the materials).
+    if glow is None:
+        glow = np.array([float(np.max(e)) for e in material_emission] or [0.0])
+    tri_glow = np.where(tris.params[:, 0] > 0.0, glow[scene.triangle_materials()[tris.ids]], 1.0) if len(tris.ids) \
+        else np.zeros(0)
+    scale = radiance_scale(_brightest(h, textured, tris.radiance, tri_glow, glow))
+    h.radiance = [np.asarray(r, np.float64) * scale for r in h.radiance]
+    tri_radiance = np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
+    if dome is not None:
+        dome_sh, past = device_coefficients(dome_sh * scale)
         if past:
             warnings.warn(f"dome light {dome.path or '<dome>'} is too bright for Whitted's irradiance in float32 (a "
                           "harmonic past 3.4e38): its dome term is clamped to float32's largest", stacklevel=3)
-        if num_analytic:
-            h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
 
     # Selection probabilities.
     n = num_analytic + len(tris.ids)
@@ -517,7 +540,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
 
     d = DeviceLights()
     d.kinds = arr(h.kinds, wp.int32, 1)  # the rest are LIGHT_TRIANGLE
-    d.radiance = arr(h.radiance, wp.vec3, 3, tris.radiance)
+    d.radiance = arr(h.radiance, wp.vec3, 3, tri_radiance)
+    d.radiance_scale = scale
     d.position = arr(h.position, wp.vec3)
     d.axis_u = arr(h.axis_u, wp.vec3)
     d.axis_v = arr(h.axis_v, wp.vec3)
@@ -579,6 +603,32 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
     return d, tris.unsampled
+
+
+def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow: np.ndarray,
+               glow: np.ndarray) -> float:
+    """The largest radiance (float64) the lights of ``h`` emit (times their textures' largest texel), the triangles
+    of ``tri_radiance`` (``(E, 3)`` factors, times ``tri_glow``: ``(E,)`` their material's glow where they follow it,
+    else 1) and any material (``glow``, per device material). Warns, naming the light (``textured``: row of ``h`` ->
+    light), where a textured light's radiance passes float32's range, as no image can hold what sees it."""
+    brightest = float(np.max(glow)) if len(glow) else 0.0
+    if h.radiance:
+        largest = {}  # id of a texture -> its largest texel per channel: lamps share one image
+        for texels in h.texture:
+            if texels is not None and id(texels) not in largest:
+                largest[id(texels)] = texels.reshape(-1, 3).max(axis=0).astype(np.float64)
+        texel = np.stack([np.ones(3) if t is None else largest[id(t)] for t in h.texture])
+        peaks = (np.abs(np.asarray(h.radiance, np.float64)) * texel).max(axis=1)
+        brightest = max(brightest, float(np.max(peaks)))
+        for k in np.flatnonzero(peaks > FLOAT32_MAX):  # a colour and a texture that float32 holds apart
+            light = textured[k]
+            warnings.warn(f"{type(light).__name__} {light.path or '<light>'}: its radiance "
+                          f"({np.max(np.abs(h.radiance[k])):.3g}: intensity * 2^exposure * color) times its texture's "
+                          f"texels (up to {np.max(texel[k]):.3g}) reaches {peaks[k]:.3g}, past float32's range "
+                          "(3.4e38): no image holds what sees it (its pixels are float32's largest)", stacklevel=4)
+    if len(tri_radiance):
+        brightest = max(brightest, float(np.max(np.abs(tri_radiance).max(axis=1) * tri_glow)))
+    return brightest
 
 
 def rays_meet(kinds: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

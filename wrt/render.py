@@ -39,6 +39,7 @@ from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
 from .materials import emission_estimates, upload_materials
+from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
 from .scene import Scene, dataclass_field_names, dataclass_parts, parts_changed
@@ -785,7 +786,6 @@ class Renderer:
     def _upload_shading(self):
         scene, dev = self.scene, self.device
         mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
-        self.materials = mats
         self._upload_cameras(self.cameras, self.batched)
         geometry_materials = scene.triangle_materials()
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
@@ -801,7 +801,11 @@ class Renderer:
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
                           "rendered without the default lights, which are for stages without lights", stacklevel=3)
         self.lights = default_lights(self._forwards[0]) if default else list(scene.lights)
-        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev)
+        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev, glow_bounds(scene.materials))
+        # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
+        # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
+        self._radiance_scale = float(self.device_lights.radiance_scale)
+        self.materials = scaled_materials(mats, self._radiance_scale, dev)
         shapes = glows[geometry_materials[scene.num_geometry_triangles :]].sum() if emissive_used else 0
         self._warn_unsampled(unsampled, shapes)
         self._headlight = 0 if default else -1
@@ -1346,7 +1350,17 @@ class Renderer:
         """Each camera's factor on its mean radiance: its ``exposure_scale`` for the radiance integrators; the
         others' images are not radiance (ambient occlusion, quick looks)."""
         radiance = self.integrator in ("path", "whitted")
-        return self._exposures if radiance else [1.0] * len(self._exposures)
+        if not radiance:
+            return [1.0] * len(self._exposures)
+        return self._exposures if self._radiance_scale == 1.0 else [e / self._radiance_scale for e in self._exposures]
+
+    def _warn_clamped(self, pixels: int) -> None:
+        """Warns of ``pixels`` whose mean radiance times the camera's exposure passed float32's range (its largest
+        stands for it: inf reached the image, and NaN its tone mapping)."""
+        if pixels:
+            warnings.warn(f"{self.scene.source or 'scene'}: {pixels} pixel(s) of radiance times the camera's exposure "
+                          f"past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the exposure "
+                          "or the lights", stacklevel=5)
 
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel;
@@ -1357,7 +1371,8 @@ class Renderer:
         return self._image(image_sum, samples, aovs, kept_buffers)
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False) -> Image:
-        rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
+        rgb, clamped = mean_radiance(image_sum.numpy(), samples, self._exposure_scales()[0])
+        self._warn_clamped(clamped)
         host = aovs.numpy(self.height, self.width, samples)
         if kept_buffers and wp.get_device(self.device).is_cpu:
             # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image)
@@ -1380,15 +1395,38 @@ class Renderer:
             rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, self.scene).rgb
                             for i in range(n)])
             rgb = wp.array(rgb, dtype=wp.vec3, device=self.device)
+        elif self._radiance_scale != 1.0:  # factors that float32 may not hold: on the host, in float64
+            sums = image_sum.numpy().reshape(n, h * w, 3)
+            means = [mean_radiance(sums[k], total, f) for k, f in enumerate(self._exposure_scales())]
+            self._warn_clamped(sum(clamped for _, clamped in means))
+            rgb = wp.array(np.stack([m for m, _ in means]).reshape(n, h, w, 3), dtype=wp.vec3, device=self.device)
         else:
             rgb = wp.empty(n * h * w, dtype=wp.vec3, device=self.device)
+            clamped = wp.zeros(1, dtype=wp.int32, device=self.device)
             scales = wp.array(self._exposure_scales(), dtype=float, device=self.device)
-            wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total, scales, h * w], outputs=[rgb],
+            wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total, scales, h * w], outputs=[rgb, clamped],
                       device=self.device)
+            self._warn_clamped(int(clamped.numpy()[0]))
             rgb = rgb.reshape((n, h, w))
         return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator,
                           pixel_aspect_ratios=tuple(c.rendered_pixel_aspect(w, h) for c in self.cameras),
                           windows=tuple(self._windows))
+
+
+def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.ndarray, int]:
+    """``sums / samples * factor`` (float32 ``sums``) and how many pixels passed float32's range (their values are its
+    largest): in float32 where ``factor`` is a normal float32 (as the device's mean_image_kernel rounds it; a factor of
+    1 changes no bit), else in float64 (an exposure of 2^-200 of a scene of 1e38, or a radiance scale past float32's
+    range: the float32 factor was 0 or inf, and the image black or inf)."""
+    with np.errstate(over="ignore"):
+        if factor == 0.0 or np.finfo(np.float32).tiny <= abs(factor) <= FLOAT32_MAX:
+            rgb = sums / samples * np.float32(factor)
+        else:
+            rgb = (sums.astype(np.float64) / samples * factor).astype(np.float32)
+    past = rgb > FLOAT32_MAX
+    if not past.any():
+        return rgb, 0
+    return np.minimum(rgb, np.float32(FLOAT32_MAX)), int(past.reshape(-1, 3).any(axis=1).sum())
 
 
 def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:

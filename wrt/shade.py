@@ -42,7 +42,7 @@ Conventions:
 import warp as wp
 
 from .camera import DeviceCamera, clipped_ray, film_ray
-from .floats import largest_magnitude
+from .floats import FLOAT32_MAX, largest_magnitude
 from .geometry import face_normal, stable_length
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface, lookup_binding, normal_map
@@ -695,8 +695,14 @@ def mean_image_kernel(
     view_pixels: int,
     # outputs
     out: wp.array[wp.vec3],
+    clamped: wp.array[wp.int32],
 ):
     """``out = image / samples * view_scales[view]``: a division, then a product, so it rounds exactly as the
-    host's ``image.numpy() / samples * scale``."""
+    host's ``image.numpy() / samples * scale`` (:func:`wrt.render.mean_radiance`); a value past float32's range (an
+    exposure above 1) is its largest, and the pixel counted in ``clamped``."""
     i = wp.tid()
-    out[i] = image[i] / float(samples) * view_scales[i // view_pixels]
+    v = image[i] / float(samples) * view_scales[i // view_pixels]
+    if largest_magnitude(v) > FLOAT32_MAX:
+        v = wp.vec3(wp.min(v[0], FLOAT32_MAX), wp.min(v[1], FLOAT32_MAX), wp.min(v[2], FLOAT32_MAX))
+        wp.atomic_add(clamped, 0, 1)
+    out[i] = v
