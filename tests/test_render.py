@@ -559,15 +559,16 @@ def test_shading_does_not_depend_on_scene_scale(scale):
 def test_samples_whose_sum_overflows_are_dropped_not_written():
     """A dome of 1e38 over a texture of 1e38 (each finite in float32, their product 1e76 is not, nor any scaling of it
     into range: wrt.radiance_scale) gives samples or per-pixel sums past float32's range, which reached the EXR as
-    inf; such samples are now left out and counted as non-finite ones are, and pixels whose mean passes float32's
-    range are its largest."""
+    inf; such samples are now left out and counted as non-finite ones are, with a warning (the count alone darkened
+    the image without a word), and pixels whose mean passes float32's range are its largest."""
     quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
     scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
     scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((2, 4, 3), 1e38, np.float32))]
     cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
     with pytest.warns(UserWarning, match="past float32's range"):
         renderer = wrt.Renderer(scene, camera=cam, width=8, height=8, integrator="path")
-    img = renderer.render(spp=8)
+    with pytest.warns(UserWarning, match=r"sample\(s\) were not finite, or passed float32's range .* left out"):
+        img = renderer.render(spp=8)
     assert np.isfinite(img.rgb).all()
     assert renderer.dropped_samples > 0
 

@@ -1049,6 +1049,7 @@ class Renderer:
             self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first,
                                  "spread": spread}
         self.dropped_samples = int(dropped.numpy()[0])
+        self._warn_dropped()
         return self._mean_image(image, total, aovs)
 
     def _check_launch(self, n_pixels: int, batch: int) -> None:
@@ -1178,6 +1179,7 @@ class Renderer:
                                "the graph or call launch_frame() again")
         # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
         self.dropped_samples = int(dropped.numpy()[0])
+        self._warn_dropped()
         return self._mean_image(image, 1, aovs, kept_buffers=True)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
@@ -1353,6 +1355,14 @@ class Renderer:
         if not radiance:
             return [1.0] * len(self._exposures)
         return self._exposures if self._radiance_scale == 1.0 else [e / self._radiance_scale for e in self._exposures]
+
+    def _warn_dropped(self) -> None:
+        """Warns of the samples the last render (or frame) left out (:attr:`dropped_samples`): counted alone, they
+        darkened the image without a word (a dome of 1e38 drew a black one, before wrt.radiance_scale)."""
+        if self.dropped_samples:
+            warnings.warn(f"{self.scene.source or 'scene'}: {self.dropped_samples} sample(s) were not finite, or "
+                          "passed float32's range in their pixel's sum, and were left out (Renderer.dropped_samples): "
+                          "the pixels they fell in are darker than they should be", stacklevel=3)
 
     def _warn_clamped(self, pixels: int) -> None:
         """Warns of ``pixels`` whose mean radiance times the camera's exposure passed float32's range (its largest
