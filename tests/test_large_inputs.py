@@ -130,14 +130,19 @@ def test_8_bit_textures_decode_without_image_sized_float_temporaries(tmp_path, m
     monkeypatch.setattr(wrt_textures, "PACK_TEXELS", 4096, raising=False)
     tracemalloc.start()
     try:
-        texels, offsets, sizes = pack_images([other, rgba])
+        texels, offsets, sizes, scales = pack_images([other, rgba])
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
     assert peak < 1.5 * texels.nbytes  # the float16 texels and one slice (were four image-sized copies)
     np.testing.assert_array_equal(offsets, [0, 15])
     np.testing.assert_array_equal(sizes, [[5, 3], [w, h]])
-    whole = np.concatenate([other.reshape(-1, 4), rgba.reshape(-1, 4)])
+    # other's largest finite texel (about 3e5) is past float16's: it is stored divided by the power of two that
+    # brings it into [2^14, 2^15), the 8-bit image as it is
+    largest = np.abs(other[np.isfinite(other)]).max()
+    scale = 2.0 ** (np.floor(np.log2(largest)) - 14)
+    np.testing.assert_array_equal(scales, [scale, 1.0])
+    whole = np.concatenate([other.reshape(-1, 4) / np.float32(scale), rgba.reshape(-1, 4)])
     whole = np.clip(np.nan_to_num(whole, nan=0.0), -65504.0, 65504.0).astype(np.float16)
     np.testing.assert_array_equal(texels, whole)
 

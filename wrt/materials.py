@@ -65,6 +65,7 @@ from .textures import (
     WRAP_CLAMP,
     WRAP_MODES,
     TextureError,
+    image_scale,
     materialx_texels,
     nearest_texel,
     outside_to_fallback,
@@ -418,6 +419,7 @@ class DeviceMaterials:
     tile_images: wp.array[wp.int32]  # (UDIM_TILES * U,) image of each tile of the U UDIM bindings, -1: none
     image_offsets: wp.array[wp.int32]  # (K,) first texel of each image
     image_sizes: wp.array[wp.vec2i]  # (K,) width, height
+    image_scales: wp.array[float]  # (K,) power of two each image's texels are stored divided by (image_scale)
     texels: wp.array[wp.vec4h]  # all images, linear RGBA half floats
     count: int  # number of materials including the default
     ggx_albedo: GgxAlbedo  # albedo tables of the GGX lobe (multiple-scattering compensation, wrt.bsdf)
@@ -523,7 +525,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
             tiles[k] = UDIM_TILES * len(tile_tables)
             tile_tables.append(np.asarray(tex.tiles, np.int32))
     tile_images = np.concatenate(tile_tables) if tile_tables else np.full(1, -1, np.int32)
-    texels, offsets, sizes = pack_images(textures)
+    texels, offsets, sizes, image_scales = pack_images(textures)
 
     d = DeviceMaterials()
     d.colors = wp.array(colors, dtype=wp.vec3, device=device)
@@ -542,6 +544,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.tile_images = wp.array(tile_images, dtype=wp.int32, device=device)
     d.image_offsets = wp.array(offsets, dtype=wp.int32, device=device)
     d.image_sizes = wp.array(sizes, dtype=wp.vec2i, device=device)
+    d.image_scales = wp.array(image_scales, dtype=float, device=device)
     d.texels = wp.array(texels, dtype=wp.vec4h, device=device)
     d.count = m
     d.ggx_albedo = ggx_albedo_tables(device)
@@ -586,6 +589,7 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
             c = nearest_texel(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
         else:
             c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
+        c = c * mats.image_scales[k]  # stored divided by it (a power of two: exact; 1 for most images)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])
 
@@ -1697,9 +1701,9 @@ class MaterialReader:
                 self._images[key] = self._texture_index(texels, file_key)
                 unpacked = _unpacked_texels(texels, resolved) if self._images[key] == len(self.textures) - 1 else ""
                 if unpacked:  # pack_images stores float16: they were changed without a word
-                    self._file_problems[file_key] = (f"texture {authored}: texels that are NaN or past float16's "
-                                                     "range were changed (NaN read as 0, others clamped to +-65504)",
-                                                     unpacked)
+                    self._file_problems[file_key] = (f"texture {authored}: texels that are NaN or infinite were "
+                                                     "changed (NaN read as 0, infinite ones as the image's largest "
+                                                     "stored value)", unpacked)
         self._tell_file_problem(file_key, prim)
         return self._images[key]
 
@@ -1764,14 +1768,13 @@ _BOUNDED_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".gif", ".tga", ".webp")
 
 def _unpacked_texels(pixels: np.ndarray, resolved: str) -> str:
     """How many values of ``pixels`` (read from file ``resolved``) :func:`wrt.textures.pack_images` cannot store as
-    they are ("" for none)."""
+    they are, NaN and infinite ones ("" for none): finite ones fit, each image scaled by a power of two."""
     if np.asarray(pixels).dtype.kind != "f" or resolved.lower().rstrip("]").endswith(_BOUNDED_FORMATS):
         return ""
-    if max(float(pixels.max()), -float(pixels.min())) <= HALF_MAX:  # (False for a NaN): two passes, no temporaries
+    if math.isfinite(float(pixels.max()) - float(pixels.min())):  # (not for a NaN or inf): two passes, no temporaries
         return ""
-    with np.errstate(invalid="ignore"):
-        nan, past = int(np.isnan(pixels).sum()), int((np.abs(pixels) > HALF_MAX).sum())
-    found = [f"{n} {what}" for what, n in (("NaN", nan), ("past +-65504", past)) if n]
+    nan, infinite = int(np.isnan(pixels).sum()), int(np.isinf(pixels).sum())
+    found = [f"{n} {what}" for what, n in (("NaN", nan), ("infinite", infinite)) if n]
     return f"{', '.join(found)} of {np.size(pixels)} values" if found else ""
 
 
@@ -1797,27 +1800,29 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
     elif np.all(scale >= 0.0) and np.all(bias >= 0.0) and all(_stored_as_is(textures[k]) for k in images):
         mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * scale + bias
     else:  # some texels emit less than nothing, read as 0 (a contrast stretch, bias < 0, of a mask still glows), or
-        # are stored otherwise (NaN as 0, inf as 65504: a NaN or infinite mean made the emitter no light, or the only
-        # one sampled)
+        # are stored otherwise (NaN as 0, inf as the largest stored: a NaN or infinite mean made the emitter no light,
+        # or the only one sampled), or are past 65504 (stored scaled, summed in float64)
         mean = np.mean([_glow_mean(textures[k], scale, bias) for k in images], axis=0)
     value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
     return np.maximum(value.astype(np.float32), 0.0)
 
 
 def _stored_as_is(image: np.ndarray) -> bool:
-    """Every texel of ``image`` is in [0, 65504]: the device stores it as it is (a NaN fails the comparisons)."""
+    """Every texel of ``image`` is in [0, 65504]: the device stores it as it is, and its float32 mean holds (a NaN
+    fails the comparisons)."""
     return bool(image.min() >= 0.0 and image.max() <= HALF_MAX)
 
 
 def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.ndarray:
     """``(4,)`` mean over ``image`` (``(H, W, 4)``) of ``max(texel * scale + bias, 0)``, per channel, as the device
-    clamps each texel's emission, each texel as the device stores it (NaN as 0, others within +-65504:
-    :func:`wrt.textures.pack_images`); summed in slices (no image-sized float64 temporaries). Scaling the mean
-    instead estimated a mask stretched by ``scale`` 2, ``bias`` -1 at below 0: no light, though its bright texels
-    glow."""
+    clamps each texel's emission, each texel as the device stores it (NaN as 0, infinite ones as the image's largest
+    stored value: :func:`wrt.textures.pack_images`); summed in slices (no image-sized float64 temporaries). Scaling
+    the mean instead estimated a mask stretched by ``scale`` 2, ``bias`` -1 at below 0: no light, though its bright
+    texels glow."""
     flat = image.reshape(-1, 4)
     total = np.zeros(4)
+    stored = image_scale(image)
     for start in range(0, len(flat), PACK_TEXELS):
-        texels = stored_texels(flat[start : start + PACK_TEXELS])
+        texels = stored_texels(flat[start : start + PACK_TEXELS], stored) * np.float64(stored)
         total += np.maximum(texels * scale + bias, 0.0).sum(axis=0)
     return total / max(len(flat), 1)

@@ -16,7 +16,7 @@ import numpy as np
 import warp as wp
 
 from .materials import SLOTS, DeviceMaterials
-from .textures import HALF_MAX
+from .textures import HALF_MAX, image_scale
 
 SCALED_BRIGHTEST = 2.0**64  # the brightest emitted radiance the device holds unscaled
 SCALED_DIMMEST = 2.0**-64  # and the dimmest brightest one
@@ -33,19 +33,25 @@ def radiance_scale(brightest: float) -> float:
     return math.ldexp(1.0, -min(max(exponent, -126), 126))
 
 
-def glow_bounds(materials: list) -> np.ndarray:
+def glow_bounds(materials: list, textures: list) -> np.ndarray:
     """``(M + 2,)`` float64 bound on the radiance each device material (``[default] + materials + [no response]``)
-    emits anywhere: its largest ``emissiveColor`` component, or for a texture ``max(65504, |fallback|) |scale| +
-    |bias|`` (texels are stored within +-65504, :func:`wrt.textures.pack_images`)."""
+    emits anywhere: its largest ``emissiveColor`` component, or for a texture (of ``textures``, the scene's images)
+    ``T |scale| + |bias|``, ``T`` the largest of its images' texels, as stored (:func:`wrt.textures.pack_images`:
+    an infinite one is at most 65504 times the image's scale), and its fallback's."""
     bounds = np.zeros(len(materials) + 2)
+    largest = {}  # image -> its largest stored texel
     for k, mat in enumerate(materials, start=1):
         tex = mat.textures.get("emissiveColor")
         if tex is None:
             bounds[k] = float(np.max(np.abs(np.asarray(mat.emissive_color, np.float64))))
-        else:
-            texel = max(HALF_MAX, float(np.max(np.abs(np.asarray(tex.fallback, np.float64)))))
-            bounds[k] = float(np.max(texel * np.abs(np.asarray(tex.scale, np.float64))
-                                     + np.abs(np.asarray(tex.bias, np.float64))))
+            continue
+        texel = float(np.max(np.abs(np.asarray(tex.fallback, np.float64))))
+        for image in [tex.image] if tex.tiles is None else [i for i in np.asarray(tex.tiles) if i >= 0]:
+            if image not in largest:
+                largest[image] = HALF_MAX * image_scale(textures[image])
+            texel = max(texel, largest[image])
+        bounds[k] = float(np.max(texel * np.abs(np.asarray(tex.scale, np.float64))
+                                 + np.abs(np.asarray(tex.bias, np.float64))))
     return bounds
 
 

@@ -280,7 +280,8 @@ def _check_one_size(views: list, width: int, height: int) -> None:
 
 
 def shading_data(scene: Scene, device) -> tuple:
-    """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
+    """``(DeviceMaterials, uvs, materials, double_sided, emission estimates, glow bounds)`` of ``scene`` on ``device``
+    (:func:`wrt.radiance_scale.glow_bounds`), cached."""
     key = ("shading", str(device))
     if key not in scene._cache:
         images = scene_images(scene.textures)  # checked and made RGBA float32: they may be built in Python
@@ -295,7 +296,8 @@ def shading_data(scene: Scene, device) -> tuple:
             wp.array(tri_materials, dtype=wp.int32, device=device),
             wp.array(sided, dtype=wp.int32, device=device),
         )
-        scene._cache[key] = (mats, *arrays, emission_estimates(scene.materials, images))
+        scene._cache[key] = (mats, *arrays, emission_estimates(scene.materials, images),
+                             glow_bounds(scene.materials, images))
     return scene._cache[key]
 
 
@@ -785,7 +787,7 @@ class Renderer:
 
     def _upload_shading(self):
         scene, dev = self.scene, self.device
-        mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
+        mats, uvs, tri_materials, sided, emission, glow = shading_data(scene, dev)
         self._upload_cameras(self.cameras, self.batched)
         geometry_materials = scene.triangle_materials()
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
@@ -801,7 +803,7 @@ class Renderer:
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
                           "rendered without the default lights, which are for stages without lights", stacklevel=3)
         self.lights = default_lights(self._forwards[0]) if default else list(scene.lights)
-        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev, glow_bounds(scene.materials))
+        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev, glow)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)

@@ -4,7 +4,9 @@
 Conventions, stated once:
 
 - Images are kept as ``(H, W, 4)`` float32 linear RGBA, row 0 at the top; on the device they are packed into one
-  ``wp.vec4h`` (half float) array with per-image offsets.
+  ``wp.vec4h`` (half float) array with per-image offsets, each image divided by a power of two that brings its
+  largest finite texel within float16's range where it lies outside ``[2^-10, 65504]`` (:func:`image_scale`; an
+  HDR's sun of 1e6 was clamped to 65504, and an image of texels below 6e-8 read 0), lookups multiplied by it.
 - Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping), or of the one texel whose
   square holds ``st`` for the ``closest`` filter (:data:`FILTER_MODES`).
@@ -25,6 +27,7 @@ Conventions, stated once:
 from __future__ import annotations
 
 import io
+import math
 import struct
 
 import numpy as np
@@ -44,6 +47,9 @@ WRAP_FALLBACK = wp.constant(4)  # the texture's fallback outside [0, 1] (its bin
 FILTER_MODES = {"linear": 0, "closest": 1}
 FILTER_CLOSEST = wp.constant(1)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
+# Images whose largest finite texel lies in [SMALLEST_UNSCALED, HALF_MAX] are stored as they are; others divided by
+# a power of two (image_scale) that brings it into [2^14, 2^15): float16 keeps its 11 bits down to 2^-14.
+SMALLEST_UNSCALED = 2.0**-10
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
@@ -466,10 +472,43 @@ def scene_images(textures: list) -> list[np.ndarray]:
     return images
 
 
-def stored_texels(texels: np.ndarray) -> np.ndarray:
-    """``texels`` (a new float array) as the device stores them: NaN as 0, the rest clamped to float16's finite
-    range, +-:data:`HALF_MAX`."""
-    part = np.nan_to_num(texels, nan=0.0)
+def largest_finite(image: np.ndarray) -> float:
+    """The largest magnitude of ``image``'s finite values (0 for none): its largest and smallest where both are finite
+    (two passes, no temporaries), else in slices of :data:`PACK_TEXELS` texels (no image-sized temporaries)."""
+    flat = np.asarray(image).reshape(-1)
+    if len(flat) == 0:
+        return 0.0
+    high, low = float(flat.max()), float(flat.min())
+    if math.isfinite(high) and math.isfinite(low):
+        return max(high, -low, 0.0)
+    largest = 0.0
+    for start in range(0, len(flat), 4 * PACK_TEXELS):
+        part = np.abs(flat[start : start + 4 * PACK_TEXELS])
+        part = part[np.isfinite(part)]
+        if len(part):
+            largest = max(largest, float(part.max()))
+    return largest
+
+
+def image_scale(image: np.ndarray) -> float:
+    """The power of two the device stores ``image``'s texels divided by (and multiplies its lookups by): 1 where its
+    largest finite magnitude is 0 or lies in ``[SMALLEST_UNSCALED, HALF_MAX]``; else the one that brings it into
+    ``[2^14, 2^15)``, a normal float32. An HDR's sun of 1e6 was clamped to 65504 (with a warning), and an image of
+    texels below float16's smallest, 6e-8, read 0 (without one)."""
+    largest = largest_finite(image)
+    if largest == 0.0 or SMALLEST_UNSCALED <= largest <= HALF_MAX:
+        return 1.0
+    exponent = math.frexp(largest)[1] - 1  # largest in [2^exponent, 2^(exponent + 1))
+    return math.ldexp(1.0, min(max(exponent - 14, -126), 127))
+
+
+def stored_texels(texels: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """``texels`` (a new float array) as the device stores them for an image of :func:`image_scale` ``scale``: NaN as
+    0, the rest divided by ``scale`` and clamped to float16's finite range, +-:data:`HALF_MAX` (an infinite texel is
+    the largest stored); times ``scale`` they are what lookups read."""
+    part = np.nan_to_num(texels, nan=0.0, posinf=np.inf, neginf=-np.inf)
+    if scale != 1.0:
+        part /= np.float32(scale)
     return np.clip(part, -HALF_MAX, HALF_MAX, out=part)
 
 
@@ -477,8 +516,9 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
     """Concatenates ``(H, W, 4)`` images into one texel array.
 
     Returns:
-        ``texels`` ``(N, 4)`` float16 (at least one texel), ``offsets`` ``(K,)`` int32 first texel of each image and
-        ``sizes`` ``(K, 2)`` int32 ``(width, height)``.
+        ``texels`` ``(N, 4)`` float16 (at least one texel), ``offsets`` ``(K,)`` int32 first texel of each image,
+        ``sizes`` ``(K, 2)`` int32 ``(width, height)`` and ``scales`` ``(K,)`` float32: each image's texels are stored
+        divided by its :func:`image_scale`.
     """
     offsets, sizes, total = [], [], 0
     for img in images:
@@ -493,14 +533,15 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
     texels = np.empty((max(total, 1), 4), np.float16)
     if not total:
         texels[:] = 0.0
-    for img, offset in zip(images, offsets):
+    scales = [image_scale(img) for img in images]
+    for img, offset, scale in zip(images, offsets, scales):
         flat = img.reshape(-1, 4)
         for start in range(0, len(flat), PACK_TEXELS):
-            part = stored_texels(flat[start : start + PACK_TEXELS])
+            part = stored_texels(flat[start : start + PACK_TEXELS], scale)
             texels[offset + start : offset + start + len(part)] = part
     offsets = np.asarray(offsets or [0], np.int32)
     sizes = np.asarray(sizes or [(1, 1)], np.int32).reshape(-1, 2)
-    return texels, offsets, sizes
+    return texels, offsets, sizes, np.asarray(scales or [1.0], np.float32)
 
 
 @wp.func
