@@ -106,3 +106,14 @@ def test_an_emission_texture_past_float16s_range_glows_as_its_texels_say(texel, 
     expected = np.float64(np.float32(texel)) * np.float64(np.float32(factor))
     np.testing.assert_allclose(img.rgb, expected, rtol=1e-3)  # float16 keeps 11 bits
 
+
+def test_a_camera_exposure_below_float32s_range_scales_the_image_in_float64():
+    """A dome of 2^64 (held unscaled) through a camera exposure of 2^-150, which float32 cannot hold (it rounds to
+    0): the plane's 2^63 times it is 2^-87, which float32 holds. The image was black."""
+    dome = wrt.DomeLight(color=np.full(3, 2.0**64, np.float32), path="/Dome")
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    cam.exposure_scale = 2.0**-150
+    img = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=2, height=2, spp=2, device="cpu",
+                     integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, 2.0**-87, rtol=1e-6)
