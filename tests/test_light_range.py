@@ -117,3 +117,39 @@ def test_a_camera_exposure_below_float32s_range_scales_the_image_in_float64():
     img = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=2, height=2, spp=2, device="cpu",
                      integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb, 2.0**-87, rtol=1e-6)
+
+
+def lit_room(k: int, integrator: str) -> np.ndarray:
+    """``(H, W, 3)`` float64 image of a white floor lit by every kind of emitter, each emitting ``2^k`` times its own
+    radiance: a dome, a textured rect light (seen by the camera), a mesh light tinting its material's glow, one of
+    ``noMaterialResponse`` and a plain emissive quad."""
+    up = 2.0**k
+    tinted = wrt.Material(path="/Tinted", diffuse_color=0.0, emissive_color=np.full(3, 0.8 * up, np.float32))
+    glow = wrt.Material(path="/Glow", diffuse_color=0.0, emissive_color=np.float32([0.5, 0.4, 0.3]) * np.float32(up))
+    white = wrt.Material(path="/White", diffuse_color=0.8)
+    meshes = [quad((0, 0, 0), (8, 0, 0), (0, 8, 0), name="/floor", material=2, double_sided=False),
+              quad((-1.5, 0, 1), (1, 0, 0), (0, -1, 0), name="/tinted", material=0, double_sided=False),
+              quad((1.5, 0, 1), (1, 0, 0), (0, -1, 0), name="/plain", material=1, double_sided=False),
+              quad((0, 1.5, 1), (1, 0, 0), (0, -1, 0), name="/response", double_sided=False)]
+    panel = np.eye(4)
+    panel[:3, 3] = (0, -1.5, 1.5)
+    texture = np.linspace(0.25, 1.0, 2 * 4 * 3, dtype=np.float32).reshape(2, 4, 3)
+    lights = [wrt.DomeLight(color=np.full(3, 0.3 * up, np.float32), path="/Dome"),
+              wrt.RectLight(to_world=panel, width=1.0, height=0.5, color=np.full(3, 1.5 * up, np.float32),
+                            texture=texture, path="/Panel"),
+              wrt.MeshLight(path="/tinted", color=np.full(3, 1.2, np.float32), material_sync="materialGlowTintsLight"),
+              wrt.MeshLight(path="/response", color=np.full(3, up, np.float32), material_sync="noMaterialResponse")]
+    scene = wrt.Scene(meshes=meshes, materials=[tinted, glow, white], lights=lights)
+    cam = wrt.Camera.look_at((0, -6, 5), (0, 0, 0.5), fov_y_deg=50)
+    img = wrt.render(scene, camera=cam, width=12, height=8, spp=4, device="cpu", integrator=integrator, max_depth=2)
+    return img.rgb.astype(np.float64)
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_every_emitter_times_2_to_126_renders_the_image_times_2_to_126(integrator):
+    """Rendering is linear in what lights and surfaces emit: every emitter of a scene times 2^126 (its brightest
+    radiance 1.3e38, which float32 holds, as it holds the image) gives the image times 2^126, bit for bit in float32
+    (a power of two). Its path samples and sums passed float32's range and were dropped."""
+    reference = lit_room(0, integrator)
+    assert reference.min() > 0.0
+    np.testing.assert_array_equal(lit_room(126, integrator), reference * 2.0**126)
