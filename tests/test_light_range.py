@@ -145,11 +145,13 @@ def lit_room(k: int, integrator: str) -> np.ndarray:
     return img.rgb.astype(np.float64)
 
 
+@pytest.mark.parametrize("k", [126, -100])
 @pytest.mark.parametrize("integrator", ["path", "whitted"])
-def test_every_emitter_times_2_to_126_renders_the_image_times_2_to_126(integrator):
+def test_every_emitter_times_2_to_126_renders_the_image_times_2_to_126(integrator, k):
     """Rendering is linear in what lights and surfaces emit: every emitter of a scene times 2^126 (its brightest
     radiance 1.3e38, which float32 holds, as it holds the image) gives the image times 2^126, bit for bit in float32
-    (a power of two). Its path samples and sums passed float32's range and were dropped."""
+    (a power of two). Its path samples and sums passed float32's range and were dropped. So does 2^-100, which is
+    held scaled up."""
     reference = lit_room(0, integrator)
     assert reference.min() > 0.0
-    np.testing.assert_array_equal(lit_room(126, integrator), reference * 2.0**126)
+    np.testing.assert_array_equal(lit_room(k, integrator), reference * 2.0**k)
