@@ -499,8 +499,10 @@ def build_lights(lights: list, scene, material_emission: list, device,
     tri_glow = np.where(tris.params[:, 0] > 0.0, glow[scene.triangle_materials()[tris.ids]], 1.0) if len(tris.ids) \
         else np.zeros(0)
     scale = radiance_scale(_brightest(h, textured, tris.radiance, tri_glow, glow))
-    h.radiance = [np.asarray(r, np.float64) * scale for r in h.radiance]
-    tri_radiance = np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
+    tri_radiance = tris.radiance
+    if scale != 1.0:  # (a row at a time took 0.3 s for 100,000 lights)
+        h.radiance = np.asarray(h.radiance, np.float64).reshape(-1, 3) * scale
+        tri_radiance = np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
     if dome is not None:
         dome_sh, past = device_coefficients(dome_sh * scale)
         if past:
@@ -614,10 +616,13 @@ def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow
     brightest = float(np.max(glow)) if len(glow) else 0.0
     if h.radiance:
         largest = {}  # id of a texture -> its largest texel per channel: lamps share one image
-        for texels in h.texture:
-            if texels is not None and id(texels) not in largest:
-                largest[id(texels)] = texels.reshape(-1, 3).max(axis=0).astype(np.float64)
-        texel = np.stack([np.ones(3) if t is None else largest[id(t)] for t in h.texture])
+        texel = np.ones((len(h.radiance), 3))
+        for k in textured:
+            texels = h.texture[k]
+            if texels is not None:
+                if id(texels) not in largest:
+                    largest[id(texels)] = texels.reshape(-1, 3).max(axis=0).astype(np.float64)
+                texel[k] = largest[id(texels)]
         peaks = (np.abs(np.asarray(h.radiance, np.float64)) * texel).max(axis=1)
         brightest = max(brightest, float(np.max(peaks)))
         for k in np.flatnonzero(peaks > FLOAT32_MAX):  # a colour and a texture that float32 holds apart
