@@ -39,12 +39,16 @@ from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
-from .emitters import environment, light_sample_weight, lights_on_segment, mis_weight, surface_emission
+from .emitters import (
+    SHADOW_SHORTEN,
+    environment,
+    light_sample_weight,
+    lights_on_segment,
+    mis_weight,
+    surface_emission,
+)
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
-
-SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance stop this fraction short
-
 
 @wp.func
 def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.vec3, dist: float, u: float):

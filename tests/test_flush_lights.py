@@ -1,0 +1,69 @@
+"""A rect or disk light flush with a ceiling (the light's plane is the ceiling's, as a panel set into it): next-event
+estimation reaches it (its shadow rays stop a little short of the light, wrt.integrators.path.SHADOW_SHORTEN), so the
+rays a surface scatters, and camera rays, must see it there too, or the path tracer's MIS loses the share it gives
+those rays. Checked against Lambert's closed form for the floor below."""
+
+import math
+
+import numpy as np
+import pytest
+from light_oracle import polygon_irradiance
+from shading_helpers import pixel_points, quad, top_down_camera
+
+import wrt
+from wrt.lights import DiskLight, RectLight
+
+ALBEDO = 0.5  # the default material's grey: radiance = ALBEDO * E / pi
+HEIGHT = 0.37  # of the ceiling and the light above the floor z = 0: the light looks large from the floor
+RADIANCE = 2.0
+CENTRE = np.array([0.3, 0.1, HEIGHT])
+
+
+def light_of(kind):
+    to_world = np.eye(4)
+    to_world[:3, 3] = CENTRE  # local -Z, the emitting side, looks down at the floor
+    if kind == "rect":
+        return RectLight(to_world=to_world, width=1.5, height=1.0, color=np.full(3, RADIANCE))
+    return DiskLight(to_world=to_world, radius=0.7, color=np.full(3, RADIANCE))
+
+
+def outline(kind):
+    """The light's corners (the disk as a 512-gon), for Lambert's formula."""
+    if kind == "rect":
+        return [CENTRE + (x, y, 0) for x, y in ((-0.75, -0.5), (0.75, -0.5), (0.75, 0.5), (-0.75, 0.5))]
+    phi = np.arange(512) / 512 * 2 * np.pi
+    return list(CENTRE + 0.7 * np.stack([np.cos(phi), np.sin(phi), 0 * phi], -1))
+
+
+def flush_scene(kind):
+    floor = quad((0, 0, 0), (20, 0, 0), (0, 20, 0), name="/floor")
+    ceiling = quad((0, 0, HEIGHT), (20, 0, 0), (0, 20, 0), name="/ceiling")
+    return wrt.Scene(meshes=[floor, ceiling], lights=[light_of(kind)])
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("kind", ["rect", "disk"])
+def test_a_light_flush_with_the_ceiling_lights_the_floor_as_lamberts_formula_says(kind, integrator):
+    """Direct light on the floor (``max_depth`` 1) is the closed form, within four standard errors of the pixels'
+    Monte Carlo noise. The path tracer's BSDF-sampled rays met the ceiling and not the light (the two at the same
+    distance, the light was left out of the segment), so the floor got 0.67 (rect) and 0.64 (disk) of its light."""
+    res, patch = 8, 0.4
+    cam = top_down_camera((0.0, 0.0, 0.0), height=patch, distance=HEIGHT / 2)
+    img = wrt.render(flush_scene(kind), camera=cam, width=res, height=res, spp=128, seed=5, device="cpu",
+                     integrator=integrator, max_depth=1)
+    points = pixel_points((0.0, 0.0, 0.0), patch, res, res).reshape(-1, 3)
+    corners = outline(kind)
+    expected = np.array([ALBEDO * polygon_irradiance(p, (0, 0, 1), corners, RADIANCE) / math.pi for p in points])
+    residual = img.rgb[..., 0].ravel().astype(np.float64) - expected  # pixel areas vary E by under 0.1%
+    error = residual.std() / math.sqrt(residual.size)
+    assert abs(residual.mean()) < 4 * error + 2e-3 * expected.mean(), (residual.mean() / expected.mean(), error)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_camera_under_a_light_flush_with_the_ceiling_sees_the_light(integrator):
+    """Camera rays looking up at the light see its radiance, as the floor below receives its light; the ceiling
+    hid it at every pixel."""
+    cam = wrt.Camera.orthographic(eye=CENTRE * (1, 1, 0.1), target=CENTRE, up=(0, 1, 0), height=0.8)
+    img = wrt.render(flush_scene("rect"), camera=cam, width=8, height=8, spp=1, device="cpu",
+                     integrator=integrator, max_depth=1)
+    np.testing.assert_allclose(img.rgb, RADIANCE, rtol=1e-6)
