@@ -82,6 +82,7 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of 
 # across) the disc's radiance E / sizeFactor passes float32's range or its cone underflows, so it is a delta light of
 # its illuminance, which no ray could tell apart from the disc.
 SMALLEST_SUN_DISC = 1e-30
+SELECTION_GRID = float(1 << 24)  # light selection's uniform numbers are multiples of 1 / SELECTION_GRID
 
 
 def seen_by_camera(light) -> bool:
@@ -519,7 +520,13 @@ def build_lights(lights: list, scene, material_emission: list, device,
         pmf[:n] /= pmf[:n].sum()
     cdf = np.concatenate([[0.0], np.cumsum(pmf[:n])]) if n else np.array([0.0, 1.0])
     if n:
+        # The cdf on the grid of the uniform numbers that draw from it (multiples of 2^-24, wp.randf; float32 holds
+        # them exactly), each pmf the step that draws it: sample_cdf picks k for the u in [cdf[k], cdf[k + 1]), and
+        # the float32 rounding of the power shares and of their sums drew lights up to 2.4% more or less often than
+        # their light was divided by (200,000 emitters; 7.7% at a million), a fixed pattern no sample count removed.
+        cdf = np.round(cdf * SELECTION_GRID) / SELECTION_GRID
         cdf[-1] = 1.0
+        pmf[:n] = np.diff(cdf)
 
     e = len(tris.ids)
     owned = tris.owner >= 0
