@@ -174,13 +174,14 @@ def light_table_bytes(instances):
 
 def test_a_triangle_light_takes_only_the_columns_a_triangle_reads():
     """Each instanced emitter row of the light table takes the bytes of what light sampling reads of a triangle
-    light (radiance 12, params 16, triangle and instance 8, shadow mode 4, pmf and cdf 8, lobe multipliers 8: 56),
-    and each instance its first row's index (4): 2,000 more rows of 1,000 more instances of a quad take 60 bytes a row.
+    light (radiance 12, params 16, triangle and instance 8, shadow mode 4, pmf, cdf and whitted's emitter cdf 12, lobe
+    multipliers 8: 60), and each instance its first row's index (4): 2,000 more rows of 1,000 more instances of a quad
+    take 62 bytes a row.
     Before, every row held the analytic lights' columns too (position, edges, normal, shaping, texture): 162."""
     rows, small = light_table_bytes(10)
     more_rows, large = light_table_bytes(1010)
     assert more_rows - rows == 2000
-    assert (large - small) / 2000 == 56 + 4 / 2, (large - small) / 2000
+    assert (large - small) / 2000 == 60 + 4 / 2, (large - small) / 2000
 
 
 # USD: a glowing quad mesh inside a native instance and inside a PointInstancer's prototype.

@@ -104,8 +104,8 @@ def luminance_np(c) -> float:
     return float(np.asarray(c, np.float64) @ LUMINANCE)
 
 
-# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 56 bytes of
-# device arrays each, as every triangle's light-table row, 60 with light linking: 112 MB at the cap, whose rows
+# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 60 bytes of
+# device arrays each, as every triangle's light-table row, 64 with light linking: 120 MB at the cap, whose rows
 # build_lights made in 2 s on 2 cores): the instances past it (in instance order) keep their emission for rays that
 # hit them but are not sampled, with a warning, so that a forest of glowing leaves cannot fill the device.
 MAX_INSTANCED_EMITTERS = 2_000_000
@@ -572,6 +572,7 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.shape_inverses = wp.array(np.linalg.inv(shapes).astype(np.float32), dtype=wp.mat33, device=device)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
+    d.emitter_cdf = wp.array(_emitter_cdf(pmf[num_analytic:n]).astype(np.float32), dtype=float, device=device)
     d.count = n
     d.num_analytic = num_analytic
     d.dome = dome_index
@@ -641,6 +642,18 @@ def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow
     if len(tri_radiance):
         brightest = max(brightest, float(np.max(np.abs(tri_radiance).max(axis=1) * tri_glow)))
     return brightest
+
+
+def _emitter_cdf(pmf: np.ndarray) -> np.ndarray:
+    """The cdf of the triangles' selection ``pmf`` over its total, on the grid of the uniform numbers that draw
+    from it (as the lights' cdf, :data:`SELECTION_GRID`; uniform where their pmf all rounded to 0), ``[0, 1]`` for
+    none."""
+    if len(pmf) == 0:
+        return np.array([0.0, 1.0])
+    steps = pmf if pmf.sum() > 0.0 else np.ones(len(pmf))
+    cdf = np.round(np.concatenate([[0.0], np.cumsum(steps)]) / steps.sum() * SELECTION_GRID) / SELECTION_GRID
+    cdf[-1] = 1.0
+    return cdf
 
 
 def rays_meet(kinds: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

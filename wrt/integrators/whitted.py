@@ -44,6 +44,7 @@ from ..light_sampling import (
     dome_radiance,
     hit_emitter,
     lit_bsdf,
+    pick_in_group,
     sample_light,
     sample_light_in_view,
     shadow_fades,
@@ -51,7 +52,7 @@ from ..light_sampling import (
 )
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
-from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
+from ..sampling import luminance, max_component, power_heuristic, rand01
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
@@ -299,11 +300,7 @@ def whitted_lights_kernel(
         u_pick, state = rand01(state)
         u1, state = rand01(state)
         u2, state = rand01(state)
-        k = first
-        p_pick = float(1.0)
-        if count > 1:
-            k = first + sample_cdf(lights.cdf, first, count, u_pick)
-            p_pick = lights.pmf[k] / (lights.cdf[first + count] - lights.cdf[first])
+        k, p_pick = pick_in_group(lights, first, count, u_pick)
         ls = sample_light_in_view(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
