@@ -1146,15 +1146,22 @@ def test_topology_time_samples_of_another_int_type_are_refused_at_any_time(tmp_p
         assert caught.value.prim == "/World/Bad"
 
 
+def int64_over_weaker_int(tmp_path, name: str, strong: str, weak: str) -> str:
+    """A mesh whose ``int64[] {name} = {strong}`` is over a sublayer's ``int[] {name} = {weak}``."""
+    text = mesh_usda("Mesh", extra=f"int64[] {name} = {strong}")
+    if name == "faceVertexCounts":
+        text = text.replace(f"int[] faceVertexCounts = {fmt(COUNTS)}", "")
+    (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Mesh" {{\n'
+                                        f'        int[] {name} = {weak}\n    }}\n}}\n')
+    return write_usda(tmp_path, 'def Xform "World"\n{\n' + text + "}\n",
+                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+
+
 def test_int64_face_counts_over_a_weaker_int_array_read_the_weaker_one_as_usd_does(tmp_path):
     """An ``int64[] faceVertexCounts`` over a weaker layer's ``int[]`` one is passed over by USD's typed read for the
     weaker value (``GetFaceCount`` counts its faces; usdview draws them); wrt stopped the load with SceneError as if
     the mesh had no int[] counts. It draws USD's faces, with a warning naming the mistyped value."""
-    text = mesh_usda("Mesh").replace("int[] faceVertexCounts", "int64[] faceVertexCounts")
-    (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Mesh" {{\n'
-                                        f'        int[] faceVertexCounts = {fmt(COUNTS)}\n    }}\n}}\n')
-    path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text + "}\n",
-                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+    path = int64_over_weaker_int(tmp_path, "faceVertexCounts", fmt(COUNTS), fmt(COUNTS))
     stage = Usd.Stage.Open(path)
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Mesh"))
     assert mesh.GetFaceCount() == len(COUNTS)
@@ -1163,6 +1170,36 @@ def test_int64_face_counts_over_a_weaker_int_array_read_the_weaker_one_as_usd_do
     (loaded,) = scene.meshes
     counts = np.array(mesh.GetFaceVertexCountsAttr().Get(Usd.TimeCode.Default()))
     assert len(loaded.indices) == int(np.sum(counts - 2))
+
+
+def test_int64_face_counts_over_a_weaker_int_array_at_a_time_are_no_faces_as_to_usd(tmp_path):
+    """At a time USD's typed read fails on the ``int64[]`` opinion and reads the schema's fallback (none):
+    ``GetFaceCount(1)`` is 0 and the mesh draws nothing. wrt stopped the whole load with SceneError there (while
+    the default time read the weaker ``int[]``); it draws no faces of that mesh, with warnings naming it."""
+    path = int64_over_weaker_int(tmp_path, "faceVertexCounts", fmt(COUNTS), fmt(COUNTS))
+    stage = Usd.Stage.Open(path)
+    assert UsdGeom.Mesh(stage.GetPrimAtPath("/World/Mesh")).GetFaceCount(1) == 0
+    with pytest.warns(UserWarning, match="int64\\[\\] faceVertexCounts.*/World/Mesh"):
+        scene = wrt.load_usd(path, time=1)
+    assert scene.meshes == []
+
+
+def test_int64_hole_indices_over_a_weaker_empty_int_array_hide_no_face_as_to_usd(tmp_path):
+    """An ``int64[] holeIndices = [1]`` over a weaker ``int[] holeIndices = []`` is passed over by USD's typed read
+    for the ``[]``, which hides no face; wrt refused it with SceneError because ``[]`` is also the schema's fallback,
+    as if no ``int[]`` were authored. The oracle is a fresh load of the stage without the ``int64[]`` opinion."""
+    path = int64_over_weaker_int(tmp_path, "holeIndices", "[1]", "[]")
+    with pytest.warns(UserWarning, match="int64\\[\\] holeIndices"):
+        scene = wrt.load_usd(path)
+    layer = Sdf.Layer.FindOrOpen(path)
+    del layer.GetPrimAtPath("/World/Mesh").properties["holeIndices"]
+    layer.Save()
+    stage = Usd.Stage.Open(path)
+    assert list(UsdGeom.Mesh(stage.GetPrimAtPath("/World/Mesh")).GetHoleIndicesAttr().Get()) == []
+    (expected,) = load(path).meshes
+    (loaded,) = scene.meshes
+    assert len(loaded.indices) == len(expected.indices) == int(np.sum(np.array(COUNTS) - 2))
+
 
 @pytest.mark.parametrize(
     "layer_meta, arc, fragment",

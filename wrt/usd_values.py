@@ -65,10 +65,7 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
     if value is None:  # blocked
         return fallback(), None
     wrong = None
-    for spec in property_stack(attr, at):
-        samples = not at.IsDefault() and spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
-        if not (samples or spec.HasDefaultValue()):
-            continue  # an opinion of no value (metadata, a connection)
+    for spec, samples in _valued_specs(attr, at):
         if spec.typeName.type == want or (not samples and isinstance(spec.default, Sdf.ValueBlock)):
             if wrong is None:  # (a block, of whatever type name, blocks weaker values as one of the schema's does)
                 return value, None  # the value read is of the schema's type
@@ -83,6 +80,28 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
         if not at.IsDefault():  # at a time USD's typed read fails on it: its readers use the fallback
             return fallback(), wrong
     return (value, None) if wrong is None else (fallback(), wrong)
+
+
+def _valued_specs(attr: Usd.Attribute, at: Usd.TimeCode):
+    """``(spec, samples)`` for each property spec of ``attr`` at ``at``, strongest first, that holds a value there
+    (``samples``: its time samples do; else its default); opinions of no value (metadata, a connection) left out."""
+    for spec in property_stack(attr, at):
+        samples = not at.IsDefault() and spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
+        if samples or spec.HasDefaultValue():
+            yield spec, samples
+
+
+def schema_type_authored(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:
+    """Whether a value of the schema's type is authored for ``attr`` at ``time`` (by :func:`value_or_fallback`'s
+    rule), under whatever opinions of other types are stronger: the value USD's typed read takes at the default time
+    (:func:`schema_typed_value`); a value block above it hides it, as it does from USD."""
+    want = attr.GetTypeName().type
+    for spec, samples in _valued_specs(attr, read_time(attr, time)):
+        if not samples and isinstance(spec.default, Sdf.ValueBlock):
+            return False
+        if spec.typeName.type == want:
+            return True
+    return False
 
 
 def asset_in_layer(path: str, layer: Sdf.Layer | None) -> Sdf.AssetPath:
