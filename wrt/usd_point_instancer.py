@@ -13,6 +13,7 @@ from .usd_contents import Content, Context, instance_looks, placed_indices, plac
 from .usd_instancer_primvars import InstancerPrimvarReading
 from .usd_lights import read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
+from .usd_problems import authored_type
 from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
@@ -390,8 +391,7 @@ def _orientations_attr(pi: UsdGeom.PointInstancer) -> tuple[Usd.Attribute, str |
         return (orientationsf if filled else orientations), None
     if not orientations.HasValue():
         return orientationsf, None
-    stack = orientationsf.GetPropertyStack(Usd.TimeCode.EarliestTime())
-    return orientations, str(stack[0].typeName) if stack else type(earliest).__name__
+    return orientations, authored_type(orientationsf, Usd.TimeCode.EarliestTime())
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
