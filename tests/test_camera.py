@@ -1396,3 +1396,28 @@ def test_the_default_camera_of_a_box_far_from_the_origin_looks_as_it_does_near_i
     np.testing.assert_allclose(camera.to_world[:3, :3], near.to_world[:3, :3], rtol=0, atol=1e-14)
     np.testing.assert_array_equal(camera.to_world[:3, 3], (lower + upper) / 2 + near.to_world[:3, 3])
     assert camera.clipping_range == near.clipping_range
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_a_near_plane_past_float32s_range_along_the_corner_rays_is_refused_naming_the_clipping_range(projection):
+    """A camera scaled by 1e38 with its near plane at depth 3 puts it 3 * 1.17e38 along its corner rays (float64,
+    below), past float32's largest value: the kernel's ``near * length`` was inf and those rays saw nothing, without
+    a word. It is refused naming the clipping range; at depth 2.5 it renders, its rays' ``t_min`` the plain camera's
+    times the scale."""
+    scale = 1e38
+    apertures = dict(focal_length=35.0, horizontal_aperture=36.0, vertical_aperture=24.0, projection=projection)
+    if projection == "orthographic":
+        apertures.update(horizontal_aperture=0.36, vertical_aperture=0.24)  # (tenths of a scene unit)
+    scene = quad_scene(-1.0, 1.0, -1.0, 1.0, -5.0)
+    corner = np.array([0.5 * 36.0 / 35.0, 0.5 * 36.0 / 35.0 / 1.5, 1.0]) if projection == "perspective" else [0, 0, 1]
+    near = 3.0 if projection == "perspective" else 3.5
+    assert near * scale * np.linalg.norm(corner) > np.finfo(np.float32).max
+    scaled = wrt.Camera(to_world=np.diag([scale, scale, scale, 1.0]), clipping_range=(near, 1e6), **apertures)
+    with pytest.raises(ValueError, match=r"camera.*clipping_range=\(3(\.5)?, 1e\+06\)"):
+        camera_rays(scene, scaled, width=4, height=3)
+    plain = wrt.Camera(clipping_range=(2.5, 1e6), **apertures)
+    scaled.clipping_range = (2.5, 1e6)
+    t_min = camera_rays(scene, scaled, width=4, height=3, t_range=True)[2]
+    expected = camera_rays(scene, plain, width=4, height=3, t_range=True)[2].astype(np.float64) * scale
+    assert np.all(np.isfinite(t_min))
+    np.testing.assert_allclose(t_min, expected, rtol=1e-6)

@@ -479,6 +479,8 @@ class Camera:
                                     np.abs(np.outer(ys, m[:3, 1])).ravel()])
             reach = float(np.abs(base + across).max())
             if terms.max() < half and reach < half:
+                self._check_near_reach(np.linalg.norm(base + across, axis=1) if self.projection == "perspective"
+                                       else np.linalg.norm(m[:3, 2]))
                 return
             reach = max(reach, float(terms.max()))
         unit = "direction units per unit of depth" if self.projection == "perspective" else "scene units"
@@ -489,6 +491,22 @@ class Camera:
             f"{_show(self.vertical_aperture)}, offsets {_show(self.horizontal_aperture_offset)}, "
             f"{_show(self.vertical_aperture_offset)} (fit {self.fit!r}, pixel_aspect_ratio="
             f"{_show(self.pixel_aspect_ratio)})")
+
+
+    def _check_near_reach(self, lengths) -> None:
+        """ValueError naming the clipping range where the near plane lies past float32's range along a corner ray of
+        ``lengths`` (world length per unit of camera depth: the corner directions of a perspective camera, the
+        forward axis of an orthographic one): the kernel's ``near * length`` was inf there, and those rays saw
+        nothing without a word (a camera scaled by 1e38 whose near plane is at depth 3). Whatever such a ray could
+        meet past the near plane lies farther than float32 can count along it, so no clipping range would help."""
+        near, far = self.clipping_range
+        reach = abs(float(near)) * float(np.max(lengths))
+        if reach < FLOAT32_MAX:
+            return
+        raise ValueError(
+            f"{self.label()}: its near plane lies {reach:.3g} scene units along its corner rays, past float32's range "
+            f"(those rays would see nothing): clipping_range=({_show(near)}, {_show(far)}) with "
+            f"a to_world scale of {np.linalg.norm(self.to_world[:3, 2]):.3g}; scale the camera and the scene down")
 
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
