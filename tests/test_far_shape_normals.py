@@ -267,3 +267,50 @@ def test_the_normals_aov_of_a_point_instanced_sphere_off_its_prototype_origin_at
     got = image.aovs["normal"].reshape(-1, 3).astype(np.float64)
     error = angles(got[clear], expected[clear])
     assert error.max() <= OFF_CENTRE_ALLOWED, f"{np.degrees(error.max()):.2e} degrees"
+
+
+# Gprims far inside their prototype, which is instanced near the world origin: (attributes, translate in the
+# prototype), float32 numbers, so that the world centres are float32 numbers as the traced shapes' are.
+FAR_INSIDE = {
+    "Sphere": ({"radius": 1.0}, (100000.3125, -50000.1015625, 25000.703125)),
+    "Cone": ({"radius": 0.8, "height": 1.6}, (-99996.0625, 50003.8984375, -24999.296875)),
+}
+
+
+@pytest.mark.parametrize("turn", [0.0, 90.0], ids=["unturned", "quarter-turn"])
+def test_shapes_far_inside_their_prototype_keep_float32s_local_precision(tmp_path, turn):
+    """A gprim 1e5 from its prototype's origin, in an instance at the world origin, is shaded with the float64
+    oracle's normals to a few float32 ulps of the local problem, as a world-placed one at 1e5 is: shading summed the
+    hit point relative to the instance's origin, so it was rounded at 1e5 in the prototype (normals 0.5 degrees off)
+    while the trace places the shape relative to its instance's origin plus its offset."""
+    path = str(tmp_path / "far_inside.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Xform.Define(stage, "/World")
+    stage.CreateClassPrim("/Protos")
+    UsdGeom.Xform.Define(stage, "/Protos/P")
+    instance = UsdGeom.Xform.Define(stage, "/World/I")
+    instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
+    instance.GetPrim().SetInstanceable(True)
+    instance.AddRotateZOp().Set(turn)  # a quarter turn swaps x and y: the world centres stay float32 numbers
+    for type_name, (attrs, translate) in FAR_INSIDE.items():
+        prim = stage.DefinePrim(f"/Protos/P/{type_name}", type_name)
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(*translate))
+        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
+        for key, value in attrs.items():
+            prim.GetAttribute(key).Set(value)
+    stage.GetRootLayer().Save()
+    scene = load(path)
+    centres = [m[3, :3] for _, _, m in oracle.placements(stage)]
+    assert len(centres) == len(FAR_INSIDE)
+    o, d = aimed_rays(centres, np.random.default_rng(7), 80)
+    ref = oracle.trace(stage, o, d)
+    hits = wrt.trace(scene, o, d)
+    assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
+    paths, _ = scene.hit_paths(hits)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    expected = facing(ref["normal"], d)
+    clear = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    assert clear.sum() > 50 and (paths[clear] == ref["path"][clear]).all()
+    got = facing(hit_normals(scene, hits, o, d), d)
+    error = angles(got[clear], expected[clear])
+    assert error.max() <= ALLOWED, f"{np.degrees(error.max()):.2e} degrees"

@@ -53,11 +53,11 @@ from .transforms import (
     abs_vec,
     corners_to_world,
     inverse_transform_magnitude,
-    inverse_transform_point,
     inverse_transform_vector,
+    linear_part,
     local_ray_point,
     normal_to_world,
-    transform_point,
+    translation,
 )
 
 # Same rounding on every device: no FMA contraction (nvrtc and clang would fuse different operations, so paths
@@ -178,29 +178,32 @@ def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.
     shape ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface and moved back.
 
     The point is summed in the frame it is moved into (:func:`local_ray_point`: ``A ((o - c) + t d)``), relative to
-    the instance's and the shape's origin, so it is rounded at the scale of its distance from the ray's origin and
-    the shape, as the trace's own canonical ray is. Taken as the world point ``o + t d`` first, it was rounded at the
-    scale of its distance from the world origin: a sphere of radius 1 at 1e5 had normals 0.2 degrees off (a cone's
-    up to 2.4 degrees near its apex), 0.03 at 1e4, however near the camera."""
+    the shape's origin, so it is rounded at the scale of its distance from the ray's origin and the shape, as the
+    trace's own canonical ray is. Taken as the world point ``o + t d`` first, it was rounded at the scale of its
+    distance from the world origin: a sphere of radius 1 at 1e5 had normals 0.2 degrees off (a cone's up to 2.4
+    degrees near its apex), 0.03 at 1e4, however near the camera. An instanced shape's origin is its instance's plus
+    its offset ``w`` from it in world space, as the trace places it (:func:`wrt.tlas.shape_entry_transforms`): the
+    point is ``A_s A_i (((o - c_i) - w) + t d)``. Summed relative to the instance's origin alone, it was rounded at
+    the scale of the shape's distance from there: a sphere 1e5 inside its prototype had normals 0.4 degrees off."""
     j = prim - scene.num_prims
     m = scene.shape_to_local[j]
     if instance >= 0:
-        p = local_ray_point(scene.world_to_local[instance], o, d, t)
-        local = transform_point(m, p)
+        mi = scene.world_to_local[instance]
+        w = inverse_transform_vector(mi, translation(m))
+        local = linear_part(m) * (linear_part(mi) * (((o - translation(mi)) - w) + t * d))
     else:
         local = local_ray_point(m, o, d, t)
     q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], local)
     n = normal_to_world(m, n)
-    p = inverse_transform_point(m, q)
+    offset = inverse_transform_vector(m, q)  # from the shape's origin
     err = inverse_transform_magnitude(m, abs_vec(q))
-    centre = inverse_transform_point(m, wp.vec3(0.0))
+    centre = translation(m)
     if instance >= 0:
-        mi = scene.world_to_local[instance]
         n = normal_to_world(mi, n)
-        p = inverse_transform_point(mi, p)
+        offset = inverse_transform_vector(mi, offset)
         err = inverse_transform_magnitude(mi, err)
-        centre = inverse_transform_point(mi, centre)
-    return p, n, largest_magnitude(p - centre), err
+        centre = translation(mi) + w
+    return centre + offset, n, largest_magnitude(offset), err
 
 
 @wp.func
