@@ -211,6 +211,31 @@ def test_a_light_texture_file_is_read_and_uploaded_once(tmp_path, monkeypatch):
                                                 if isinstance(light, RectLight)]]}) == 1
 
 
+
+def test_a_dome_and_a_rect_light_reading_one_image_upload_it_once_as_the_estimate_counts_it(tmp_path):
+    """A DomeLight and a RectLight reading one file share its image, which the memory estimate
+    (``device_texture_bytes``) counts once; the dome's texels were made apart from the rect light's memoised ones, so
+    the image was uploaded twice. The oracle is the image's texel count, read with numpy."""
+    write_texture(tmp_path / "glow.png")
+    stage = new_stage(tmp_path / "dome.usda")
+    UsdLux.DomeLight.Define(stage, "/Sky").CreateTextureFileAttr(Sdf.AssetPath("glow.png"))
+    rect = UsdLux.RectLight.Define(stage, "/Panel")
+    rect.CreateTextureFileAttr(Sdf.AssetPath("glow.png"))
+    UsdGeom.Xformable(rect).AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 2.0))
+    stage.Save()
+    scene, _ = load(tmp_path / "dome.usda")
+    dome, panel = (next(light for light in scene.lights if isinstance(light, kind)) for kind in (wrt.DomeLight,
+                                                                                                RectLight))
+    assert dome.texture is panel.texture
+    height, width = np.shape(dome.texture)[:2]
+    renderer = wrt.Renderer(scene, width=4, height=4, device="cpu")
+    assert renderer.device_lights.texels.shape[0] == 1 + height * width  # one white texel and the image, once
+    counted = wrt.resources.device_texture_bytes(scene) - (height + 1 + height * (width + 1)) * 4  # less the CDFs
+    image_bytes = renderer.device_lights.texels.shape[0] * 12 - 12  # vec3 texels, less the white one
+    material_bytes = 8 + 4 + 8  # no material image: one vec4h texel, its offset and size
+    assert counted == image_bytes + material_bytes
+
+
 def floor_and_box(box_material=None):
     """A white floor at z = 0 and a white box hovering over it (geometry for shadows)."""
     floor = quad((0, 0, 0), (8, 0, 0), (0, 8, 0), name="/floor")

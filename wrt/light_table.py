@@ -484,7 +484,9 @@ def build_lights(lights: list, scene, material_emission: list, device,
         dome_mean = np.asarray(dome.color, np.float64)
         texels = None
         if dome.texture is not None:
-            texels = h.texture[dome_index] = _emitted_texels(dome.texture)
+            # The rect lights' memo: a rect light reading the dome's image shares its texels, uploaded once as
+            # device_texture_bytes counts them (they were made apart here, and uploaded twice).
+            texels = h.texture[dome_index] = _shared_texels(emitted, dome.texture)[0]
             textured[dome_index] = dome
             row_cdf, col_cdf, mean = _dome_distribution(texels)
             dome_mean = dome_mean * mean  # in float64: a colour of 1e30 times texels of 1e10 passed float32
