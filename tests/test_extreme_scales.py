@@ -487,3 +487,58 @@ def test_an_animated_far_camera_is_warned_of_once_per_renderer():
     shapes_too_far = [m for m in said if "sees analytic shapes from so far" in m]
     assert len(scene_too_far) == 1 and len(shapes_too_far) == 1, said
     assert len(said) == 2, said
+
+
+def far_python_camera(z: float) -> wrt.Camera:
+    """A camera made in Python (no path: labelled ``camera``) at ``(0, 0, z)`` looking down -z through a lens 0.2
+    units wide at 1e8, far enough for both far-view warnings of a unit sphere at the origin."""
+    to_world = np.eye(4)
+    to_world[:3, 3] = [0.0, 0.0, z]
+    return wrt.Camera(to_world=to_world, focal_length=1e10, horizontal_aperture=20.0, vertical_aperture=15.0,
+                      clipping_range=(1.0, 1e9))
+
+
+def far_view_warnings(make) -> list[str]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        make()
+    return [str(w.message) for w in caught if "float32" in str(w.message)]
+
+
+def test_each_far_camera_of_a_batch_made_in_python_is_warned_of():
+    """Two far cameras made in Python, rendered in one batch: each warns, as each does rendered on its own (the
+    oracle: a fresh Renderer per camera). The warnings were keyed by the label, ``camera`` for both, so the second
+    camera's went unsaid; they name each camera by its place in the batch."""
+    scene = wrt.Scene(shapes=[wrt.Shape("/ball", "sphere", np.eye(4))])
+    cameras = [far_python_camera(1e8), far_python_camera(3e8)]
+    alone = [far_view_warnings(lambda c=c: wrt.Renderer(scene, camera=c, width=4, height=3, device="cpu"))
+             for c in cameras]
+    assert all(len(said) == 2 for said in alone), alone  # the scene too far, and the shape
+    said = far_view_warnings(lambda: wrt.Renderer(scene, cameras=cameras, width=4, height=3, device="cpu"))
+    assert len(said) == sum(len(s) for s in alone), said
+    for k in range(2):
+        assert sum(f"cameras[{k}]" in message for message in said) == 2, said
+
+
+def test_a_far_shape_is_warned_of_once_whatever_else_a_moving_camera_loses():
+    """A camera moving along z loses the sphere below it (frame 0), then also the one above it, once that one is
+    ahead too (frame 1), then only the first again (frame 2): each shape is named once, as each frame rendered fresh
+    names it (the oracle). The key held the set of shapes lost, so the first sphere was named again at frame 1."""
+    high = np.eye(4)
+    high[2, 3] = 2e8
+    scene = wrt.Scene(shapes=[wrt.Shape("/low", "sphere", np.eye(4)), wrt.Shape("/high", "sphere", high)])
+    frames = [far_python_camera(z) for z in (1e8, 3e8, 1e8)]
+    fresh = [far_view_warnings(lambda c=c: wrt.Renderer(scene, camera=c, width=4, height=3, device="cpu"))
+             for c in frames]
+    named = {path for said in fresh for message in said if "analytic shapes" in message
+             for path in ("/low", "/high") if path in message}
+    assert named == {"/low", "/high"}
+
+    def animate():
+        renderer = wrt.Renderer(scene, camera=frames[0], width=4, height=3, device="cpu")
+        for camera in frames[1:]:
+            renderer.set_cameras([camera])
+
+    said = [message for message in far_view_warnings(animate) if "analytic shapes" in message]
+    for path in named:
+        assert sum(path in message for message in said) == 1, said

@@ -10,9 +10,12 @@ normal is wrong and a single-sided shape's hits are culled as back faces, so a u
 (:func:`warn_shapes_too_far`). Either matters only where what is lost covers a pixel or more, which, from that far,
 takes a very long lens: a usual camera sees such a scene as a dot, correctly. Both went without a word before.
 
-A Renderer says each warning once (``shown``): one for each camera label, and for each set of shapes, not one per
-camera upload, which an animated far camera given by ``set_cameras`` makes every frame (its distance in the words
-changing with it).
+A Renderer says each warning once (``shown``), not once per camera upload, which an animated far camera given by
+``set_cameras`` makes every frame (its distance in the words changing with it): the scene's once for each camera, and
+each shape's once for each camera, in the first warning that finds it lost. A camera is named by its path, or one
+made in Python (labelled ``camera``) by its place among several, so that each camera of a batch is warned of: keyed by
+the label, only the first of them was. Keyed by the set of shapes lost, a shape was named again whenever another
+joined or left the set.
 """
 
 from __future__ import annotations
@@ -49,11 +52,13 @@ def hit_error(cam: Camera, points: np.ndarray) -> np.ndarray:
     return FLOAT32_STEP * (np.linalg.norm(eye) + np.linalg.norm(points - eye, axis=1))
 
 
-def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None) -> None:
-    """Warns naming ``cam`` where its rays resolve distances at the scene to worse than :data:`ERROR_SHARE` of the
-    scene's size while the scene covers a pixel or more (see the module docstring); not where ``shown`` holds the
-    warning of a camera of that label already (each one given is added to it)."""
-    key = ("scene too far", cam.label())
+def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None,
+                       name: str | None = None) -> None:
+    """Warns naming ``cam`` (``name``, else its label) where its rays resolve distances at the scene to worse than
+    :data:`ERROR_SHARE` of the scene's size while the scene covers a pixel or more (see the module docstring); not
+    where ``shown`` holds the warning of a camera of that name already (each one given is added to it)."""
+    name = cam.label() if name is None else name
+    key = ("scene too far", name)
     if shown is not None and key in shown:
         return
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
@@ -67,7 +72,7 @@ def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set |
         if shown is not None:
             shown.add(key)
         distance = float(np.linalg.norm(centre[0] - cam.to_world[:3, 3]))
-        warnings.warn(f"{scene.source or 'scene'}: {cam.label()} is so far from the scene ({distance:.3g} units; it "
+        warnings.warn(f"{scene.source or 'scene'}: {name} is so far from the scene ({distance:.3g} units; it "
                       f"is {diagonal:.3g} across) that float32 resolves distances along its rays only to about "
                       f"{error:.2g} units: surfaces nearer each other than that are drawn in the wrong order, and "
                       "small lights and shapes vanish (move the camera nearer, with a wider lens)",
@@ -109,10 +114,13 @@ def shape_centres_and_sizes(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(centres), np.concatenate(sizes), np.concatenate(ids).astype(np.int64)
 
 
-def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None) -> None:
-    """Warns naming ``cam`` and the curved analytic shapes (not planes or disks) that it sees over a pixel or more
-    and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see the module docstring); not
-    where ``shown`` holds the warning of a camera of that label and those shapes already (each one given is added)."""
+def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None,
+                        name: str | None = None) -> None:
+    """Warns naming ``cam`` (``name``, else its label) and the curved analytic shapes (not planes or disks) that it
+    sees over a pixel or more and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see
+    the module docstring); shapes that ``shown`` holds the warning of for a camera of that name already are left out
+    (each one named is added to it)."""
+    name = cam.label() if name is None else name
     if not scene.shapes and not any(getattr(p, "shapes", None) for p in scene.prototypes):
         return
     geometry = scene._geometry_shapes()
@@ -122,14 +130,13 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set 
         error = hit_error(cam, centres)
         footprint, ahead = _pixel_footprints(cam, width, height, centres, size)
         lost = curved & ahead & (error > ERROR_SHARE * size) & (2.0 * size > footprint)
+    if shown is not None:
+        lost &= np.array([("shape too far", name, geometry[j].path) not in shown for j in ids], bool)
     if lost.any():
         paths = list(dict.fromkeys(geometry[j].path for j in ids[lost]))
-        key = ("shapes too far", cam.label(), tuple(paths))
         if shown is not None:
-            if key in shown:
-                return
-            shown.add(key)
+            shown.update(("shape too far", name, path) for path in paths)
         worst = float(np.max(error[lost]))
-        scene._warn_prims(f"{cam.label()} sees analytic shapes from so far for their size that float32 places its "
+        scene._warn_prims(f"{name} sees analytic shapes from so far for their size that float32 places its "
                           f"hit points on them only to within about {worst:.2g} units: their normals are wrong and "
                           "single-sided ones vanish (move the camera nearer, or make them meshes)", paths)

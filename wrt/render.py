@@ -919,9 +919,13 @@ class Renderer:
         structs = camera_structs(cameras, self.width, self.height, batched)
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         lens_list = [self._lens(c) for c in cameras]
-        for cam in cameras:
-            warn_scene_too_far(self.scene, cam, self.width, self.height, self._far_warnings)
-            warn_shapes_too_far(self.scene, cam, self.width, self.height, self._far_warnings)
+        for k, cam in enumerate(cameras):
+            # A camera made in Python is named by its place among several, as camera_structs names it: its label,
+            # "camera" for all of them, warned of the first only. (One alone, set_cameras([c]) each frame of an
+            # animation as Renderer(camera=c), keeps its label.)
+            name = cam.label() if cam.path or len(cameras) == 1 else f"{cam.label()} (cameras[{k}])"
+            warn_scene_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
+            warn_shapes_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
