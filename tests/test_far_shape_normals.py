@@ -314,3 +314,40 @@ def test_shapes_far_inside_their_prototype_keep_float32s_local_precision(tmp_pat
     got = facing(hit_normals(scene, hits, o, d), d)
     error = angles(got[clear], expected[clear])
     assert error.max() <= ALLOWED, f"{np.degrees(error.max()):.2e} degrees"
+
+
+def test_a_sphere_far_inside_a_turned_instance_is_shaded_on_the_sphere_traced(tmp_path):
+    """A sphere 1e5 inside its prototype, in a turned instance: its world offset from the instance's origin is no
+    float32 number, so float32 places it half an ulp of 1e5 from the float64 oracle's; the trace places it at the
+    instance's float32 origin plus that offset rounded once. Shading must place it there too: its own float32 offset
+    (the instance's inverse times the prototype offset) put it an ulp away, and snapped the hits onto a sphere
+    beside the one traced (normals 0.45 degrees off). The oracle: the float64 normal, from the float64 ray point at
+    the traced ``t``, of the unit sphere at that float32 place (worked out from USD's own placement)."""
+    path = str(tmp_path / "turned.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Xform.Define(stage, "/World")
+    stage.CreateClassPrim("/Protos")
+    UsdGeom.Xform.Define(stage, "/Protos/P")
+    instance = UsdGeom.Xform.Define(stage, "/World/I")
+    instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
+    instance.GetPrim().SetInstanceable(True)
+    origin = np.array([3.25, -1.5, 7.0])
+    instance.AddTranslateOp().Set(Gf.Vec3d(*origin))
+    instance.AddRotateXYZOp().Set(Gf.Vec3f(*TURN_XYZ))
+    sphere = stage.DefinePrim("/Protos/P/Sphere", "Sphere")
+    UsdGeom.Xformable(sphere).AddTranslateOp().Set(Gf.Vec3d(*FAR_INSIDE["Sphere"][1]))
+    UsdGeom.Gprim(sphere).CreateDoubleSidedAttr(True)
+    stage.GetRootLayer().Save()
+    scene = load(path)
+    ((_, _, m),) = oracle.placements(stage)
+    placed = origin.astype(np.float32).astype(np.float64) + (m[3, :3] - origin).astype(np.float32)
+    assert np.abs(placed - m[3, :3]).max() > 1e-3  # the float32 place is not the float64 one
+    o, d = aimed_rays([m[3, :3]], np.random.default_rng(3), 200)
+    hits = wrt.trace(scene, o, d)
+    hit = hits.prim >= 0
+    assert hit.sum() > 100 and (hits.instance[hit] >= 0).all()
+    expected = (o + hits.t[:, None] * d)[hit] - placed
+    assert np.abs(np.linalg.norm(expected, axis=1) - 1.0).max() < 1e-5  # the trace's sphere is the float32 one
+    got = facing(hit_normals(scene, hits, o, d)[hit], d[hit])
+    error = angles(got, facing(expected, d[hit]))
+    assert error.max() <= ALLOWED, f"{np.degrees(error.max()):.2e} degrees"

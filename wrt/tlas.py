@@ -587,7 +587,7 @@ class InstancedAccelerator(Accelerator):
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
         local_lo, local_hi = (b[shape_rows - n_tri] for b in local_boxes(scene._geometry_shapes()))
         shape_xforms, placed = shape_entry_transforms(shape_to_world, shape_to_local, shape_instances,
-                                                      instances.to_world)
+                                                      instances.to_world, scene.instanced_shape_offsets()[0])
         lo, hi = world_boxes(local_lo, local_hi, placed)
         lowers.append(np.where(shape_ok[:, None], lo, np.inf))  # a degenerate shape: a box no ray enters
         uppers.append(np.where(shape_ok[:, None], hi, -np.inf))
@@ -784,28 +784,28 @@ def as_placed(to_world: np.ndarray) -> np.ndarray:
 
 
 def shape_entry_transforms(shape_to_world: np.ndarray, shape_to_local: np.ndarray, shape_instances: np.ndarray,
-                           instance_to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                           instance_to_world: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(xforms (N, 3, 4) float32, placed (N, 4, 4) float64)`` of the shape entries: each shape placed by
     ``shape_to_world`` (an instanced one's: its instance's transform composed with its own; inverse
-    ``shape_to_local``) in instance ``shape_instances`` (-1: a world-space shape). ``xforms`` are ``[A | c]`` of
-    :mod:`wrt.transforms` for :func:`shape_entry`, where an instanced shape's ``c`` is its offset from its instance's
-    origin; ``placed`` has the translations where the device places the shapes, for their boxes (as :func:`as_placed`).
+    ``shape_to_local``) in instance ``shape_instances`` (-1: a world-space shape; the instanced ones last, in the order
+    of :meth:`wrt.Scene.instanced_shape_offsets`, whose float32 ``offsets`` from their instance's origin they take).
+    ``xforms`` are ``[A | c]`` of :mod:`wrt.transforms` for :func:`shape_entry`, where an instanced shape's ``c`` is
+    its offset; ``placed`` has the translations where the device places the shapes, for their boxes (as
+    :func:`as_placed`).
 
-    An instanced shape lies where shading places it (:func:`wrt.shade.shape_frame`): at its instance's float32 origin
-    plus its offset, each rounded at its own scale. Its world centre rounded to float32 once was up to half an ulp of
-    its distance from the world origin off that place (0.004 at 1e5, 4 at 1e8), so shading snapped the hit onto a
-    shape beside the one traced: hits 0.004 off the surface and normals 0.5 degrees off at 1e5; at 1e8 rays that a
-    unit sphere should stop missed it, and hits were 2 units off, their normals up to 90 degrees off."""
-    offsets = shape_to_world[:, :3, 3].copy()
-    origins = np.zeros_like(offsets)
-    instanced = shape_instances >= 0
-    # The composed translation less the instance's (float64: exact where the shape sits at its prototype's origin).
-    origins[instanced] = instance_to_world[shape_instances[instanced], :3, 3]
-    offsets -= origins
-    placed = shape_to_world.copy()
-    placed[:, :3, 3] = origins.astype(np.float32).astype(np.float64) + offsets.astype(np.float32)
+    An instanced shape lies where shading places it (:func:`wrt.shade.shape_frame`, which reads the same offsets): at
+    its instance's float32 origin plus its offset, each rounded at its own scale. Its world centre rounded to float32
+    once was up to half an ulp of its distance from the world origin off that place (0.004 at 1e5, 4 at 1e8), so
+    shading snapped the hit onto a shape beside the one traced: hits 0.004 off the surface and normals 0.5 degrees
+    off at 1e5; at 1e8 rays that a unit sphere should stop missed it, and hits were 2 units off, their normals up to
+    90 degrees off."""
     relative = shape_to_world.copy()
-    relative[:, :3, 3] = offsets
+    origins = np.zeros((len(shape_to_world), 3))
+    instanced = shape_instances >= 0
+    origins[instanced] = instance_to_world[shape_instances[instanced], :3, 3]
+    relative[instanced, :3, 3] = offsets
+    placed = shape_to_world.copy()
+    placed[:, :3, 3] = origins.astype(np.float32).astype(np.float64) + relative[:, :3, 3].astype(np.float32)
     return device_transforms(shape_to_local, relative), placed
 
 
