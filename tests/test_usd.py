@@ -1120,12 +1120,14 @@ def test_int64_face_counts_are_no_faces_to_usd_and_an_error_to_wrt(tmp_path):
 
 
 
+@pytest.mark.parametrize("weaker", [True, False], ids=["over-int", "alone"])
 @pytest.mark.parametrize("attribute, authored", [("faceVertexCounts", "int64[]"), ("faceVertexIndices", "uint[]"),
                                                  ("faceVertexIndices", "int64[]")])
-def test_topology_time_samples_of_another_int_type_are_refused_at_any_time(tmp_path, attribute, authored):
-    """Topology authored as time samples of another integer type than ``int[]``, even over a weaker ``int[]``
-    opinion: USD's typed read gets no faces at the time codes (``GetFaceCount(t)`` 0, the samples hide the weaker
-    value), and wrt refuses the mesh at any time with an error naming the file, the prim, the attribute and the
+def test_topology_time_samples_of_another_int_type_are_no_faces_as_to_usd(tmp_path, attribute, authored, weaker):
+    """Topology authored as time samples of another integer type than ``int[]``: USD's typed read gets no faces at
+    the time codes (``GetFaceCount(t)`` 0, or no indices; the samples hide a weaker ``int[]`` value). Over a weaker
+    ``int[]`` opinion wrt draws nothing of the mesh, as USD, with a warning naming the attribute and its type; with
+    no ``int[]`` authored at all it refuses the mesh with an error naming the file, the prim, the attribute and the
     type, as it does for such a default value (not a crash, not faces numpy made of the integers)."""
     old = f"int[] {attribute} = {fmt(COUNTS if attribute == 'faceVertexCounts' else INDICES)}"
     text = mesh_usda("Bad")
@@ -1133,13 +1135,18 @@ def test_topology_time_samples_of_another_int_type_are_refused_at_any_time(tmp_p
     samples = old.replace("int[]", authored).replace(f"{attribute} = ", f"{attribute}.timeSamples = {{ 1: ") + " }"
     (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Bad" {{\n        {old}\n    }}\n}}\n')
     path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text.replace(old, samples) + "}\n",
-                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+                      layer_meta='upAxis = "Y"' + ('\n    subLayers = [@./weak.usda@]' if weaker else ""))
     stage = Usd.Stage.Open(path)
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Bad"))
     for time in (1.0, 2.5):
         value = mesh.GetPrim().GetAttribute(attribute).Get(time)  # what a typed (VtIntArray) read refuses
         assert len(value) and not isinstance(value, Vt.IntArray)
         assert mesh.GetFaceCount(Usd.TimeCode(time)) == (0 if attribute == "faceVertexCounts" else len(COUNTS))
+        if weaker:
+            with pytest.warns(UserWarning, match=f"{authored.replace('[]', '')}\\[\\] {attribute}"):
+                scene = load_usd(path, time=time)
+            assert scene.meshes == []
+            continue
         with pytest.raises(SceneError, match=f"{path}: /World/Bad: {attribute} must be int\\[\\], not "
                                              f"{authored.replace('[]', '')}\\[\\]") as caught:
             load_usd(path, time=time)
