@@ -208,3 +208,31 @@ def test_a_file_read_by_materialx_and_usduvtexture_over_the_frames_of_a_kept_sta
     np.testing.assert_allclose(texel["/Looks/Colour"], np.append(colour_channels, 1.0), atol=1e-6)
     colour_images = {m.textures["diffuseColor"].image for m in scene.materials if "Colour" in m.path}
     assert len(colour_images) == 1, colour_images
+
+
+def srgb_decoded(x: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1's sRGB to linear, in float64."""
+    x = np.asarray(x, np.float64)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+@pytest.mark.parametrize("node_type", ["color3", "color4", "vector3"])
+@pytest.mark.parametrize("kind", ["png L", "png LA", "png RGBA", "exr RG"])
+def test_srgb_texture_decodes_the_colour_channels_of_the_nodes_output(tmp_path, kind, node_type):
+    """With ``colorspace="srgb_texture"`` MaterialX transforms the image node's output (ShaderGraph's output colour
+    transform, for color3 and color4 nodes only; ``mx_srgb_texture_to_lin_rec709_color4`` keeps alpha): every
+    colour channel of the output is decoded, whichever file channel it holds, so a grey + alpha file's alpha in g
+    is decoded too; a vector3 node reads the file as data. The alpha in g was left as the file stores it."""
+    png, channels = write_file(tmp_path, kind)
+    stage, path = new_stage(tmp_path, f"{node_type}.usda")
+    material, shader = mtlx_material(stage, "/Looks/Image")
+    last = image_node(stage, "/Looks/Image", png, node_type, TO_COLOR3[node_type])
+    UsdShade.Shader.Get(stage, "/Looks/Image/Image").GetInput("file").GetAttr().SetColorSpace("srgb_texture")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(last.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
+    out = materialx_output(channels, SIZES[node_type])[:3]
+    expected = out if node_type.startswith("vector") else srgb_decoded(out)
+    np.testing.assert_allclose(albedo(scene, 2).reshape(-1, 3).mean(axis=0), expected, atol=2e-3)

@@ -1737,10 +1737,12 @@ class MaterialReader:
 
     def _materialx_texels(self, file_key: tuple[str, str], pixels: np.ndarray, channels: tuple) -> np.ndarray:
         """:func:`wrt.textures.materialx_texels` of a file's ``pixels``, kept with them by the memo (a kept
-        material's replay finds the same array)."""
+        material's replay finds the same array). Colour space ``sRGB`` (``srgb_texture``) decodes the alpha that a
+        grey + alpha file lays into a colour channel too; ``auto`` decodes only what :func:`read_image` decoded."""
+        srgb = file_key[1] == "sRGB"
         if self.memo is None or reads_in_place(channels):
-            return materialx_texels(pixels, channels)
-        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels))
+            return materialx_texels(pixels, channels, srgb)
+        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels, srgb))
 
     def _texture_index(self, texels: np.ndarray, file_key: tuple[str, str]) -> int:
         """Index of ``texels`` (of the file of ``file_key``) in :attr:`textures`: the one a read of the file in the

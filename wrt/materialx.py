@@ -56,7 +56,8 @@ past the file's but for a fourth of 1 (the specification's rule, as MaterialX's 
 of a grey file is ``(c, 0, 0)``, a ``vector2`` of an ``R G`` EXR ``(R, G)``, of an RGB file ``(r, g)``, its third
 channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`), ``file`` (for ``color3`` and
 ``color4`` nodes the
-colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other
+colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
+whichever file channels they hold, as MaterialX transforms the output), ``lin_rec709``/``raw`` and other
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``

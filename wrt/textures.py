@@ -139,20 +139,23 @@ def reads_in_place(channels: tuple[int, ...]) -> bool:
     return tuple(channels[:3]) == (0, 1, 2)
 
 
-def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...]) -> np.ndarray:
+def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], srgb: bool = False) -> np.ndarray:
     """``pixels`` (:func:`read_image`'s, the file's channels at RGBA places ``channels``) as a MaterialX image node
     reads its file: the file's channels first, in its order, 0 past them but for a fourth of 1, as the Standard
     Nodes specification has it and MaterialX's GLSL, MSL and OSL implementations sample (MaterialX pull requests
     2985 and 3073): grey ``(c, 0, 0, 1)``, grey + alpha ``(c, a, 0, 1)``, an EXR's ``R G`` ``(R, G, 0, 1)``.
     UsdUVTexture reads grey as ``(c, c, c)`` and two channels as grey + alpha (the UsdPreviewSurface specification's
     rule).
-    ``pixels`` itself where they lie so already (colour in its places)."""
+    ``pixels`` itself where they lie so already (colour in its places). ``srgb``: ``pixels`` were decoded from sRGB
+    (:func:`read_image` decodes places 0 to 2, not alpha), and MaterialX's colour transform, applied to the node's
+    output, decodes all of its colour channels: a file's alpha laid into r, g or b is decoded there too."""
     if reads_in_place(channels):
         return pixels
     texels = np.zeros(pixels.shape, np.float32)
     texels[..., 3] = 1.0
     for k, place in enumerate(channels):
-        texels[..., k] = pixels[..., place]
+        decode = srgb and k < 3 <= place
+        texels[..., k] = srgb_to_linear(pixels[..., place]) if decode else pixels[..., place]
     return texels
 
 
