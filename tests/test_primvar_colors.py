@@ -429,6 +429,37 @@ def test_mix_convert_extract_combine_are_folded(tmp_path):
     np.testing.assert_allclose(image, halves((0.25, 0.1, 0.75), (0.25, 0.1, 0.75)), atol=1e-6)
 
 
+@pytest.mark.parametrize("node_id, in_type, value, index", [
+    ("ND_extract_vector2", Sdf.ValueTypeNames.Float2, Gf.Vec2f(0.2, 0.7), 2),
+    ("ND_extract_color4", Sdf.ValueTypeNames.Color4f, Gf.Vec4f(0.2, 0.7, 0.4, 0.9), 4),
+    ("ND_extract_color3", C3, Gf.Vec3f(0.2, 0.7, 0.4), -1),
+    ("ND_extract_color3", C3, "image", 3)])
+def test_an_extract_index_past_its_inputs_channels_is_reported(tmp_path, node_id, in_type, value, index):
+    """An ``extract`` whose ``index`` is not a channel of its input's type (2 of a vector2, 4 of a color4, -1; 3 of
+    a colour3 image) has no value in MaterialX: base_color keeps the standard_surface constant (base 0.8 times
+    base_color 1), and the material's warning names the extract node and its index. Index 2 of a vector2 read its x
+    again and 3 of a colour3 image its alpha (1), silently; -1 was called an unsupported node."""
+    png = str(tmp_path / "red.png")
+    PilImage.fromarray(np.array([[[200, 40, 10]]], np.uint8)).save(png)
+
+    def make(stage, graph):
+        if value == "image":
+            source = mtlx_node(stage, f"{graph}/Image", "ND_image_color3", file=(Sdf.ValueTypeNames.Asset, png))
+        else:
+            source = value
+        pick = mtlx_node(stage, f"{graph}/Pick", node_id, **{"in": (in_type, source)},
+                         index=(Sdf.ValueTypeNames.Int, index))
+        return mtlx_node(stage, f"{graph}/Grey", "ND_convert_float_color3", **{"in": (F, pick)})
+
+    stage, path = new_stage(tmp_path)
+    bind(two_quads(stage), mtlx_base_color_material(stage, "/Looks/Folded", make))
+    stage.Save()
+    scene, messages = load(path)
+    told = [m for m in messages if "/Looks/Folded" in m and "/Looks/Folded/Graph/Pick" in m]
+    assert len(told) == 1 and f"index {index}" in told[0] and "not supported" not in told[0], messages
+    np.testing.assert_allclose(albedo(scene), halves((0.8,) * 3, (0.8,) * 3), atol=1e-6)
+
+
 def test_an_image_times_a_colour_is_the_textures_scale(tmp_path):
     """multiply(image, (1, 0.5, 0.25)) reads the image scaled by that colour; it was the surface's constant."""
     png = str(tmp_path / "white_grey.png")

@@ -262,8 +262,9 @@ class _Graph:
             folded = fold(self.reader, node, leaf, output=found[2])
         except Unfoldable as e:
             node_id = e.node.GetShaderId() or "node without info:id"
-            self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), which is not supported; "
-                              f"its constant {_format(constant)} is used")
+            why = f"whose {e.problem}" if e.problem else "which is not supported"
+            self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), {why}; its constant "
+                              f"{_format(constant)} is used")
             return constant, None
         value = _array(folded.value, default.size)
         if value is None:  # a folded value past float64's range

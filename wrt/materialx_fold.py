@@ -60,11 +60,14 @@ class Folded:
 
 
 class Unfoldable(Exception):
-    """``node`` (a ``UsdShade.Shader``) cannot be folded into a constant, texture or primvar."""
+    """``node`` (a ``UsdShade.Shader``) cannot be folded into a constant, texture or primvar; ``problem``, where
+    the node is not one wrt lacks but one MaterialX gives no value (an extract's index past its input's channels),
+    says what is wrong with it."""
 
-    def __init__(self, node):
+    def __init__(self, node, problem: str | None = None):
         super().__init__(str(node.GetPath()))
         self.node = node
+        self.problem = problem
 
 
 def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None, output: str = "out") -> Folded:
@@ -86,7 +89,7 @@ def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None, output: s
             memo[key] = e
     found = memo[key]
     if isinstance(found, Unfoldable):
-        raise Unfoldable(found.node)
+        raise Unfoldable(found.node, found.problem)
     # A copy: a texture or primvar is scaled (or its channel picked) in place by the node that reads it.
     return Folded(found.value, copy.copy(found.source))
 
@@ -124,12 +127,12 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
         found = arg("value" if op == "constant" else "in", 0.0)
         return found if found.source is not None else Folded(_converted(found.value, size))
     if op == "extract":
-        return _extract(node, arg("in", 0.0), arg("index", 0.0))
+        return _extract(node, arg("in", 0.0), arg("index", 0.0), names[0])
     if op.startswith("separate"):  # (an ORM map's occlusion, roughness and metalness)
         k = SEPARATE_CHANNELS.get(output)
         if k is None or k >= TYPE_SIZES[names[0]]:
             raise Unfoldable(node)
-        return _extract(node, arg("in", 0.0), Folded(np.array([float(k)])))
+        return _extract(node, arg("in", 0.0), Folded(np.array([float(k)])), names[0])
     if op == "combine3":
         parts = [arg(name, 0.0) for name in ("in1", "in2", "in3")]
         if any(p.source is not None for p in parts):
@@ -202,11 +205,16 @@ def _converted(value: np.ndarray, size: int) -> np.ndarray:
     return _sized(value, size)
 
 
-def _extract(node, found: Folded, index: Folded) -> Folded:
-    """``extract``: channel ``index`` of ``found``; of an rgb texture that channel's output."""
-    k = int(index.value[0])
-    if index.source is not None or not 0 <= k < 4:
+def _extract(node, found: Folded, index: Folded, in_type: str) -> Folded:
+    """``extract``: channel ``index`` of ``found`` (of type ``in_type``); of an rgb texture that channel's output.
+    An index that is no channel of ``in_type`` (2 of a vector2, 3 of a colour3, negative, fractional) has no value
+    in MaterialX: it is refused, saying so, where a vector2's was its x again and a colour3 texture's its alpha."""
+    if index.source is not None:
         raise Unfoldable(node)
+    k, size = float(index.value[0]), TYPE_SIZES[in_type]
+    if not (k.is_integer() and 0 <= k < size):
+        raise Unfoldable(node, f"index {k:g} is not a channel of its {in_type} input (0 to {size - 1})")
+    k = int(k)
     texture = found.source
     if texture is None:
         return Folded(np.array([_sized(found.value, 4)[k]]))
