@@ -220,14 +220,8 @@ def test_usd_camera_aperture_is_expanded_to_the_image_aspect(tmp_path, projectio
     centre, the frustum's window grown about its centre to the image aspect. The horizontal aperture was always kept:
     a 200x100 image of a 36x24 aperture cut away a quarter of its height."""
     stage = Usd.Stage.CreateNew(str(tmp_path / "fit.usda"))
-    cam = UsdGeom.Camera.Define(stage, "/Cam")
-    cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
-    cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
-    cam.CreateProjectionAttr(projection)
-    cam.CreateHorizontalApertureAttr(36.0)
-    cam.CreateVerticalApertureAttr(24.0)
-    cam.CreateHorizontalApertureOffsetAttr(3.0)
-    cam.CreateVerticalApertureOffsetAttr(-2.0)
+    posed_camera(stage, "/Cam", projection, HorizontalAperture=36.0, VerticalAperture=24.0,
+                 HorizontalApertureOffset=3.0, VerticalApertureOffset=-2.0)
     stage.Save()
     width, height = size
     frustum = UsdGeom.Camera(stage.GetPrimAtPath("/Cam")).GetCamera(Usd.TimeCode.Default()).frustum
@@ -699,17 +693,30 @@ def test_camera_animated_only_by_time_samples_uses_its_first_sample(tmp_path):
     np.testing.assert_allclose(later.eye, [5.0, 2.0, 10.0])
 
 
-def _camera_under(tmp_path, parent: Gf.Matrix4d, projection: str) -> str:
-    stage = Usd.Stage.CreateNew(str(tmp_path / f"cam_{projection}.usda"))
-    UsdGeom.Xform.Define(stage, "/P").AddTransformOp().Set(parent)
-    cam = UsdGeom.Camera.Define(stage, "/P/Cam")
+# A sheared, non-uniformly scaled and mirrored transform, for a camera's parent.
+SHEARED_PARENT = Gf.Matrix4d(-1.0, 0.0, 0.0, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.3, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def posed_camera(stage, path: str, projection: str, parent: Gf.Matrix4d | None = None,
+                 **attributes) -> UsdGeom.Camera:
+    """A ``projection`` camera at ``path``, translated (1, 2, 3) and turned (10, 20, 30) degrees about X, Y and Z,
+    authoring ``attributes`` (``HorizontalAperture=36.0``: ``CreateHorizontalApertureAttr(36.0)``); ``parent``: the
+    transform of an Xform defined at its parent path."""
+    if parent is not None:
+        UsdGeom.Xform.Define(stage, path.rsplit("/", 1)[0]).AddTransformOp().Set(parent)
+    cam = UsdGeom.Camera.Define(stage, path)
     cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
     cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
     cam.CreateProjectionAttr(projection)
-    cam.CreateFocalLengthAttr(50.0)
-    cam.CreateHorizontalApertureAttr(36.0)
-    cam.CreateHorizontalApertureOffsetAttr(3.0)
-    cam.CreateVerticalApertureOffsetAttr(-2.0)
+    for name, value in attributes.items():
+        getattr(cam, f"Create{name}Attr")(value)
+    return cam
+
+
+def _camera_under(tmp_path, parent: Gf.Matrix4d, projection: str) -> str:
+    stage = Usd.Stage.CreateNew(str(tmp_path / f"cam_{projection}.usda"))
+    posed_camera(stage, "/P/Cam", projection, parent, FocalLength=50.0, HorizontalAperture=36.0,
+                 HorizontalApertureOffset=3.0, VerticalApertureOffset=-2.0)
     stage.Save()
     return str(tmp_path / f"cam_{projection}.usda")
 
@@ -718,8 +725,7 @@ def _camera_under(tmp_path, parent: Gf.Matrix4d, projection: str) -> str:
 def test_camera_rays_are_camera_space_rays_moved_by_the_whole_transform(tmp_path, projection):
     """A camera under a sheared, non-uniformly scaled and mirrored parent: each pixel's ray is its camera-space ray
     moved by ComputeLocalToWorldTransform (as Hydra's view matrix maps it), not a ray of an undistorted frame."""
-    parent = Gf.Matrix4d(-1.0, 0.0, 0.0, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.3, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-    path = _camera_under(tmp_path, parent, projection)
+    path = _camera_under(tmp_path, SHEARED_PARENT, projection)
     stage = Usd.Stage.Open(path)
     m = UsdGeom.Camera(stage.GetPrimAtPath("/P/Cam")).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
     width, height = 6, 4

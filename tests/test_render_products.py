@@ -842,18 +842,12 @@ def test_camera_depth_is_camera_space_depth_under_a_sheared_and_scaled_camera(tm
     units along the world view axis), 2.5 to 3 times it here. Oracle: float64 hits of each pixel centre's
     camera-space ray moved by pxr's ComputeLocalToWorldTransform, through pxr's inverse of it."""
     from pxr import Gf, Usd, UsdGeom
+    from test_camera import SHEARED_PARENT, posed_camera
 
     path = str(tmp_path / "sheared.usda")
     stage = Usd.Stage.CreateNew(path)
-    parent = Gf.Matrix4d(-1.0, 0.0, 0.0, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.3, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-    UsdGeom.Xform.Define(stage, "/P").AddTransformOp().Set(parent)
-    cam = UsdGeom.Camera.Define(stage, "/P/Cam")
-    cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
-    cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
-    cam.CreateProjectionAttr(projection)
-    cam.CreateHorizontalApertureAttr(36.0)
-    cam.CreateVerticalApertureAttr(24.0)
-    cam.CreateHorizontalApertureOffsetAttr(3.0)
+    cam = posed_camera(stage, "/P/Cam", projection, SHEARED_PARENT, HorizontalAperture=36.0, VerticalAperture=24.0,
+                       HorizontalApertureOffset=3.0)
     m = cam.ComputeLocalToWorldTransform(Usd.TimeCode.Default())
     # A tilted plane in front of the camera, placed in the world by the camera's transform.
     corners = [m.Transform(Gf.Vec3d(x, y, -6.0 + 0.1 * x + 0.05 * y))
