@@ -40,6 +40,13 @@ def load(path, **kwargs):
         return wrt.load_usd(path, **kwargs)
 
 
+def load_strictly(path, **kwargs):
+    """The stage at ``path`` loaded, any warning of the load raised as an error."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return wrt.load_usd(path, **kwargs)
+
+
 def load_recording_warnings(path, **kwargs):
     """``(scene, messages)``: the stage at ``path`` loaded, and every warning the load gave."""
     with warnings.catch_warnings(record=True) as caught:
