@@ -354,3 +354,25 @@ def test_a_graph_replayed_after_a_scene_edit_with_no_launch_since_is_refused():
     wp.capture_launch(capture.graph)
     with pytest.raises(RuntimeError, match=r"before the scene changed.*record the frame again"):
         renderer.frame_image()
+
+
+@pytest.mark.parametrize("edit", ["mesh added", "instances dropped"])
+def test_a_batch_view_keeps_the_prim_ids_of_the_scene_it_drew_after_the_scene_is_edited(edit):
+    """BatchImage.image(k) turned geometry ids into rows of Scene.triangles() when called, by the scene as it was
+    then: a mesh added after the render (a robot spawning an object between steps) shifted every instance's rows,
+    and instances dropped raised an IndexError or named other triangles. The view is the image a render of the
+    unedited scene gives."""
+    scene, cams = sensor_scene(), ring_of_cameras(3)
+    batch = wrt.render_batch(scene, cams, 12, 9, seed=2, device="cpu")
+    if edit == "mesh added":
+        triangle = wrt.Scene.from_triangles(np.float32([[5, 5, 5], [6, 5, 5], [5, 6, 5]]), np.int32([[0, 1, 2]]))
+        scene.meshes = [*triangle.meshes, *scene.meshes]
+    else:
+        scene.instances = wrt.Instances.from_transforms(np.zeros(1, np.int32), scene.instances.to_world[-1:])
+    unedited = sensor_scene()
+    for k in range(len(cams)):
+        one = wrt.render(unedited, camera=cams[k], width=12, height=9, seed=2, device="cpu")
+        view = batch.image(k)
+        assert (one.aovs["instance"] >= 0).any()  # some pixels see an instance, whose rows the edit moved
+        for name in ("prim", "instance"):
+            np.testing.assert_array_equal(view.aovs[name], one.aovs[name], err_msg=f"camera {k} {name}")

@@ -18,7 +18,7 @@ import numpy as np
 import warp as wp
 
 from .image import Aovs, Image
-from .scene import Scene
+from .scene import IdRows, Scene
 
 
 @dataclasses.dataclass
@@ -36,6 +36,9 @@ class BatchImage:
             empty: square).
         windows: where each camera's image lies in its shot (:attr:`wrt.Image.window`: a stage camera under the
             render settings' ``dataWindowNDC``; ``None``: the whole shot; empty: every image is whole).
+        id_rows: how :meth:`image` turns ``prim`` into rows of ``Scene.triangles()``: those of the scene as it was
+            drawn (:meth:`wrt.Scene.id_rows`; ``None``: as ``scene`` is when the BatchImage is made), so that a view
+            read after the scene was edited names the triangles drawn.
     """
 
     rgb: wp.array
@@ -44,9 +47,12 @@ class BatchImage:
     integrator: str = "whitted"
     pixel_aspect_ratios: tuple = ()
     windows: tuple = ()
+    id_rows: IdRows | None = dataclasses.field(default=None, repr=False)
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
+        if self.id_rows is None:
+            self.id_rows = self.scene.id_rows()
 
     def __len__(self) -> int:
         return self.rgb.shape[0]
@@ -66,7 +72,7 @@ class BatchImage:
         k = int(k) % len(self)  # Warp indexes wp.arrays with Python ints only
         rgb = self.rgb[k].numpy()  # one camera's slice, not the whole batch
         aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
-        image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
+        image = finish_image(rgb, aovs, "whitted", self.id_rows)  # rgb is already final, quick looks included
         shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
         window = self.windows[k] if self.windows else None
         return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, window=window,

@@ -42,7 +42,7 @@ from .materials import emission_estimates, upload_materials
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .scene import Scene, dataclass_field_names, dataclass_parts, parts_changed
+from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
     FIRST_ON_LENS,
@@ -1393,7 +1393,8 @@ class Renderer:
         if kept_buffers and wp.get_device(self.device).is_cpu:
             # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image)
             host = {name: np.array(a) if name in aovs.arrays else a for name, a in host.items()}
-        image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator, self.scene)
+        image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator,
+                             self.scene.id_rows(copy=False))
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
         image.window = self._windows[0]
         return image
@@ -1406,9 +1407,10 @@ class Renderer:
         if kept_buffers:  # a frame's AOVs were views of its buffers: the next frame rewrote an image returned before
             arrays = {name: wp.clone(a) if name in aovs.arrays else a for name, a in arrays.items()}
         arrays = {name: a.reshape((n, h, w)) for name, a in arrays.items()}
+        rows = self.scene.id_rows()  # kept by the BatchImage: its views expand prim ids as the scene was drawn
         if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
             host = {name: a.numpy() for name, a in arrays.items()}
-            rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, self.scene).rgb
+            rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, rows).rgb
                             for i in range(n)])
             rgb = wp.array(rgb, dtype=wp.vec3, device=self.device)
         elif self._radiance_scale != 1.0:  # factors that float32 may not hold: on the host, in float64
@@ -1426,7 +1428,7 @@ class Renderer:
             rgb = rgb.reshape((n, h, w))
         return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator,
                           pixel_aspect_ratios=tuple(c.rendered_pixel_aspect(w, h) for c in self.cameras),
-                          windows=tuple(self._windows))
+                          windows=tuple(self._windows), id_rows=rows)
 
 
 def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.ndarray, int]:
@@ -1445,13 +1447,14 @@ def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.nda
     return np.minimum(rgb, np.float32(FLOAT32_MAX)), int(past.reshape(-1, 3).any(axis=1).sum())
 
 
-def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
+def finish_image(rgb, aovs: dict, integrator: str, rows: IdRows) -> Image:
     """The :class:`Image` of one camera from its mean radiance ``(H, W, 3)`` and its ``(H, W, ...)`` AOVs: prim ids
-    as rows of ``Scene.triangles()``, and the quick-look integrators' colours made from the AOVs."""
+    as rows of ``Scene.triangles()`` (of the scene as it was drawn: ``rows``, :meth:`Scene.id_rows`), and the
+    quick-look integrators' colours made from the AOVs."""
     out = dict(aovs)
     h, w = out["prim"].shape[:2]
-    if len(scene.instances) or scene.prototypes:  # report rows of Scene.triangles(), as Hits.prim does
-        out["prim"] = scene.expanded_ids(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
+    if rows.expands:  # report rows of Scene.triangles(), as Hits.prim does
+        out["prim"] = rows.expand(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
     hit = out["prim"] >= 0
     if integrator == "normals":
         rgb = np.where(hit[..., None], 0.5 * (out["normal"] + 1.0), 0.0)

@@ -554,6 +554,44 @@ class _IdLayout(NamedTuple):
     instance_shapes: np.ndarray  # Scene.instance_shape_offsets()
 
 
+class IdRows(NamedTuple):
+    """Turns hits given as ``(geometry id, instance)`` into rows of ``Scene.triangles()`` of a scene as it was when
+    made (:meth:`Scene.id_rows`). A :class:`wrt.BatchImage` keeps one: its views, made on the host when asked for,
+    expanded the ids by the scene as it was then, and after an edit (a mesh added, instances dropped) named other
+    triangles than those drawn, or raised an IndexError."""
+
+    layout: _IdLayout
+    prototype: np.ndarray  # Scene.instances.prototype: each instance's prototype
+
+    @property
+    def expands(self) -> bool:
+        """Whether geometry ids differ from rows (the scene has instances or prototypes)."""
+        return bool(len(self.prototype) or len(self.layout.prototypes))
+
+    def expand(self, prim, instance) -> np.ndarray:
+        """:meth:`Scene.expanded_ids` of the scene this was made of."""
+        prim = np.asarray(prim, np.int64)
+        instance = np.asarray(instance, np.int64)
+        out = prim.copy()
+        layout = self.layout
+        tris = layout.geometry
+        rendered = int(layout.instances[-1])
+        inst = (prim >= 0) & (prim < tris) & (instance >= 0)
+        if inst.any():
+            first = layout.prototypes[:, 0][self.prototype[instance[inst]]]
+            out[inst] = layout.instances[instance[inst]] + prim[inst] - first
+        shape = prim >= tris
+        if shape.any():
+            flat = shape & (instance < 0)
+            out[flat] = rendered + prim[flat] - tris
+            inst = shape & (instance >= 0)
+            if inst.any():
+                first = layout.prototype_shapes[:, 0][self.prototype[instance[inst]]]
+                out[inst] = rendered + layout.instance_shapes[instance[inst]] + prim[inst] - first
+        total = rendered + int(layout.instance_shapes[-1])
+        return out.astype(np.int64 if total > ROW_DTYPE_LIMIT else np.int32)
+
+
 @dataclasses.dataclass
 class Scene:
     """Everything that is rendered, as host arrays.
@@ -1094,26 +1132,13 @@ class Scene:
         Returns:
             ``(N,)`` int32, or int64 when the scene has more than ``2**31 - 1`` rendered triangles.
         """
-        prim = np.asarray(prim, np.int64)
-        instance = np.asarray(instance, np.int64)
-        out = prim.copy()
-        layout = self._id_layout()
-        tris = layout.geometry
-        rendered = int(layout.instances[-1])
-        inst = (prim >= 0) & (prim < tris) & (instance >= 0)
-        if inst.any():
-            first = layout.prototypes[:, 0][self.instances.prototype[instance[inst]]]
-            out[inst] = layout.instances[instance[inst]] + prim[inst] - first
-        shape = prim >= tris
-        if shape.any():
-            flat = shape & (instance < 0)
-            out[flat] = rendered + prim[flat] - tris
-            inst = shape & (instance >= 0)
-            if inst.any():
-                first = layout.prototype_shapes[:, 0][self.instances.prototype[instance[inst]]]
-                out[inst] = rendered + layout.instance_shapes[instance[inst]] + prim[inst] - first
-        total = rendered + int(layout.instance_shapes[-1])
-        return out.astype(np.int64 if total > ROW_DTYPE_LIMIT else np.int32)
+        return self.id_rows(copy=False).expand(prim, instance)
+
+    def id_rows(self, copy: bool = True) -> IdRows:
+        """What :meth:`expanded_ids` reads, as the scene is now; ``copy``: the instances' prototype ids copied, so
+        that a later edit in place (after :meth:`invalidate`) does not reach it."""
+        prototype = self.instances.prototype if len(self.instances) else np.zeros(0, np.int64)
+        return IdRows(self._id_layout(), np.array(prototype, np.int64) if copy else prototype)
 
     def split_ids(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """The inverse of :meth:`expanded_ids`: ``(geometry id, instance)`` int64 of rows of :meth:`triangles`."""
