@@ -425,6 +425,18 @@ def test_an_aov_png_onto_a_folder_names_the_folder_not_the_temporary_file(tmp_pa
     assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
 
 
+@pytest.mark.parametrize("name", ["d.exr", "d.npy", "d.jpg", "depth"])
+def test_save_aov_png_under_another_extension_is_refused(tmp_path, name):
+    """save_aov_png("depth", "d.exr") wrote PNG bytes into d.exr (an EXR reader then failed on it, or a .jpg viewer
+    guessed), without a word. It names the file and says the preview is a PNG; nothing is written."""
+    image = wrt.Image(rgb=np.zeros((2, 2, 3), np.float32), aovs={"depth": np.ones((2, 2), np.float32)})
+    with pytest.raises(ValueError, match=rf"^save_aov_png: cannot write {name}: .*\.png"):
+        image.save_aov_png("depth", tmp_path / name)
+    assert not list(tmp_path.iterdir())
+    written = image.save_aov_png("depth", tmp_path / "d.PNG")  # any case of .png, as save takes it
+    assert written.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_save_aovs_into_an_empty_directory_name_is_refused(tmp_path, monkeypatch):
     """save_aovs('') wrote the AOVs into the current folder (Path('') is '.'), without a word."""
     monkeypatch.chdir(tmp_path)

@@ -433,9 +433,15 @@ class Image:
             raise ValueError(f"unknown AOV {name!r}{did_you_mean(name, self.aovs)}; available: {', '.join(self.aovs)}")
 
     def save_aov_png(self, name: str, path) -> Path:
-        """Writes the :func:`aov_preview` of AOV ``name`` as a PNG."""
+        """Writes the :func:`aov_preview` of AOV ``name`` as a PNG; ``path`` must end in ``.png`` (a ``ValueError``
+        otherwise: ``d.exr`` got PNG bytes under an EXR name; the values themselves: :meth:`save_aovs`)."""
         self._check_aov(name)
-        path = Path(path)
+        if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
+            raise TypeError(f"save_aov_png: path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
+        path = check_not_extension_alone(path)
+        if path.suffix.lower() != ".png":
+            raise ValueError(f"save_aov_png: cannot write {path.name}: the preview is a PNG, so name it .png (the "
+                             f"AOV's values: save_aovs, as .npy)")
         preview = aov_preview(name, self.aovs[name])  # display colours, meant to be shown as they are: sRGB
         write_atomically(path, lambda target: write_srgb_png(target, preview))
         return path
