@@ -481,6 +481,28 @@ def test_save_takes_a_file_name_near_the_length_limit(tmp_path, suffix):
         np.testing.assert_array_equal(np.load(path), rgb)
 
 
+@pytest.mark.parametrize("rgb", [np.zeros((4, 5), np.float32), np.zeros((4, 5, 1), np.float32),
+                                 np.zeros((4, 5, 4), np.float32), np.zeros((0, 5, 3), np.float32),
+                                 np.zeros((4, 5, 3), bool), np.full((4, 5, 3), "0.5"), None],
+                         ids=["2d", "one channel", "rgba", "empty", "bool", "text", "none"])
+def test_an_image_of_no_rgb_picture_is_refused_when_made(tmp_path, rgb):
+    """wrt.Image's rgb is an (H, W, 3) picture, but anything was taken: a (4, 5) array failed at save with PIL's
+    'Invalid mode for data type', an empty one wrote a broken EXR's temporary file, an RGBA one was written as an
+    RGBA PNG with its alpha sRGB-encoded and as an RGB EXR. Refused now, naming rgb and what it got."""
+    with pytest.raises(ValueError, match=r"^wrt.Image: rgb must be a non-empty \(H, W, 3\) array of real numbers"):
+        wrt.Image(rgb=rgb)
+
+
+def test_an_image_of_nested_lists_or_float64_is_float32():
+    """A list of rows was kept as a list: repr, .width and save('.exr') raised AttributeError ('list' object has no
+    attribute 'shape'); rgb is documented float32, and a float64 array is held as float32 (what save writes)."""
+    rows = [[[0.25, 0.5, 1.0], [0.0, 2.0, 0.125]]]
+    for given in (rows, np.array(rows, np.float64)):
+        img = wrt.Image(rgb=given)
+        assert (img.width, img.height) == (2, 1) and img.rgb.dtype == np.float32
+        np.testing.assert_array_equal(img.rgb, np.array(rows, np.float64))  # these values are exact in float32
+
+
 @pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True, 1024, -1e6, 151])
 def test_save_refuses_an_exposure_that_is_not_a_finite_number(tmp_path, exposure):
     """NaN wrote a black PNG and inf a white one without a word (the CLI checks --exposure; Python did not); 1024

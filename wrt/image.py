@@ -289,6 +289,22 @@ def check_image_path(path) -> Path:
     return path
 
 
+def checked_rgb(rgb) -> np.ndarray:
+    """``rgb`` as the float32 ``(H, W, 3)`` array :attr:`Image.rgb` is (a list of rows, a float64 array converted);
+    ValueError for anything else. Taken as given, a ``(H, W)`` array failed only at save, in PIL's words ('Invalid
+    mode for data type'), a list had no ``shape``, and an ``(H, W, 4)`` one was saved with its alpha sRGB-encoded."""
+    try:
+        array = np.asarray(rgb)
+    except (TypeError, ValueError):  # a ragged list
+        array = None
+    if array is None or array.dtype.kind not in "fiu" or array.ndim != 3 or array.shape[-1] != 3 or not array.size:
+        got = (f"{array.dtype} array of shape {array.shape}" if array is not None and array.dtype != object
+               else type(rgb).__name__)
+        raise ValueError(f"wrt.Image: rgb must be a non-empty (H, W, 3) array of real numbers (linear radiance), "
+                         f"got {got}")
+    return array.astype(np.float32, copy=False)
+
+
 class Aovs(dict):
     """AOV name -> array: a name it lacks (a typo, ``"dpth"``) is a KeyError that names the closest and lists the names
     it has; a plain dict's said only ``'dpth'``."""
@@ -342,6 +358,7 @@ class Image:
     data: bool = False  # rgb is data, not colour (the normals and depth quick looks): a PNG stores it as it is
 
     def __post_init__(self):
+        self.rgb = checked_rgb(self.rgb)
         self.aovs = Aovs(self.aovs)
 
     @property
