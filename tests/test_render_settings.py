@@ -631,3 +631,44 @@ def test_the_python_pixel_limit_error_names_the_render_settings_that_sized_the_i
     scene.render_settings = huge
     with pytest.raises(ValueError, match="^resolution of scene.render_settings /Render/Huge: 2147483647x2 is "):
         renderer.render()
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_an_edit_of_the_view_a_renderer_resolved_is_named_not_drawn_silently(tmp_path, batched):
+    """renderer.camera under render settings is a view wrt made of the stage camera (the settings' film), and for a
+    stage without cameras one wrt frames the scene with: neither is a camera the Renderer follows, so an edit of it
+    (renderer.camera.focal_length = ...) drew the old view without a word. A warning names it and its fields; the
+    image is the one a fresh render of the scene draws. An edit in place of a to_world the view shares with its stage
+    camera edits that camera, and is drawn as a fresh render of the edited scene draws it (no warning)."""
+    scene = wrt.load_usd(write_stage(tmp_path))
+    kept = wrt.Renderer(scene, cameras=[None], device="cpu") if batched else wrt.Renderer(scene, device="cpu")
+    kept.render()
+    view = kept.cameras[0]
+    view.focal_length *= 2.0
+    name = r"renderer\.cameras\[0\]" if batched else r"renderer\.camera"
+    with pytest.warns(UserWarning, match=rf"^{name} \(focal_length\) edited, but that is the view the Renderer "
+                                         "resolved, not a camera it follows: the edit is not drawn"):
+        image = kept.render(seed=1)
+    image = image.image(0) if batched else image
+    np.testing.assert_array_equal(image.rgb, wrt.render(scene, device="cpu", seed=1).rgb)
+    kept.cameras[0].to_world[0, 3] += 0.5  # the stage camera's own matrix: followed
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = kept.render(seed=1)
+    image = image.image(0) if batched else image
+    assert scene.cameras["/World/Side"].to_world[0, 3] == 1.0
+    np.testing.assert_array_equal(image.rgb, wrt.render(scene, device="cpu", seed=1).rgb)
+
+
+def test_an_edit_of_the_camera_wrt_frames_the_scene_with_is_named_not_drawn_silently():
+    """Renderer(scene) of a scene without cameras draws it from a camera wrt makes: renderer.camera moved did not
+    move the view, without a word. A warning names it; the image is a fresh render's of the scene."""
+    from wrt.procedural import sensor_scene
+
+    scene = sensor_scene()
+    kept = wrt.Renderer(scene, width=12, height=9, device="cpu")
+    kept.render()
+    kept.camera.to_world[1, 3] += 1.0
+    with pytest.warns(UserWarning, match=r"^renderer\.camera \(to_world\) edited"):
+        image = kept.render(seed=1)
+    np.testing.assert_array_equal(image.rgb, wrt.render(scene, width=12, height=9, device="cpu", seed=1).rgb)

@@ -525,7 +525,9 @@ class Renderer:
     field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, the camera
     wrt makes to frame a stage without cameras after a scene edit, and render settings replaced; the image takes the
     size a new Renderer would (a camera's new aspect where one side was not given, the settings' new resolution or
-    data window).
+    data window). ``camera`` and ``cameras`` are the views drawn: a :class:`Camera` given is its own view, but a stage
+    camera under render settings (given the settings' film) and the camera that frames a stage without cameras are
+    views the renderer made, not cameras it follows: an edit of one is not drawn, and the next render warns, naming it.
     """
 
     integrator = fixed_setting("integrator", "the integrator is chosen when the Renderer is made")
@@ -623,6 +625,7 @@ class Renderer:
         self._far_warnings = set()
         self._build()
         self._camera_key = self._camera_sources_key()
+        self._note_views()
         self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
         self._warn_clipped_away()
 
@@ -737,6 +740,34 @@ class Renderer:
                 parts.append(f"{name} ({', '.join(fields)})")
         return " and ".join(parts) or "the cameras"
 
+    def _note_views(self) -> None:
+        """Keeps the fields of each camera of :attr:`cameras` that wrt resolved as a camera of its own (a stage camera
+        given the render settings' film, the camera that frames a stage without cameras), with those of its source,
+        for :meth:`_edited_views`; a camera that is its own source (a :class:`Camera` given, a stage camera as it is)
+        is followed as a source."""
+        self._view_snapshots = []
+        for cam, arg in zip(self.cameras, self._camera_args):
+            source = camera_source(self.scene, arg)
+            self._view_snapshots.append(None if cam is source else (cam.snapshot(), source and source.snapshot()))
+
+    def _edited_views(self) -> str:
+        """The cameras of :attr:`cameras` that wrt resolved (:meth:`_note_views`) and that were edited since where
+        their source was not (a view may share its source's ``to_world``), in words (``renderer.camera
+        (to_world)``, ``renderer.cameras[1] (focal_length)``), or ``""``: such an edit changed nothing, as the
+        renderer follows the cameras it was given, and it drew the old view without a word."""
+        parts = []
+        for k, (cam, arg, noted) in enumerate(zip(self.cameras, self._camera_args, self._view_snapshots)):
+            if noted is None or noted[0] == (view := cam.snapshot()):
+                continue
+            source = camera_source(self.scene, arg)
+            now = source.snapshot() if source is not None and noted[1] is not None else None
+            fields = [f for j, f in enumerate(CAMERA_FIELDS) if not noted[0][j] == view[j]
+                      and (now is None or noted[1][j] == now[j])]  # a field its source changed too is followed
+            if fields:
+                name = f"renderer.cameras[{k}]" if self.batched else "renderer.camera"
+                parts.append(f"{name} ({', '.join(fields)})")
+        return " and ".join(parts)
+
     def _settings_view(self) -> tuple | None:
         """The fields of the scene's render settings that choose the image (None without settings)."""
         settings = self.scene.render_settings
@@ -747,8 +778,13 @@ class Renderer:
         ``camera.to_world[0, 3] = 2`` in place, a stage camera replaced in ``scene.cameras``, or, for the camera wrt
         makes, a scene edit that moves its bounds), as a new Renderer would: a kept Renderer drew the old view."""
         key = self._camera_sources_key()
-        if key == self._camera_key:
+        edited = self._edited_views()
+        if key == self._camera_key and not edited:
             return
+        if edited:  # said, then drawn as the sources give it: the edit of a view wrt made went unseen, unsaid
+            warnings.warn(f"{edited} edited, but that is the view the Renderer resolved, not a camera it follows: the "
+                          "edit is not drawn; edit the camera it comes from (scene.cameras[path]) or give a wrt.Camera "
+                          "(camera=..., set_cameras)", stacklevel=4)
         if wp.get_device(self.device).is_capturing:  # the uploads cannot be recorded into a CUDA graph
             raise RuntimeError("a camera changed since the renderer last drew: call launch_frame() once outside the "
                                "capture, then record the frame again")
@@ -762,6 +798,7 @@ class Renderer:
         self._upload_cameras_at([view[0] for view in views], size, self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
+        self._note_views()
         self._drop_sums("a camera changed")  # the sums are of the old view
         self._warn_clipped_away()
 
@@ -881,6 +918,7 @@ class Renderer:
         self._camera_args = given
         self._sides = (self.width, self.height)  # set_cameras keeps the size made
         self._camera_key = self._camera_sources_key()
+        self._note_views()
         if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
             # frame_image) with more cameras and read past the camera array with fewer.
