@@ -891,7 +891,9 @@ class Renderer:
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
         simulation step; the BVH, materials and lights stay (a default headlight turns with each camera). The image
-        keeps its size, unless the render settings were replaced since the last render: then it takes theirs."""
+        keeps its size, unless the render settings were replaced since the last render: then it takes theirs. From
+        then on :meth:`render` and :meth:`frame_image` return a :class:`BatchImage`, also for a list of one camera
+        and for a renderer made with ``camera=``."""
         # The uploads would be recorded: every replay copied the poses given then (from an array freed since) over
         # those set later, and the frame was refused as drawn before the cameras last changed.
         self._outside_capture("set_cameras()", "call it outside the capture (a replay draws the cameras set last)")
@@ -1012,7 +1014,8 @@ class Renderer:
     def render(
         self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False
     ) -> Image:
-        """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from a ray through each
+        """Renders ``spp`` samples per pixel and returns the :class:`Image` (a :class:`BatchImage` for a renderer made
+        with ``cameras=``, or once :meth:`set_cameras` was called); AOVs come from a ray through each
         pixel's centre, as the colour of an image of one sample does (several spread all over the pixel).
 
         Args:
