@@ -214,6 +214,29 @@ def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path
         renderer.frame_image()
 
 
+@pytest.mark.parametrize("given", ["Sdf.Path", "render settings"])
+def test_a_scene_camera_given_by_sdf_path_or_settings_and_removed_is_named_by_its_path(given):
+    """A camera given as an Sdf.Path (camera= takes one), or chosen by the render settings (camera=None), and then
+    taken out of scene.cameras was called "the camera wrt frames the scene with" in frame_image's refusal: a camera
+    the renderer never drew. It is named by its path, as a str path is."""
+    from pxr import Sdf
+
+    from wrt.render_settings import RenderSettings
+
+    scene = sensor_scene()
+    cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    cam.path = "/Cam"
+    scene.cameras["/Cam"] = cam
+    if given == "render settings":
+        scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=(8, 6))
+    renderer = wrt.Renderer(scene, camera=Sdf.Path("/Cam") if given == "Sdf.Path" else None, width=8, height=6,
+                            device="cpu")
+    renderer.launch_frame(seed=3)
+    del scene.cameras["/Cam"]
+    with pytest.raises(RuntimeError, match=r"^camera /Cam \(gone from scene.cameras\) changed since"):
+        renderer.frame_image()
+
+
 def test_frame_image_counts_the_frames_dropped_samples(device):
     """Non-finite samples (here past float32's range under a dome of 1e38 times a texture of 1e38) are counted in
     dropped_samples, which frame_image left at the last render()'s count, of other samples; the frame's own count was

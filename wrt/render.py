@@ -729,16 +729,26 @@ class Renderer:
             if old == new:
                 continue
             source = camera_source(self.scene, arg)
+            path = self._camera_path(arg)
             name = (f"cameras[{k}] of {len(self._camera_args)}" if self.batched else source.label() if source
-                    else f"camera {arg}" if isinstance(arg, str) else "the camera wrt frames the scene with")
+                    else f"camera {path}" if path else "the camera wrt frames the scene with")
             if source is None:  # framed anew, or a path that names no camera now
-                parts.append(f"{name} (gone from scene.cameras)" if isinstance(arg, str) else name)
+                parts.append(f"{name} (gone from scene.cameras)" if path else name)
             elif old[0] == "framed" or old[0] != new[0]:
                 parts.append(f"{name} (replaced)")
             else:
                 fields = [f for f, a, b in zip(CAMERA_FIELDS, old[1], new[1]) if not a == b]
                 parts.append(f"{name} ({', '.join(fields)})")
         return " and ".join(parts) or "the cameras"
+
+    def _camera_path(self, arg) -> str | None:
+        """The prim path of the stage camera that ``arg`` (as :func:`resolve_view` takes it) names: a path given (a
+        ``str`` or an ``Sdf.Path``) or, for ``None``, the render settings' camera; ``None`` for a :class:`Camera` and
+        where wrt picks the camera (the stage's first, or one that frames the scene)."""
+        if arg is None:
+            settings = self.scene.render_settings
+            return None if settings is None else settings.camera
+        return None if isinstance(arg, Camera) else str(arg)
 
     def _note_views(self) -> None:
         """Keeps the fields of each camera of :attr:`cameras` that wrt resolved as a camera of its own (a stage camera
