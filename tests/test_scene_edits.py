@@ -565,3 +565,24 @@ def test_a_kept_renderer_follows_dark_lights_set_since_as_a_new_renderer_does():
             expected = wrt.Renderer(scene, **OPTIONS).render(spp=1).rgb
             np.testing.assert_array_equal(kept.render(spp=1).rgb, expected)
         assert (expected.max() == 0.0) == bool(dark)
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_image_so_far_after_a_scene_edit_keeps_the_prim_ids_of_the_scene_it_drew(batched):
+    """image_so_far() gives the mean of the last render's samples, of the scene as it was then, but expanded the
+    prim ids by the scene as edited since: a mesh added in front of the others shifted every row of the image it
+    returned. Its ids are those of a render of the unedited scene."""
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cam = sensor_scene(), ring_of_cameras(2)[0]
+    renderer = wrt.Renderer(scene, cameras=[cam], width=12, height=9, device="cpu") if batched else wrt.Renderer(
+        scene, camera=cam, width=12, height=9, device="cpu")
+    renderer.render(seed=2)
+    triangle = wrt.Scene.from_triangles(np.float32([[5, 5, 5], [6, 5, 5], [5, 6, 5]]), np.int32([[0, 1, 2]]))
+    scene.meshes = [*triangle.meshes, *scene.meshes]
+    unedited = wrt.render(sensor_scene(), camera=cam, width=12, height=9, seed=2, device="cpu")
+    late = renderer.image_so_far()
+    late = late.image(0) if batched else late
+    assert (unedited.aovs["prim"] >= 0).any()
+    np.testing.assert_array_equal(late.aovs["prim"], unedited.aovs["prim"])
+    np.testing.assert_array_equal(late.rgb, unedited.rgb)

@@ -1047,6 +1047,8 @@ class Renderer:
         # By their truth, resume="false" added these samples to the previous render's without a word.
         progress, resume = flag(progress, "progress"), flag(resume, "resume")
         self._follow()  # a rebuild drops the progressive sums, and so does a camera edit
+        # The ids of the scene drawn, kept with the sums: image_so_far() after an edit expanded them by the new scene.
+        rows = self.scene.id_rows()
         quick_look = self.integrator in QUICK_LOOKS
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
@@ -1104,10 +1106,10 @@ class Renderer:
             # its extra samples in the sums under the old count, and the next resume came out too bright.
             bar.close()
             self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first,
-                                 "spread": spread}
+                                 "spread": spread, "rows": rows}
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped()
-        return self._mean_image(image, total, aovs)
+        return self._mean_image(image, total, aovs, rows)
 
     def _check_launch(self, n_pixels: int, batch: int) -> None:
         """Refuses launches of ``batch`` samples of ``n_pixels`` pixels that Warp cannot index or the device cannot
@@ -1135,7 +1137,8 @@ class Renderer:
         samples = self.samples_so_far
         if samples == 0:
             return None
-        return self._mean_image(self._progressive["sum"], samples, self._progressive["aovs"])
+        state = self._progressive
+        return self._mean_image(state["sum"], samples, state["aovs"], state["rows"])
 
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
@@ -1237,7 +1240,7 @@ class Renderer:
         # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped()
-        return self._mean_image(image, 1, aovs, kept_buffers=True)
+        return self._mean_image(image, 1, aovs, self.scene.id_rows(), kept_buffers=True)  # (the scene is unchanged)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(
@@ -1429,28 +1432,30 @@ class Renderer:
                           f"past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the exposure "
                           "or the lights", stacklevel=5)
 
-    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False):
-        """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel;
+    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows,
+                    kept_buffers: bool = False):
+        """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel, prim
+        ids expanded by ``rows`` (:meth:`Scene.id_rows` of the scene drawn);
         ``kept_buffers``: ``aovs`` are buffers that later launches write again (:meth:`launch_frame`'s), which a
         :class:`BatchImage` (and, on the CPU, an :class:`Image`) then copies."""
         if self.batched:
-            return self._batch_image(image_sum, samples, aovs, kept_buffers)
-        return self._image(image_sum, samples, aovs, kept_buffers)
+            return self._batch_image(image_sum, samples, aovs, rows, kept_buffers)
+        return self._image(image_sum, samples, aovs, rows, kept_buffers)
 
-    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False) -> Image:
-        rgb, clamped = mean_radiance(image_sum.numpy(), samples, self._exposure_scales()[0])
-        self._warn_clamped(clamped)
+    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows,
+               kept_buffers: bool = False) -> Image:
+        rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
         host = aovs.numpy(self.height, self.width, samples)
         if kept_buffers and wp.get_device(self.device).is_cpu:
             # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image)
             host = {name: np.array(a) if name in aovs.arrays else a for name, a in host.items()}
-        image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator,
-                             self.scene.id_rows(copy=False))
+        image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator, rows)
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
         image.window = self._windows[0]
         return image
 
-    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers, kept_buffers: bool = False):
+    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers, rows: IdRows,
+                     kept_buffers: bool = False):
         from .batch import BatchImage
 
         n, h, w = len(self.cameras), self.height, self.width
@@ -1458,7 +1463,6 @@ class Renderer:
         if kept_buffers:  # a frame's AOVs were views of its buffers: the next frame rewrote an image returned before
             arrays = {name: wp.clone(a) if name in aovs.arrays else a for name, a in arrays.items()}
         arrays = {name: a.reshape((n, h, w)) for name, a in arrays.items()}
-        rows = self.scene.id_rows()  # kept by the BatchImage: its views expand prim ids as the scene was drawn
         if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
             host = {name: a.numpy() for name, a in arrays.items()}
             rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, rows).rgb
