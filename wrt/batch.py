@@ -47,7 +47,7 @@ class BatchImage:
     integrator: str = "whitted"
     pixel_aspect_ratios: tuple = ()
     windows: tuple = ()
-    id_rows: IdRows | None = dataclasses.field(default=None, repr=False)
+    id_rows: IdRows | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
