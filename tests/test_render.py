@@ -1022,6 +1022,24 @@ def test_default_lights_show_a_white_lambertian_surface_as_one(tmp_path):
     assert shown[1] > shown[0] + 0.05
 
 
+def test_a_renderer_given_another_scene_refuses_it_naming_a_new_renderer():
+    """Renderer.scene was a plain attribute: renderer.scene = other_scene (a new simulation step's scene) kept the old
+    scene's BVH, device data and lights where the edit counts of the two scenes matched, and drew the old scene, and
+    otherwise crashed with an IndexError in the rebuild. The assignment is refused, saying to make a new Renderer
+    (edits of the scene itself are followed); the renderer still draws its own scene as a fresh render does."""
+    from wrt.procedural import sensor_scene
+
+    scene, other = sensor_scene(), sensor_scene(boxes=2, spheres=1)
+    cam = wrt.Camera.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu")
+    renderer.render()
+    with pytest.raises(AttributeError, match=r"^Renderer\.scene cannot be assigned .*make a new wrt\.Renderer"):
+        renderer.scene = other
+    assert renderer.scene is scene
+    fresh = wrt.render(scene, camera=cam, width=8, height=6, device="cpu", seed=1)
+    np.testing.assert_array_equal(renderer.render(seed=1).rgb, fresh.rgb)
+
+
 @pytest.mark.parametrize("name,value", [("integrator", "pth"), ("integrator", "ao"), ("max_depth", -1),
                                         ("ao_radius", float("nan")), ("width", 4), ("height", 3)])
 def test_a_renderer_setting_assigned_after_construction_is_refused_naming_a_new_renderer(name, value):

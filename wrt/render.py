@@ -413,15 +413,17 @@ def capturing_graph(device) -> wp.Graph | None:
     return graph if graph is not None and graph.device == device else None
 
 
-def fixed_setting(name: str, made_by: str) -> property:
+def fixed_setting(name: str, made_by: str, instead: str | None = None) -> property:
     """A :class:`Renderer` attribute read as any other but refused when assigned, naming what to do instead: each is
     baked into the buffers, the camera structs, the lights or a recorded graph, so that ``renderer.integrator =
     "pth"`` drew a black image, ``renderer.max_depth = -1`` read past a buffer, ``renderer.ao_radius = nan`` drew
-    white and ``renderer.width = 4`` drew the old camera's rays into a narrower image, all without a word."""
+    white and ``renderer.width = 4`` drew the old camera's rays into a narrower image, all without a word.
+    ``instead``: what to do, where it is not a new Renderer of the same scene with this setting."""
+    instead = instead or f"make a new wrt.Renderer(scene, {name}=...) instead (it reuses the scene's BVH)"
 
     def refuse(self, value):
-        raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={value!r}): {made_by}; make a new "
-                             f"wrt.Renderer(scene, {name}=...) instead (it reuses the scene's BVH)")
+        shown = f"{type(value).__name__} object" if name == "scene" else repr(value)  # a Scene's repr is long
+        raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={shown}): {made_by}; {instead}")
 
     return property(lambda self: getattr(self, f"_{name}"), refuse, doc=f"{made_by} (read-only).")
 
@@ -519,7 +521,8 @@ class Renderer:
             diagonal, measured again whenever the renderer builds again for an edited scene.
 
     The settings (``integrator``, ``max_depth``, ``ao_radius``, ``width``, ``height``) are read-only attributes
-    (:func:`fixed_setting`): make a new Renderer for others; it reuses the scene's BVH.
+    (:func:`fixed_setting`): make a new Renderer for others; it reuses the scene's BVH. So is ``scene``: a Renderer
+    follows the edits of its scene, and another scene takes a new Renderer.
 
     Each render follows the cameras as a new Renderer would take them: a :class:`Camera` given and edited since (a
     field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, the camera
@@ -530,6 +533,10 @@ class Renderer:
     views the renderer made, not cameras it follows: an edit of one is not drawn, and the next render warns, naming it.
     """
 
+    # Its BVH, device data, lights and recorded graphs are of it: another scene assigned was drawn with the old one's
+    # where their edit counts matched, and crashed the rebuild otherwise.
+    scene = fixed_setting("scene", "the scene is the one the Renderer was made for (edits of it are followed)",
+                          "make a new wrt.Renderer(other_scene, ...) for another scene")
     integrator = fixed_setting("integrator", "the integrator is chosen when the Renderer is made")
     max_depth = fixed_setting("max_depth", "the bounce limit is chosen when the Renderer is made")
     ao_radius = fixed_setting("ao_radius", "the occlusion distance is the one given when the Renderer was made, "
@@ -560,7 +567,7 @@ class Renderer:
             if camera is not None:
                 raise ValueError("give either camera or cameras, not both")
             cameras = camera_list(cameras)
-        self.scene = scene
+        self._scene = scene
         self._asked_size = (width, height)  # as given: set_cameras frames new stage cameras at it
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         views = [resolve_view(scene, camera, width, height)] if cameras is None else resolve_views(scene, cameras,
