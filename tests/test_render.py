@@ -1022,6 +1022,29 @@ def test_default_lights_show_a_white_lambertian_surface_as_one(tmp_path):
     assert shown[1] > shown[0] + 0.05
 
 
+@pytest.mark.parametrize("name", ["camera", "cameras", "device", "batched"])
+def test_a_renderer_camera_or_device_assigned_is_refused_naming_what_to_do(name):
+    """Renderer.camera, .cameras, .device and .batched were plain attributes: renderer.camera = other_camera (a new
+    pose each step) drew the old camera without a word, renderer.cameras = a longer list read the image sums past
+    their end into a BatchImage of the new count, and .device or .batched assigned launched on or read back from the
+    wrong buffers. An assignment is refused, naming set_cameras (or a new Renderer); the renderer still draws what a
+    fresh render of its cameras does."""
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cams = sensor_scene(), ring_of_cameras(3)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer.render()
+    value = {"camera": cams[2], "cameras": cams, "device": "cpu", "batched": False}[name]
+    with pytest.raises(AttributeError, match=rf"^Renderer\.{name} cannot be assigned .*"
+                                             rf"{'set_cameras' if name.startswith('camera') else 'new wrt.Renderer'}"):
+        setattr(renderer, name, value)
+    batch = renderer.render(seed=1)
+    assert len(batch) == 2 and renderer.camera is cams[0] and renderer.cameras == cams[:2]
+    for k in range(2):
+        fresh = wrt.render(scene, camera=cams[k], width=8, height=6, device="cpu", seed=1)
+        np.testing.assert_array_equal(batch.image(k).rgb, fresh.rgb)
+
+
 def test_a_renderer_given_another_scene_refuses_it_naming_a_new_renderer():
     """Renderer.scene was a plain attribute: renderer.scene = other_scene (a new simulation step's scene) kept the old
     scene's BVH, device data and lights where the edit counts of the two scenes matched, and drew the old scene, and

@@ -413,6 +413,9 @@ def capturing_graph(device) -> wp.Graph | None:
     return graph if graph is not None and graph.device == device else None
 
 
+SHORT_REPRS = ("integrator", "max_depth", "ao_radius", "width", "height", "device", "batched")  # shown when assigned
+
+
 def fixed_setting(name: str, made_by: str, instead: str | None = None) -> property:
     """A :class:`Renderer` attribute read as any other but refused when assigned, naming what to do instead: each is
     baked into the buffers, the camera structs, the lights or a recorded graph, so that ``renderer.integrator =
@@ -422,7 +425,7 @@ def fixed_setting(name: str, made_by: str, instead: str | None = None) -> proper
     instead = instead or f"make a new wrt.Renderer(scene, {name}=...) instead (it reuses the scene's BVH)"
 
     def refuse(self, value):
-        shown = f"{type(value).__name__} object" if name == "scene" else repr(value)  # a Scene's repr is long
+        shown = repr(value) if name in SHORT_REPRS else f"{type(value).__name__} object"  # a Scene's repr is long
         raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={shown}): {made_by}; {instead}")
 
     return property(lambda self: getattr(self, f"_{name}"), refuse, doc=f"{made_by} (read-only).")
@@ -522,7 +525,8 @@ class Renderer:
 
     The settings (``integrator``, ``max_depth``, ``ao_radius``, ``width``, ``height``) are read-only attributes
     (:func:`fixed_setting`): make a new Renderer for others; it reuses the scene's BVH. So is ``scene``: a Renderer
-    follows the edits of its scene, and another scene takes a new Renderer.
+    follows the edits of its scene, and another scene takes a new Renderer; and so are ``device``, ``batched``,
+    ``camera`` and ``cameras``, which :meth:`set_cameras` sets.
 
     Each render follows the cameras as a new Renderer would take them: a :class:`Camera` given and edited since (a
     field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, the camera
@@ -537,6 +541,15 @@ class Renderer:
     # where their edit counts matched, and crashed the rebuild otherwise.
     scene = fixed_setting("scene", "the scene is the one the Renderer was made for (edits of it are followed)",
                           "make a new wrt.Renderer(other_scene, ...) for another scene")
+    # Uploaded where they are set (set_cameras): renderer.camera = other drew the old camera without a word, and a
+    # longer cameras list read the image sums past their end.
+    camera = fixed_setting("camera", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
+                           "(a field set, to_world edited) is followed", "call set_cameras([camera]) instead")
+    cameras = fixed_setting("cameras", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
+                            "(a field set, to_world edited) is followed", "call set_cameras(cameras) instead")
+    device = fixed_setting("device", "the buffers, BVH and recorded graphs are on the device the Renderer was made on")
+    batched = fixed_setting("batched", "a renderer of cameras= (or after set_cameras) returns BatchImages",
+                            "make a new wrt.Renderer(scene, camera=...) for an Image")
     integrator = fixed_setting("integrator", "the integrator is chosen when the Renderer is made")
     max_depth = fixed_setting("max_depth", "the bounce limit is chosen when the Renderer is made")
     ao_radius = fixed_setting("ao_radius", "the occlusion distance is the one given when the Renderer was made, "
@@ -590,10 +603,10 @@ class Renderer:
         )):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self._width, self._height = int(width), int(height)
-        self.cameras = [view[0] for view in views]
-        self.camera = self.cameras[0]
-        self.batched = cameras is not None
-        self.device = resolve_device(device)
+        self._cameras = [view[0] for view in views]
+        self._camera = self._cameras[0]
+        self._batched = cameras is not None
+        self._device = resolve_device(device)
         self._integrator = integrator
         self._max_depth = int(max_depth)
         self._asked_ao_radius = ao_radius  # None: the scene's, measured again at each build (_build)
@@ -933,7 +946,7 @@ class Renderer:
         resized = len(cameras) != len(self.cameras)
         self._upload_cameras_at(cameras, size, batched=True)  # a bad camera raises before any change
         self._windows = windows
-        self.batched = True
+        self._batched = True
         self._camera_args = given
         self._sides = (self.width, self.height)  # set_cameras keeps the size made
         self._camera_key = self._camera_sources_key()
@@ -991,7 +1004,7 @@ class Renderer:
             self._lenses.assign(lenses)
         else:
             self._cams, self._lenses = cams, lenses
-        self.cameras, self.camera = cameras, cameras[0]
+        self._cameras, self._camera = cameras, cameras[0]
         self._camera_uploads += 1
         self._camera_upload_number.fill_(self._camera_uploads)
         self._thin_lens = any(radius > 0.0 for radius, _ in lens_list)  # some camera has depth of field
