@@ -376,3 +376,23 @@ def test_a_batch_view_keeps_the_prim_ids_of_the_scene_it_drew_after_the_scene_is
         assert (one.aovs["instance"] >= 0).any()  # some pixels see an instance, whose rows the edit moved
         for name in ("prim", "instance"):
             np.testing.assert_array_equal(view.aovs[name], one.aovs[name], err_msg=f"camera {k} {name}")
+
+
+def test_batch_numpy_gives_copies_on_every_device():
+    """BatchImage.numpy() says it gives host copies; on the CPU Warp's numpy() is a view, so scaling the returned
+    rgb in place (or writing into an AOV) rewrote the batch itself, and batch.image(k) then showed the edit, where a
+    CUDA batch's stayed as rendered."""
+    scene, cams = sensor_scene(), ring_of_cameras(2)
+    batch = wrt.render_batch(scene, cams, 8, 6, seed=1, device="cpu")
+    rgb, aovs = batch.numpy()
+    rgb *= 0.0
+    aovs["depth"][:] = -1.0
+    one = wrt.render(scene, camera=cams[1], width=8, height=6, seed=1, device="cpu")
+    view = batch.image(1)
+    np.testing.assert_array_equal(view.rgb, one.rgb)
+    np.testing.assert_array_equal(view.aovs["depth"], one.aovs["depth"])
+    view.rgb[:] = 5.0  # an image(k) is a host image of its own likewise
+    view.aovs["normal"][:] = 0.0
+    again = batch.image(1)
+    np.testing.assert_array_equal(again.rgb, one.rgb)
+    np.testing.assert_array_equal(again.aovs["normal"], one.aovs["normal"])

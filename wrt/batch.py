@@ -21,6 +21,13 @@ from .image import Aovs, Image
 from .scene import IdRows, Scene
 
 
+def host_copy(array: wp.array) -> np.ndarray:
+    """``array`` on the host, a copy on every device: Warp's ``numpy()`` of a CPU array is a view of it, so an edit
+    of what :meth:`BatchImage.numpy` or :meth:`BatchImage.image` returned rewrote the batch on the CPU alone."""
+    host = array.numpy()
+    return host.copy() if array.device.is_cpu else host
+
+
 @dataclasses.dataclass
 class BatchImage:
     """Images of ``n`` cameras rendered together, in device memory.
@@ -59,7 +66,7 @@ class BatchImage:
 
     def numpy(self) -> tuple[np.ndarray, dict]:
         """Host copies: ``(rgb (n, H, W, 3), {name: (n, H, W, ...)})``."""
-        return self.rgb.numpy(), {name: a.numpy() for name, a in self.aovs.items()}
+        return host_copy(self.rgb), {name: host_copy(a) for name, a in self.aovs.items()}
 
     def image(self, k: int) -> Image:
         """Camera ``k`` as a host :class:`wrt.Image` (the same object a single-camera render returns)."""
@@ -70,8 +77,8 @@ class BatchImage:
         if not -len(self) <= k < len(self):
             raise IndexError(f"camera {k} out of range for a batch of {len(self)}")
         k = int(k) % len(self)  # Warp indexes wp.arrays with Python ints only
-        rgb = self.rgb[k].numpy()  # one camera's slice, not the whole batch
-        aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
+        rgb = host_copy(self.rgb[k])  # one camera's slice, not the whole batch
+        aovs = {name: host_copy(a[k]) for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.id_rows)  # rgb is already final, quick looks included
         shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
         window = self.windows[k] if self.windows else None
