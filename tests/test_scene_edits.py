@@ -586,3 +586,21 @@ def test_image_so_far_after_a_scene_edit_keeps_the_prim_ids_of_the_scene_it_drew
     assert (unedited.aovs["prim"] >= 0).any()
     np.testing.assert_array_equal(late.aovs["prim"], unedited.aovs["prim"])
     np.testing.assert_array_equal(late.rgb, unedited.rgb)
+
+
+def test_an_image_edited_in_place_leaves_the_resumed_render_as_a_fresh_one():
+    """On the CPU an Image's AOVs were views of the renderer's buffers, which resume=True and image_so_far() read
+    again (the AOVs are drawn once): an image's depth scaled in place came back in the next resumed image. Each
+    image holds its own, as on CUDA, and the resumed render is a fresh render of all the samples."""
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cam = sensor_scene(), ring_of_cameras(2)[0]
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu", integrator="path")
+    first = renderer.render(spp=2, seed=1)
+    for name in first.aovs:
+        first.aovs[name][...] = -1
+    resumed = renderer.render(spp=2, seed=1, resume=True)
+    fresh = wrt.render(scene, camera=cam, width=8, height=6, device="cpu", integrator="path", spp=4, seed=1)
+    for image in (resumed, renderer.image_so_far()):
+        for name in fresh.aovs:
+            np.testing.assert_array_equal(image.aovs[name], fresh.aovs[name], err_msg=name)

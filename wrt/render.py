@@ -1457,17 +1457,17 @@ class Renderer:
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel, prim
         ids expanded by ``rows`` (:meth:`Scene.id_rows` of the scene drawn);
         ``kept_buffers``: ``aovs`` are buffers that later launches write again (:meth:`launch_frame`'s), which a
-        :class:`BatchImage` (and, on the CPU, an :class:`Image`) then copies."""
+        :class:`BatchImage` then copies (an :class:`Image` always holds its own host arrays)."""
         if self.batched:
             return self._batch_image(image_sum, samples, aovs, rows, kept_buffers)
-        return self._image(image_sum, samples, aovs, rows, kept_buffers)
+        return self._image(image_sum, samples, aovs, rows)
 
-    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows,
-               kept_buffers: bool = False) -> Image:
+    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows) -> Image:
         rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
         host = aovs.numpy(self.height, self.width, samples)
-        if kept_buffers and wp.get_device(self.device).is_cpu:
-            # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image)
+        if wp.get_device(self.device).is_cpu:
+            # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image),
+            # and an image's AOVs edited in place came back in the next resume=True render and image_so_far().
             host = {name: np.array(a) if name in aovs.arrays else a for name, a in host.items()}
         image = finish_image(rgb.reshape(self.height, self.width, 3), host, self.integrator, rows)
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
