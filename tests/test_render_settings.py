@@ -263,14 +263,17 @@ def test_set_cameras_keeps_the_data_window_rule(tmp_path):
     """set_cameras follows the rule of the constructor: under a data window a stage camera (cropped to 32x16) and a
     Camera object (64x32) make images of two sizes, so a renderer of one kind refuses cameras of the other. The
     cropped film was drawn at the renderer's 64x32 (the window's pixels twice over, not the image the stage's
-    camera gives), and a Camera object at the cropped 32x16."""
+    camera gives), and a Camera object at the cropped 32x16. The refusal said 'give cameras of one kind', though the
+    call gave one kind: it names the cameras' size and the renderer's."""
     window = DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (0.25, 0.5, 0.75, 1)"
     scene = wrt.load_usd(write_stage(tmp_path, settings=window))
     look = wrt.Camera.look_at((0, 0, 5), (0, 0, 0))
-    for first, other in ((look, "/World/Side"), ("/World/Side", look)):
+    for first, other, sizes in ((look, "/World/Side", ("32x16", "64x32")), ("/World/Side", look, ("64x32", "32x16"))):
         renderer = wrt.Renderer(scene, cameras=[first])
-        with pytest.raises(ValueError, match="crops the stage's cameras but not wrt.Camera objects"):
+        with pytest.raises(ValueError, match=rf"^set_cameras: these cameras' images are {sizes[0]} but the "
+                                             rf"renderer's are {sizes[1]} \(the render settings' dataWindowNDC"):
             renderer.set_cameras([other])
+        assert f"{renderer.width}x{renderer.height}" == sizes[1]
     renderer = wrt.Renderer(scene, cameras=["/World/Front"])
     renderer.set_cameras(["/World/Side"])  # stage cameras, one size: as a renderer made with it
     image = renderer.render().image(0).rgb

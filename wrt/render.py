@@ -938,7 +938,12 @@ class Renderer:
         # kinds under a data window.
         replaced = self._settings_view() != self._camera_key[0]
         size = views[0][1:] if replaced else (self.width, self.height)
-        _check_one_size(views, *size)  # the buffers and every launch are of one size
+        _check_one_size(views, *views[0][1:])  # a mix of cropped stage cameras and Camera objects
+        if views[0][1:] != size:  # of one kind, but not the kind the renderer's size was made for
+            raise ValueError(f"set_cameras: these cameras' images are {'x'.join(map(str, views[0][1:]))} but the "
+                             f"renderer's are {'x'.join(map(str, size))} (the render settings' dataWindowNDC crops "
+                             "stage cameras, not wrt.Camera objects): give cameras of the kind the Renderer was made "
+                             "with, or make a new Renderer for these")
         cameras = [view[0] for view in views]
         n = len(cameras) * size[0] * size[1]
         if n > MAX_PIXELS:  # (camera_list refused none)
