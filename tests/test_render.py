@@ -1039,10 +1039,26 @@ def test_a_renderer_camera_or_device_assigned_is_refused_naming_what_to_do(name)
                                              rf"{'set_cameras' if name.startswith('camera') else 'new wrt.Renderer'}"):
         setattr(renderer, name, value)
     batch = renderer.render(seed=1)
-    assert len(batch) == 2 and renderer.camera is cams[0] and renderer.cameras == cams[:2]
+    assert len(batch) == 2 and renderer.camera is cams[0] and renderer.cameras == tuple(cams[:2])
     for k in range(2):
         fresh = wrt.render(scene, camera=cams[k], width=8, height=6, device="cpu", seed=1)
         np.testing.assert_array_equal(batch.image(k).rgb, fresh.rgb)
+
+
+def test_a_renderers_cameras_cannot_be_changed_as_a_list():
+    """Renderer.cameras was the list it drew from: renderer.cameras.append(camera) made a BatchImage of three cameras
+    out of sums of two (read past their end), and renderer.cameras[0] = other labelled the old view with the new
+    camera's pixel aspect. It is a tuple: set_cameras changes the cameras."""
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cams = sensor_scene(), ring_of_cameras(3)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    assert isinstance(renderer.cameras, tuple)
+    with pytest.raises((AttributeError, TypeError)):
+        renderer.cameras.append(cams[2])
+    assert len(renderer.render()) == 2
+    renderer.set_cameras(cams)
+    assert renderer.cameras == tuple(cams) and len(renderer.render()) == 3
 
 
 def test_a_renderer_given_another_scene_refuses_it_naming_a_new_renderer():

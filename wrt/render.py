@@ -603,7 +603,7 @@ class Renderer:
         )):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self._width, self._height = int(width), int(height)
-        self._cameras = [view[0] for view in views]
+        self._cameras = tuple(view[0] for view in views)  # a tuple: appended to, it was drawn with unuploaded cameras
         self._camera = self._cameras[0]
         self._batched = cameras is not None
         self._device = resolve_device(device)
@@ -1009,7 +1009,7 @@ class Renderer:
             self._lenses.assign(lenses)
         else:
             self._cams, self._lenses = cams, lenses
-        self._cameras, self._camera = cameras, cameras[0]
+        self._cameras, self._camera = tuple(cameras), cameras[0]
         self._camera_uploads += 1
         self._camera_upload_number.fill_(self._camera_uploads)
         self._thin_lens = any(radius > 0.0 for radius, _ in lens_list)  # some camera has depth of field
