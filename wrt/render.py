@@ -1468,7 +1468,8 @@ class Renderer:
         return self._image(image_sum, samples, aovs, rows)
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows) -> Image:
-        rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
+        rgb, clamped = mean_radiance(image_sum.numpy(), samples, self._exposure_scales()[0])
+        self._warn_clamped(clamped)
         host = aovs.numpy(self.height, self.width, samples)
         if wp.get_device(self.device).is_cpu:
             # numpy() of a CPU array is a view of it: the next frame rewrote an image returned before (see _mean_image),
