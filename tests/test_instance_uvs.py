@@ -16,7 +16,7 @@ wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
-from test_materials import CHECKER, add_quad, bind, textured_stage, write_png  # noqa: E402
+from test_materials import CHECKER, add_quad, bind, define_tet_or_patch, textured_stage, write_png  # noqa: E402
 
 import wrt  # noqa: E402
 
@@ -108,6 +108,28 @@ def test_per_instance_st_reaches_a_native_instance_prototype(tmp_path, beneath):
     """A prototype that is a native instance hands the instance's st on to its prototype's mesh: it read the fallback
     there (the instancer's st was taken for a blocker)."""
     path = instancer_st_stage(tmp_path, beneath=beneath, native=True)
+    scene, messages = load_quietly(path)
+    assert not [m for m in messages if "fallback st" in m], messages
+    np.testing.assert_allclose(albedo_of_instances(scene), expected_texels(path), atol=2e-3)
+
+
+@pytest.mark.parametrize("native", [False, True])
+@pytest.mark.parametrize("kind", ["TetMesh", "NurbsPatch"])
+def test_per_instance_st_reaches_a_tet_mesh_or_nurbs_patch_prototype(tmp_path, kind, native):
+    """A TetMesh or NurbsPatch without st in the prototype (or in a native instance's prototype) reads each
+    instance's st, as a mesh there does: it read the reader's fallback on every instance, with a warning that it had
+    no st."""
+    path = instancer_st_stage(tmp_path, native=native)
+    stage = Usd.Stage.Open(path)
+    quad = "/Asset/Quad" if native else "/Protos/Quad"
+    stage.RemovePrim(quad)
+    define_tet_or_patch(stage, kind)  # at /Surface, covering each instance's middle (and no other's)
+    layer = stage.GetRootLayer()
+    Sdf.CopySpec(layer, "/Surface", layer, quad)
+    stage.RemovePrim("/Surface")
+    bind(stage.GetPrimAtPath(quad), UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    stage.Save()
+    assert stage.GetPrimAtPath(quad).GetTypeName() == kind
     scene, messages = load_quietly(path)
     assert not [m for m in messages if "fallback st" in m], messages
     np.testing.assert_allclose(albedo_of_instances(scene), expected_texels(path), atol=2e-3)

@@ -180,8 +180,17 @@ class MeshReading:
         face_materials = self._face_materials(prim, 1, ctx)
         color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
         uv_set = self.materials.uv_set(face_materials, prim)
-        st_primvar = None if uv_set is None else self.inherited_primvars.find(prim, uv_set)  # own, or a constant above
-        st_primvar = st_primvar if st_primvar and st_primvar.HasValue() else None
+        st_primvar, outer_st, lacking = None, None, False
+        if uv_set is not None:
+            found = self.inherited_primvars.lookup(prim, uv_set)  # own, or a constant above
+            if found is None or found is PER_INSTANCE:  # (invalid primvars compare equal)
+                # As for a mesh: the st a native instance or a PointInstancer hands down stands in (it was ignored,
+                # the fallback read on every instance), and the missing one is named once no instance hands one down.
+                ctx.content.want_uvs([uv_set])
+                outer_st = dict(ctx.outer_uv or ()).get(uv_set)
+                lacking = outer_st is None
+            elif found.HasValue():  # (not BLOCKED: a non-constant one above)
+                st_primvar = found
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
@@ -198,11 +207,16 @@ class MeshReading:
         uvs = surface.uvs
         if uvs is not None:
             uvs = self._kept_st(prim, uv_set, uvs[0]), uvs[1]
+        elif outer_st is not None:
+            uvs = np.asarray(outer_st, np.float64).reshape(1, 2), np.zeros_like(surface.triangles)
         elif uv_set is not None:
             # Without the primvar, or with one dropped (warned about), the texture shows at the reader's fallback st,
             # as on a mesh; an authored st was not read at all (the fallback read there too).
             st = self.materials.st_fallback(face_materials, uv_set)
-            self._missing_uvs_warning(prim, uv_set, st)
+            if lacking:  # named once no instance hands one down, as for a mesh
+                ctx.content.uv_misses.append((prim, prim.GetPath(), uv_set, tuple(st)))
+            else:
+                self._missing_uvs_warning(prim, uv_set, st)
             uvs = np.asarray(st, np.float64).reshape(1, 2), np.zeros_like(surface.triangles)
         cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
         double_sided = bool(self._typed(prim, gprim.GetDoubleSidedAttr()))
