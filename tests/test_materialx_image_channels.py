@@ -21,8 +21,9 @@ import wrt
 # Per file: how it is written and its channels in the file's order (what MaterialX's output types take).
 PNG_SAMPLES = {"L": [51], "LA": [51, 204], "RGB": [51, 102, 153], "RGBA": [51, 102, 153, 204]}
 EXR_SAMPLES = {"R": [0.3], "RG": [0.3, 0.7], "RGB": [0.3, 0.7, 0.9], "RGBA": [0.3, 0.7, 0.9, 0.45]}
-# Grey PNGs read by other paths: 16 bits, and 8 bits with a tRNS sample (every pixel that value: alpha 0).
-GREY_PNGS = {"L16": ([13107], 65535.0), "L+tRNS": ([51, 0], 255.0)}
+# Grey PNGs read by other paths: 16 bits, 8 bits with a tRNS sample (every pixel that value: alpha 0), and 1 bit
+# (Pillow's mode "1": white).
+GREY_PNGS = {"L16": ([13107], 65535.0), "L+tRNS": ([51, 0], 255.0), "L1": ([255], 255.0)}
 FILES = ([f"png {mode}" for mode in PNG_SAMPLES] + [f"png {mode}" for mode in GREY_PNGS]
          + [f"exr {names}" for names in EXR_SAMPLES])
 # Per node type: the nodes after the image that bring its output to base_color (a color3), as MaterialX converts:
@@ -44,7 +45,9 @@ def write_file(tmp_path, kind) -> tuple[str, np.ndarray]:
         samples, full = GREY_PNGS[layout]
         path = str(tmp_path / f"{layout}.png")
         grey = np.full((2, 2), samples[0], np.uint16 if full > 255 else np.uint8)
-        PilImage.fromarray(grey).save(path, **({"transparency": samples[0]} if len(samples) == 2 else {}))
+        image = PilImage.fromarray(grey)
+        image = image.convert("1") if layout == "L1" else image
+        image.save(path, **({"transparency": samples[0]} if len(samples) == 2 else {}))
         return path, np.asarray(samples, np.float64) / full
     if fmt == "png":
         samples = PNG_SAMPLES[layout]

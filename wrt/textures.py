@@ -245,7 +245,7 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, tuple[int,
         grey = np.asarray(img, dtype=np.float32)
         alpha = _transparent_sample_alpha(img, grey, 255 // (2**depth - 1))
         return *_grey_rgba(grey / 255.0, alpha), False, tagged
-    if mode in ("L", "LA"):
+    if mode in ("1", "L", "LA"):  # "1": a 1-bit grey PNG, one channel (it was read as colour: RGB places)
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
