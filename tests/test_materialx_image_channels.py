@@ -162,6 +162,42 @@ def test_the_fourth_channel_of_an_image_node_is_the_files_fourth_or_one(tmp_path
     np.testing.assert_allclose(rgb, materialx_output(channels, 4)[3], atol=2e-3)
 
 
+# Per node type of fewer than four channels: the converts that widen its output to four (a vector2 through vector3).
+TO_FOUR = {"color3": ["ND_convert_color3_color4"], "vector3": ["ND_convert_vector3_vector4"],
+           "vector2": ["ND_convert_vector2_vector3", "ND_convert_vector3_vector4"]}
+
+
+@pytest.mark.parametrize("multiply", [False, True])
+@pytest.mark.parametrize("node_type", list(TO_FOUR))
+def test_an_image_node_of_fewer_channels_widened_to_four_has_a_fourth_of_one(tmp_path, node_type, multiply):
+    """A color3, vector3 or vector2 image of an RGBA file, converted to a color4 or vector4 (times a constant of its
+    own type, where ``multiply``), has a fourth channel of 1: the node outputs the file's first channels only, and
+    MaterialX's convert from three channels adds a fourth of 1. It was the file's alpha (0.8 here)."""
+    png, channels = write_file(tmp_path, "png RGBA")
+    assert channels[3] < 0.9
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+    chain = ([f"ND_multiply_{node_type}"] if multiply else []) + TO_FOUR[node_type]
+    last = image_node(stage, "/Looks/Image", png, node_type, chain)
+    if multiply:  # by 0.5 in every channel of the node's own
+        UsdShade.Shader.Get(stage, "/Looks/Image/Node0").CreateInput("in2", USD_TYPES[node_type]).Set(
+            (0.5,) * SIZES[node_type])
+    four = chain[-1].split("_")[-1]
+    fourth = UsdShade.Shader.Define(stage, "/Looks/Image/Fourth")
+    fourth.CreateIdAttr(f"ND_extract_{four}")
+    fourth.CreateInput("in", USD_TYPES[four]).ConnectToSource(last.ConnectableAPI(), "out")
+    fourth.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(fourth.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+    np.testing.assert_allclose(rgb, 1.0, atol=2e-3)
+
+
 def uv_texture_material(stage, path, png):
     """A UsdPreviewSurface whose diffuseColor is the rgb of a UsdUVTexture of ``png`` (raw)."""
     material = UsdShade.Material.Define(stage, path)

@@ -495,6 +495,8 @@ class _Graph:
                                fallback=four_components(fallback, TEXTURE_FALLBACK), filter=texture_filter)
         if size == 2:  # a vector2 has no third channel: a convert to three gives it 0, not the file's blue
             texture.scale[2] = 0.0
+        if size in (2, 3):  # nor a fourth: a convert to four gives it 1, not the file's alpha
+            texture.scale[3], texture.bias[3] = 0.0, 1.0
         return fallback, texture
 
     def _address_mode(self, node, key: str, modes: dict) -> str:

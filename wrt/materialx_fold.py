@@ -237,7 +237,9 @@ def _scaled(node, varying: Folded, factor: np.ndarray) -> Folded:
         if isinstance(source, PrimvarInput):
             source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
         else:  # (texel * scale + bias) * factor; a missing UDIM tile's fallback stands in for the texel
-            per_channel = _sized(factor, 4) if factor.size != 3 or one_channel else np.append(factor, 1.0)
+            # A factor of two or three channels leaves the channels past its own alone (a vector2's fourth is 1).
+            per_channel = _sized(factor, 4) if factor.size not in (2, 3) or one_channel else np.append(
+                factor, np.ones(4 - factor.size))
             source.scale = (source.scale * per_channel).astype(np.float32)
             source.bias = (source.bias * per_channel).astype(np.float32)
     for array in (source.scale, getattr(source, "bias", 0.0)):
