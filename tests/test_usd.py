@@ -1718,3 +1718,23 @@ def test_visibility_and_purpose_authored_as_strings_are_read_as_usd_computes_the
                    and UsdGeom.Imageable(p).ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render))
     assert drawn == ["/A/B/UnderStringPurpose", "/C/UnderStringInvisible", "/StringGuide"]  # the oracle's own answer
     assert sorted(m.path for m in wrt.load_usd(path).meshes) == drawn
+
+
+def test_int64_face_counts_over_weaker_int_samples_are_no_faces_at_the_default_time_as_to_usd(tmp_path):
+    """An ``int64[] faceVertexCounts`` default over a weaker layer's ``int[]`` one authored only as time samples: at
+    the default time USD's typed read passes the ``int64[]`` over and finds no ``int[]`` default beneath, so it reads
+    the schema's fallback (none): ``GetFaceCount()`` is 0 and usdview draws nothing there. wrt looked for the weaker
+    ``int[]`` among defaults only, took it for none authored, and stopped the whole load with SceneError; it draws no
+    faces of that mesh, with a warning naming it, as at a time (the oracle: USD's ``GetFaceCount``)."""
+    text = mesh_usda("Mesh", extra=f"int64[] faceVertexCounts = {fmt(COUNTS)}")
+    text = text.replace(f"int[] faceVertexCounts = {fmt(COUNTS)}", "")
+    (tmp_path / "weak.usda").write_text(f'#usda 1.0\nover "World" {{\n    over "Mesh" {{\n'
+                                        f'        int[] faceVertexCounts.timeSamples = {{ 1: {fmt(COUNTS)} }}\n'
+                                        f'    }}\n}}\n')
+    path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text + "}\n",
+                      layer_meta='upAxis = "Y"\n    subLayers = [@./weak.usda@]')
+    stage = Usd.Stage.Open(path)
+    assert UsdGeom.Mesh(stage.GetPrimAtPath("/World/Mesh")).GetFaceCount() == 0
+    with pytest.warns(UserWarning, match="int64\\[\\] faceVertexCounts.*/World/Mesh"):
+        scene = wrt.load_usd(path)
+    assert scene.meshes == []

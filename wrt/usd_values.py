@@ -92,12 +92,18 @@ def _valued_specs(attr: Usd.Attribute, at: Usd.TimeCode):
 
 
 def schema_type_authored(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:
-    """Whether a value of the schema's type is authored for ``attr`` at ``time`` (by :func:`value_or_fallback`'s
-    rule), under whatever opinions of other types are stronger: the value USD's typed read takes at the default time
-    (:func:`schema_typed_value`); a value block above it hides it, as it does from USD."""
+    """Whether a value of the schema's type is authored for ``attr`` (by :func:`value_or_fallback`'s rule), under
+    whatever opinions of other types are stronger: the value USD's typed read takes at the default time
+    (:func:`schema_typed_value`), or time samples of that type, which a read at the default time passes over for the
+    schema's fallback as a read at a time passes over a default (looked for among defaults alone, such samples
+    counted as none authored); a value block above it hides it, as it does from USD."""
     want = attr.GetTypeName().type
-    for spec, samples in _valued_specs(attr, read_time(attr, time)):
-        if not samples and isinstance(spec.default, Sdf.ValueBlock):
+    at = read_time(attr, time)
+    for spec in property_stack(attr, at):
+        has_samples = spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
+        if not (has_samples or spec.HasDefaultValue()):
+            continue  # an opinion of no value (metadata, a connection)
+        if not (has_samples and not at.IsDefault()) and isinstance(spec.default, Sdf.ValueBlock):
             return False
         if spec.typeName.type == want:
             return True
