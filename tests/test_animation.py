@@ -1262,3 +1262,40 @@ def test_frames_outside_the_range_are_those_usd_puts_outside(tmp_path, metadata)
                             f"{end:g}]; USD holds the values of the nearest time samples"]
     else:
         assert messages == []
+
+
+def far_camera_stage(tmp_path) -> str:
+    """A unit sphere seen by ``/Far``, which flies from 1e8 to 3e8 from it (frames 1 to 3) through a lens whose view
+    is 0.2 units wide at 1e8: far enough for both far-view warnings (the scene too far for float32 depths, the shape
+    for its hit points) at every frame, each naming the camera's distance of that frame."""
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "far.usda"))
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    camera = UsdGeom.Camera.Define(stage, "/Far")
+    camera.CreateFocalLengthAttr(1e10)
+    camera.CreateHorizontalApertureAttr(20.0)
+    camera.CreateVerticalApertureAttr(15.0)
+    camera.CreateClippingRangeAttr(Gf.Vec2f(1.0, 1e9))
+    move = camera.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble)
+    for frame in (1, 2, 3):
+        move.Set(Gf.Vec3d(0.0, 0.0, 1e8 * frame), frame)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    stage.GetRootLayer().Save()
+    return str(tmp_path / "far.usda")
+
+
+def test_a_far_camera_flying_through_the_frames_of_a_run_is_warned_of_once(tmp_path):
+    """render_frames gives each warning once per run (a new Renderer each frame); the far-view warnings name the
+    camera's distance, which changes every frame, so both were said again at every frame. The oracle: one Renderer
+    following the same camera by set_cameras says each once (test_extreme_scales)."""
+    path = far_camera_stage(tmp_path)
+    jobs = pending_frames(parse_frames("1:3"), tmp_path / "out" / "f_#.npy", resume=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = render_frames(path, jobs, devices=["cpu"], camera="/Far", width=4, height=3, integrator="normals")
+    assert all("error" not in row for row in rows), rows
+    said = [str(w.message) for w in caught if "/Far" in str(w.message) and "float32" in str(w.message)]
+    assert sum("is so far from the scene" in m for m in said) == 1, said
+    assert sum("sees analytic shapes from so far" in m for m in said) == 1, said

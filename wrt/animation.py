@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SceneError, TimeRangeWarning, flag
+from .far_views import shown_across_renderers
 from .image import write_atomically
 
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
@@ -277,6 +278,7 @@ class FrameRenderer:
         self.log = []
         self._scene = None
         self._frames = None  # the StageFrames that loads every frame: the stage and unchanged meshes kept
+        self._far_warnings = set()  # far-view warnings said (wrt.far_views): they name the camera's distance
 
     def render(self, frame: float, spp: int = 1, seed: int = 0):
         """The :class:`wrt.Image` of time code ``frame``."""
@@ -307,7 +309,8 @@ class FrameRenderer:
             if change == "build":
                 for key in accels:
                     scene._cache.pop(key, None)
-        renderer = Renderer(scene, camera=self.camera, **self.options)
+        with shown_across_renderers(self._far_warnings):  # said once over the frames, not once per frame
+            renderer = Renderer(scene, camera=self.camera, **self.options)
         if change == "build":
             renderer.accel.built_sah = tree_costs(renderer.accel)
             rebuilt = len(renderer.accel.built_sah)

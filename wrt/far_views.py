@@ -20,6 +20,8 @@ joined or left the set.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import warnings
 
 import numpy as np
@@ -30,6 +32,26 @@ from .errors import user_stacklevel
 FLOAT32_STEP = 2.0**-23  # float32's spacing relative to the magnitude (machine epsilon)
 ERROR_SHARE = 0.125  # hit-point error, as a share of the shape's size, past which its normal is visibly wrong
 FLAT_KINDS = ("plane", "disk")  # their normal is the same everywhere: the error does not turn it
+_SHARED_SHOWN: contextvars.ContextVar[set | None] = contextvars.ContextVar("wrt_far_views_shown", default=None)
+
+
+@contextlib.contextmanager
+def shown_across_renderers(shown: set):
+    """Renderers made inside take ``shown`` as the far-view warnings said (:func:`shown_set`), so that each is said
+    once over all of them: :class:`wrt.animation.FrameRenderer` makes one per frame, and the warnings name the
+    camera's distance, so a run's deduplication by message said them again at every frame of a moving camera."""
+    token = _SHARED_SHOWN.set(shown)
+    try:
+        yield
+    finally:
+        _SHARED_SHOWN.reset(token)
+
+
+def shown_set() -> set:
+    """The set of far-view warnings said that a new Renderer keeps: the one :func:`shown_across_renderers` shares,
+    else a new one."""
+    shared = _SHARED_SHOWN.get()
+    return set() if shared is None else shared
 
 
 def _pixel_footprints(cam: Camera, width: int, height: int, centres: np.ndarray, sizes: np.ndarray) -> tuple:

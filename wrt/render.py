@@ -21,7 +21,7 @@ import warp as wp
 
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
-from .far_views import warn_scene_too_far, warn_shapes_too_far
+from .far_views import shown_set, warn_scene_too_far, warn_shapes_too_far
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -641,8 +641,8 @@ class Renderer:
         self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
         self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
         # Far-view warnings said (wrt.far_views), each once: every camera upload (set_cameras each frame of an
-        # animation, a rebuild) repeated them.
-        self._far_warnings = set()
+        # animation, a rebuild) repeated them. Shared by the Renderers of a FrameRenderer, one per frame.
+        self._far_warnings = shown_set()
         self._build()
         self._camera_key = self._camera_sources_key()
         self._note_views()
