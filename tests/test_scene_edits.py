@@ -607,3 +607,24 @@ def test_an_image_edited_in_place_leaves_the_resumed_render_as_a_fresh_one():
     for image in (resumed, renderer.image_so_far()):
         for name in fresh.aovs:
             np.testing.assert_array_equal(image.aovs[name], fresh.aovs[name], err_msg=name)
+
+
+def test_a_batch_edited_in_place_leaves_the_resumed_render_as_a_fresh_one():
+    """A BatchImage's AOVs were the renderer's buffers themselves, which resume=True and image_so_far() read again
+    (the AOVs are drawn once): a batch's depth scaled in place (through ``wp.to_torch``, or the CPU's ``numpy()``
+    view) came back in the next resumed batch, and the two batches shared their arrays. Each batch holds its own, as
+    an Image does, and the resumed render is a fresh render of all the samples (the oracle: render_batch of 4)."""
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cams = sensor_scene(), ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device="cpu", integrator="path")
+    first = renderer.render(spp=2, seed=1)
+    for array in first.aovs.values():
+        array.numpy()[...] = -1  # a view of the CPU array: an edit in place, as a torch tensor of it makes
+    resumed = renderer.render(spp=2, seed=1, resume=True)
+    fresh = wrt.render_batch(scene, cams, 8, 6, device="cpu", integrator="path", spp=4, seed=1)
+    expected = fresh.numpy()[1]
+    for batch in (resumed, renderer.image_so_far()):
+        _, aovs = batch.numpy()
+        for name in expected:
+            np.testing.assert_array_equal(aovs[name], expected[name], err_msg=name)

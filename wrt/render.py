@@ -1265,7 +1265,7 @@ class Renderer:
         # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped()
-        return self._mean_image(image, 1, aovs, self.scene.id_rows(), kept_buffers=True)  # (the scene is unchanged)
+        return self._mean_image(image, 1, aovs, self.scene.id_rows())  # (the scene is unchanged)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(
@@ -1457,14 +1457,13 @@ class Renderer:
                           f"past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the exposure "
                           "or the lights", stacklevel=5)
 
-    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows,
-                    kept_buffers: bool = False):
+    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel, prim
-        ids expanded by ``rows`` (:meth:`Scene.id_rows` of the scene drawn);
-        ``kept_buffers``: ``aovs`` are buffers that later launches write again (:meth:`launch_frame`'s), which a
-        :class:`BatchImage` then copies (an :class:`Image` always holds its own host arrays)."""
+        ids expanded by ``rows`` (:meth:`Scene.id_rows` of the scene drawn). Either holds its own AOV arrays, not
+        ``aovs``'s buffers, which later launches write again (:meth:`launch_frame`'s) and a ``resume=True`` render
+        and :meth:`image_so_far` read again."""
         if self.batched:
-            return self._batch_image(image_sum, samples, aovs, rows, kept_buffers)
+            return self._batch_image(image_sum, samples, aovs, rows)
         return self._image(image_sum, samples, aovs, rows)
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows) -> Image:
@@ -1480,14 +1479,14 @@ class Renderer:
         image.window = self._windows[0]
         return image
 
-    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers, rows: IdRows,
-                     kept_buffers: bool = False):
+    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers, rows: IdRows):
         from .batch import BatchImage
 
         n, h, w = len(self.cameras), self.height, self.width
         arrays = aovs.device_arrays(total)
-        if kept_buffers:  # a frame's AOVs were views of its buffers: the next frame rewrote an image returned before
-            arrays = {name: wp.clone(a) if name in aovs.arrays else a for name, a in arrays.items()}
+        # Copies of the buffers: the next frame rewrote a batch returned before, and a batch's AOVs edited in place
+        # (through wp.to_torch) came back in the next resume=True render and image_so_far(), which read them again.
+        arrays = {name: wp.clone(a) if name in aovs.arrays else a for name, a in arrays.items()}
         arrays = {name: a.reshape((n, h, w)) for name, a in arrays.items()}
         if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
             host = {name: a.numpy() for name, a in arrays.items()}
