@@ -25,6 +25,7 @@ from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene, instances_past_float32
 from .tubes import place_round
+from .usd_placement_runs import MIN_RUN, PlacedRows, drawn_root, nested_looks, run_segment, runs
 from .usd_xforms import PROJECTIVE
 
 # The prims a prototype's walk takes: active, loaded, not abstract, and with a defining specifier of their own,
@@ -140,13 +141,6 @@ class Context:
         return not self.world and not self.instance_opacity
 
 
-def _drawn_root(key: tuple, source: str, content_path: str) -> str:
-    """Where the root of the content placed under ``key`` by prim ``source`` is drawn, in the namespace of the
-    content holding ``source``: a native instance's own path (its prototype root lies there); a PointInstancer's
-    prototype, or the shapes of a Points or curves prim, stay where they are."""
-    return source if key[0] == "native" else content_path
-
-
 class Placement(NamedTuple):
     """One content placed in the world by one entry of some content's instances, nested ones resolved."""
 
@@ -164,12 +158,17 @@ class Placement(NamedTuple):
 def placements(world: Content, contents: dict):
     """Each :class:`Placement` of the contents instanced by ``world`` (the stage's content; ``contents``: key ->
     :class:`Content`), depth first, each instance before the instances nested in it."""
+    return _placed(world.instances, contents)
+
+
+def _placed(entries: list, contents: dict):
+    """:func:`placements` of the world-level instance ``entries`` (``(key, m, source, index, looks)``)."""
     # An explicit stack: a recursive closure would refer to itself, a reference cycle that kept the stage open until
     # a garbage collection. Each entry carries the path its content's root is drawn at: a native instance's prim path
     # (an instance proxy path when nested), else the content's own path moved by the instance it is nested in.
     pending = [Placement(contents[key], m, source, index, _Name(source, index, key[0] == "native"), color,
-                         _drawn_root(key, source, contents[key].path), (index,))
-               for key, m, source, index, color in reversed(world.instances)]
+                         drawn_root(key, source, contents[key].path), (index,))
+               for key, m, source, index, color in reversed(entries)]
     while pending:
         placement = pending.pop()
         yield placement
@@ -183,10 +182,10 @@ def placements(world: Content, contents: dict):
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
             else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
                 combined = place_round(to_world, m, *nested.tube)
-            inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
+            inner_root = part_path(drawn_root(key, inner_source, nested.path), content.path, root)
             pending.append(Placement(nested, combined, source, np.repeat(index, len(m)),
                                      name.nested(key, part_path(inner_source, content.path, root), inner_index),
-                                     _nested_looks(color, inner, len(to_world), len(m)), inner_root,
+                                     nested_looks(color, inner, len(to_world), len(m)), inner_root,
                                      levels + (inner_index,)))
 
 
@@ -200,67 +199,63 @@ def placed_indices(levels: tuple, row: int) -> list[int]:
     return found[::-1]
 
 
-def place_instances(world: Content, contents: dict, scene: Scene, skip_path, stable_name=None) -> np.ndarray | None:
+def place_instances(world: Content, contents: dict, scene: Scene, skip_path, stable_name=None,
+                    min_run: int = MIN_RUN) -> np.ndarray | None:
     """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
     stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
     an instance left out, ``stable_name(path)`` is the path a prototype, mesh or shape read at ``path`` is named by
     in the scene (a native prototype's, which USD numbers anew per opening; None: its own). Returns the inverses of
     the instances' transforms, or None without instances."""
-    # Per placed entry (numpy arrays are made once at the end: per-entry arrays took seconds for 40k nested
-    # instances): its prototype, world-level source, name and root (ids into the dicts below) and its (K,) rows.
-    entries, matrices, indices, name_indices, elements, colors_of = [], [], [], [], {}, []
-    order_ids, source_ids = {}, {}  # prim paths: world-level sources (instance order); the names' prims
-    root_ids = {}  # instance-proxy paths of the prototype roots (light_links)
 
-    for content, to_world, source, index, name, color, root, _ in placements(world, contents):
-        if content.meshes or content.shapes:
-            if content.prototype < 0:
-                content.prototype = len(scene.prototypes)
-                path, meshes, shapes = content.path, content.meshes, content.shapes
-                if stable_name is not None:
-                    path = stable_name(path)
-                    meshes = [named(m, stable_name) for m in meshes]
-                    shapes = [named(s, stable_name) for s in shapes]
-                scene.prototypes.append(Prototype(path, meshes, shapes))
-            if content.tube is not None:  # a Points or curves prim's sphere or tube piece: its point or curve
-                elements[len(entries)] = name.own
-            entries.append((content.prototype, order_ids.setdefault(source, len(order_ids)),
-                            source_ids.setdefault(name.path, len(source_ids)),
-                            root_ids.setdefault(root, len(root_ids))))
-            matrices.append(to_world)
-            indices.append(index)
-            name_indices.append(name.index)
-            colors_of.append(color)
-    if not entries:
+    def prototype_of(content: Content) -> int:
+        """The index of ``content``'s prototype in ``scene.prototypes``, added at its first placement."""
+        if content.prototype < 0:
+            content.prototype = len(scene.prototypes)
+            path, meshes, shapes = content.path, content.meshes, content.shapes
+            if stable_name is not None:
+                path = stable_name(path)
+                meshes = [named(m, stable_name) for m in meshes]
+                shapes = [named(s, stable_name) for s in shapes]
+            scene.prototypes.append(Prototype(path, meshes, shapes))
+        return content.prototype
+
+    # Runs of world-level instances of one content are walked together (wrt.usd_placement_runs), the others one
+    # placement at a time; the rows are the same, in the same order.
+    placed_rows = PlacedRows(prototype_of)
+    for run in runs(world.instances, min_run):
+        if len(run) > 1:
+            run_segment(run, contents, placed_rows)
+            continue
+        for content, to_world, source, index, name, color, root, _ in _placed(run, contents):
+            if content.meshes or content.shapes:
+                placed_rows.add(content, to_world, source, index, name, color, root)
+    placed = placed_rows.arrays()
+    if placed is None:
         return None
-    counts = np.array([len(m) for m in matrices], np.int64)
-    prototype, world_source, name_source, root_of = np.repeat(np.array(entries, np.int64), counts, axis=0).T
-    element = np.full(int(counts.sum()), -1, np.int32)
-    starts = np.cumsum(counts) - counts
-    for k, own in elements.items():
-        element[starts[k] : starts[k] + counts[k]] = own
+    prototype, world_source, name_source, root_of = placed.entries.T
+    elements = placed.element is not None  # rows of Points or curves prims' spheres and tube pieces
+    element = placed.element if elements else np.full(len(prototype), -1, np.int32)
     # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
     # instances nested inside one world-level instance stay together, in the order they were read.
-    world = np.stack([world_source, np.concatenate(indices)], axis=1)
+    world = np.stack([world_source, placed.index], axis=1)
     order = np.lexsort((world[:, 1], world[:, 0]))  # stable
     world, element = world[order], element[order]
-    to_world = np.concatenate(matrices)[order]
+    to_world = placed.to_world[order]
     projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
     to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
     colors, opacities = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)  # none given: no arrays
-    if any(c is not None for c in colors_of):  # NaN: instances without a colour or an opacity
-        looks = np.concatenate([np.full((len(m), 4), np.nan, np.float32) if c is None else c
-                                for c, m in zip(colors_of, matrices)])[order]
+    if placed.looks is not None:  # NaN: instances without a colour or an opacity
+        looks = placed.looks[order]
         if not np.isnan(looks[:, :3]).all():
             colors = np.ascontiguousarray(looks[:, :3])
         if not np.isnan(looks[:, 3]).all():
             opacities = np.ascontiguousarray(looks[:, 3])
-    instances = Instances(prototype[order], to_world, name_source[order], np.concatenate(name_indices)[order],
-                          list(source_ids), colors, list(root_ids), root_of[order], opacities,
+    instances = Instances(prototype[order], to_world, name_source[order], placed.name_index[order],
+                          list(placed_rows.source_ids), colors, list(placed_rows.root_ids), root_of[order], opacities,
                           element if elements else np.zeros(0, np.int32))
     # Named once per world-level USD instance, the one whose transform is at fault most often: a Points or curves
     # prim in it is an instance row per sphere or tube piece.
-    world_sources = list(order_ids)
+    world_sources = list(placed_rows.order_ids)
 
     def world_path(i: int) -> str:
         return world_sources[world[i, 0]] + (f"[{world[i, 1]}]" if world[i, 1] >= 0 else "")
@@ -349,18 +344,3 @@ def instance_looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> n
     if opacities is not None:
         looks[:, 3] = opacities
     return looks
-
-
-def _nested_looks(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
-    """``(n_outer * n_inner, 4)`` colours and opacities (:func:`instance_looks`) of the instances nested ``n_inner``
-    in each of ``n_outer`` outer instances, in the order of their combined transforms (outer major): the inner
-    instance's (``inner``, one row per nested instance), else the outer instance's (``outer``, one row per outer
-    instance), colour and opacity each, NaN where neither gives one; None when neither has any."""
-    if outer is None and inner is None:
-        return None
-    rows = n_outer * n_inner
-    outer_rows = np.full((rows, 4), np.nan, np.float32) if outer is None else np.repeat(outer, n_inner, axis=0)
-    if inner is None:
-        return outer_rows
-    inner_rows = np.tile(inner, (n_outer, 1))
-    return np.where(np.isnan(inner_rows), outer_rows, inner_rows)

@@ -1,0 +1,223 @@
+"""The rows :func:`wrt.usd_contents.place_instances` makes of nested instances, gathered in segments, and runs of
+world-level instances of one content resolved together.
+
+A stage of 2,000 native instances of a tree, each holding native instances of branches that hold leaves and a
+PointInstancer of fruit, is 64,000 placements (one per instance and nested instance): walked one at a time, each
+was a small matrix product, a name, a few small arrays and a dict lookup per id, over half of ``load_usd``. Consecutive
+world-level entries of one content key (:func:`runs`) place the same tree of nested contents, so a run is walked
+once for all its members (:func:`run_segment`): each nested content's transforms are one batched product over the
+members, in the same order of operations as one member's (outer transform first), so the same bits. Its rows come
+member by member, each member's nested contents in the depth-first order of the one-at-a-time walk, and its names,
+roots and prototypes get their ids in that order too: the arrays are those of the walk, row for row.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .light_links import part_path
+from .tubes import place_round
+
+MIN_RUN = 2  # consecutive world-level entries of one content walked together (fewer: one at a time)
+
+
+def drawn_root(key: tuple, source: str, content_path: str) -> str:
+    """Where the root of the content placed under ``key`` by prim ``source`` is drawn, in the namespace of the
+    content holding ``source``: a native instance's own path (its prototype root lies there); a PointInstancer's
+    prototype, or the shapes of a Points or curves prim, stay where they are."""
+    return source if key[0] == "native" else content_path
+
+
+def nested_looks(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
+    """``(n_outer * n_inner, 4)`` colours and opacities (:func:`wrt.usd_contents.instance_looks`) of the instances
+    nested ``n_inner`` in each of ``n_outer`` outer instances, in the order of their combined transforms (outer
+    major): the inner instance's (``inner``, one row per nested instance), else the outer instance's (``outer``, one
+    row per outer instance), colour and opacity each, NaN where neither gives one; None when neither has any."""
+    if outer is None and inner is None:
+        return None
+    rows = n_outer * n_inner
+    outer_rows = np.full((rows, 4), np.nan, np.float32) if outer is None else np.repeat(outer, n_inner, axis=0)
+    if inner is None:
+        return outer_rows
+    inner_rows = np.tile(inner, (n_outer, 1))
+    return np.where(np.isnan(inner_rows), outer_rows, inner_rows)
+
+
+class Segment(NamedTuple):
+    """Consecutive placed entries, as arrays: ``(E, 4)`` int64 prototype, world-level source, name and root ids of
+    each entry, ``(E,)`` its rows, and per row its transform, world-level index, name index, looks (None: none in
+    the segment) and element of a Points or curves prim (None: none in the segment)."""
+
+    entries: np.ndarray
+    counts: np.ndarray
+    to_world: np.ndarray
+    index: np.ndarray
+    name_index: np.ndarray
+    looks: np.ndarray | None
+    element: np.ndarray | None
+
+
+class PlacedRows:
+    """The rows of placed entries, in order, and the ids of their prototypes, sources, names and roots (each
+    numbered in the order first met). ``prototype_of(content)`` gives a content's prototype index (adding it)."""
+
+    def __init__(self, prototype_of):
+        self.prototype_of = prototype_of
+        self.order_ids, self.source_ids = {}, {}  # prim paths: world-level sources (instance order); the names' prims
+        self.root_ids = {}  # instance-proxy paths of the prototype roots (light_links)
+        self.segments: list[Segment] = []
+        self._entries, self._matrices, self._indices, self._names, self._looks, self._elements = [], [], [], [], [], {}
+
+    def add(self, content, to_world, source, index, name, looks, root):
+        """One placement (:class:`wrt.usd_contents.Placement`'s fields) of a content that draws something."""
+        if content.tube is not None:  # a Points or curves prim's sphere or tube piece: its point or curve
+            self._elements[len(self._entries)] = name.own
+        self._entries.append((self.prototype_of(content), self.order_ids.setdefault(source, len(self.order_ids)),
+                              self.source_ids.setdefault(name.path, len(self.source_ids)),
+                              self.root_ids.setdefault(root, len(self.root_ids))))
+        self._matrices.append(to_world)
+        self._indices.append(index)
+        self._names.append(name.index)
+        self._looks.append(looks)
+
+    def _flush(self):
+        """The placements added one at a time since the last segment, as one (numpy arrays made once: per-entry
+        arrays took seconds for 40k nested instances)."""
+        if not self._entries:
+            return
+        counts = np.array([len(m) for m in self._matrices], np.int64)
+        element = None
+        if self._elements:
+            element = np.full(int(counts.sum()), -1, np.int32)
+            starts = np.cumsum(counts) - counts
+            for k, own in self._elements.items():
+                element[starts[k] : starts[k] + counts[k]] = own
+        looks = None
+        if any(c is not None for c in self._looks):  # NaN: instances without a colour or an opacity
+            looks = np.concatenate([np.full((len(m), 4), np.nan, np.float32) if c is None else c
+                                    for c, m in zip(self._looks, self._matrices)])
+        self.segments.append(Segment(np.array(self._entries, np.int64), counts, np.concatenate(self._matrices),
+                                     np.concatenate(self._indices), np.concatenate(self._names), looks, element))
+        self._entries, self._matrices, self._indices, self._names, self._looks, self._elements = [], [], [], [], [], {}
+
+    def add_segment(self, segment: Segment):
+        self._flush()
+        self.segments.append(segment)
+
+    def arrays(self) -> Segment | None:
+        """All rows: ``entries`` repeated to one row each (``(R, 4)``), with ``counts`` None; None without rows."""
+        self._flush()
+        if not self.segments:
+            return None
+        looks = element = None
+        if any(s.looks is not None for s in self.segments):
+            looks = np.concatenate([np.full((len(s.to_world), 4), np.nan, np.float32) if s.looks is None else s.looks
+                                    for s in self.segments])
+        if any(s.element is not None for s in self.segments):
+            element = np.concatenate([np.full(len(s.to_world), -1, np.int32) if s.element is None else s.element
+                                      for s in self.segments])
+        entries = np.concatenate([np.repeat(s.entries, s.counts, axis=0) for s in self.segments])
+        return Segment(entries, None, np.concatenate([s.to_world for s in self.segments]),
+                       np.concatenate([s.index for s in self.segments]),
+                       np.concatenate([s.name_index for s in self.segments]), looks, element)
+
+
+def runs(entries: list, min_run: int = MIN_RUN):
+    """``entries`` (a content's instances: ``(key, (K, 4, 4) m, source, index, looks)``) cut into runs of
+    consecutive ones that :func:`run_segment` walks together (one key, as many rows, looks given by all or none,
+    indices of one dtype), each yielded as a list; shorter runs than ``min_run`` are yielded one entry at a time."""
+    start = 0
+    while start < len(entries):
+        key, m, _, index, looks = entries[start]
+        end = start + 1
+        while end < len(entries):
+            other_key, other_m, _, other_index, other_looks = entries[end]
+            if (other_key != key or len(other_m) != len(m) or (other_looks is None) != (looks is None)
+                    or other_index.dtype != index.dtype):
+                break
+            end += 1
+        if end - start >= min_run:
+            yield entries[start:end]
+        else:
+            yield from ([entry] for entry in entries[start:end])
+        start = end
+
+
+class _Placed(NamedTuple):
+    """One nested content placed by each of the N members of a run: :class:`wrt.usd_contents.Placement` with a
+    leading axis of members (strings: one per member)."""
+
+    content: object
+    to_world: np.ndarray  # (N, K, 4, 4)
+    index: np.ndarray  # (N, K) world-level index
+    name_paths: list  # (N,) str: the prim each member's instances are named by
+    name_index: np.ndarray  # (N, K)
+    names_inside: bool  # what is nested is named by its own path (see wrt.usd_contents._Name)
+    own: np.ndarray  # (N, K) index in the arrays of the prim that made each
+    looks: np.ndarray | None  # (N, K, 4)
+    roots: list  # (N,) str
+
+
+def run_segment(run: list, contents: dict, rows: PlacedRows) -> None:
+    """Adds to ``rows`` the rows of the world-level entries ``run`` (:func:`runs`) and of everything nested in
+    them, as :func:`wrt.usd_contents.placements` and :meth:`PlacedRows.add` make them one at a time."""
+    key = run[0][0]
+    content = contents[key]
+    sources = [source for _, _, source, _, _ in run]
+    index = np.stack([index for _, _, _, index, _ in run])
+    looks = None if run[0][4] is None else np.stack([looks for *_, looks in run])
+    first = _Placed(content, np.stack([m for _, m, *_ in run]), index, sources, index, key[0] == "native", index,
+                    looks, [drawn_root(key, source, content.path) for source in sources])
+    # The depth-first walk of the one-at-a-time placements, all members at once.
+    placed, pending = [], [first]
+    while pending:
+        outer = pending.pop()
+        placed.append(outer)
+        n, k = outer.to_world.shape[:2]
+        for inner_key, m, inner_source, inner_index, inner_looks in reversed(outer.content.instances):
+            nested = contents[inner_key]
+            if nested.tube is None:
+                combined = (outer.to_world[:, :, None] @ m[None, None]).reshape(n, -1, 4, 4)
+            else:
+                combined = np.stack([place_round(t, m, *nested.tube) for t in outer.to_world])
+            own = np.tile(inner_index, (n, k))
+            if outer.names_inside:
+                paths = [part_path(inner_source, outer.content.path, root) for root in outer.roots]
+                names, name_index, inside = paths, own, inner_key[0] == "native"
+            else:
+                names, name_index, inside = outer.name_paths, np.repeat(outer.name_index, len(m), axis=1), False
+            looks = nested_looks(None if outer.looks is None else outer.looks.reshape(-1, 4), inner_looks, n * k,
+                                 len(m))
+            root = drawn_root(inner_key, inner_source, nested.path)
+            pending.append(_Placed(nested, combined, np.repeat(outer.index, len(m), axis=1), names, name_index, inside,
+                                   own, None if looks is None else looks.reshape(n, -1, 4),
+                                   [part_path(root, outer.content.path, r) for r in outer.roots]))
+    drawn = [p for p in placed if p.content.meshes or p.content.shapes]
+    if not drawn:
+        return
+    # Ids in the one-at-a-time order: member by member, each member's placements depth first.
+    prototypes = [rows.prototype_of(p.content) for p in drawn]
+    order = [rows.order_ids.setdefault(source, len(rows.order_ids)) for source in sources]
+    ids = rows.source_ids
+    names = [ids.setdefault(path, len(ids)) for member in zip(*(p.name_paths for p in drawn)) for path in member]
+    ids = rows.root_ids
+    roots = [ids.setdefault(path, len(ids)) for member in zip(*(p.roots for p in drawn)) for path in member]
+    n = len(run)
+    entries = np.stack([np.tile(prototypes, n), np.repeat(order, len(drawn)), names, roots], axis=1).astype(np.int64)
+
+    def member_major(arrays):  # (N, K_j, ...) per placement -> rows member by member, placements in order
+        return np.concatenate([a.reshape(n, -1) for a in arrays], axis=1).reshape(-1, *arrays[0].shape[2:])
+
+    looks = None
+    if any(p.looks is not None for p in drawn):
+        looks = member_major([np.full((n, p.to_world.shape[1], 4), np.nan, np.float32) if p.looks is None else p.looks
+                              for p in drawn])
+    element = None
+    if any(p.content.tube is not None for p in drawn):
+        element = member_major([p.own.astype(np.int32) if p.content.tube is not None
+                                else np.full(p.own.shape, -1, np.int32) for p in drawn])
+    rows.add_segment(Segment(entries, np.tile([p.to_world.shape[1] for p in drawn], n).astype(np.int64),
+                             member_major([p.to_world for p in drawn]), member_major([p.index for p in drawn]),
+                             member_major([p.name_index for p in drawn]), looks, element))
