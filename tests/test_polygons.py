@@ -11,7 +11,7 @@ pytest.importorskip("pxr")
 
 from usda_text import fmt, load, load_recording_warnings, trace, write  # noqa: E402
 
-from wrt.polygons import MAX_CLIPPED_CORNERS, clip_ears  # noqa: E402
+from wrt.polygons import MAX_CLIPPED_CORNERS, clip_ears, convexity  # noqa: E402
 from wrt.usd_meshes import triangulate  # noqa: E402
 
 DART = [(0.0, 0.0), (2.0, 1.0), (0.0, 2.0), (0.8, 1.0)]  # reflex corner last: the fan from corner 0 leaves it
@@ -119,6 +119,38 @@ def test_ear_clipping_random_star_shaped_polygons():
         centres = (a + b + c) / 3.0
         assert inside_polygon(centres[:, 0], centres[:, 1], xy.tolist())[twice_areas > 1e-9].all()
         done += 1
+
+
+@pytest.mark.parametrize("k", [4, 5, 6])
+def test_faces_all_of_one_size_are_judged_as_in_a_mesh_of_mixed_sizes(k):
+    """A mesh whose faces all have ``k`` corners takes a shorter path through the convexity check (no bookkeeping of
+    sizes): its reflex corners and stars are those the mixed-size path finds for the same faces (a triangle added
+    after them), for convex, concave, star, flat and repeated-point faces in space, and the analytic ones where they
+    are known (a dart's one reflex corner; a pentagram is a star)."""
+    rng = np.random.default_rng(k)
+    angles = 2 * np.pi * np.arange(k) / k
+    convex = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    dart = convex.copy()
+    dart[-1] *= -0.3  # pulled in past the centre, and so past the chord of its neighbours: reflex
+    star = np.stack([np.cos(2 * angles), np.sin(2 * angles)], axis=1)  # winds twice round (a pentagram for k = 5)
+    line = np.stack([np.arange(k), np.zeros(k)], axis=1)  # no area
+    repeated = convex.copy()
+    repeated[1] = repeated[0]
+    faces = [np.c_[f, np.zeros(k)] for f in (convex, dart, star, line, repeated)]
+    faces += [np.c_[rng.normal(size=(k, 2)), rng.normal(0, 1e-3, k)] for _ in range(40)]  # some out of plane
+    points = np.concatenate([f @ rotation(k + j) + rng.normal(0, 5, 3) for j, f in enumerate(faces)])
+    counts = np.full(len(faces), k)
+    indices = np.arange(len(points))
+    reflex, stars = convexity(points, counts, indices)
+    mixed_points = np.concatenate([points, [(0, 0, 0), (1, 0, 0), (0, 1, 0)]])
+    mixed = convexity(mixed_points, np.append(counts, 3), np.arange(len(mixed_points)))
+    np.testing.assert_array_equal(reflex, mixed[0][:-1])
+    np.testing.assert_array_equal(stars, mixed[1][:-1])
+    assert reflex.dtype == mixed[0].dtype and stars.dtype == mixed[1].dtype
+    assert reflex[1] == 1 and reflex[0] == 0 and not stars[0]
+    assert stars[2] or k != 5
+    assert reflex[3] == 0 and not stars[3]
+    assert 0 < (reflex > 0).sum() < len(faces)
 
 
 def test_convex_faces_keep_the_fan():

@@ -51,6 +51,13 @@ def convexity(points, counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     counts = np.asarray(counts, np.int64)
     face_indices = np.asarray(face_indices, np.int64).reshape(-1)
     points = np.asarray(points)
+    k = int(counts[0]) if len(counts) else 0
+    if 4 <= k and len(face_indices) <= BLOCK_CORNERS and len(face_indices) == k * len(counts) and (counts == k).all():
+        # Faces all of one size, in one block (a small quad mesh): the corners are the indices in rows, no
+        # bookkeeping of sizes and blocks (most of the check's cost for a mesh of a few quads).
+        corners = np.ascontiguousarray(points.T)[:, face_indices.reshape(-1, k)]
+        corner_reflex, stars = _corner_turns(corners.astype(np.float64, copy=False), k >= 5)
+        return corner_reflex.sum(axis=1), stars
     starts = np.cumsum(counts) - counts
     reflex = np.zeros(len(counts), np.int64)
     stars = np.zeros(len(counts), bool)
@@ -74,21 +81,29 @@ def _cross(a, b):
     return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+def _turned(a: np.ndarray, shift: int) -> np.ndarray:
+    """``a`` with its last axis (a face's corners) turned so that entry ``i`` holds entry ``i + shift`` (1: the
+    following corner, -1: the preceding one), as ``np.roll(a, -shift, axis=-1)``."""
+    return np.concatenate((a[..., shift:], a[..., :shift]), axis=-1)
+
+
 def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np.ndarray]:
     """``(F, k)`` bool: the reflex corners of faces ``corners`` ``(3, F, k)`` float64 (axis first; none for a face of
     no area), and ``(F,)`` bool: with ``find_stars``, the faces without one that turn round their normal more than
     once (see :func:`convexity`)."""
     # Newell normal (twice the area vector) of each face, relative to its first corner for precision far out.
+    # (Each face's corners shifted by one with _turned, not np.roll: the same copies at a fraction of the overhead,
+    # which small meshes pay per mesh.)
     relative = corners - corners[:, :, :1]
-    following = np.roll(relative, -1, axis=2)
+    following = _turned(relative, 1)
     normals = _cross(relative, following).sum(axis=2)  # (3, F)
     # A corner is reflex when it turns against the normal by more than REFLEX_SINE.
     outgoing = following - relative
-    incoming = np.roll(outgoing, 1, axis=2)
+    incoming = _turned(outgoing, -1)
     turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
     lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
     normal_lengths = np.sqrt((normals * normals).sum(axis=0))
-    reflex = turn < -REFLEX_SINE * lengths * np.roll(lengths, 1, axis=1) * normal_lengths[:, None]
+    reflex = turn < -REFLEX_SINE * lengths * _turned(lengths, -1) * normal_lengths[:, None]
     # A face with no area has no plane to be convex in: the fan is as good as anything.
     flat = normal_lengths <= _FLAT * lengths.sum(axis=1) ** 2
     reflex[flat] = False
