@@ -271,7 +271,7 @@ class Mesh(CountsAssignments):
             # Its own shape, or one flattened: per triangle (T, 9), per corner (3T, 3) or whole (9T,). Others of
             # that size are another layout: normals stacked corner by corner, (3, T, 3), or uvs (T, 2, 3), were
             # reshaped into other triangles' values without a word.
-            size = int(np.prod(corner))
+            size = math.prod(corner)
             layouts = {(triangles, *corner), (triangles * size,), (triangles, size), (3 * triangles, *corner[1:])}
             if array.shape not in layouts:
                 expected = (triangles, *corner)

@@ -11,6 +11,7 @@ fixed stack of ``MAX_DEPTH`` entries.
 from __future__ import annotations
 
 import contextlib
+import math
 import threading
 
 import numpy as np
@@ -280,15 +281,16 @@ class BuildInput:
 
 
 def _layout(a) -> tuple[tuple, str, str]:
-    """The shape and dtype kind (numpy's ``"f"``, ``"i"``, ...) that ``a`` has as a numpy array, and its dtype's
-    name: a Warp vector dtype adds its length as a last axis."""
+    """The shape and dtype kind (numpy's ``"f"``, ``"i"``, ...) that ``a`` has as a numpy array, and its dtype (a
+    numpy dtype, or a Warp dtype's name; both print as the name): a Warp vector dtype adds its length as a last
+    axis."""
     if isinstance(a, wp.array):
         vector = wp.types.type_is_vector(a.dtype)
         scalar = a.dtype._wp_scalar_type_ if vector else a.dtype
         kind = "i" if wp.types.type_is_int(scalar) else "f" if wp.types.type_is_float(scalar) else "O"
         return tuple(a.shape) + ((wp.types.type_size(a.dtype),) if vector else ()), kind, a.dtype.__name__
     a = np.asarray(a)
-    return a.shape, a.dtype.kind, str(a.dtype)
+    return a.shape, a.dtype.kind, a.dtype  # (not str(): the name is wanted only in an error, and costs per mesh)
 
 
 def check_array_layouts(points, indices) -> None:
@@ -298,7 +300,7 @@ def check_array_layouts(points, indices) -> None:
     were truncated."""
     for name, a in (("points", points), ("indices", indices)):
         shape, kind, dtype = _layout(a)
-        size = int(np.prod(shape))
+        size = math.prod(shape)  # (np.prod of a shape: several us per array, for every mesh made)
         if not (len(shape) == 2 and shape[1] == 3 or len(shape) == 1 and size % 3 == 0):
             raise ValueError(f"{name} must have shape (N, 3) or (3N,), got {shape}")
         if name == "points" and kind not in "iuf":
