@@ -25,7 +25,7 @@ from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene, instances_past_float32
 from .tubes import place_round
-from .usd_placement_runs import MIN_RUN, PlacedRows, drawn_root, nested_looks, run_segment, runs
+from .usd_placement_groups import MIN_GROUP, PlacedRows, drawn_root, expand_group, member_groups, nested_looks
 from .usd_xforms import PROJECTIVE
 
 # The prims a prototype's walk takes: active, loaded, not abstract, and with a defining specifier of their own,
@@ -200,7 +200,7 @@ def placed_indices(levels: tuple, row: int) -> list[int]:
 
 
 def place_instances(world: Content, contents: dict, scene: Scene, skip_path, stable_name=None,
-                    min_run: int = MIN_RUN) -> np.ndarray | None:
+                    min_group: int = MIN_GROUP) -> np.ndarray | None:
     """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
     stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
     an instance left out, ``stable_name(path)`` is the path a prototype, mesh or shape read at ``path`` is named by
@@ -219,14 +219,19 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
             scene.prototypes.append(Prototype(path, meshes, shapes))
         return content.prototype
 
-    # Runs of world-level instances of one content are walked together (wrt.usd_placement_runs), the others one
-    # placement at a time; the rows are the same, in the same order.
+    # World-level instances of one content are walked together (wrt.usd_placement_groups), the others one placement
+    # at a time; the rows are the same, in the same order.
     placed_rows = PlacedRows(prototype_of)
-    for run in runs(world.instances, min_run):
-        if len(run) > 1:
-            run_segment(run, contents, placed_rows)
+    grouped = member_groups(world.instances, min_group)
+    expanded = {}  # a group's first position -> its rows
+    for position, entry in enumerate(world.instances):
+        if position in grouped:
+            group, member = grouped[position]
+            if group[0] not in expanded:
+                expanded[group[0]] = expand_group([world.instances[p] for p in group], contents)
+            placed_rows.add_member(expanded[group[0]], member)
             continue
-        for content, to_world, source, index, name, color, root, _ in _placed(run, contents):
+        for content, to_world, source, index, name, color, root, _ in _placed([entry], contents):
             if content.meshes or content.shapes:
                 placed_rows.add(content, to_world, source, index, name, color, root)
     placed = placed_rows.arrays()

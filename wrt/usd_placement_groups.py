@@ -1,14 +1,15 @@
-"""The rows :func:`wrt.usd_contents.place_instances` makes of nested instances, gathered in segments, and runs of
-world-level instances of one content resolved together.
+"""The rows :func:`wrt.usd_contents.place_instances` makes of nested instances, and the world-level instances of
+one content placed together.
 
 A stage of 2,000 native instances of a tree, each holding native instances of branches that hold leaves and a
 PointInstancer of fruit, is 64,000 placements (one per instance and nested instance): walked one at a time, each
-was a small matrix product, a name, a few small arrays and a dict lookup per id, over half of ``load_usd``. Consecutive
-world-level entries of one content key (:func:`runs`) place the same tree of nested contents, so a run is walked
-once for all its members (:func:`run_segment`): each nested content's transforms are one batched product over the
-members, in the same order of operations as one member's (outer transform first), so the same bits. Its rows come
-member by member, each member's nested contents in the depth-first order of the one-at-a-time walk, and its names,
-roots and prototypes get their ids in that order too: the arrays are those of the walk, row for row.
+was a small matrix product, a name, a few small arrays and a dict lookup per id, over half of ``load_usd``. The
+world-level entries of one content key (and as many rows, :func:`member_groups`), wherever they are in the stage,
+place the same tree of nested contents, so a group is walked once for all its members (:func:`expand_group`): each
+nested content's transforms are one batched product over the members, in the same order of operations as one
+member's (outer transform first), so the same bits. Each member's rows are then added in stage order
+(:meth:`PlacedRows.add_member`), its nested contents in the depth-first order of the one-at-a-time walk, and its
+names, roots and prototypes get their ids in that order too: the arrays are those of the walk, row for row.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 from .light_links import part_path
 from .tubes import place_round
 
-MIN_RUN = 2  # consecutive world-level entries of one content walked together (fewer: one at a time)
+MIN_GROUP = 2  # world-level entries of one content walked together (fewer: one at a time)
 
 
 def drawn_root(key: tuple, source: str, content_path: str) -> str:
@@ -102,9 +103,23 @@ class PlacedRows:
                                      np.concatenate(self._indices), np.concatenate(self._names), looks, element))
         self._entries, self._matrices, self._indices, self._names, self._looks, self._elements = [], [], [], [], [], {}
 
-    def add_segment(self, segment: Segment):
+    def add_member(self, group: Group, member: int):
+        """The rows of member ``member`` of ``group`` (:func:`expand_group`), as :meth:`add` adds them placement by
+        placement, ids given in the same order."""
+        if not group.contents:
+            return  # nothing drawn: no ids either
         self._flush()
-        self.segments.append(segment)
+        order = self.order_ids.setdefault(group.sources[member], len(self.order_ids))
+        ids, roots = self.source_ids, self.root_ids
+        entries = [(self.prototype_of(content), order, ids.setdefault(name, len(ids)),
+                    roots.setdefault(root, len(roots)))
+                   for content, name, root in zip(group.contents, group.name_paths[member], group.roots[member])]
+        rows = int(group.counts.sum())
+        part = slice(member * rows, (member + 1) * rows)
+        self.segments.append(Segment(np.array(entries, np.int64), group.counts, group.to_world[part],
+                                     group.index[part], group.name_index[part],
+                                     None if group.looks is None else group.looks[part],
+                                     None if group.element is None else group.element[part]))
 
     def arrays(self) -> Segment | None:
         """All rows: ``entries`` repeated to one row each (``(R, 4)``), with ``counts`` None; None without rows."""
@@ -124,29 +139,19 @@ class PlacedRows:
                        np.concatenate([s.name_index for s in self.segments]), looks, element)
 
 
-def runs(entries: list, min_run: int = MIN_RUN):
-    """``entries`` (a content's instances: ``(key, (K, 4, 4) m, source, index, looks)``) cut into runs of
-    consecutive ones that :func:`run_segment` walks together (one key, as many rows, looks given by all or none,
-    indices of one dtype), each yielded as a list; shorter runs than ``min_run`` are yielded one entry at a time."""
-    start = 0
-    while start < len(entries):
-        key, m, _, index, looks = entries[start]
-        end = start + 1
-        while end < len(entries):
-            other_key, other_m, _, other_index, other_looks = entries[end]
-            if (other_key != key or len(other_m) != len(m) or (other_looks is None) != (looks is None)
-                    or other_index.dtype != index.dtype):
-                break
-            end += 1
-        if end - start >= min_run:
-            yield entries[start:end]
-        else:
-            yield from ([entry] for entry in entries[start:end])
-        start = end
+def member_groups(entries: list, min_group: int = MIN_GROUP) -> dict:
+    """``{position: (group, member)}`` of the ``entries`` (a content's instances: ``(key, (K, 4, 4) m, source,
+    index, looks)``) that :func:`expand_group` walks together: those of one key and as many rows, looks given by all
+    or none, indices of one dtype, in groups of at least ``min_group`` (``group``: the list of their positions)."""
+    groups = {}
+    for position, (key, m, _, index, looks) in enumerate(entries):
+        groups.setdefault((key, len(m), looks is None, index.dtype), []).append(position)
+    return {position: (group, member) for group in groups.values() if len(group) >= min_group
+            for member, position in enumerate(group)}
 
 
 class _Placed(NamedTuple):
-    """One nested content placed by each of the N members of a run: :class:`wrt.usd_contents.Placement` with a
+    """One nested content placed by each of the N members of a group: :class:`wrt.usd_contents.Placement` with a
     leading axis of members (strings: one per member)."""
 
     content: object
@@ -160,15 +165,32 @@ class _Placed(NamedTuple):
     roots: list  # (N,) str
 
 
-def run_segment(run: list, contents: dict, rows: PlacedRows) -> None:
-    """Adds to ``rows`` the rows of the world-level entries ``run`` (:func:`runs`) and of everything nested in
-    them, as :func:`wrt.usd_contents.placements` and :meth:`PlacedRows.add` make them one at a time."""
-    key = run[0][0]
+class Group(NamedTuple):
+    """The rows of the N members of a group (:func:`expand_group`): per member, its ``(Q,)`` drawn placements' rows
+    ``counts`` (one sum R for all), member-major arrays of ``N * R`` rows (see :class:`Segment`), and per member
+    its source, and the name and root paths of its drawn placements."""
+
+    contents: list  # (Q,) the contents drawn, in the depth-first order of one member's placements
+    counts: np.ndarray  # (Q,) int64
+    to_world: np.ndarray
+    index: np.ndarray
+    name_index: np.ndarray
+    looks: np.ndarray | None
+    element: np.ndarray | None
+    sources: list  # (N,) str
+    name_paths: list  # (N,) lists of (Q,) str
+    roots: list  # (N,) lists of (Q,) str
+
+
+def expand_group(members: list, contents: dict) -> Group:
+    """The rows of the world-level entries ``members`` (one key and as many rows, :func:`member_groups`) and of
+    everything nested in them, as :func:`wrt.usd_contents.placements` makes them one entry at a time."""
+    key = members[0][0]
     content = contents[key]
-    sources = [source for _, _, source, _, _ in run]
-    index = np.stack([index for _, _, _, index, _ in run])
-    looks = None if run[0][4] is None else np.stack([looks for *_, looks in run])
-    first = _Placed(content, np.stack([m for _, m, *_ in run]), index, sources, index, key[0] == "native", index,
+    sources = [source for _, _, source, _, _ in members]
+    index = np.stack([index for _, _, _, index, _ in members])
+    looks = None if members[0][4] is None else np.stack([looks for *_, looks in members])
+    first = _Placed(content, np.stack([m for _, m, *_ in members]), index, sources, index, key[0] == "native", index,
                     looks, [drawn_root(key, source, content.path) for source in sources])
     # The depth-first walk of the one-at-a-time placements, all members at once.
     placed, pending = [], [first]
@@ -195,19 +217,11 @@ def run_segment(run: list, contents: dict, rows: PlacedRows) -> None:
                                    own, None if looks is None else looks.reshape(n, -1, 4),
                                    [part_path(root, outer.content.path, r) for r in outer.roots]))
     drawn = [p for p in placed if p.content.meshes or p.content.shapes]
-    if not drawn:
-        return
-    # Ids in the one-at-a-time order: member by member, each member's placements depth first.
-    prototypes = [rows.prototype_of(p.content) for p in drawn]
-    order = [rows.order_ids.setdefault(source, len(rows.order_ids)) for source in sources]
-    ids = rows.source_ids
-    names = [ids.setdefault(path, len(ids)) for member in zip(*(p.name_paths for p in drawn)) for path in member]
-    ids = rows.root_ids
-    roots = [ids.setdefault(path, len(ids)) for member in zip(*(p.roots for p in drawn)) for path in member]
-    n = len(run)
-    entries = np.stack([np.tile(prototypes, n), np.repeat(order, len(drawn)), names, roots], axis=1).astype(np.int64)
+    n = len(members)
 
     def member_major(arrays):  # (N, K_j, ...) per placement -> rows member by member, placements in order
+        if not arrays:
+            return np.zeros(0)
         return np.concatenate([a.reshape(n, -1) for a in arrays], axis=1).reshape(-1, *arrays[0].shape[2:])
 
     looks = None
@@ -218,6 +232,8 @@ def run_segment(run: list, contents: dict, rows: PlacedRows) -> None:
     if any(p.content.tube is not None for p in drawn):
         element = member_major([p.own.astype(np.int32) if p.content.tube is not None
                                 else np.full(p.own.shape, -1, np.int32) for p in drawn])
-    rows.add_segment(Segment(entries, np.tile([p.to_world.shape[1] for p in drawn], n).astype(np.int64),
-                             member_major([p.to_world for p in drawn]), member_major([p.index for p in drawn]),
-                             member_major([p.name_index for p in drawn]), looks, element))
+    return Group([p.content for p in drawn], np.array([p.to_world.shape[1] for p in drawn], np.int64),
+                 member_major([p.to_world for p in drawn]), member_major([p.index for p in drawn]),
+                 member_major([p.name_index for p in drawn]), looks, element, sources,
+                 [list(paths) for paths in zip(*(p.name_paths for p in drawn))] if drawn else [[] for _ in members],
+                 [list(paths) for paths in zip(*(p.roots for p in drawn))] if drawn else [[] for _ in members])

@@ -1,4 +1,4 @@
-"""Runs of world-level instances of one prototype, placed together (``wrt.usd_placement_runs``), give the scene that
+"""World-level instances of one prototype, placed together (``wrt.usd_placement_groups``), give the scene that
 placing every nested instance one at a time gives: the same prototypes, instance rows, names, roots, colours,
 opacities and Points elements, array for array and byte for byte."""
 
@@ -60,11 +60,11 @@ def _instancer(stage, path, targets, n, rng, colors=False, opacities=False):
     return pi
 
 
-def nested_runs_stage(path):
+def nested_groups_stage(path):
     """Native trees (a trunk, native branches of native leaves, a Points prim, a PointInstancer of fruit whose
-    prototype holds another PointInstancer and a native leaf), placed in runs: world-level trees in a row, some
-    coloured (a copy of the prototype per colour) and one of another prototype between them, and PointInstancers
-    of one prototype and one instance count side by side, with per-instance colours and opacities, then one of two
+    prototype holds another PointInstancer and a native leaf), several of each kind: world-level trees, some
+    coloured (a copy of the prototype per colour), with instances of another prototype between them, and
+    PointInstancers of one prototype and one instance count, with per-instance colours and opacities, then one of two
     prototypes (its instances of each are entries of their own, one after the other)."""
     rng = np.random.default_rng(5)
     stage = Usd.Stage.CreateNew(str(path))
@@ -92,8 +92,8 @@ def nested_runs_stage(path):
     for k, color in enumerate(colors):
         _instance(stage, f"/World/Tree{k}", "/Protos/Tree", translate=rng.normal(0, 9, 3), rotate=rng.normal(0, 40, 3),
                   color=color)
-        if k == 4:
-            _instance(stage, "/World/Lone", "/Protos/Branch", translate=(0, 0, 9))
+        if k in (1, 3, 4):
+            _instance(stage, f"/World/Lone{k}", "/Protos/Branch", translate=(k, 0, 9))
     UsdGeom.Xform.Define(stage, "/World/Forest")
     _instance(stage, "/World/Forest/Protos/T", "/Protos/Tree")
     UsdGeom.Xform.Define(stage, "/World/Forest/Protos/Bush")
@@ -114,19 +114,19 @@ def _load(path):
         return wrt.load_usd(path)
 
 
-def test_runs_of_instances_place_what_one_at_a_time_placement_does(tmp_path, monkeypatch):
-    path = nested_runs_stage(tmp_path / "runs.usda")
+def test_instances_of_one_prototype_placed_together_place_what_one_at_a_time_placement_does(tmp_path, monkeypatch):
+    path = nested_groups_stage(tmp_path / "groups.usda")
     walked = []
-    run_segment = wrt.usd_contents.run_segment
+    expand_group = wrt.usd_contents.expand_group
 
-    def counted(run, *args):
-        walked.append(len(run))
-        return run_segment(run, *args)
+    def counted(members, *args):
+        walked.append(len(members))
+        return expand_group(members, *args)
 
-    monkeypatch.setattr(wrt.usd_contents, "run_segment", counted)
+    monkeypatch.setattr(wrt.usd_contents, "expand_group", counted)
     together = _load(path)
-    assert walked == [2, 2, 3]  # trees 0-1, trees 2-3 (red), instancers 0-2
-    one_by_one_place = functools.partial(wrt.usd_contents.place_instances, min_run=10**9)
+    assert walked == [4, 3, 2, 3]  # plain trees 0, 1, 4, 6; the branches between; red trees 2, 3; instancers 0-2
+    one_by_one_place = functools.partial(wrt.usd_contents.place_instances, min_group=10**9)
     monkeypatch.setattr(wrt.usd, "place_instances", one_by_one_place)
     walked.clear()
     alone = _load(path)
