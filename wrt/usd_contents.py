@@ -222,7 +222,7 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
     # World-level instances of one content are walked together (wrt.usd_placement_groups), the others one placement
     # at a time; the rows are the same, in the same order.
     placed_rows = PlacedRows(prototype_of)
-    grouped = member_groups(world.instances, min_group)
+    grouped = member_groups(world.instances, contents, min_group)
     expanded = {}  # a group's first position -> its rows
     for position, entry in enumerate(world.instances):
         if position in grouped:

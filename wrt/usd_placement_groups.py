@@ -70,9 +70,12 @@ class PlacedRows:
         self.root_ids = {}  # instance-proxy paths of the prototype roots (light_links)
         self.segments: list[Segment] = []
         self._entries, self._matrices, self._indices, self._names, self._looks, self._elements = [], [], [], [], [], {}
+        # Members of groups added since the last segment: (group, member), and their entries and rows per entry.
+        self._members, self._member_entries, self._member_counts = [], [], []
 
     def add(self, content, to_world, source, index, name, looks, root):
         """One placement (:class:`wrt.usd_contents.Placement`'s fields) of a content that draws something."""
+        self._flush_members()
         if content.tube is not None:  # a Points or curves prim's sphere or tube piece: its point or curve
             self._elements[len(self._entries)] = name.own
         self._entries.append((self.prototype_of(content), self.order_ids.setdefault(source, len(self.order_ids)),
@@ -111,19 +114,52 @@ class PlacedRows:
         self._flush()
         order = self.order_ids.setdefault(group.sources[member], len(self.order_ids))
         ids, roots = self.source_ids, self.root_ids
-        entries = [(self.prototype_of(content), order, ids.setdefault(name, len(ids)),
-                    roots.setdefault(root, len(roots)))
-                   for content, name, root in zip(group.contents, group.name_paths[member], group.roots[member])]
-        rows = int(group.counts.sum())
-        part = slice(member * rows, (member + 1) * rows)
-        self.segments.append(Segment(np.array(entries, np.int64), group.counts, group.to_world[part],
-                                     group.index[part], group.name_index[part],
-                                     None if group.looks is None else group.looks[part],
-                                     None if group.element is None else group.element[part]))
+        self._member_entries += [(self.prototype_of(content), order, ids.setdefault(name, len(ids)),
+                                  roots.setdefault(root, len(roots)))
+                                 for content, name, root in zip(group.contents, group.name_paths[member],
+                                                                group.roots[member])]
+        self._member_counts.append(group.counts)
+        self._members.append((group, member))
+
+    def _flush_members(self):
+        """The members added since the last segment, as one: each group's rows gathered at once (a segment per member
+        was an array operation per native instance: 100k of them)."""
+        if not self._members:
+            return
+        groups = list({id(group): group for group, _ in self._members}.values())
+        which = {id(group): k for k, group in enumerate(groups)}
+        of_group = np.array([which[id(group)] for group, _ in self._members], np.int64)
+        members = np.array([member for _, member in self._members], np.int64)
+        per_member = np.array([int(group.counts.sum()) for group in groups], np.int64)
+        lengths = per_member[of_group]
+        starts = np.cumsum(lengths) - lengths  # each member's first row in the segment
+        total = int(lengths.sum())
+        fields = {}
+        for name in ("to_world", "index", "name_index", "looks", "element"):
+            arrays = [getattr(group, name) for group in groups]
+            if all(a is None for a in arrays):
+                fields[name] = None
+                continue
+            shape = next(a for a in arrays if a is not None).shape[1:]
+            dtype = np.result_type(*(a for a in arrays if a is not None))
+            fill = np.nan if name == "looks" else -1  # (a group without looks or elements: none, as add makes them)
+            out = np.full((total, *shape), fill, dtype) if any(a is None for a in arrays) else \
+                np.empty((total, *shape), dtype)
+            for k, array in enumerate(arrays):
+                if array is None:
+                    continue
+                mine = of_group == k
+                out[_ranges(starts[mine], lengths[mine])] = array[_ranges(members[mine] * per_member[k],
+                                                                          lengths[mine])]
+            fields[name] = out
+        self.segments.append(Segment(np.array(self._member_entries, np.int64), np.concatenate(self._member_counts),
+                                     **fields))
+        self._members, self._member_entries, self._member_counts = [], [], []
 
     def arrays(self) -> Segment | None:
         """All rows: ``entries`` repeated to one row each (``(R, 4)``), with ``counts`` None; None without rows."""
         self._flush()
+        self._flush_members()
         if not self.segments:
             return None
         looks = element = None
@@ -139,13 +175,20 @@ class PlacedRows:
                        np.concatenate([s.name_index for s in self.segments]), looks, element)
 
 
-def member_groups(entries: list, min_group: int = MIN_GROUP) -> dict:
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """The concatenated ``arange(start, start + length)`` of each ``(starts, lengths)`` pair, int64."""
+    return np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(int(lengths.sum()))
+
+
+def member_groups(entries: list, contents: dict, min_group: int = MIN_GROUP) -> dict:
     """``{position: (group, member)}`` of the ``entries`` (a content's instances: ``(key, (K, 4, 4) m, source,
-    index, looks)``) that :func:`expand_group` walks together: those of one key and as many rows, looks given by all
-    or none, indices of one dtype, in groups of at least ``min_group`` (``group``: the list of their positions)."""
+    index, looks)``) that :func:`expand_group` walks together: those of one key (of a content that nests instances:
+    one without is one placement an entry, cheaper placed alone) and as many rows, looks given by all or none,
+    indices of one dtype, in groups of at least ``min_group`` (``group``: the list of their positions)."""
     groups = {}
     for position, (key, m, _, index, looks) in enumerate(entries):
-        groups.setdefault((key, len(m), looks is None, index.dtype), []).append(position)
+        if contents[key].instances:
+            groups.setdefault((key, len(m), looks is None, index.dtype), []).append(position)
     return {position: (group, member) for group in groups.values() if len(group) >= min_group
             for member, position in enumerate(group)}
 
