@@ -408,6 +408,26 @@ def test_a_stage_whose_only_light_gives_none_gets_no_default_lights(tmp_path, ca
                                rtol=1e-5)
 
 
+@pytest.mark.parametrize("integrator", ["ao", "normals", "depth", "albedo"])
+def test_integrators_that_read_no_light_do_not_warn_that_a_stage_is_dark(tmp_path, integrator):
+    """An integrator that samples no light (ao, normals, depth, albedo) draws a stage whose only light gives none as
+    it draws the stage without it: the lights change nothing there. Yet its render warned "no light: ...; rendered
+    without the default lights" (so did ``wrt preview --rays``, whose rays are a depth render), a warning about an
+    image that no light could have changed. The image is the same as the unlit stage's (no light, default lights)."""
+    import warnings
+
+    text, _ = DARK_LIGHTS["rect_light_of_nan_intensity"]
+    dark, _ = load(tmp_path, floor(), text)
+    unlit, _ = load(tmp_path, floor(), name="unlit.usda")
+    assert dark.dark_lights == ["/Light"] and unlit.dark_lights == []
+    camera = top_down_camera(height=PATCH)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        img = wrt.render(dark, camera=camera, width=2, height=2, integrator=integrator, device="cpu")
+    np.testing.assert_array_equal(img.rgb, wrt.render(unlit, camera=camera, width=2, height=2,
+                                                      integrator=integrator, device="cpu").rgb)
+
+
 @pytest.mark.parametrize("shown, indices", [("invisible", "[0]"), ("inherited", "[]")])
 def test_the_lights_in_the_prototypes_of_a_point_instancer_that_draws_none_are_the_stages_lights_too(
         tmp_path, shown, indices):

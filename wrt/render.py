@@ -864,7 +864,8 @@ class Renderer:
         # none (hidden, or skipped: Scene.dark_lights), as Hydra renderers add none to a stage that has lights.
         unlit = not (scene.lights or emissive_used)
         default = unlit and not scene.dark_lights
-        if unlit and scene.dark_lights:
+        # Said only where lights could have changed the image: ao and the quick looks read none.
+        if unlit and scene.dark_lights and self.integrator in LIGHT_SAMPLING_INTEGRATORS:
             warnings.warn(f"{scene.source or 'scene'}: no light: the stage's lights give none (hidden, or skipped "
                           f"as the load warned): {', '.join(scene.dark_lights[:5])}"
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
