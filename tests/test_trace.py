@@ -556,6 +556,23 @@ def test_compare_refuses_hits_of_other_ray_counts():
     assert compare_hits(two, two, directions=directions, scale=1.0, ties=[False, True])["agreement"] == 1.0
 
 
+def test_compare_takes_the_zero_and_nan_directions_that_trace_takes_without_a_warning():
+    """wrt.trace takes zero and NaN directions (they miss); compare_hits on those same rays warned numpy's
+    "divide by zero encountered in divide" (an error under ``python -W error``) while computing the absolute
+    tolerance over |direction|. Two misses agree whatever the tolerance; the hit beside them is still compared."""
+    import warnings
+
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.array([[0, 0, 1]] * 3, np.float32)
+    directions = np.array([[0, 0, 0], [np.nan, 0, 0], [0, 0, -1]], np.float32)
+    hits = wrt.trace(scene, origins, directions)
+    assert list(hits.prim >= 0) == [False, False, True] and hits.t[2] == 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        report = compare_hits(hits, hits, directions=directions, scale=1.0)
+    assert report["agreement"] == 1.0 and report["hits_a"] == 1 and report["disagreements"] == 0
+
+
 def test_meshes_built_in_python_refuse_malformed_arrays_naming_the_mesh():
     """wrt.Mesh reshaped what it was given: (V, 4) homogeneous points became other vertices, an index of 2**32 + 2
     wrapped round to vertex 2 and 2.7 was truncated to 2, so the mesh traced as other triangles without a word.

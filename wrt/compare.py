@@ -136,8 +136,10 @@ def compare_hits(
     both = hit_a & hit_b
     atol = np.zeros(len(a.t))
     if directions is not None and scale > 0.0:
-        atol = (COORD_ULPS * np.finfo(np.float32).eps * scale
-                / np.linalg.norm(np.asarray(directions, np.float64), axis=1))
+        # Zero and NaN directions miss (wrt.trace takes them): their inf or NaN tolerance is never read below.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            atol = (COORD_ULPS * np.finfo(np.float32).eps * scale
+                    / np.linalg.norm(np.asarray(directions, np.float64), axis=1))
     t_bad = np.zeros_like(both)
     with np.errstate(invalid="ignore"):
         # Written as "not within tolerance": a NaN t on a hit compares False either way and must count as bad.
