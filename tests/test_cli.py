@@ -605,6 +605,27 @@ def test_an_output_placeholder_other_than_stem_is_warned_about(tmp_path, capsys)
     assert "{name} is no placeholder" in lines[0] and "names one image for 2 scenes" in lines[1], lines
 
 
+def test_an_aov_given_twice_is_written_and_logged_once(tmp_path, capsys):
+    """--aov depth --aov depth wrote out.depth.png twice ('wrote out.depth.png' two lines) and logged aov
+    ['depth', 'depth'], so a --resume with --aov depth, the same files, rendered the scene again ('options changed
+    ... --aov depth,depth -> depth'). Each AOV is taken once, in the order first given."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    out, log = tmp_path / "out.png", tmp_path / "log.jsonl"
+    common = ["render", str(stage), "-o", str(out), "--log", str(log), "--width", "8", "--height", "6"]
+    assert main([*common, "--aov", "depth", "--aov", "cost", "--aov", "depth"]) == 0
+    wrote = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: wrote")]
+    assert wrote == [f"wrt: wrote {out}", f"wrt: wrote {tmp_path / 'out.depth.png'}",
+                     f"wrt: wrote {tmp_path / 'out.cost.png'}"], wrote
+    (row,) = [json.loads(line) for line in log.read_text().splitlines()]
+    assert row["aov"] == ["depth", "cost"] and row["status"] == "ok"
+    assert main([*common, "--aov", "depth", "--aov", "cost", "--resume"]) == 0
+    assert "skipped tri.usda" in capsys.readouterr().err
+    assert json.loads(log.read_text().splitlines()[-1])["status"] == "skipped"
+
+
 @pytest.mark.parametrize("command", ["render", "preview"])
 def test_an_image_name_given_as_a_scene_is_refused_pointing_at_dash_o(tmp_path, capsys, monkeypatch, command):
     """'wrt render scene.usda out.png' rendered scene.usda to scene.png, not out.png, then failed on out.png as a

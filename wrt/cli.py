@@ -695,6 +695,8 @@ def _run_render(args) -> int:
 
     progress = _Progress(args.quiet)
     paths = [Path(s) for s in args.scene] or [default_scene_path()]
+    # An AOV given twice is one file: written once, and logged once so that --resume finds the same options.
+    args.aov = list(dict.fromkeys(args.aov))
     from .image import IMAGE_FORMATS
 
     _refuse_images_as_scenes(paths, IMAGE_FORMATS)
