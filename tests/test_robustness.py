@@ -460,6 +460,24 @@ def test_memory_estimate_and_parsing():
         check_memory(needed, "cpu", parse_bytes("100M"))
 
 
+def test_memory_sizes_take_exponent_notation_as_the_integer_options_do(tmp_path, capsys):
+    """--max-memory is 'a number with an optional K, M, G or T suffix', yet 1e9 (and 1.5e3M) was refused as 'cannot
+    read memory size', where --n-rays 1e5 and --spp 1e3 are taken. A size past float's range is refused, not an
+    OverflowError's traceback."""
+    from wrt.cli import main
+    from wrt.resources import parse_bytes
+
+    assert parse_bytes("1e9") == 10**9 and parse_bytes("1.5e3M") == 1500 << 20 and parse_bytes("2E-1K") == 204
+    for bad in ("1e400", "9" * 400, "1e", "e9"):  # 400 digits: int(inf) raised OverflowError, a traceback
+        with pytest.raises(ValueError, match="cannot read memory size"):
+            parse_bytes(bad)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", "-o", str(tmp_path / "x.png"), "--max-memory", "1e400"])
+    assert exit_info.value.code == 2
+    (line,) = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert line.startswith("wrt: error: argument --max-memory: cannot read memory size '1e400'"), line
+
+
 def test_cpu_renders_beyond_the_host_memory_are_refused(monkeypatch):
     """Without --max-memory, only a CUDA device's free memory was checked: a CPU render larger than the host's memory
     allocated until the system killed the process."""

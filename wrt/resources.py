@@ -10,6 +10,7 @@ launch.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 
@@ -19,11 +20,13 @@ _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 
 
 def parse_bytes(text: str) -> int:
-    """``"512M"``, ``"2G"``, ``"1.5g"``, ``"1000000"`` -> bytes; raises ``ValueError`` naming the format."""
-    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([kKmMgGtT]?)[iI]?[bB]?\s*", str(text))
-    if not match:
+    """``"512M"``, ``"2G"``, ``"1.5g"``, ``"1000000"``, ``"1e9"`` -> bytes; raises ``ValueError`` naming the
+    format (a size past float's range too)."""
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([kKmMgGtT]?)[iI]?[bB]?\s*", str(text))
+    size = float(match.group(1)) * _UNITS[match.group(2).lower()] if match else math.inf
+    if not math.isfinite(size):
         raise ValueError(f"cannot read memory size {text!r}; use a number with an optional K, M, G or T suffix")
-    return int(float(match.group(1)) * _UNITS[match.group(2).lower()])
+    return int(size)
 
 
 def estimate_render_bytes(triangles: int, width: int, height: int, spp: int = 1, textures: int = 0) -> int:
