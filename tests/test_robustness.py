@@ -449,6 +449,37 @@ def test_memory_limits_are_clear_errors_before_allocating(tmp_path, capsys, args
     assert not (tmp_path / "x.png").exists()
 
 
+def test_a_render_refuses_to_write_two_of_its_files_or_its_log_at_one_path(tmp_path, capsys):
+    """Only images were checked against each other and the log against the images: --aov previews
+    (OUTPUT.NAME.png) and --aov-dir arrays (DIR/NAME.npy) were not. -o d/depth.npy --aov-dir d wrote the image,
+    then the depth AOV over it (the .npy was (H, W) depth, not the (H, W, 3) image); in a batch, scene a.depth.usda's
+    image replaced a.usda's --aov depth preview out/a.depth.png, the log listing it among a.usda's files; and --log
+    at an AOV file appended its row to that PNG, which --resume then refused as no log. Each is refused before
+    anything is written, naming the file."""
+    from wrt.cli import main
+
+    tri = ('#usda 1.0\ndef Mesh "T" {\n int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n'
+           ' point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    for name in ("a.usda", "a.depth.usda"):
+        (tmp_path / name).write_text(tri)
+    a, a_depth, out = str(tmp_path / "a.usda"), str(tmp_path / "a.depth.usda"), tmp_path / "out"
+    small = ["--width", "8", "--height", "6", "-q"]
+    for args, file in (
+        ([a, "-o", str(out / "depth.npy"), "--aov-dir", str(out)], out / "depth.npy"),
+        ([a, a_depth, "-o", f"{out}/", "--aov", "depth"], out / "a.depth.png"),
+        ([a, "-o", str(out / "a.png"), "--aov", "depth", "--log", str(out / "a.depth.png")], out / "a.depth.png"),
+        ([a, a_depth, "-o", f"{out}/", "--aov-dir", str(out), "--log", str(out / "a" / "z.npy")], out / "a" / "z.npy"),
+    ):
+        assert main(["render", *args, *small]) == 2, args
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+        assert len(errors) == 1 and str(file) in errors[0], (args, errors)
+        assert not out.exists(), args  # refused before anything was written
+    # Apart, they are written as asked: the image is the image, each AOV its own file.
+    assert main(["render", a, "-o", str(out / "a.npy"), "--aov", "depth", "--aov-dir", str(out), *small]) == 0
+    assert np.load(out / "a.npy").shape == (6, 8, 3) and np.load(out / "depth.npy").shape == (6, 8)
+    assert (out / "a.depth.png").is_file()
+
+
 def test_memory_estimate_and_parsing():
     from wrt.resources import check_memory, estimate_render_bytes, parse_bytes
 

@@ -483,7 +483,7 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
     for output in outputs:
         output = output.resolve()
         if log == output or log in output.parents:
-            raise ValueError(f"--log {log} is where the image {output} or its folder goes; give the log a file name "
+            raise ValueError(f"--log {log} is where {output} or its folder goes; give the log a file name "
                              "of its own, e.g. --log render-log.jsonl")
     _check_output_file(log)
     from .render_log import check_appendable
@@ -527,18 +527,49 @@ def _warn_unused_integrator_options(args) -> None:
                       f"{args.integrator} does not use it", stacklevel=2)
 
 
-def _check_distinct_outputs(paths: list, outputs: list) -> None:
-    """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
-    ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
-    first = {}
-    for path, output in zip(paths, outputs):
-        key = output.resolve()
-        if key in first and Path(first[key]).resolve() == Path(path).resolve():  # one file named twice
-            raise ValueError(f"{path} is given twice (as {first[key]} and {path}); give each scene once")
-        if key in first:
-            raise ValueError(f"{first[key]} and {path} would both write {output} (images are named by the scene's "
-                             "file name without extension); render them in separate runs or rename one")
-        first[key] = path
+def _aov_png(image: Path, name: str) -> Path:
+    """Where ``--aov NAME`` writes its preview of ``image``'s AOV: ``OUTPUT.NAME.png`` beside it."""
+    return image.with_name(f"{image.stem}.{name}.png")
+
+
+def _aov_folder(args, path: Path) -> Path:
+    """Where ``--aov-dir`` writes the AOV arrays of scene ``path``: the folder, or its subfolder STEM in a batch."""
+    return Path(args.aov_dir) / path.stem if len(args.scene) > 1 else Path(args.aov_dir)
+
+
+def _files_written(args, path: Path, output: Path) -> list[Path]:
+    """Every file a render of scene ``path`` writes: its image ``output`` first, then the ``--aov`` previews and the
+    ``--aov-dir`` arrays (one per AOV of :data:`wrt.render.AOV_NAMES`, as ``Image.save_aovs`` writes them)."""
+    from .render import AOV_NAMES
+
+    files = [output] + [_aov_png(output, name) for name in args.aov]
+    if args.aov_dir:
+        files += [_aov_folder(args, path) / f"{name}.npy" for name in AOV_NAMES]
+    return files
+
+
+def _check_distinct_outputs(paths: list, files: list) -> None:
+    """Raises ValueError when two files of a run would be written at one path, ``files`` holding per scene those
+    :func:`_files_written` names: two scenes' images (they are named by the scene's file stem, so ``a/room.usda`` and
+    ``b/room.usda`` meet), or an image and an AOV file (``-o d/depth.npy --aov-dir d``; ``a.depth.usda``'s image and
+    ``a.usda``'s ``--aov depth`` preview). The later would overwrite the first without a word."""
+    first = {}  # resolved file -> (scene, whether it is that scene's image)
+    for path, written in zip(paths, files):
+        for index, file in enumerate(written):
+            key = file.resolve()
+            if key not in first:
+                first[key] = (path, index == 0)
+                continue
+            other, other_image = first[key]
+            if index == 0 and other_image and Path(other).resolve() == Path(path).resolve():  # one file named twice
+                raise ValueError(f"{path} is given twice (as {other} and {path}); give each scene once")
+            if index == 0 and other_image:
+                raise ValueError(f"{other} and {path} would both write {file} (images are named by the scene's "
+                                 "file name without extension); render them in separate runs or rename one")
+            roles = [f"{'the image' if image else 'an AOV file'} of {scene}"
+                     for scene, image in ((other, other_image), (path, index == 0))]
+            raise ValueError(f"{file} would be written twice, as {roles[0]} and as {roles[1]}; give -o, --aov-dir "
+                             "or the scene files other names")
 
 
 def _renderer_options(args) -> dict:
@@ -638,11 +669,10 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     progress(f"wrote {out}")
     written = [Path(out)]
     for name in args.aov:
-        written.append(image.save_aov_png(name, Path(out).with_name(f'{Path(out).stem}.{name}.png')))
+        written.append(image.save_aov_png(name, _aov_png(Path(out), name)))
         progress(f"wrote {written[-1]}")
     if args.aov_dir:
-        aov_dir = Path(args.aov_dir) / path.stem if len(args.scene) > 1 else Path(args.aov_dir)
-        for p in image.save_aovs(aov_dir):
+        for p in image.save_aovs(_aov_folder(args, path)):
             written.append(Path(p))
             progress(f"wrote {p}")
     return written  # the image first, then its AOV files
@@ -725,7 +755,8 @@ def _run_render(args) -> int:
     from .image import check_image_path
 
     outputs = [_output_for(args, p, several) for p in paths]
-    _check_distinct_outputs(paths, outputs)
+    files = [_files_written(args, path, output) for path, output in zip(paths, outputs)]
+    _check_distinct_outputs(paths, files)
     for output in outputs:  # an unwritable output fails now, not after a long render
         _check_output_file(check_image_path(output))
     _warn_unused_exposure(args.exposure, outputs, args.integrator)
@@ -735,7 +766,7 @@ def _run_render(args) -> int:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
     log = Path(args.log) if args.log else _batch_log(outputs, args.resume, progress)
-    _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
+    _check_log_path(log, [file for written in files for file in written], paths)
     from .render_log import append_row, mtime_ns, new_run, skipped_fields
 
     jobs = [(path, output, path.name) for path, output in zip(paths, outputs)]
