@@ -580,6 +580,29 @@ def test_integrator_options_the_integrator_does_not_use_are_warned_about(tmp_pat
     np.testing.assert_array_equal(images[2], images[3])
 
 
+@pytest.mark.parametrize("integrator", ["normals", "depth", "albedo"])
+def test_spp_given_to_a_quick_look_is_warned_about_and_not_reported_as_rendered(tmp_path, capsys, integrator):
+    """The quick looks draw one sample per pixel whatever --spp says, yet --integrator normals --spp 16 said
+    'rendered 8x6 at 16 spp (normals)' without a word about the 15 samples never drawn. It is now named in a warning,
+    as --max-depth is, and the line says the one sample drawn; the image is that of --spp 1."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    images = []
+    for spp in ("16", "1"):
+        output = tmp_path / f"{spp}.npy"
+        assert main(["render", str(stage), "--width", "8", "--height", "6", "-o", str(output),
+                     "--integrator", integrator, "--spp", spp]) == 0
+        lines = capsys.readouterr().err.splitlines()
+        warned = [line for line in lines if line.startswith("wrt: warning:")]
+        assert warned == ([f"wrt: warning: --spp applies to --integrator whitted, path and ao only; {integrator} "
+                           "draws one sample per pixel, through its centre"] if spp == "16" else []), warned
+        assert any(line.startswith(f"wrt: rendered 8x6 at 1 spp ({integrator})") for line in lines), lines
+        images.append(np.load(output))
+    np.testing.assert_array_equal(images[0], images[1])
+
+
 def test_an_output_placeholder_other_than_stem_is_warned_about(tmp_path, capsys):
     """{stem} is -o's one placeholder; a misspelt one ('{steam}', '{Stem}') was written into the file name as it is,
     '{steam}.png', without a word."""

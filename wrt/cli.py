@@ -516,15 +516,27 @@ def _png_exposure(args) -> float:
 
 
 def _warn_unused_integrator_options(args) -> None:
-    """A warning for ``--ao-radius`` or ``--max-depth`` given to an integrator that does not read it: the image was
-    the one without it, without a word."""
-    from .render import DEFAULT_MAX_DEPTH  # the integrators that bounce
+    """A warning for ``--ao-radius``, ``--max-depth`` or ``--spp`` above 1 given to an integrator that does not read
+    it: the image was the one without it, without a word."""
+    from .integrators import INTEGRATORS
+    from .render import DEFAULT_MAX_DEPTH, QUICK_LOOKS  # the integrators that bounce; those of one sample
 
+    if args.spp > 1 and args.integrator in QUICK_LOOKS:
+        sampled = [name for name in INTEGRATORS if name not in QUICK_LOOKS]
+        warnings.warn(f"--spp applies to --integrator {', '.join(sampled[:-1])} and {sampled[-1]} only; "
+                      f"{args.integrator} draws one sample per pixel, through its centre", stacklevel=2)
     if args.ao_radius is not None and args.integrator != "ao":
         warnings.warn(f"--ao-radius applies to --integrator ao only; {args.integrator} does not use it", stacklevel=2)
     if args.max_depth is not None and args.integrator not in DEFAULT_MAX_DEPTH:
         warnings.warn(f"--max-depth applies to --integrator {' and '.join(DEFAULT_MAX_DEPTH)} only; "
                       f"{args.integrator} does not use it", stacklevel=2)
+
+
+def _drawn_spp(args) -> int:
+    """The samples per pixel a render draws: ``--spp``, but one for the quick looks, whatever ``--spp`` says."""
+    from .render import QUICK_LOOKS
+
+    return 1 if args.integrator in QUICK_LOOKS else args.spp
 
 
 def _aov_png(image: Path, name: str) -> Path:
@@ -662,7 +674,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
             progress(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}")
         raise
     progress(
-        f"rendered {width}x{height} at {args.spp} spp ({args.integrator})",
+        f"rendered {width}x{height} at {_drawn_spp(args)} spp ({args.integrator})",
         renderer.timers["render"][0] / 1000.0,
     )
     out = image.save(output, exposure=_png_exposure(args))
@@ -840,7 +852,7 @@ def _run_products(args, paths: list, progress) -> int:
                                   builder=args.builder, accel=args.accel, integrator=args.integrator,
                                   max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
                                   progress=progress.bar)
-    progress(f"rendered {counted(len(written), 'product')} at {args.spp} spp ({args.integrator})",
+    progress(f"rendered {counted(len(written), 'product')} at {_drawn_spp(args)} spp ({args.integrator})",
              time.perf_counter() - start)
     for product, out in written.items():
         progress(f"wrote {out} ({product})")
