@@ -867,6 +867,21 @@ def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
             load_usd(empty)
 
 
+def test_a_path_given_as_bytes_loads_as_the_same_path_as_str(tmp_path):
+    """os.fspath takes bytes, so load_usd did, but kept them as the scene's source: a missing b"x.usda" raised
+    "sequence item 0: expected str instance, bytes found", naming no file, and a found one named itself b'...' in
+    every warning and in repr(scene). A bytes path is the file name it encodes, as open() reads it."""
+    stage, path = make_stage(tmp_path)
+    define_mesh(stage)
+    stage.Save()
+    scene = load_usd(os.fsencode(path))
+    assert scene.source == path and repr(scene).startswith(f"Scene({path!r}: ")
+    np.testing.assert_array_equal(scene.meshes[0].points, np.array(POINTS, np.float32))
+    missing = os.fsencode(tmp_path / "missing.usda")
+    with pytest.raises(SceneError, match=f"^{tmp_path / 'missing.usda'}: file not found$"):
+        load_usd(missing)
+
+
 @pytest.mark.skipif(sys.platform != "linux", reason="a file name of bytes that are no UTF-8 needs Linux")
 def test_a_file_name_that_is_not_utf8_is_named_as_such(tmp_path):
     """USD takes paths as UTF-8: a name of other bytes (from an old archive) failed with Python's "'utf-8' codec

@@ -192,7 +192,8 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     """:func:`load_usd` with its options in order, the stage kept by ``frames`` (a
     :class:`wrt.usd_frames.StageFrames`, or None: opened for this load alone) with the meshes it reused."""
     try:
-        source = os.fspath(path)
+        # bytes name the file they encode, as open() reads them: kept as bytes, the source broke every message
+        source = os.fsdecode(os.fspath(path))
     except TypeError:  # os.fspath's message named no argument
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
     if not str(source).strip():  # SceneError named no file: 'file not found'
