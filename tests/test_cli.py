@@ -603,6 +603,25 @@ def test_spp_given_to_a_quick_look_is_warned_about_and_not_reported_as_rendered(
     np.testing.assert_array_equal(images[0], images[1])
 
 
+@pytest.mark.parametrize("frames", [False, True])
+def test_a_log_ending_in_a_slash_is_refused_as_a_folder(tmp_path, capsys, frames):
+    """-o out/ names a folder, but --log logs/ wrote the rows into a file called 'logs' ('log in logs'), where a later
+    -o logs/ could not make its folder. It is refused before anything renders, with the file name meant."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    output = str(tmp_path / ("f_#.png" if frames else "x.png"))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", str(stage), "-o", output, "--width", "8", "--height", "6", "--log", f"{tmp_path}/logs/"]
+             + ["--frames", "1:2"] * frames)
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith(f"wrt: error: argument --log: {tmp_path}/logs/ names a folder; give the log a file name, "
+                           f"e.g. {tmp_path}/logs/render-log.jsonl"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tri.usda"]
+
+
 def test_an_output_placeholder_other_than_stem_is_warned_about(tmp_path, capsys):
     """{stem} is -o's one placeholder; a misspelt one ('{steam}', '{Stem}') was written into the file name as it is,
     '{steam}.png', without a word."""

@@ -198,6 +198,16 @@ def _non_empty(text: str) -> str:
     return text
 
 
+def _log_file(text: str) -> str:
+    """An argparse type for ``--log``: a file name. One ending in a path separator names a folder (as ``-o out/``
+    does), which ``Path()`` turned into a file of that name: ``--log logs/`` wrote the rows into a file ``logs``."""
+    text = _non_empty(text)
+    if _names_a_folder(text):
+        raise argparse.ArgumentTypeError(f"{text} names a folder; give the log a file name, e.g. "
+                                         f"{text}render-log.jsonl")
+    return text
+
+
 def _finite_float(text: str) -> float:
     """An argparse type: a finite number (``inf`` or ``nan`` would write an all-white or all-black image)."""
     try:
@@ -324,7 +334,7 @@ def _add_render(sub) -> None:
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
                    "finishes, and after Ctrl-C a row of status interrupted for each cut short; default with several "
                    "scenes: render-log.jsonl in the folder that holds all the images (out/ for -o out/{stem}/)",
-                   type=_non_empty)
+                   type=_log_file)
     p.add_argument("--max-memory", type=_memory_size, help="refuse renders predicted to need more than this many "
                    "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
                    "but the device's free memory")
