@@ -910,6 +910,10 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     (["render", "--frames", "1:2", "-o", "{dir}/.EXR"], "cannot write .EXR: the file name is an extension alone"),
     (["render", "-o", "{dir}/x.png "], "cannot write 'x.png ': supported image formats are .png, .exr, .npy"),
     (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
+    # A folder not yet made: 'cannot write views: previews are written as .png', its / dropped; one that exists said
+    # 'it is a directory'.
+    (["preview", "-o", "{dir}/views/"], "cannot write {dir}/views/: it names a folder; give the preview a .png file "
+                                        "name, e.g. {dir}/views/preview.png"),
 ])
 def test_an_output_name_that_is_an_extension_alone_says_so(tmp_path, capsys, args, message):
     (tmp_path / "a.usda").write_text("#usda 1.0\n")  # refused before it is read

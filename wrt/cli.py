@@ -1097,6 +1097,9 @@ def _run_preview(args) -> int:
     if args.output is not None:
         from .image import check_not_extension_alone
 
+        if _names_a_folder(output) and not Path(output).is_dir():  # Path() drops the /: 'cannot write views: ...'
+            raise ValueError(f"cannot write {output}: it names a folder; give the preview a .png file name, e.g. "
+                             f"{output}preview.png")
         check_not_extension_alone(output)
         # An unwritable output fails now, not after the load and the preview; a folder as such, not as a name that
         # is no .png.
