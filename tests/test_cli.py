@@ -836,6 +836,27 @@ def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, comm
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("command", [["render", "a.usda", "b.usda", "-o", "out/"], ["render", "a.usda"],
+                                     ["preview", "a.usda", "-o", "p.png"],
+                                     ["render", "a.usda", "--frames", "1:2", "-o", "out/f_#.png"]])
+def test_a_bad_thread_count_in_the_environment_is_one_error_before_any_scene_loads(tmp_path, capsys, monkeypatch,
+                                                                                  command):
+    """WRT_THREADS=0 was read at the first launch: each scene of a batch loaded and built its BVH, then failed as if
+    it were the scene's fault ('a.usda: the WRT_THREADS environment variable must be ...'), and the log listed
+    every scene as failed, as a bad --device did. It is one error before any load now."""
+    monkeypatch.setenv("WRT_THREADS", "0")
+    stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+             '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(stage)
+    monkeypatch.chdir(tmp_path)
+    assert main([*command, "--width", "8", "--height", "6"]) == 2
+    (line,) = error_lines(capsys.readouterr().err)  # no 'loaded' line
+    assert line == "wrt: error: the WRT_THREADS environment variable must be a positive integer or 'all', got '0'", \
+        line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "b.usda"]
+
+
 @pytest.mark.parametrize("device", ["CPU", "cpu:0", "cpuu"])
 def test_a_misspelt_device_names_the_one_meant(tmp_path, capsys, device):
     """--device CPU said 'unknown or unavailable device' and listed the devices, where --devices of wrt bench says

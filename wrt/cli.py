@@ -760,8 +760,10 @@ def _run_render(args) -> int:
     _warn_unused_integrator_options(args)
     if not (args.devices or args.dask is not None):  # those choose their own devices, checked where they are used
         from .bvh.common import resolve_device_option
+        from .trace import resolve_threads
 
-        resolve_device_option(args.device)  # one error before any load, not one per scene of a batch after its load
+        # One error before any load, not one per scene of a batch after its load; so for $WRT_THREADS, read on the CPU
+        resolve_threads(None, resolve_device_option(args.device))
     if args.products is not None:
         return _run_products(args, paths, progress)
     if args.output:
@@ -1112,8 +1114,9 @@ def _run_preview(args) -> int:
         except OSError as e:
             raise type(e)(f"{no_window}, so the preview goes to preview.png: {e}; name a file with -o") from None
     from .bvh.common import resolve_device_option
+    from .trace import resolve_threads
 
-    resolve_device_option(args.device)  # before the load, as the output
+    resolve_threads(None, resolve_device_option(args.device))  # before the load, as the output; $WRT_THREADS too
     if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)
