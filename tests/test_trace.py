@@ -573,6 +573,28 @@ def test_compare_takes_the_zero_and_nan_directions_that_trace_takes_without_a_wa
     assert report["agreement"] == 1.0 and report["hits_a"] == 1 and report["disagreements"] == 0
 
 
+def test_hit_paths_refuses_hits_that_are_not_of_the_scene(tmp_path):
+    """hit_paths of another scene's hits (or of this one's before an edit) named no prim, as for a miss: a ray that hit
+    triangle 1 of a two-mesh stage read as a miss of a one-triangle one, without a word; hits.prim given for the
+    hits raised "'numpy.ndarray' object has no attribute 'local_prim'". Both are refused, naming what is wrong; the
+    scene's own hits are named by the prim paths the stage authors."""
+    tri = '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+    (tmp_path / "two.usda").write_text(
+        '#usda 1.0\n' + "".join(f'def Mesh "{name}"\n{{\n{tri}    point3f[] points = [(-1, -1, {z}), (1, -1, {z}), '
+                               f'(0, 1, {z})]\n}}\n' for name, z in (("Near", 0), ("Far", -1))))
+    (tmp_path / "one.usda").write_text(f'#usda 1.0\ndef Mesh "M"\n{{\n{tri}    point3f[] points = [(-1, -1, 0), '
+                                       '(1, -1, 0), (0, 1, 0)]\n}\n')
+    two, one = wrt.load_usd(str(tmp_path / "two.usda")), wrt.load_usd(str(tmp_path / "one.usda"))
+    origins = np.array([[0, 0, 1], [0, 0, -0.5], [5, 5, 1]], np.float32)
+    hits = wrt.trace(two, origins, np.tile(np.float32([0, 0, -1]), (3, 1)))
+    assert list(hits.prim) == [0, 1, -1]
+    assert [list(p) for p in two.hit_paths(hits)] == [["/Near", "/Far", ""], ["", "", ""]]
+    with pytest.raises(ValueError, match=r"^hit_paths: hits.local_prim\[1\] = 1 is no id of this scene \(-1 to 0\)"):
+        one.hit_paths(hits)
+    with pytest.raises(TypeError, match="^hit_paths takes the Hits of wrt.trace .*, got ndarray$"):
+        two.hit_paths(hits.prim)
+
+
 def test_meshes_built_in_python_refuse_malformed_arrays_naming_the_mesh():
     """wrt.Mesh reshaped what it was given: (V, 4) homogeneous points became other vertices, an index of 2**32 + 2
     wrapped round to vertex 2 and 2.7 was truncated to 2, so the mesh traced as other triangles without a word.

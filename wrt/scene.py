@@ -1249,9 +1249,20 @@ class Scene:
         Args:
             hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).
         """
+        if not (hasattr(hits, "local_prim") and hasattr(hits, "instance")):  # hits.prim given: an AttributeError
+            raise TypeError(f"hit_paths takes the Hits of wrt.trace (its local_prim and instance are read), got "
+                            f"{type(hits).__name__}")
         prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
         instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        prims = np.array([*self._prim_table()[0], ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
+        paths, own, _, starts_geometry, *_ = self._prim_table()
+        ids = int(starts_geometry[-1]) + len(own) - len(starts_geometry)  # triangles, then an id per shape
+        # Another scene's hits (or this one's before an edit) named no prim, as misses do, without a word.
+        for name, values, count in (("local_prim", prim, ids), ("instance", instance, len(self.instances))):
+            bad = np.flatnonzero((values < -1) | (values >= count))
+            if len(bad):
+                raise ValueError(f"hit_paths: hits.{name}[{bad[0]}] = {values[bad[0]]} is no id of this scene (-1 to "
+                                 f"{count - 1}): hits of another scene, or of this one before an edit?")
+        prims = np.array([*paths, ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
