@@ -9,14 +9,15 @@ Usage: ``python scenes/make_animated_scene.py [OUT.usda]`` (default ``scenes/ani
 
 from __future__ import annotations
 
+import argparse
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt
 
 FIRST, LAST = 1, 8
+USD_SUFFIXES = (".usda", ".usdc", ".usd")  # the formats USD writes a new layer in
 
 
 def sheet(n: int, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -95,6 +96,15 @@ def write(path: Path) -> Path:
     return path
 
 
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("output", nargs="?", type=Path, default=Path(__file__).with_name("animated.usda"),
+                        help="USD file to write (.usda, .usdc or .usd); default scenes/animated.usda")
+    args = parser.parse_args(argv)
+    if args.output.suffix.lower() not in USD_SUFFIXES:  # --help was taken for the name: USD's traceback
+        parser.error(f"{args.output}: give a USD file name (.usda, .usdc or .usd)")
+    print(write(args.output))
+
+
 if __name__ == "__main__":
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).with_name("animated.usda")
-    print(write(out))
+    main()

@@ -13,7 +13,7 @@ Usage: ``python scenes/make_mostly_static_scene.py [OUT.usda] [COUNT]`` (default
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -121,6 +121,18 @@ def write(path: Path, count: int = 200) -> Path:
     return path
 
 
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("output", nargs="?", type=Path, default=Path(__file__).with_name("mostly_static.usda"),
+                        help="USD file to write (.usda, .usdc or .usd); default scenes/mostly_static.usda")
+    parser.add_argument("count", nargs="?", type=int, default=200, help="static meshes (default 200)")
+    args = parser.parse_args(argv)
+    if args.output.suffix.lower() not in (".usda", ".usdc", ".usd"):  # --help was taken for the name
+        parser.error(f"{args.output}: give a USD file name (.usda, .usdc or .usd)")
+    if args.count < 1:
+        parser.error(f"count must be a positive integer, got {args.count}")
+    print(write(args.output, args.count))
+
+
 if __name__ == "__main__":
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).with_name("mostly_static.usda")
-    print(write(out, int(sys.argv[2]) if len(sys.argv) > 2 else 200))
+    main()

@@ -32,6 +32,22 @@ def animated(tmp_path_factory) -> Path:
     return module.write(tmp_path_factory.mktemp("anim") / "animated.usda")
 
 
+@pytest.mark.parametrize("script", ["make_animated_scene.py", "make_mostly_static_scene.py"])
+def test_the_scene_scripts_take_help_and_refuse_a_name_that_is_no_usd_file(tmp_path, script):
+    """'python scenes/make_animated_scene.py --help' (the README's first animation command, asked about) took --help
+    for the file to write: USD's 'Failed verification: fileFormat' traceback; 'out.png' failed so too. --help shows
+    the usage and writes nothing; a name USD cannot write is one line naming it, status 2."""
+    run = [sys.executable, str(ROOT / "scenes" / script)]
+    shown = subprocess.run([*run, "--help"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert shown.returncode == 0 and shown.stdout.startswith("usage: "), shown.stderr
+    refused = subprocess.run([*run, str(tmp_path / "out.png")], cwd=tmp_path, capture_output=True, text=True,
+                             timeout=120)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr, refused.stderr
+    assert refused.stderr.strip().splitlines()[-1].endswith(f"{tmp_path / 'out.png'}: give a USD file name (.usda, "
+                                                            ".usdc or .usd)"), refused.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_parse_frames():
     assert parse_frames("1:4") == [1.0, 2.0, 3.0, 4.0]
     assert parse_frames("1:10:4") == [1.0, 5.0, 9.0]
