@@ -275,3 +275,111 @@ def test_srgb_texture_decodes_the_colour_channels_of_the_nodes_output(tmp_path, 
     out = materialx_output(channels, SIZES[node_type])[:3]
     expected = out if node_type.startswith("vector") else srgb_decoded(out)
     np.testing.assert_allclose(albedo(scene, 2).reshape(-1, 3).mean(axis=0), expected, atol=2e-3)
+
+
+def spec_convert(value: np.ndarray, size: int) -> np.ndarray:
+    """MaterialX's ``convert`` (Standard Nodes 1.39, channel nodes) of ``value`` to ``size`` channels, in float64: a
+    float is copied to every channel; of more channels the first ``size`` are kept; of fewer, they are copied and
+    the added ones are 0, but for a fourth of 1."""
+    value = np.asarray(value, np.float64)
+    if value.size == 1:
+        return np.full(size, value[0])
+    out = np.array([0.0, 0.0, 0.0, 1.0])[:size]
+    n = min(size, value.size)
+    out[:n] = value[:n]
+    return out
+
+
+def network_output(node_type: str, channels: np.ndarray, chain) -> np.ndarray:
+    """The specification's output of an ``ND_image_<node_type>`` of a file of ``channels`` followed by the converts
+    of ``chain``."""
+    value = materialx_output(channels, SIZES[node_type])
+    for node_id in chain:
+        value = spec_convert(value, SIZES[node_id.split("_")[-1]])
+    return value
+
+
+# Converts that narrow an image's output and widen it again: the channels dropped come back 0 (a fourth 1), not as
+# the file's.
+NARROW_AND_WIDEN = {
+    "vector3": ["ND_convert_vector3_vector2", "ND_convert_vector2_vector3", "ND_convert_vector3_color3"],
+    "color3": ["ND_convert_color3_vector3", "ND_convert_vector3_vector2", "ND_convert_vector2_vector3",
+               "ND_convert_vector3_color3"],
+    "vector4": ["ND_convert_vector4_vector2", "ND_convert_vector2_vector3", "ND_convert_vector3_color3"],
+}
+
+
+@pytest.mark.parametrize("node_type", list(NARROW_AND_WIDEN))
+def test_a_convert_that_narrows_an_image_drops_its_channels(tmp_path, node_type):
+    """A vector3, color3 or vector4 image of an RGBA file converted to a vector2 and back to a colour is
+    ``(r, g, 0)``: the narrowing convert keeps the first two channels, the widening one adds a third of 0. A convert of
+    a texture passed it through unchanged, so the file's blue showed again."""
+    png, channels = write_file(tmp_path, "png RGBA")
+    expected = network_output(node_type, channels, NARROW_AND_WIDEN[node_type])
+    assert expected[2] == 0.0 and channels[2] > 0.5
+    np.testing.assert_allclose(base_color_of(tmp_path, png, node_type, NARROW_AND_WIDEN[node_type]), expected,
+                               atol=2e-3)
+
+
+# Converts that drop a four-channel image's fourth and add it again (1), with the channel read afterwards.
+FOURTH_DROPPED = {"color4": (["ND_convert_color4_color3", "ND_convert_color3_color4"], 3),
+                  "vector4": (["ND_convert_vector4_vector3", "ND_convert_vector3_vector4"], 3),
+                  "vector4 z": (["ND_convert_vector4_vector2", "ND_convert_vector2_vector3",
+                                 "ND_convert_vector3_vector4"], 2)}
+
+
+@pytest.mark.parametrize("case", list(FOURTH_DROPPED))
+def test_a_convert_that_drops_an_images_fourth_channel_adds_it_back_as_one(tmp_path, case):
+    """A color4 or vector4 image of an RGBA file narrowed to three channels (or two) and widened to four again has a
+    fourth channel of 1 (and a third of 0 after two), as an OpenPBR ``emission_luminance`` through ``extract`` reads
+    it. It was the file's alpha (0.8) and blue (0.6)."""
+    node_type = case.split()[0]
+    chain, index = FOURTH_DROPPED[case]
+    png, channels = write_file(tmp_path, "png RGBA")
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+    last = image_node(stage, "/Looks/Image", png, node_type, chain)
+    four = chain[-1].split("_")[-1]
+    pick = UsdShade.Shader.Define(stage, "/Looks/Image/Pick")
+    pick.CreateIdAttr(f"ND_extract_{four}")
+    pick.CreateInput("in", USD_TYPES[four]).ConnectToSource(last.ConnectableAPI(), "out")
+    pick.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(pick.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "not supported" in m or "comes from" in m], messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+    expected = network_output(node_type, channels, chain)[index]
+    assert expected != channels[index]
+    np.testing.assert_allclose(rgb, expected, atol=2e-3)
+
+
+@pytest.mark.parametrize("chain", [["ND_convert_float_vector2", "ND_convert_vector2_vector3"],
+                                   ["ND_convert_float_vector3", "ND_convert_vector3_vector2",
+                                    "ND_convert_vector2_vector3"]])
+def test_a_repeated_float_image_widened_past_its_channels_is_named_not_drawn_grey(tmp_path, chain):
+    """A float image repeated into a vector2 (or a vector3 narrowed to one) and widened to a vector3 is
+    ``(r, r, 0)`` in MaterialX; wrt's texture reads one channel into all three or the file's channels, neither of
+    which is that, so the material's warning names the widening convert and base_color keeps the constant authored
+    beside its connection. It was drawn ``(r, r, r)`` without a word."""
+    png, channels = write_file(tmp_path, "png RGB")
+    chain = chain + ["ND_convert_vector3_color3"]
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", base=1.0)
+    last = image_node(stage, "/Looks/Image", png, "float", chain)
+    base_color = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
+    base_color.Set((0.1, 0.3, 0.5))
+    base_color.ConnectToSource(last.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    widening = f"/Looks/Image/Node{len(chain) - 2}"
+    named = [m for m in messages if "material /Looks/Image" in m and widening in m and "base_color" in m]
+    assert named, messages
+    assert "(x, x, 0)" in named[0], named
+    spec = network_output("float", channels, chain)
+    np.testing.assert_allclose(spec, [channels[0], channels[0], 0.0])
+    np.testing.assert_allclose(albedo(scene, 2).reshape(-1, 3), np.tile([0.1, 0.3, 0.5], (4, 1)), atol=2e-3)

@@ -471,7 +471,10 @@ def test_an_image_times_a_colour_is_the_textures_scale(tmp_path):
                          in2=(C3, image))
     image, scene = folded_albedo(tmp_path, make)
     (mat,) = scene.materials
-    np.testing.assert_allclose(mat.textures["diffuseColor"].scale, (1, 0.5, 0.25, 1))
+    texture = mat.textures["diffuseColor"]
+    np.testing.assert_allclose(texture.scale[:3], (1, 0.5, 0.25))
+    # A colour3 image has no alpha of its own: its fourth channel reads 1 whatever the file's (MaterialX's convert).
+    np.testing.assert_allclose([texture.scale[3] * a + texture.bias[3] for a in (0.0, 1.0)], 1.0)
     np.testing.assert_allclose(image, halves((1, 0.5, 0.25), (1, 0.5, 0.25)), atol=2e-3)
 
 
@@ -623,3 +626,21 @@ def test_teapot_scene_custom_color_teapots_show_their_instancers_primvar(assets)
                                    atol=1e-6, err_msg=f"{source}[{scene.instances.index[k]}]")
         checked += 1
     assert checked >= 20
+
+
+def test_a_primvar_narrowed_to_a_vector2_and_widened_has_a_third_of_zero(tmp_path):
+    """convert(convert(geompropvalue vector3, vector2), vector3) is ``(x, y, 0)`` (MaterialX's convert keeps the
+    first two channels and adds a third of 0), on the meshes and for the reader's default where the mesh lacks the
+    primvar. The converts passed the primvar through, its third channel too."""
+    def make(stage, graph):
+        reader = geomprop(node_id="ND_UsdPrimvarReader_vector3", default=(0.3, 0.6, 0.9))(stage, graph)
+        two = mtlx_node(stage, f"{graph}/Two", "ND_convert_vector3_vector2", **{"in": (C3, reader)})
+        three = mtlx_node(stage, f"{graph}/Three", "ND_convert_vector2_vector3",
+                          **{"in": (Sdf.ValueTypeNames.Float2, two)})
+        return mtlx_node(stage, f"{graph}/Colour", "ND_convert_vector3_color3", **{"in": (C3, three)})
+    left, right = (np.array(c, np.float64) * [1.0, 1.0, 0.0] for c in TEMPERATURE)
+    assert not np.allclose(np.array(TEMPERATURE)[:, 2], 0.0)
+    for with_primvar in (True, False):
+        image, _ = folded_albedo(tmp_path / str(with_primvar), make, with_primvar=with_primvar)
+        expected = halves(left, right) if with_primvar else halves((0.3, 0.6, 0.0), (0.3, 0.6, 0.0))
+        np.testing.assert_allclose(image, expected, atol=1e-6)

@@ -10,9 +10,9 @@ node (``ND_<node>_*``)  output                                          of a tex
 =====================  ==============================================  ===========================================
 ``constant``           ``value`` (0)                                   --
 ``dot``                ``in`` (a no-op)                                passed through
-``convert``            ``in``: a float fills every channel; 3 from 2    passed through (wrt reads rgb, or one
-                       add 0, 4 from 3 add 1 (alpha); fewer drop the   channel broadcast, already; a vector2
-                       last                                            image's third channel is 0)
+``convert``            ``in``: a float fills every channel; 3 from 2    the channels past those kept read 0 (a
+                       add 0, 4 from 3 add 1 (alpha); fewer drop the   fourth 1); one channel broadcast: a float
+                       last                                            widened (not a vector2 of it: named)
 ``multiply``           ``in1 (0) * in2 (1)``, per channel               times a constant: its ``scale``
 ``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          plus or minus a constant: its ``bias``
                                                                         (a constant minus it: ``scale`` negated)
@@ -123,7 +123,9 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
     if not names:
         raise Unfoldable(node)
     size = 1 if op == "extract" or op.startswith("separate") else TYPE_SIZES[names[-1 if op == "convert" else 0]]
-    if op in ("constant", "dot", "convert"):
+    if op == "convert":
+        return _convert(node, arg("in", 0.0), names[0], names[-1])
+    if op in ("constant", "dot"):
         found = arg("value" if op == "constant" else "in", 0.0)
         return found if found.source is not None else Folded(_converted(found.value, size))
     if op == "extract":
@@ -203,6 +205,42 @@ def _converted(value: np.ndarray, size: int) -> np.ndarray:
     if value.size == 3 and size == 4:
         return np.append(value, 1.0)
     return _sized(value, size)
+
+
+def _convert(node, found: Folded, in_type: str, out_type: str) -> Folded:
+    """``convert`` of ``found`` from ``in_type`` to ``out_type``, as the specification's channel nodes define it: a
+    float fills every channel; of more channels the first are kept; of fewer they are copied and the ones added are
+    0, but for a fourth of 1. A texture's channels past those kept read that 0 or 1 (scale 0, bias 0 or 1), as an
+    image node's past its own type do, and a primvar's third is scaled by 0: a convert passed them through, so a
+    vector3 image narrowed to a vector2 and widened again showed the file's blue (a color4's alpha likewise). A
+    texture read as one channel broadcast holds a float repeated; widened past the channels it was repeated into,
+    it would need ``(x, x, 0)``, which no scale of one broadcast channel reads: that is refused, naming the node."""
+    n, m = TYPE_SIZES[in_type], TYPE_SIZES[out_type]
+    value, source = _converted(found.value, m), found.source
+    if source is None:
+        return Folded(value)
+    kept = min(n, m)
+    if isinstance(source, PrimvarInput):  # a colour3 or vector3 reader's: three channels, times scale
+        if n == 1:
+            raise Unfoldable(node)
+        scale = np.array(source.scale, np.float32)  # a new array: the memo's copy shares the old one
+        scale[kept:] = 0.0
+        source.scale = scale
+    elif CHANNELS[source.channel] < 4:  # one channel, broadcast: right for a float widened, or for fewer channels
+        if 1 < n < m:
+            added = ["1" if k == 3 else "0" for k in range(n, m)]
+            repeated, widened = ", ".join(["x"] * n), ", ".join(["x"] * n + added)
+            raise Unfoldable(node, f"input is one texture channel repeated into a {in_type} ({repeated}): widened "
+                                   f"to {out_type} it is ({widened}), which one texture channel broadcast cannot read")
+    else:
+        if n == 1:  # an rgb texture typed as a float: not MaterialX's
+            raise Unfoldable(node)
+        scale, bias = np.array(source.scale, np.float32), np.array(source.bias, np.float32)
+        scale[kept:], bias[kept:] = 0.0, 0.0
+        if kept < 4:
+            bias[3] = 1.0
+        source.scale, source.bias = scale, bias
+    return Folded(value, source)
 
 
 def _extract(node, found: Folded, index: Folded, in_type: str) -> Folded:
