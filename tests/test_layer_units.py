@@ -10,7 +10,7 @@ import warnings
 import pytest
 
 pytest.importorskip("pxr")
-from pxr import Usd, UsdGeom, UsdShade  # noqa: E402
+from pxr import Usd, UsdGeom, UsdShade, UsdSkel  # noqa: E402
 
 from wrt.usd import load_usd  # noqa: E402
 
@@ -189,3 +189,48 @@ def test_layers_whose_prims_are_sized_are_still_named(tmp_path, sized):
     assert units_alone(str(tmp_path / "asset.usda")) == 0.01
     (message,) = unit_warnings(stage)
     assert "(asset.usda: none authored, so USD's fallback 0.01)" in message, message
+
+
+def test_a_layer_of_blend_shapes_is_sized(tmp_path):
+    """A layer holding only blend shapes (a BlendShape's ``offsets`` move points by lengths in its units, and
+    ``normalOffsets`` turn with its axis; USD converts neither) is named, without metersPerUnit or upAxis, in a
+    metre Z-up stage. BlendShape is not an Xformable, so the layer counted as holding nothing sized and was not."""
+    shapes = write(tmp_path, "shapes.usda", 'def "Chair"\n{\n    def BlendShape "Smile"\n    {\n'
+                   '        uniform vector3f[] offsets = [(0, 2, 0)]\n'
+                   '        uniform vector3f[] normalOffsets = [(0, 0, 1)]\n'
+                   '        uniform int[] pointIndices = [1]\n    }\n}\n', axis=None)
+    stage = write(tmp_path, "scene.usda", 'def "Chair" (\n    prepend references = @./shapes.usda@</Chair>\n)\n'
+                  '{\n}\n', "metersPerUnit = 1", axis="Z")
+    # The oracle: USD's schema says the offsets are vectors (a length and a direction), in the layer's units.
+    opened = Usd.Stage.Open(stage)
+    shape = UsdSkel.BlendShape(opened.GetPrimAtPath("/Chair/Smile"))
+    assert shape and shape.GetOffsetsAttr().GetTypeName().role == "Vector"
+    assert shape.GetNormalOffsetsAttr().GetTypeName().role == "Vector"
+    assert not shape.GetPrim().IsA(UsdGeom.Xformable)
+    assert units_alone(shapes) == 0.01 and axis_alone(shapes) == "Y"
+    (message,) = unit_warnings(stage)
+    assert "(shapes.usda: none authored, so USD's fallback 0.01)" in message, message
+    (message,) = unit_warnings(stage, "upAxis")
+    assert "(shapes.usda: none authored, so USD's fallback Y)" in message, message
+
+
+def test_a_layer_of_normals_is_named_for_its_axis_not_its_units(tmp_path):
+    """A layer that authors only ``primvars:normals`` over an asset's mesh holds directions: they turn with its axis
+    (a Y-up layer's normals are on their side in a Z-up stage) but have no length. It is named in the upAxis warning
+    (it was not: primvars counted as holding nothing placed in space) and not in the metersPerUnit one."""
+    geo = write(tmp_path, "geo.usda", 'def Xform "Chair"\n{\n' + MESH.format(name="Seat") + "}\n",
+                "metersPerUnit = 1", axis="Z")
+    normals = write(tmp_path, "normals.usda", 'over "Chair"\n{\n    over "Seat"\n    {\n'
+                    '        normal3f[] primvars:normals = [(0, 1, 0)] (\n'
+                    '            interpolation = "constant"\n        )\n    }\n}\n', axis=None)
+    stage = write(tmp_path, "scene.usda", 'def "Chair" (\n    prepend references = [@./normals.usda@</Chair>, '
+                  '@./geo.usda@</Chair>]\n)\n{\n}\n', "metersPerUnit = 1", axis="Z")
+    # The oracle: USD composes the primvar as the mesh's normals (role Normal: a direction), the layer alone Y-up.
+    opened = Usd.Stage.Open(stage)
+    mesh = opened.GetPrimAtPath("/Chair/Seat")
+    primvar = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("normals")
+    assert primvar.GetTypeName().role == "Normal" and tuple(primvar.Get()[0]) == (0, 1, 0)
+    assert axis_alone(normals) == "Y" and axis_alone(geo) == "Z" and units_alone(normals) == 0.01
+    (message,) = unit_warnings(stage, "upAxis")
+    assert "(normals.usda: none authored, so USD's fallback Y)" in message and "geo.usda" not in message, message
+    assert unit_warnings(stage) == []

@@ -115,7 +115,7 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     shares its layer stack's units and axis (the root's, or the referenced layer's that lists it), and a value clip
     the stage's, so neither is named. Nor is a layer whose layer stack holds nothing sized or placed in space
     (:func:`_holds_sized`: a material library, a layer of material bindings and colours): its units and axis change
-    nothing drawn, and it was named."""
+    nothing drawn, and it was named; a layer of normals alone is named for its axis only."""
 
     def shown(value) -> str:
         return f"{value:g}" if isinstance(value, float) else str(value)
@@ -133,15 +133,15 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
     # What a layer that authors none is in, opened alone (GetStageMetersPerUnit, GetStageUpAxis of it).
     fallbacks = {"metersPerUnit": UsdGeom.LinearUnits.centimeters, "upAxis": UsdGeom.GetFallbackUpAxis()}
-    sized = {}  # layer identifier -> whether its layer stack holds anything sized (_holds_sized, asked once)
+    sized = {}  # (layer identifier, key) -> whether its layer stack holds anything sized (_holds_sized, asked once)
     for key, value in stage_values.items():
         others = []
         for layer in used:
             if layer in own:
                 continue
-            if layer.identifier not in sized:
-                sized[layer.identifier] = _holds_sized(layer)
-            if not sized[layer.identifier]:
+            if (layer.identifier, key) not in sized:  # normals turn with the axis, have no length
+                sized[layer.identifier, key] = _holds_sized(layer, directions=key == "upAxis")
+            if not sized[layer.identifier, key]:
                 continue
             name = os.path.basename(layer.identifier)
             if layer.pseudoRoot.HasInfo(key):
@@ -165,9 +165,10 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
 _UNSIZED_ATTRIBUTES = ("visibility", "purpose", "doubleSided", "orientation")
 
 
-def _holds_sized(layer: Sdf.Layer) -> bool:
+def _holds_sized(layer: Sdf.Layer, directions: bool = False) -> bool:
     """``layer`` or a layer of its layer stack (its subLayers, whose units and axis are its own) holds a prim spec
-    whose values are in its units and axis (:func:`_sized_spec`), in variants too."""
+    whose values are in its units and axis (:func:`_sized_spec`; ``directions``: or only turn with its axis), in
+    variants too."""
     seen, layers = set(), [layer]
     while layers:
         current = layers.pop()
@@ -177,7 +178,7 @@ def _holds_sized(layer: Sdf.Layer) -> bool:
         specs = list(current.pseudoRoot.nameChildren)
         while specs:
             spec = specs.pop()
-            if _sized_spec(spec):
+            if _sized_spec(spec, directions):
                 return True
             specs.extend(spec.nameChildren)
             specs.extend(variant.primSpec for variant_set in spec.variantSets for variant in variant_set.variants)
@@ -185,19 +186,34 @@ def _holds_sized(layer: Sdf.Layer) -> bool:
     return False
 
 
-def _sized_spec(spec: Sdf.PrimSpec) -> bool:
+def _sized_spec(spec: Sdf.PrimSpec, directions: bool = False) -> bool:
     """A prim spec that defines something placed in space with sizes of its own (a gprim, light, camera, point
-    instancer, skeleton: types derived from UsdGeom.Xformable, other than a plain Xform), a skeleton animation, or
-    that authors an attribute other than a primvar (``primvars:widths`` is sized) or :data:`_UNSIZED_ATTRIBUTES`
-    on an Xform or a prim of no type (an ``over``: an xformOp, points, a light's radius). Shading prims (Material,
-    Shader, NodeGraph), Scopes and other types not placed in space hold no length."""
+    instancer, skeleton: types derived from UsdGeom.Xformable, other than a plain Xform), a skeleton animation or a
+    blend shape (its ``offsets`` are lengths in the layer's units, though UsdSkel.BlendShape is no Xformable), or
+    that authors an attribute of :func:`_sized_attribute` on an Xform or a prim of no type (an ``over``: an xformOp,
+    points, a light's radius). Shading prims (Material, Shader, NodeGraph), Scopes and other types not placed in
+    space hold no length. ``directions``: a direction without length (normals) counts too, as for ``upAxis``."""
     kind = Usd.SchemaRegistry.GetTypeFromName(spec.typeName) if spec.typeName else Tf.Type.Unknown
-    if kind.IsA(Tf.Type.Find(UsdSkel.Animation)):
+    if kind.IsA(Tf.Type.Find(UsdSkel.Animation)) or kind.IsA(Tf.Type.Find(UsdSkel.BlendShape)):
         return True
     if kind != Tf.Type.Unknown and kind != Tf.Type.Find(UsdGeom.Xform):
         return kind.IsA(Tf.Type.Find(UsdGeom.Xformable))
-    return any(not (name.startswith("primvars:") and not name.startswith("primvars:widths"))
-               and name not in _UNSIZED_ATTRIBUTES for name in spec.attributes.keys())
+    return any(_sized_attribute(name, attribute.typeName, directions) for name, attribute in spec.attributes.items())
+
+
+def _sized_attribute(name: str, type_name: Sdf.ValueTypeName, directions: bool) -> bool:
+    """An attribute (of an Xform or an ``over``) whose value is in its layer's units or axis: any but
+    :data:`_UNSIZED_ATTRIBUTES` and primvars, and of primvars ``widths`` and those of a point or vector type (a
+    length and a direction); with ``directions`` also ``normals`` and primvars of a normal type, which turn with the
+    layer's axis but have no length (a layer of normals alone is named for its upAxis, not its units)."""
+    if name in _UNSIZED_ATTRIBUTES:
+        return False
+    if not name.startswith("primvars:") or name.startswith("primvars:widths"):
+        return True
+    role = type_name.role
+    if role in ("Point", "Vector"):
+        return True
+    return directions and (role == "Normal" or name == "primvars:normals" or name.startswith("primvars:normals:"))
 
 
 def _sublayer_identifiers(layers) -> set[str]:
