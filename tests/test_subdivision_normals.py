@@ -92,3 +92,20 @@ def test_authored_normals_of_a_polygonal_mesh_are_read(tmp_path):
     mesh, messages = load(octahedron_stage(tmp_path, "none"))
     np.testing.assert_allclose(mesh.normals, np.broadcast_to(AUTHORED, mesh.normals.shape), atol=1e-7)
     assert messages == []
+
+
+@pytest.mark.parametrize("line", ["normal3f[] normals = []",
+                                  'normal3f[] primvars:normals = [] (interpolation = "vertex")'])
+def test_empty_authored_normals_of_a_subdivision_mesh_are_not_named(tmp_path, line):
+    """An exporter's ``normals = []`` on a catmullClark mesh authors no normal: nothing is ignored, so no warning (it
+    said the authored normals were ignored); the mesh is shaded with its cage's smooth normals as without them."""
+    path = octahedron_stage(tmp_path, "catmullClark", normals=False)
+    text = open(path).read()
+    with open(path, "w") as f:
+        f.write(text[:text.rindex("}")] + f"    {line}\n}}\n")
+    stage = Usd.Stage.Open(path)  # the oracle: USD reads an authored value that holds no normal
+    attribute = stage.GetPrimAtPath("/Octa").GetAttribute(line.split()[1])
+    assert attribute.HasAuthoredValue() and len(attribute.Get()) == 0
+    mesh, messages = load(path)
+    np.testing.assert_allclose(mesh.normals, mesh.points[mesh.indices], atol=1e-6)  # unit points
+    assert messages == []

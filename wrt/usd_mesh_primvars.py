@@ -46,11 +46,16 @@ class MeshPrimvarReading:
             return self._read_primvar(prim, attr, mesh.GetNormalsInterpolation(), None, topology)
         return None
 
-    @staticmethod
-    def _has_normals(prim, mesh) -> bool:
-        """Whether the mesh has a ``primvars:normals`` or ``normals`` value (those :meth:`_read_normals` reads)."""
+    def _has_normals(self, prim, mesh) -> bool:
+        """Whether the mesh has a ``primvars:normals`` or ``normals`` value (those :meth:`_read_normals` reads) that
+        holds a normal at the time read: an empty array (an exporter's ``normals = []``) authors none, so a
+        subdivision mesh's warning that its normals were ignored named it though nothing was."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
-        return bool(primvar and primvar.HasValue()) or mesh.GetNormalsAttr().HasValue()
+        for attr in ((primvar.GetAttr(),) if primvar else ()) + (mesh.GetNormalsAttr(),):
+            value = value_at(attr, self.time) if attr.HasValue() else None
+            if value is not None and not (hasattr(value, "__len__") and len(value) == 0):
+                return True
+        return False
 
     def _read_colors(self, prim, topology, name: str):
         """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
