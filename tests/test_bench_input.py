@@ -249,6 +249,8 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
     ("--scenes", "", "argument --scenes: names nothing"),
     ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),
     ("--scenes", "sphere:abc", "argument --scenes: sphere:abc: N must be a whole number of triangles"),
+    # A whole number, too large: it was called no whole number.
+    ("--scenes", "sphere:1e301", "argument --scenes: sphere:1e301: N = 1e301 triangles is past 1e300; no host holds"),
     # An error row per group: 'warp:' loaded Warp's asset folder ('a directory, not a USD file'), 'asset:' no ''.
     ("--scenes", "sphere:200,warp:", "argument --scenes: 'warp:' names no scene; give warp:NAME (a file of Warp's"),
     ("--scenes", "asset: ", "argument --scenes: 'asset:' names no scene; give asset:ID (a shared asset's id)"),

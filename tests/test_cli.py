@@ -1148,7 +1148,7 @@ def test_integer_options_in_exponent_notation_are_read_exactly(text):
     assert build_parser().parse_args(["bench", "--n-rays", text]).n_rays == exact.numerator
 
 
-@pytest.mark.parametrize("text", ["2.5", "2.5e0", "1e400", "nan", "inf", "1e", "e5", "five", "1.00000000000000001e0",
+@pytest.mark.parametrize("text", ["2.5", "2.5e0", "1e-400", "nan", "inf", "1e", "e5", "five", "1.00000000000000001e0",
                                   "1000000000000000.1e0"])
 def test_integer_options_refuse_what_is_no_whole_number(text, capsys):
     """A fraction that a float rounds to a whole number (``1.00000000000000001e0``: 1) is still a fraction."""
@@ -1158,3 +1158,41 @@ def test_integer_options_refuse_what_is_no_whole_number(text, capsys):
         build_parser().parse_args(["bench", "--n-rays", text])
     assert exit_.value.code == 2
     assert f"{text!r} is not an integer" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option, text, message", [
+    (["bench", "--n-rays"], "1e301", "must be a positive integer, at most 1e300, got 1e301"),
+    (["bench", "--n-rays"], "2.5e400", "must be a positive integer, at most 1e300, got 2.5e400"),
+    (["render", "scene.usda", "--spp"], "1e301", "must be an integer from 1 to 2^31 - 1, got 1e301"),
+    (["render", "scene.usda", "--spp"], "-1e999999999", "must be an integer from 1 to 2^31 - 1, got -1e999999999"),
+])
+def test_integer_options_refuse_whole_numbers_past_1e300_as_too_large(option, text, message, capsys):
+    """``1e301`` is a whole number (the oracle: its digits and exponent as written, no fraction digit and more than
+    301 digits before the point), refused by the option's range (its bound, or the 1e300 past which no number is
+    made an int: ``1e999999999`` would take minutes) rather than as 'not an integer', which it was."""
+    import re
+
+    from wrt.cli import build_parser
+
+    digits, fraction, exponent = re.fullmatch(r"-?(\d+)\.?(\d*)e(\d+)", text).groups()
+    assert len(fraction) <= int(exponent) and len(digits) + int(exponent) > 301
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args([*option[:-1], f"{option[-1]}={text}"])  # '=': argparse takes '-1e9' for an option
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "not an integer" not in err, err
+
+
+@pytest.mark.parametrize("text", ["0e400", "-0E999", "0.0e-5"])
+def test_zero_with_any_exponent_is_zero(text, capsys):
+    """``0e400`` is 0 (the oracle: Python's exact rational reading of it): a non-negative option takes it, a positive
+    one refuses it as 0. Both called it 'not an integer', as its exponent is past 300."""
+    from fractions import Fraction
+
+    from wrt.cli import build_parser
+
+    assert Fraction(text) == 0
+    assert build_parser().parse_args(["preview", "--bvh-depth", text]).bvh_depth == 0
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["bench", "--n-rays", text])
+    assert "must be a positive integer, got 0" in capsys.readouterr().err

@@ -485,7 +485,11 @@ def sphere_count(name: str) -> int:
     from .cli import whole_number
 
     text = name.split(":", 1)[1]
-    count = whole_number(text)  # exactly: float() took 1.00000000000000001e3 for 1000
+    try:
+        count = whole_number(text)  # exactly: float() took 1.00000000000000001e3 for 1000
+    except OverflowError:
+        raise ValueError(f"{name}: N = {text} triangles is past 1e300; no host holds that many (e.g. sphere:1e6)") \
+            from None
     if count is None or count < 8:
         raise ValueError(f"{name}: N must be a whole number of triangles, 8 or more (e.g. sphere:1e6), got {text!r}")
     return count

@@ -152,7 +152,11 @@ def int_at_least(minimum: int, what: str, maximum: int | None = None):
     """An argparse type: an integer >= ``minimum`` (and <= ``maximum``), else an error saying it must be ``what``."""
 
     def parse(text: str) -> int:
-        value = _whole_number(text)
+        try:
+            value = _whole_number(text)
+        except OverflowError:  # a whole number past 1e300: out of any range, said without its digits spelt out
+            bound = "" if maximum is not None or text.lstrip().startswith("-") else ", at most 1e300"
+            raise argparse.ArgumentTypeError(f"must be {what}{bound}, got {text}") from None
         if value is None:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
         if value < minimum or (maximum is not None and value > maximum):
@@ -173,15 +177,24 @@ def _whole_number(text: str) -> int | None:
 
 
 def whole_number(text: str) -> int | None:
-    """The int that decimal number ``text`` (``1e5``, ``2.5e1``, ``1000.0``) writes exactly, or None where it writes
-    none: a fraction, a word, NaN, infinity, or a number past 1e300 (its digits would be spelt out). Read in decimal:
-    a float rounded ``1.00000000000000001e0`` to 1, a whole number, and ``12345678901234567e0`` to ...568."""
+    """The int that decimal number ``text`` (``1e5``, ``2.5e1``, ``1000.0``, ``0e400``) writes exactly, or None where
+    it writes none: a fraction, a word, NaN, infinity. Read in decimal: a float rounded ``1.00000000000000001e0`` to
+    1, a whole number, and ``12345678901234567e0`` to ...568.
+
+    Raises:
+        OverflowError: for a whole number past 1e300 in size (``1e301``), which is made no int (``1e999999999``
+            would take minutes, and a message would spell out its digits): a range check names it too large. It
+            was None, 'not a whole number', as was ``0e400``, which is 0."""
     try:
         number = decimal.Decimal(text)
     except decimal.InvalidOperation:
         return None
-    if not number.is_finite() or number.adjusted() > 300 or number != number.to_integral_value():
+    if not number.is_finite() or number != number.to_integral_value():
         return None
+    if number.is_zero():
+        return 0
+    if number.adjusted() > 300:
+        raise OverflowError(f"{text} is past 1e300")
     return int(number)
 
 
