@@ -168,7 +168,8 @@ def int_at_least(minimum: int, what: str, maximum: int | None = None):
 
 def _whole_number(text: str) -> int | None:
     """``text`` as an int, also where written in exponent notation (``--n-rays 1e5``, as a ``sphere:1e6`` scene name
-    is: it was refused as 'not an integer'); None for anything else, a fraction (``2.5``, ``2.5e0``) included."""
+    is: it was refused as 'not an integer'); None for anything else, a fraction (``2.5``, ``2.5e0``) included.
+    OverflowError for a whole number past 1e300 (:func:`whole_number`)."""
     try:
         return int(text)
     except ValueError:
