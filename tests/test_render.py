@@ -1096,3 +1096,24 @@ def test_a_renderer_setting_assigned_after_construction_is_refused_naming_a_new_
     fresh = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu", integrator="ao")
     assert getattr(renderer, name) == getattr(fresh, name)
     np.testing.assert_array_equal(renderer.render(seed=1).rgb, fresh.render(seed=1).rgb)
+
+
+def test_timers_hold_the_last_render_and_build_only():
+    """A Renderer kept for thousands of frames (a robot's camera loop): ``timers`` appended one entry per render()
+    and per rebuild, growing without bound. Each stage now holds its last measurement, which lies within the wall
+    time of the call that made it."""
+    import time
+
+    from wrt.procedural import sensor_scene
+
+    scene = sensor_scene()
+    renderer = wrt.Renderer(scene, width=8, height=8, device="cpu")
+    for seed in range(5):
+        start = time.perf_counter()
+        renderer.render(spp=1, seed=seed)
+        wall_ms = 1e3 * (time.perf_counter() - start)
+        assert len(renderer.timers["render"]) == 1
+        assert 0.0 < renderer.timers["render"][0] <= wall_ms
+    scene.invalidate()  # the next render builds again
+    renderer.render(spp=1)
+    assert len(renderer.timers["build"]) == 1 and renderer.timers["build"][0] > 0.0

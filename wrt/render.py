@@ -499,8 +499,9 @@ class Renderer:
     """Renders one scene from one camera at one resolution with one integrator; reusable across calls and seeds.
 
     ``__init__`` resolves the camera, builds (or reuses) the accelerator and uploads materials and lights;
-    ``render()`` only allocates path buffers (once per batch size) and launches kernels. Wall times of each stage
-    land in ``timers`` (milliseconds, as ``wp.ScopedTimer`` records them).
+    ``render()`` only allocates path buffers (once per batch size) and launches kernels. The wall time of each
+    stage's last run lands in ``timers`` (``timers["build"]``, ``timers["render"]``: a list of one entry, in
+    milliseconds, as ``wp.ScopedTimer`` records them); earlier runs are not kept, so a long loop holds no history.
 
     Args:
         scene: the scene to render.
@@ -661,7 +662,7 @@ class Renderer:
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
         self._ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
-        with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
+        with self._timer("build"):
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
@@ -675,6 +676,12 @@ class Renderer:
         self._frame = None  # buffers of launch_frame
         # Running sums of the last render, for render(resume=True); a rebuild for an edited scene drops them.
         self._drop_sums("the scene changed")
+
+    def _timer(self, stage: str) -> wp.ScopedTimer:
+        """A synchronizing timer of ``stage`` whose milliseconds replace the last run's in ``timers[stage]``:
+        appended at every render and rebuild, the lists grew without bound over a long loop."""
+        self.timers[stage] = []
+        return wp.ScopedTimer(stage, print=False, dict=self.timers, synchronize=True)
 
     def _scene_ao_radius(self) -> float:
         """A tenth of the scene's bounding-box diagonal (1 for an empty scene): the default ``ao_radius``."""
@@ -1116,7 +1123,7 @@ class Renderer:
         total = done + spp
         first = done
         try:
-            with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
+            with self._timer("render"), wp.ScopedDevice(dev):
                 while first < total:
                     count = min(batch, total - first)
                     w = self._wavefront.view(n_pixels * count)
