@@ -1117,3 +1117,25 @@ def test_timers_hold_the_last_render_and_build_only():
     scene.invalidate()  # the next render builds again
     renderer.render(spp=1)
     assert len(renderer.timers["build"]) == 1 and renderer.timers["build"][0] > 0.0
+
+
+def test_a_renderers_lights_cannot_be_changed_there_but_scene_lights_are_followed():
+    """Renderer.lights was the list built from scene.lights (or the default lights): renderer.lights.append(light)
+    and renderer.lights = [...] drew nothing new, without a word. It is a tuple, refused when assigned, naming
+    scene.lights, whose edits the next render follows as a fresh render draws them."""
+    from wrt.procedural import sensor_scene
+
+    scene = sensor_scene()
+    cam = wrt.Camera.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu")
+    bulb = wrt.SphereLight(position=(0, 2, 2), radius=0.1, color=(30, 30, 30), path="/Bulb")
+    assert renderer.lights == tuple(scene.lights)
+    with pytest.raises((AttributeError, TypeError)):
+        renderer.lights.append(bulb)
+    with pytest.raises(AttributeError, match=r"^Renderer\.lights cannot be assigned .*scene\.lights"):
+        renderer.lights = [*scene.lights, bulb]
+    scene.lights.append(bulb)
+    image = renderer.render(seed=1)
+    assert renderer.lights == tuple(scene.lights)
+    np.testing.assert_array_equal(image.rgb, wrt.render(scene, camera=cam, width=8, height=6, device="cpu",
+                                                        seed=1).rgb)

@@ -559,6 +559,9 @@ class Renderer:
                           "settings' or the camera's (followed at each render)")
     height = fixed_setting("height", "the image height is the one given when the Renderer was made, else the render "
                            "settings' or the camera's (followed at each render)")
+    # The lights uploaded at the last build, a tuple: appended to or assigned, a list drew nothing new without a word.
+    lights = fixed_setting("lights", "the lights drawn are scene.lights (or the default lights of a stage without "
+                           "any), uploaded at each render after an edit", "edit scene.lights instead")
 
     def __init__(
         self,
@@ -877,8 +880,8 @@ class Renderer:
                           f"as the load warned): {', '.join(scene.dark_lights[:5])}"
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
                           "rendered without the default lights, which are for stages without lights", stacklevel=3)
-        self.lights = default_lights(self._forwards[0]) if default else list(scene.lights)
-        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev, glow)
+        self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
+        self.device_lights, unsampled = build_lights(list(self.lights), scene, emission, dev, glow)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
