@@ -1139,3 +1139,30 @@ def test_a_renderers_lights_cannot_be_changed_there_but_scene_lights_are_followe
     assert renderer.lights == tuple(scene.lights)
     np.testing.assert_array_equal(image.rgb, wrt.render(scene, camera=cam, width=8, height=6, device="cpu",
                                                         seed=1).rgb)
+
+
+def test_a_blind_camera_moving_every_step_is_warned_of_once_and_nothing_grows():
+    """A camera whose clipping range holds none of the scene, moved each step of a long loop (set_cameras, or its
+    pose edited): the 'sees nothing' warning was keyed by its whole message, which names the scene's extent along
+    the view, so every new pose warned again and added a key to the Renderer's set, without bound. It is said once
+    per camera and clipping range; the render itself is the oracle of 'nothing seen'."""
+    from shading_helpers import quad
+
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/a")])
+
+    def blind(z):
+        return wrt.Camera.look_at((0.0, 0.0, z), (0.0, 0.0, 0.0), fov_y_deg=40, clipping_range=(100.0, 200.0))
+
+    renderer = wrt.Renderer(scene, camera=blind(5.0), width=8, height=6, device="cpu")
+    edited = blind(5.0)
+    kept = wrt.Renderer(scene, camera=edited, width=8, height=6, device="cpu")
+
+    def steps():
+        for step in range(1, 30):
+            renderer.set_cameras([blind(5.0 + 0.5 * step)])
+            edited.to_world[2, 3] = 5.0 + 0.5 * step
+            kept.render()
+
+    assert len(_sees_nothing(steps)) == 0  # both warned when made
+    assert (renderer.render().image(0).aovs["prim"] == -1).all() and (kept.render().aovs["prim"] == -1).all()
+    assert len(renderer._clip_warnings) == 1 and len(kept._clip_warnings) == 1

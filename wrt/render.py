@@ -176,22 +176,34 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
+def camera_name(cam, k: int, count: int) -> str:
+    """``cam``'s name in warnings about it, ``cameras[k]`` of ``count``: a camera made in Python is named by its place
+    among several as well (its label, "camera" for all of them, named none of them in particular); one alone, or a
+    stage camera, by its label."""
+    return cam.label() if cam.path or count == 1 else f"{cam.label()} (cameras[{k}])"
+
+
 def warn_clipped_away(scene: Scene, cameras: list, shown: set | None = None) -> None:
     """Warns of each camera whose clipping range holds no point of the scene's box (a range of (1e30, 1e31), or a
     far plane nearer than the scene): its image is background only, which was drawn without a word. A scene partly
-    inside the range is never warned of: the box's corners bound the depth of every point. A message already in
-    ``shown`` is left out, and each one given is added to it."""
+    inside the range is never warned of: the box's corners bound the depth of every point. A camera (by name) and
+    clipping range already in ``shown`` is left out, and each one warned of is added to it: keyed by the message,
+    which names the scene's extent along the view, a camera moved each step of a long loop warned at every step and
+    grew ``shown`` without bound."""
     shown = set() if shown is None else shown
     lower, upper = scene.bounds()
-    for cam in cameras:
+    for k, cam in enumerate(cameras):
         near, far = cam.clipping_range
+        name = camera_name(cam, k, len(cameras))
+        key = ("clipped away", name, float(near), float(far))
+        if key in shown:
+            continue
         nearest, farthest = cam.depth_extent(lower, upper)
-        message = (f"{scene.source or 'scene'}: {cam.label()} sees nothing: its clipping range ({near:g}, {far:g}) "
-                   f"holds no part of the scene, which lies from {nearest:g} to {farthest:g} along its view; the "
-                   "image is background only")
-        if (farthest < near or nearest > far) and message not in shown:
-            shown.add(message)
-            warnings.warn(message, stacklevel=user_stacklevel())
+        if farthest < near or nearest > far:
+            shown.add(key)
+            warnings.warn(f"{scene.source or 'scene'}: {name} sees nothing: its clipping range ({near:g}, {far:g}) "
+                          f"holds no part of the scene, which lies from {nearest:g} to {farthest:g} along its view; "
+                          "the image is background only", stacklevel=user_stacklevel())
 
 
 def few_paths(paths, shown: int = 6) -> str:
@@ -1006,10 +1018,9 @@ class Renderer:
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         lens_list = [self._lens(c) for c in cameras]
         for k, cam in enumerate(cameras):
-            # A camera made in Python is named by its place among several, as camera_structs names it: its label,
-            # "camera" for all of them, warned of the first only. (One alone, set_cameras([c]) each frame of an
-            # animation as Renderer(camera=c), keeps its label.)
-            name = cam.label() if cam.path or len(cameras) == 1 else f"{cam.label()} (cameras[{k}])"
+            # Named as camera_structs names it: by its label alone, "camera" for all made in Python, the first only
+            # was warned of. (One alone, set_cameras([c]) each frame of an animation as Renderer(camera=c), keeps it.)
+            name = camera_name(cam, k, len(cameras))
             warn_scene_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
             warn_shapes_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
