@@ -11,6 +11,7 @@ import warnings
 
 import warp as wp
 
+from .errors import user_stacklevel
 from .floats import largest_magnitude, unit_scales
 from .geometry import face_normal
 from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
@@ -457,7 +458,7 @@ def occluded_through_holes(
         # otherwise be shadowed without a word.
         warnings.warn(f"some shadow rays still met a cut-out hole, or geometry outside their light's shadowLink, "
                       f"after {limit} passes; they count as blocked, so what lies behind is shadowed "
-                      "(wrt.shade.MAX_SHADOW_HOLE_PASSES)", stacklevel=2)
+                      "(wrt.shade.MAX_SHADOW_HOLE_PASSES)", stacklevel=user_stacklevel())
 
 
 _NO_LINKS = {}  # device -> DeviceLinks with linking off

@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from .dome_irradiance import device_coefficients, irradiance_coefficients
-from .errors import SceneError
+from .errors import SceneError, user_stacklevel
 from .floats import FLOAT32_MAX
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
@@ -375,7 +375,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
     zero = np.zeros(3)
     domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
-        warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
+        warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used",
+                      stacklevel=user_stacklevel())
     dome_index, dome = -1, None
     mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
     emitted = {}  # id of a light's texture -> (it, its texels, their mean): see _shared_texels
@@ -510,7 +511,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
         dome_sh, past = device_coefficients(dome_sh * scale)
         if past:
             warnings.warn(f"dome light {dome.path or '<dome>'} is too bright for Whitted's irradiance in float32 (a "
-                          "harmonic past 3.4e38): its dome term is clamped to float32's largest", stacklevel=3)
+                          "harmonic past 3.4e38): its dome term is clamped to float32's largest",
+                          stacklevel=user_stacklevel())
 
     # Selection probabilities.
     n = num_analytic + len(tris.ids)
@@ -640,7 +642,8 @@ def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow
             warnings.warn(f"{type(light).__name__} {light.path or '<light>'}: its radiance "
                           f"({np.max(np.abs(h.radiance[k])):.3g}: intensity * 2^exposure * color) times its texture's "
                           f"texels (up to {np.max(texel[k]):.3g}) reaches {peaks[k]:.3g}, past float32's range "
-                          "(3.4e38): no image holds what sees it (its pixels are float32's largest)", stacklevel=4)
+                          "(3.4e38): no image holds what sees it (its pixels are float32's largest)",
+                          stacklevel=user_stacklevel())
     if len(tri_radiance):
         brightest = max(brightest, float(np.max(np.abs(tri_radiance).max(axis=1) * tri_glow)))
     return brightest

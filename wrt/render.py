@@ -636,7 +636,7 @@ class Renderer:
                 lights = ("" if not scene.lights else f", and the {integrator} integrator shows no light" if not lit
                           else ", and no light a camera ray sees")
                 warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles{lights}); the image is "
-                              "background only")
+                              "background only", stacklevel=user_stacklevel())
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self.dropped_samples = 0  # non-finite samples left out of the last render (or frame that frame_image read)
@@ -836,7 +836,7 @@ class Renderer:
         if edited:  # said, then drawn as the sources give it: the edit of a view wrt made went unseen, unsaid
             warnings.warn(f"{edited} edited, but that is the view the Renderer resolved, not a camera it follows: the "
                           "edit is not drawn; edit the camera it comes from (scene.cameras[path]) or give a wrt.Camera "
-                          "(camera=..., set_cameras)", stacklevel=4)
+                          "(camera=..., set_cameras)", stacklevel=user_stacklevel())
         if wp.get_device(self.device).is_capturing:  # the uploads cannot be recorded into a CUDA graph
             raise RuntimeError("a camera changed since the renderer last drew: call launch_frame() once outside the "
                                "capture, then record the frame again")
@@ -872,7 +872,7 @@ class Renderer:
             effect = ("they light the scene only through the rays that happen to hit them, so their light is noisier; "
                       f"the cap is wrt.light_table.MAX_INSTANCED_EMITTERS ({unsampled.cap:,})")
         warnings.warn(f"{self.scene.source or 'scene'}: {' and '.join(parts)} are not sampled as lights: {effect}",
-                      stacklevel=4)
+                      stacklevel=user_stacklevel())
 
     def _upload_shading(self):
         scene, dev = self.scene, self.device
@@ -891,7 +891,8 @@ class Renderer:
             warnings.warn(f"{scene.source or 'scene'}: no light: the stage's lights give none (hidden, or skipped "
                           f"as the load warned): {', '.join(scene.dark_lights[:5])}"
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
-                          "rendered without the default lights, which are for stages without lights", stacklevel=3)
+                          "rendered without the default lights, which are for stages without lights",
+                          stacklevel=user_stacklevel())
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
         self.device_lights, unsampled = build_lights(list(self.lights), scene, emission, dev, glow)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
@@ -1103,7 +1104,7 @@ class Renderer:
             # The image is of these samples alone: said, where a caller adding samples would take it for the sum.
             why = (f"seed {seed} is not the previous render's ({state['seed']})" if state is not None
                    else f"{self._sums_dropped} since the previous render")
-            warnings.warn(f"resume=True starts over from no samples: {why}", stacklevel=2)
+            warnings.warn(f"resume=True starts over from no samples: {why}", stacklevel=user_stacklevel())
         if quick_look:
             spp = 1
         if (state["samples"] if resuming else 0) + spp > MAX_SPP:
@@ -1469,7 +1470,7 @@ class Renderer:
         if self.dropped_samples:
             warnings.warn(f"{self.scene.source or 'scene'}: {self.dropped_samples} sample(s) were not finite, or "
                           "passed float32's range in their pixel's sum, and were left out (Renderer.dropped_samples): "
-                          "the pixels they fell in are darker than they should be", stacklevel=3)
+                          "the pixels they fell in are darker than they should be", stacklevel=user_stacklevel())
 
     def _warn_clamped(self, pixels: int) -> None:
         """Warns of ``pixels`` whose mean radiance times the camera's exposure passed float32's range (its largest
@@ -1477,7 +1478,7 @@ class Renderer:
         if pixels:
             warnings.warn(f"{self.scene.source or 'scene'}: {pixels} pixel(s) of radiance times the camera's exposure "
                           f"past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the exposure "
-                          "or the lights", stacklevel=5)
+                          "or the lights", stacklevel=user_stacklevel())
 
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel, prim
