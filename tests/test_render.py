@@ -1,5 +1,6 @@
 """render(): image layout, AOVs, shading, determinism and agreement between accelerators."""
 
+import dataclasses
 import os
 import warnings
 
@@ -1166,3 +1167,44 @@ def test_a_blind_camera_moving_every_step_is_warned_of_once_and_nothing_grows():
     assert len(_sees_nothing(steps)) == 0  # both warned when made
     assert (renderer.render().image(0).aovs["prim"] == -1).all() and (kept.render().aovs["prim"] == -1).all()
     assert len(renderer._clip_warnings) == 1 and len(kept._clip_warnings) == 1
+
+
+def _container_sizes(renderer) -> dict:
+    """The length of each list, dict, set or tuple among the renderer's attributes (and of each list in a dict)."""
+    sizes = {}
+    for name, value in vars(renderer).items():
+        if isinstance(value, (list, dict, set, tuple)):
+            sizes[name] = len(value)
+        if isinstance(value, dict):
+            sizes.update({(name, key): len(item) for key, item in value.items() if isinstance(item, list)})
+    return sizes
+
+
+def test_a_long_loop_of_renders_and_frames_grows_no_container_and_builds_no_kernel():
+    """A robot's loop keeps one Renderer for thousands of frames: render() and launch_frame() after set_cameras
+    (poses moved each step) must leave every container the renderer holds the size it was after the first frames
+    (timers grew by one entry a render), and load no Warp module again (a kernel made per call compiles anew)."""
+    from warp._src import context as warp_context
+
+    from wrt.procedural import ring_of_cameras, sensor_scene
+
+    scene, cams = sensor_scene(), ring_of_cameras(4)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=8, device="cpu")
+
+    def step(k):
+        renderer.render(spp=1, seed=k)
+        moved = [dataclasses.replace(cam, to_world=cam.to_world.copy()) for cam in cams[2 * (k % 2):][:2]]
+        moved[0].to_world[0, 3] += 0.01 * k
+        renderer.set_cameras(moved)
+        renderer.launch_frame(seed=k)
+        return renderer.frame_image()
+
+    for k in range(2):
+        step(k)
+    sizes = _container_sizes(renderer)
+    loaded = sum(len(module.execs) for module in warp_context.user_modules.values())
+    for k in range(2, 22):
+        frame = step(k)
+    assert _container_sizes(renderer) == sizes
+    assert sum(len(module.execs) for module in warp_context.user_modules.values()) == loaded
+    np.testing.assert_array_equal(frame.rgb.numpy(), renderer.render(spp=1, seed=21).rgb.numpy())
