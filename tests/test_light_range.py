@@ -155,3 +155,20 @@ def test_every_emitter_times_2_to_126_renders_the_image_times_2_to_126(integrato
     reference = lit_room(0, integrator)
     assert reference.min() > 0.0
     np.testing.assert_array_equal(lit_room(k, integrator), reference * 2.0**k)
+
+
+@pytest.mark.parametrize("texel, factor", [(1e-9, 1e9), (2.0**-30, 2.0**30)])
+def test_a_dim_emission_texture_of_alpha_1_glows_as_its_texels_say(texel, factor):
+    """An RGB file reads alpha 1 (wrt.textures.read_image): its dim colour of ``texel`` under a UsdUVTexture scale of
+    ``factor`` glows ``texel * factor`` (float64), as the image of alpha ``texel`` does. The image's power of two was
+    taken over its alpha too, which held it at 1, and the colour read 0 in float16."""
+    texture = np.ones((2, 2, 4), np.float32)
+    texture[..., :3] = np.float32(texel)
+    binding = wrt.TextureInput(image=0, scale=np.float32([factor, factor, factor, 1.0]))
+    glow = wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": binding})
+    mesh = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/quad", material=0)
+    mesh.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
+    img = wrt.render(wrt.Scene(meshes=[mesh], materials=[glow], textures=[texture]), camera=cam, width=2, height=2,
+                     spp=1, device="cpu", integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, np.float64(np.float32(texel)) * np.float64(np.float32(factor)), rtol=1e-3)

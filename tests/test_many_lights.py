@@ -232,7 +232,7 @@ def test_a_dome_and_a_rect_light_reading_one_image_upload_it_once_as_the_estimat
     assert renderer.device_lights.texels.shape[0] == 1 + height * width  # one white texel and the image, once
     counted = wrt.resources.device_texture_bytes(scene) - (height + 1 + height * (width + 1)) * 4  # less the CDFs
     image_bytes = renderer.device_lights.texels.shape[0] * 12 - 12  # vec3 texels, less the white one
-    material_bytes = 8 + 4 + 8 + 4  # no material image: one vec4h texel, its offset, size and scale
+    material_bytes = 8 + 4 + 8 + 16  # no material image: one vec4h texel, its offset, size and vec4 of scales
     assert counted == image_bytes + material_bytes
 
 

@@ -419,7 +419,7 @@ class DeviceMaterials:
     tile_images: wp.array[wp.int32]  # (UDIM_TILES * U,) image of each tile of the U UDIM bindings, -1: none
     image_offsets: wp.array[wp.int32]  # (K,) first texel of each image
     image_sizes: wp.array[wp.vec2i]  # (K,) width, height
-    image_scales: wp.array[float]  # (K,) power of two each image's texels are stored divided by (image_scale)
+    image_scales: wp.array[wp.vec4]  # (K,) powers of two each image's channels are stored divided by (image_scale)
     texels: wp.array[wp.vec4h]  # all images, linear RGBA half floats
     count: int  # number of materials including the default
     ggx_albedo: GgxAlbedo  # albedo tables of the GGX lobe (multiple-scattering compensation, wrt.bsdf)
@@ -544,7 +544,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.tile_images = wp.array(tile_images, dtype=wp.int32, device=device)
     d.image_offsets = wp.array(offsets, dtype=wp.int32, device=device)
     d.image_sizes = wp.array(sizes, dtype=wp.vec2i, device=device)
-    d.image_scales = wp.array(image_scales, dtype=float, device=device)
+    d.image_scales = wp.array(image_scales, dtype=wp.vec4, device=device)
     d.texels = wp.array(texels, dtype=wp.vec4h, device=device)
     d.count = m
     d.ggx_albedo = ggx_albedo_tables(device)
@@ -589,7 +589,7 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
             c = nearest_texel(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
         else:
             c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
-        c = c * mats.image_scales[k]  # stored divided by it (a power of two: exact; 1 for most images)
+        c = wp.cw_mul(c, mats.image_scales[k])  # stored divided by them (powers of two: exact; 1 mostly)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])
 
@@ -1825,6 +1825,6 @@ def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.nda
     total = np.zeros(4)
     stored = image_scale(image)
     for start in range(0, len(flat), PACK_TEXELS):
-        texels = stored_texels(flat[start : start + PACK_TEXELS], stored) * np.float64(stored)
+        texels = stored_texels(flat[start : start + PACK_TEXELS], stored) * stored
         total += np.maximum(texels * scale + bias, 0.0).sum(axis=0)
     return total / max(len(flat), 1)

@@ -48,8 +48,8 @@ def glow_bounds(materials: list, textures: list) -> np.ndarray:
         texel = float(np.max(np.abs(np.asarray(tex.fallback, np.float64))))
         for image in [tex.image] if tex.tiles is None else [i for i in np.asarray(tex.tiles) if i >= 0]:
             if image not in largest:
-                largest[image] = HALF_MAX * image_scale(textures[image])
-            texel = max(texel, largest[image])
+                largest[image] = HALF_MAX * image_scale(textures[image])  # per channel
+            texel = np.maximum(texel, largest[image])
         bounds[k] = float(np.max(texel * np.abs(np.asarray(tex.scale, np.float64))
                                  + np.abs(np.asarray(tex.bias, np.float64))))
     return bounds

@@ -42,8 +42,8 @@ def estimate_render_bytes(triangles: int, width: int, height: int, spp: int = 1,
 
 def device_texture_bytes(scene) -> int:
     """Device bytes of ``scene``'s textures as a render uploads them: the materials' images packed as RGBA half floats
-    (:func:`wrt.textures.pack_images`: a ``vec4h`` per texel, an int32 first texel, a ``vec2i`` size and a float
-    scale per image, at least one of each), and the lights' images as RGB float32 (:mod:`wrt.light_table`: a
+    (:func:`wrt.textures.pack_images`: a ``vec4h`` per texel, an int32 first texel, a ``vec2i`` size and a ``vec4``
+    of scales per image, at least one of each), and the lights' images as RGB float32 (:mod:`wrt.light_table`: a
     ``vec3`` per texel, each image once however many lights share it), with a dome's sampling CDFs (a float per row,
     and per texel and row).
     Left out, they were no part of the checks, though an 8k texture alone takes 512 MiB."""
@@ -56,7 +56,7 @@ def device_texture_bytes(scene) -> int:
     shapes = [np.shape(texture) for texture in scene.textures]
     texels = sum(shape[0] * shape[1] for shape in shapes)
     total = max(texels, 1) * size(wp.vec4h) + max(len(shapes), 1) * (size(wp.int32) + size(wp.vec2i)
-                                                                    + size(wp.float32))
+                                                                    + size(wp.vec4))
     seen = set()
     for light in scene.lights:
         texture = getattr(light, "texture", None)

@@ -4,9 +4,9 @@
 Conventions, stated once:
 
 - Images are kept as ``(H, W, 4)`` float32 linear RGBA, row 0 at the top; on the device they are packed into one
-  ``wp.vec4h`` (half float) array with per-image offsets, each image divided by a power of two that brings its
-  largest finite texel within float16's range where it lies outside ``[2^-10, 65504]`` (:func:`image_scale`; an
-  HDR's sun of 1e6 was clamped to 65504, and an image of texels below 6e-8 read 0), lookups multiplied by it.
+  ``wp.vec4h`` (half float) array with per-image offsets, each channel of an image divided by a power of two that
+  brings its largest finite texel within float16's range where it lies outside ``[2^-10, 65504]`` (:func:`image_scale`;
+  an HDR's sun of 1e6 was clamped to 65504, and an image of texels below 6e-8 read 0), lookups multiplied by it.
 - Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping), or of the one texel whose
   square holds ``st`` for the ``closest`` filter (:data:`FILTER_MODES`).
@@ -475,43 +475,45 @@ def scene_images(textures: list) -> list[np.ndarray]:
     return images
 
 
-def largest_finite(image: np.ndarray) -> float:
-    """The largest magnitude of ``image``'s finite values (0 for none): its largest and smallest where both are finite
-    (two passes, no temporaries), else in slices of :data:`PACK_TEXELS` texels (no image-sized temporaries)."""
-    flat = np.asarray(image).reshape(-1)
+def largest_finite(image: np.ndarray) -> np.ndarray:
+    """``(C,)`` float64 largest magnitude of each channel's finite values of ``(..., C)`` ``image`` (0 for none): its
+    largest and smallest where all are finite (two passes, no temporaries), else in slices of :data:`PACK_TEXELS`
+    texels (no image-sized temporaries)."""
+    flat = np.asarray(image).reshape(-1, np.shape(image)[-1])
     if len(flat) == 0:
-        return 0.0
-    high, low = float(flat.max()), float(flat.min())
-    if math.isfinite(high) and math.isfinite(low):
-        return max(high, -low, 0.0)
-    largest = 0.0
-    for start in range(0, len(flat), 4 * PACK_TEXELS):
-        part = np.abs(flat[start : start + 4 * PACK_TEXELS])
-        part = part[np.isfinite(part)]
-        if len(part):
-            largest = max(largest, float(part.max()))
+        return np.zeros(flat.shape[1])
+    high, low = flat.max(axis=0).astype(np.float64), flat.min(axis=0).astype(np.float64)
+    if np.isfinite(high).all() and np.isfinite(low).all():
+        return np.maximum(np.maximum(high, -low), 0.0)
+    largest = np.zeros(flat.shape[1])
+    for start in range(0, len(flat), PACK_TEXELS):
+        part = np.abs(flat[start : start + PACK_TEXELS])
+        largest = np.maximum(largest, np.where(np.isfinite(part), part, 0.0).max(axis=0))
     return largest
 
 
-def image_scale(image: np.ndarray) -> float:
-    """The power of two the device stores ``image``'s texels divided by (and multiplies its lookups by): 1 where its
-    largest finite magnitude is 0 or lies in ``[SMALLEST_UNSCALED, HALF_MAX]``; else the one that brings it into
-    ``[2^14, 2^15)``, a normal float32. An HDR's sun of 1e6 was clamped to 65504 (with a warning), and an image of
-    texels below float16's smallest, 6e-8, read 0 (without one)."""
-    largest = largest_finite(image)
-    if largest == 0.0 or SMALLEST_UNSCALED <= largest <= HALF_MAX:
-        return 1.0
-    exponent = math.frexp(largest)[1] - 1  # largest in [2^exponent, 2^(exponent + 1))
-    return math.ldexp(1.0, min(max(exponent - 14, -126), 127))
+def image_scale(image: np.ndarray) -> np.ndarray:
+    """``(4,)`` the powers of two the device stores the channels of ``(H, W, 4)`` ``image`` divided by (and multiplies
+    its lookups by): per channel, 1 where its largest finite magnitude is 0 or lies in ``[SMALLEST_UNSCALED,
+    HALF_MAX]``; else the one that brings it into ``[2^14, 2^15)``, a normal float32. An HDR's sun of 1e6 was clamped
+    to 65504 (with a warning), and an image of texels below float16's smallest, 6e-8, read 0 (without one). Each
+    channel has its own: an RGB file's alpha of 1 held a dim colour's power of two at 1 (it read 0), and a bright
+    one's stored alpha below float16's smallest."""
+    scales = np.ones(np.shape(image)[-1])
+    for c, largest in enumerate(largest_finite(image)):
+        if not (largest == 0.0 or SMALLEST_UNSCALED <= largest <= HALF_MAX):
+            exponent = math.frexp(largest)[1] - 1  # largest in [2^exponent, 2^(exponent + 1))
+            scales[c] = math.ldexp(1.0, min(max(exponent - 14, -126), 127))
+    return scales
 
 
-def stored_texels(texels: np.ndarray, scale: float = 1.0) -> np.ndarray:
-    """``texels`` (a new float array) as the device stores them for an image of :func:`image_scale` ``scale``: NaN as
-    0, the rest divided by ``scale`` and clamped to float16's finite range, +-:data:`HALF_MAX` (an infinite texel is
-    the largest stored); times ``scale`` they are what lookups read."""
+def stored_texels(texels: np.ndarray, scale=1.0) -> np.ndarray:
+    """``texels`` (``(N, 4)``, a new float array) as the device stores them for an image of :func:`image_scale`
+    ``scale`` (per channel): NaN as 0, the rest divided by ``scale`` and clamped to float16's finite range,
+    +-:data:`HALF_MAX` (an infinite texel is the largest stored); times ``scale`` they are what lookups read."""
     part = np.nan_to_num(texels, nan=0.0, posinf=np.inf, neginf=-np.inf)
-    if scale != 1.0:
-        part /= np.float32(scale)
+    if np.any(np.asarray(scale) != 1.0):
+        part /= np.asarray(scale, np.float32)
     return np.clip(part, -HALF_MAX, HALF_MAX, out=part)
 
 
@@ -520,8 +522,8 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
 
     Returns:
         ``texels`` ``(N, 4)`` float16 (at least one texel), ``offsets`` ``(K,)`` int32 first texel of each image,
-        ``sizes`` ``(K, 2)`` int32 ``(width, height)`` and ``scales`` ``(K,)`` float32: each image's texels are stored
-        divided by its :func:`image_scale`.
+        ``sizes`` ``(K, 2)`` int32 ``(width, height)`` and ``scales`` ``(K, 4)`` float32: each image's channels are
+        stored divided by its :func:`image_scale`.
     """
     offsets, sizes, total = [], [], 0
     for img in images:
@@ -544,7 +546,7 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
             texels[offset + start : offset + start + len(part)] = part
     offsets = np.asarray(offsets or [0], np.int32)
     sizes = np.asarray(sizes or [(1, 1)], np.int32).reshape(-1, 2)
-    return texels, offsets, sizes, np.asarray(scales or [1.0], np.float32)
+    return texels, offsets, sizes, np.asarray(scales or [np.ones(4)], np.float32).reshape(-1, 4)
 
 
 @wp.func
