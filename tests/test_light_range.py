@@ -172,3 +172,18 @@ def test_a_dim_emission_texture_of_alpha_1_glows_as_its_texels_say(texel, factor
     img = wrt.render(wrt.Scene(meshes=[mesh], materials=[glow], textures=[texture]), camera=cam, width=2, height=2,
                      spp=1, device="cpu", integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb, np.float64(np.float32(texel)) * np.float64(np.float32(factor)), rtol=1e-3)
+
+
+def test_a_batch_cameras_exposure_below_float32s_normal_range_scales_its_image_in_float64():
+    """A batch of cameras through an exposure of 2^-150 and one of 3e-41, which float32 cannot hold (0, and a
+    subnormal of a few bits), over a plane under a dome of 2^64 (held unscaled): their images are the plane's 2^63
+    times them (float64), as a render of each camera alone gives. The batch's mean took the factors in float32:
+    black, and 2% off."""
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cams = [wrt.Camera.orthographic(eye=(x, 3, 0), target=(x, 0, 0), up=(0, 0, -1), height=0.5) for x in (0, 1)]
+    cams[0].exposure_scale, cams[1].exposure_scale = 2.0**-150, 3e-41
+    dome = wrt.DomeLight(color=np.full(3, 2.0**64, np.float32), path="/Dome")
+    batch = wrt.render_batch(wrt.Scene(meshes=[plane], lights=[dome]), cams, 2, 2, spp=2, device="cpu",
+                             integrator="path", max_depth=1).rgb.numpy()
+    np.testing.assert_allclose(batch[0], 2.0**-87, rtol=1e-6)
+    np.testing.assert_allclose(batch[1], 2.0**63 * 3e-41, rtol=1e-6)

@@ -1516,7 +1516,8 @@ class Renderer:
             rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, rows).rgb
                             for i in range(n)])
             rgb = wp.array(rgb, dtype=wp.vec3, device=self.device)
-        elif self._radiance_scale != 1.0:  # factors that float32 may not hold: on the host, in float64
+        elif not all(map(normal_float32, self._exposure_scales())):  # on the host, in float64 (mean_radiance)
+            # A radiance scale past float32, or a camera exposure of 2^-150: the device's float32 factor was 0 or inf.
             sums = image_sum.numpy().reshape(n, h * w, 3)
             means = [mean_radiance(sums[k], total, f) for k, f in enumerate(self._exposure_scales())]
             self._warn_clamped(sum(clamped for _, clamped in means))
@@ -1540,7 +1541,7 @@ def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.nda
     1 changes no bit), else in float64 (an exposure of 2^-200 of a scene of 1e38, or a radiance scale past float32's
     range: the float32 factor was 0 or inf, and the image black or inf)."""
     with np.errstate(over="ignore"):
-        if factor == 0.0 or np.finfo(np.float32).tiny <= abs(factor) <= FLOAT32_MAX:
+        if normal_float32(factor):
             rgb = sums / samples * np.float32(factor)
         else:
             rgb = (sums.astype(np.float64) / samples * factor).astype(np.float32)
@@ -1548,6 +1549,11 @@ def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.nda
     if not past.any():
         return rgb, 0
     return np.minimum(rgb, np.float32(FLOAT32_MAX)), int(past.reshape(-1, 3).any(axis=1).sum())
+
+
+def normal_float32(factor: float) -> bool:
+    """Whether float32 holds ``factor`` as it is: 0 or a normal float32 magnitude (a product by it rounds once)."""
+    return factor == 0.0 or np.finfo(np.float32).tiny <= abs(factor) <= FLOAT32_MAX
 
 
 def finish_image(rgb, aovs: dict, integrator: str, rows: IdRows) -> Image:
