@@ -187,3 +187,18 @@ def test_a_batch_cameras_exposure_below_float32s_normal_range_scales_its_image_i
                              integrator="path", max_depth=1).rgb.numpy()
     np.testing.assert_allclose(batch[0], 2.0**-87, rtol=1e-6)
     np.testing.assert_allclose(batch[1], 2.0**63 * 3e-41, rtol=1e-6)
+
+
+def test_a_normalized_sun_disc_too_small_for_its_radiance_lights_as_a_delta_light_of_its_illuminance():
+    """A normalized distant light of 1e9 lux, 1e-13 degrees across: its disc's radiance (1e9 / 2.4e-30) passes
+    float32's range, so it is the delta light of its illuminance, as a smaller disc is (SMALLEST_SUN_DISC), and lights
+    a grey plane facing it 0.5 / pi * 1e9 (float64). The renderer raised a KeyError naming no light (the warning of
+    textured lights past float32 looked the sun up among them), and without it drew an infinite radiance."""
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    sun = wrt.DistantLight(direction=np.float32([0, -1, 0]), color=np.full(3, 1e9, np.float32), angle=1e-13,
+                           normalize=True, path="/Sun")
+    assert not np.isfinite(sun.radiance).any()
+    img = wrt.render(wrt.Scene(meshes=[plane], lights=[sun]), camera=cam, width=2, height=2, spp=2, device="cpu",
+                     integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, 0.5 / np.pi * np.float64(np.float32(1e9)), rtol=1e-6)

@@ -80,9 +80,17 @@ class HostLights:
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear RGB
 # Smallest UsdLux sizeFactor (pi sin^2(angle/2)) of a sun disc drawn as a disc: below it (about 6e-14 degrees
 # across) the disc's radiance E / sizeFactor passes float32's range or its cone underflows, so it is a delta light of
-# its illuminance, which no ray could tell apart from the disc.
+# its illuminance, which no ray could tell apart from the disc (so is a brighter disc whose radiance passes it:
+# drawn_as_disc).
 SMALLEST_SUN_DISC = 1e-30
 SELECTION_GRID = float(1 << 24)  # light selection's uniform numbers are multiples of 1 / SELECTION_GRID
+
+
+def drawn_as_disc(light: DistantLight) -> bool:
+    """Whether distant ``light`` is drawn as its sun disc: one of some angle whose radiance float32 holds (a
+    normalized disc of 1e9 lux 1e-13 degrees across has 4e38; it raised a KeyError and drew inf), else as the delta
+    light of its illuminance, the limit it tends to."""
+    return light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC and bool(np.isfinite(light.radiance).all())
 
 
 def seen_by_camera(light) -> bool:
@@ -92,7 +100,7 @@ def seen_by_camera(light) -> bool:
     surfaces only; a mesh
     light is its mesh's triangles."""
     if isinstance(light, DistantLight):
-        return light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC
+        return drawn_as_disc(light)
     if isinstance(light, SphereLight):
         return not light.treat_as_point
     if isinstance(light, CylinderLight):
@@ -392,7 +400,7 @@ def build_lights(lights: list, scene, material_emission: list, device,
         elif isinstance(light, DistantLight):
             d = np.asarray(light.direction, np.float64)
             e = light.illuminance
-            if light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC:
+            if drawn_as_disc(light):
                 half = light.half_angle  # up to pi: a disc wider than a hemisphere
                 one_minus = 2.0 * math.sin(half / 2.0) ** 2  # 1 - cos(half) without cancellation
                 cone = 2.0 * math.pi * one_minus
@@ -637,7 +645,7 @@ def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow
                 texel[k] = largest[id(texels)]
         peaks = (np.abs(np.asarray(h.radiance, np.float64)) * texel).max(axis=1)
         brightest = max(brightest, float(np.max(peaks)))
-        for k in np.flatnonzero(peaks > FLOAT32_MAX):  # a colour and a texture that float32 holds apart
+        for k in (k for k in textured if peaks[k] > FLOAT32_MAX):  # a colour and a texture float32 holds apart
             light = textured[k]
             warnings.warn(f"{type(light).__name__} {light.path or '<light>'}: its radiance "
                           f"({np.max(np.abs(h.radiance[k])):.3g}: intensity * 2^exposure * color) times its texture's "
