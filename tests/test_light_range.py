@@ -202,3 +202,29 @@ def test_a_normalized_sun_disc_too_small_for_its_radiance_lights_as_a_delta_ligh
     img = wrt.render(wrt.Scene(meshes=[plane], lights=[sun]), camera=cam, width=2, height=2, spp=2, device="cpu",
                      integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb, 0.5 / np.pi * np.float64(np.float32(1e9)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["rect", "disk"])
+def test_a_normalized_area_light_too_small_for_its_radiance_is_named_in_a_warning(kind):
+    """A normalized rect or disk light 1e-20 across built in Python: its radiance (colour / area, 1e40) passes
+    float32's range. It is named in a warning and lights nothing, as load_usd skips such a light with one; the disk
+    drew a black image without a word, the rect was said to pass float32 by its texture's texels (it has none)."""
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    down = np.eye(4)
+    down[:3, :3] = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]  # local -Z (the emitting side) along world -Y
+    down[1, 3] = 1.0
+    color = np.ones(3, np.float32)
+    if kind == "rect":
+        light = wrt.RectLight(to_world=down, width=1e-20, height=1e-20, color=color, normalize=True, path="/Tiny")
+    else:
+        light = wrt.DiskLight(to_world=down, radius=1e-20, color=color, normalize=True, path="/Tiny")
+    assert not np.isfinite(light.radiance).any()
+    lamp = wrt.SphereLight(position=np.float32([0, 1, 0]), radius=0.0, color=color, path="/Lamp")
+    with pytest.warns(UserWarning, match=r"/Tiny: normalized, too small for its radiance .* to fit in float32"):
+        img = wrt.render(wrt.Scene(meshes=[plane], lights=[light, lamp]), camera=cam, width=2, height=2, spp=2,
+                         device="cpu", integrator="path", max_depth=1)
+    # the oracle: the scene without it, drawn with the same seed
+    reference = wrt.render(wrt.Scene(meshes=[plane], lights=[lamp]), camera=cam, width=2, height=2, spp=2,
+                           device="cpu", integrator="path", max_depth=1)
+    np.testing.assert_array_equal(img.rgb, reference.rgb)

@@ -374,6 +374,7 @@ def build_lights(lights: list, scene, material_emission: list, device,
         glow: ``(M,)`` per device material a bound on the radiance it emits (:func:`wrt.radiance_scale.glow_bounds`);
             None: the largest component of its estimate.
     """
+    lights = [light for light in lights if not _too_small(light)]
     lower, upper = scene.bounds()
     # The scene's own radius however small (1e-6 for a point): the distant and dome lights' selection weights are
     # their power over a disc of it, against the area lights' own; held at 1e-6, a scene 1e-8 across drew its lights
@@ -902,6 +903,17 @@ def _latitude_hat_weights(hgt: int) -> np.ndarray:
     weights[1:] += rising
     weights[:-1] += total - rising
     return weights
+
+
+def _too_small(light) -> bool:
+    """Whether ``light`` is a normalized rect or disk light too small for its radiance (``color / area``) to fit in
+    float32, named in a warning: it lights nothing, as load_usd skips such a light (wrt.usd_lights); built in Python,
+    a disk drew a black image without a word (a sphere is drawn as a point and a tube as a line instead)."""
+    if not (isinstance(light, (RectLight, DiskLight)) and light.normalize) or np.isfinite(light.radiance).all():
+        return False
+    warnings.warn(f"{type(light).__name__} {light.path or '<light>'}: normalized, too small for its radiance "
+                  f"(intensity / area {light.area:.3g}) to fit in float32: it lights nothing", stacklevel=4)
+    return True
 
 
 def _shared_texels(memo: dict, texture: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
