@@ -67,3 +67,21 @@ def test_a_camera_under_a_light_flush_with_the_ceiling_sees_the_light(integrator
     img = wrt.render(flush_scene("rect"), camera=cam, width=8, height=8, spp=1, device="cpu",
                      integrator=integrator, max_depth=1)
     np.testing.assert_allclose(img.rgb, RADIANCE, rtol=1e-6)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("distance", [1.0, 1e3, 1e4])
+def test_a_camera_far_from_a_wall_does_not_see_a_light_behind_it(integrator, distance):
+    """A rect light 0.05 behind an opaque wall, facing the camera through it, lights nothing the camera sees: the
+    wall, unlit, is black from any distance. Camera rays counted a light at t where t (1 - SHADOW_SHORTEN) < t_max,
+    the shadow rays' margin (1e-4 of their length) taken of the camera's distance, so from 1000 away the light
+    showed through the wall (its full radiance, 2). A flush light is still seen (the test above)."""
+    wall = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/wall")
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.diag([1.0, -1.0, -1.0])  # local -Z, the emitting side, along +Z: through the wall
+    to_world[:3, 3] = (0, 0, -0.05)
+    light = RectLight(to_world=to_world, width=2.0, height=2.0, color=np.full(3, RADIANCE), path="/Behind")
+    cam = wrt.Camera.orthographic(eye=(0, 0, distance), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
+    img = wrt.render(wrt.Scene(meshes=[wall], lights=[light]), camera=cam, width=2, height=2, spp=1, device="cpu",
+                     integrator=integrator, max_depth=1)
+    np.testing.assert_array_equal(img.rgb, 0.0)

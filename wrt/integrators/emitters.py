@@ -26,6 +26,10 @@ from ..materials import DeviceMaterials
 from ..sampling import power_heuristic
 
 SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance stop this fraction short
+# Camera rays, which no shadow ray stands for, count a light this fraction behind what they hit (a few float32 ulps):
+# a light flush with a ceiling, at its distance but for rounding. SHADOW_SHORTEN of the camera's distance showed a
+# light 0.05 behind a wall through it from 1000 away.
+CAMERA_SHORTEN = wp.constant(2.0**-20)
 
 
 @wp.func
@@ -86,7 +90,8 @@ def lights_on_segment(
     ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
     and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A light at ``t`` counts where geometry
     at ``t_max`` would not block a shadow ray to it, which stops ``SHADOW_SHORTEN`` of the way short
-    (:func:`wrt.integrators.path.shadow_ray_to`): ``t (1 - SHADOW_SHORTEN) < t_max``. A light flush with a ceiling,
+    (:func:`wrt.integrators.path.shadow_ray_to`): ``t (1 - SHADOW_SHORTEN) < t_max`` (for camera rays, which no
+    shadow ray stands for, ``CAMERA_SHORTEN``: rounding alone). A light flush with a ceiling,
     which next-event estimation reaches, lay at the ceiling's distance and was left out: the path tracer's
     BSDF-sampled rays lost their MIS share of it (a floor 0.37 below a rect light got 0.67 of its light) and cameras
     saw the ceiling.
@@ -97,12 +102,13 @@ def lights_on_segment(
     total = wp.vec3(0.0)
     behind = wp.min(t_min, 0.0)
     start = o + behind * d
+    kept = 1.0 - wp.where(camera == 1, CAMERA_SHORTEN, SHADOW_SHORTEN)
     for j in range(lights.num_segment_lights):  # the area lights alone (light_table.rays_meet)
         k = lights.segment_lights[j]
         if reaches(lights, k, camera, group):
             t, cos_l = intersect_light(lights, k, start, d)
             t = t + behind
-            if t > t_min and t * (1.0 - SHADOW_SHORTEN) < t_max:
+            if t > t_min and t * kept < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
                 L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
