@@ -229,3 +229,19 @@ def test_a_normalized_area_light_too_small_for_its_radiance_is_named_in_a_warnin
                            device="cpu", integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb, 0.5, rtol=1e-6)
     np.testing.assert_array_equal(img.rgb, reference.rgb)
+
+
+def test_a_normalized_mesh_light_too_small_for_its_radiance_is_named_in_a_warning():
+    """A normalized mesh light on a quad 1e-20 across built in Python: its radiance (colour / area, 1e40) passes
+    float32's range. It is named in a warning and lights nothing; its infinite power made the lights' selection
+    probabilities NaN, and a grey plane under a dome of 1 came out 0.525 (numpy's overflow warning alone)."""
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    tiny = quad((0, 1, 0), (1e-20, 0, 0), (0, 0, 1e-20), name="/tiny")
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    lights = [wrt.DomeLight(color=np.ones(3, np.float32), path="/Dome"),
+              wrt.MeshLight(path="/tiny", color=np.ones(3, np.float32), normalize=True,
+                            material_sync="noMaterialResponse")]
+    with pytest.warns(UserWarning, match=r"MeshLight /tiny: normalized, too small for its radiance"):
+        img = wrt.render(wrt.Scene(meshes=[plane, tiny], lights=lights), camera=cam, width=2, height=2, spp=2,
+                         device="cpu", integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, 0.5, rtol=1e-6)  # the grey plane under the dome alone (float64)

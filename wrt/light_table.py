@@ -222,6 +222,9 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
         ids = np.nonzero(world_owner == j)[0]
         area = areas(ids)
         L = normalized_radiance(light.color, float(area.sum()), light.normalize).astype(np.float64)
+        if not np.isfinite(L).all():  # left out, as a rect light of the kind is (_too_small)
+            _warn_unbounded([light], len(ids))
+            continue
         keep, lum, params = _mesh_light_terms(light, L, tri_materials[ids], emission, glow)
         ids, area = ids[keep], area[keep]
         rows.append((ids, math.pi * area * lum[keep], np.tile(L, (len(ids), 1)), params, j))
@@ -482,6 +485,7 @@ def build_lights(lights: list, scene, material_emission: list, device,
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
+    _drop_unbounded(tris, mesh_lights)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
@@ -903,6 +907,26 @@ def _latitude_hat_weights(hgt: int) -> np.ndarray:
     weights[1:] += rising
     weights[:-1] += total - rising
     return weights
+
+
+def _drop_unbounded(tris: EmitterTriangles, mesh_lights: list) -> None:
+    """Makes the triangles of ``tris`` whose radiance float32 cannot hold (a normalized mesh light too small for
+    ``color / area`` in an instance; in the world :func:`emitter_triangles` leaves it out) emit nothing, naming their
+    lights in a warning: their infinite power made every light's selection probability NaN, with numpy's overflow
+    warning alone."""
+    bad = ~np.isfinite(tris.radiance).all(axis=1)
+    if not bad.any():
+        return
+    _warn_unbounded([mesh_lights[j] for j in np.unique(tris.owner[bad]) if j >= 0], int(bad.sum()))
+    tris.radiance[bad] = 0.0
+    tris.power[bad] = 0.0
+
+
+def _warn_unbounded(lights: list, triangles: int) -> None:
+    """Names mesh ``lights`` too small for their radiance to fit in float32, whose ``triangles`` light nothing."""
+    names = ", ".join(f"MeshLight {light.path or '<light>'}" for light in lights[:5])
+    warnings.warn(f"{names}{' and more' if len(lights) > 5 else ''}: normalized, too small for its radiance "
+                  f"(intensity / area) to fit in float32: its {triangles} triangle(s) light nothing", stacklevel=5)
 
 
 def _too_small(light) -> bool:
