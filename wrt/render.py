@@ -1553,7 +1553,7 @@ def mean_radiance(sums: np.ndarray, samples: int, factor: float) -> tuple[np.nda
 
 def normal_float32(factor: float) -> bool:
     """Whether float32 holds ``factor`` as it is: 0 or a normal float32 magnitude (a product by it rounds once)."""
-    return factor == 0.0 or np.finfo(np.float32).tiny <= abs(factor) <= FLOAT32_MAX
+    return factor == 0.0 or float(np.finfo(np.float32).tiny) <= abs(factor) <= FLOAT32_MAX
 
 
 def finish_image(rgb, aovs: dict, integrator: str, rows: IdRows) -> Image:
