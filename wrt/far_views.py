@@ -152,10 +152,15 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set 
         error = hit_error(cam, centres)
         footprint, ahead = _pixel_footprints(cam, width, height, centres, size)
         lost = curved & ahead & (error > ERROR_SHARE * size) & (2.0 * size > footprint)
-    if shown is not None:
-        lost &= np.array([("shape too far", name, geometry[j].path) not in shown for j in ids], bool)
+    if shown is not None and lost.any():
+        # Only the lost entries' shapes are looked up, each once: a loop over every entry (200k instances) ran at
+        # every camera upload of every camera.
+        lost_ids = ids[lost]
+        said = [j for j in np.unique(lost_ids) if ("shape too far", name, geometry[j].path) in shown]
+        lost[lost] = ~np.isin(lost_ids, said)
     if lost.any():
-        paths = list(dict.fromkeys(geometry[j].path for j in ids[lost]))
+        unique, first = np.unique(ids[lost], return_index=True)
+        paths = list(dict.fromkeys(geometry[j].path for j in unique[np.argsort(first)]))  # in the order found
         if shown is not None:
             shown.update(("shape too far", name, path) for path in paths)
         worst = float(np.max(error[lost]))
