@@ -282,3 +282,37 @@ def test_a_graph_keeps_the_arrays_of_the_structs_it_reads(device):
     del old
     gc.collect()
     assert headlight() is None
+
+
+def _two_prototype_scene() -> wrt.Scene:
+    """sensor_scene whose instances alternate between its box and a second, flatter box prototype."""
+    scene = sensor_scene()
+    box = scene.prototypes[0]
+    flat = [dataclasses.replace(m, points=m.points * np.float32([1.5, 0.3, 1.5])) for m in box.meshes]
+    scene.prototypes = [box, wrt.Prototype(path="/flat", meshes=flat)]
+    kinds = np.arange(len(scene.instances), dtype=np.int32) % 2
+    scene.instances = wrt.Instances.from_transforms(kinds, scene.instances.to_world)
+    return scene
+
+
+@pytest.mark.parametrize("cameras", [1, 2])
+def test_a_frame_image_keeps_its_prim_ids_after_the_instances_are_edited_in_place(cameras):
+    """frame_image expands prim ids by the instances' prototype ids of the scene drawn: an edit in place after it
+    returned (invalidate, then each instance given the other prototype) must not reach the image, nor a batch's views,
+    which it expands later. Oracle: a fresh render of the unedited scene."""
+    scene, cams = _two_prototype_scene(), ring_of_cameras(cameras)
+    if cameras == 1:
+        renderer = wrt.Renderer(scene, camera=cams[0], width=12, height=9, device="cpu")
+    else:
+        renderer = wrt.Renderer(scene, cameras=cams, width=12, height=9, device="cpu")
+    renderer.launch_frame(seed=2)
+    frame = renderer.frame_image()
+    scene.invalidate()
+    scene.instances.prototype[:] = 1 - scene.instances.prototype
+    views = [frame] if cameras == 1 else [frame.image(k) for k in range(cameras)]
+    unedited = _two_prototype_scene()
+    for k, view in enumerate(views):
+        one = wrt.render(unedited, camera=cams[k], width=12, height=9, seed=2, device="cpu")
+        assert len(np.unique(unedited.instances.prototype[one.aovs["instance"][one.aovs["instance"] >= 0]])) == 2
+        for name in ("prim", "instance"):
+            np.testing.assert_array_equal(view.aovs[name], one.aovs[name], err_msg=f"camera {k} {name}")

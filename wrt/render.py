@@ -1288,7 +1288,10 @@ class Renderer:
         # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped()
-        return self._mean_image(image, 1, aovs, self.scene.id_rows())  # (the scene is unchanged)
+        # The scene is checked unchanged above, and one camera's ids are expanded at once (finish_image), so they
+        # read the instances' prototype ids as they are: copied, 40 MB per frame at 5M instances. A BatchImage
+        # expands its views later, after edits maybe, so it keeps a copy.
+        return self._mean_image(image, 1, aovs, self.scene.id_rows(copy=self.batched))
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(
