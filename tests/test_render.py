@@ -381,6 +381,26 @@ def test_an_image_shows_itself_in_a_notebook_as_its_png(tmp_path, room):
     assert repr(img) == "Image(40x30, aovs: " + ", ".join(img.aovs) + ")"
 
 
+def test_images_compare_by_their_arrays_identity_as_batch_images_do():
+    """Image's dataclass == compared its arrays with numpy's ==, whose answer has no truth value: comparing an image
+    with another of equal arrays, and ``image in images``, raised ValueError. Images are equal where they hold the
+    very same arrays and settings, as BatchImage's wp.arrays compare (identity), and never raise."""
+    z = np.zeros((2, 3, 3), np.float32)
+    depth = np.ones((2, 3), np.float32)
+    image = wrt.Image(rgb=z, aovs={"depth": depth})
+    assert image == wrt.Image(rgb=z, aovs={"depth": depth})
+    assert wrt.Image(rgb=z, aovs={}) != wrt.Image(rgb=z.copy(), aovs={})
+    assert image != wrt.Image(rgb=z, aovs={"depth": depth.copy()})
+    assert image != wrt.Image(rgb=z, aovs={})
+    assert image != wrt.Image(rgb=z, aovs={"depth": depth}, data=True)
+    assert image != wrt.Image(rgb=z, aovs={"depth": depth}, window=(4, 4, 1, 1))
+    others = [wrt.Image(rgb=z.copy(), aovs={"depth": depth.copy()}), image]
+    assert image in others and others.index(image) == 1
+    assert image != "image"
+    batch = wrt.BatchImage(rgb=wp.zeros((1, 2, 3), dtype=wp.vec3, device="cpu"), aovs={}, scene=wrt.Scene())
+    assert batch != wrt.BatchImage(rgb=wp.zeros((1, 2, 3), dtype=wp.vec3, device="cpu"), aovs={}, scene=batch.scene)
+
+
 def test_npy_is_written_at_the_path_given_whatever_the_case_of_its_suffix(tmp_path, room):
     """np.save(path) appended ".npy" to "x.NPY", so the path returned (and the one --resume looks for) did not
     exist."""

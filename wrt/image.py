@@ -361,6 +361,16 @@ class Image:
         self.rgb = checked_rgb(self.rgb)
         self.aovs = Aovs(self.aovs)
 
+    def __eq__(self, other) -> bool:
+        """Whether ``other`` is an Image of the same arrays (the very objects, as :class:`wrt.BatchImage`'s
+        ``wp.array`` fields compare) and the same settings. The dataclass compared the arrays with numpy's ``==``,
+        whose answer has no truth value: ``image == copy`` and ``image in images`` raised ValueError."""
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        same_aovs = self.aovs.keys() == other.aovs.keys() and all(a is other.aovs[k] for k, a in self.aovs.items())
+        settings = (self.pixel_aspect_ratio, self.window, self.data)
+        return self.rgb is other.rgb and same_aovs and settings == (other.pixel_aspect_ratio, other.window, other.data)
+
     @property
     def width(self) -> int:
         """Pixels per row."""
