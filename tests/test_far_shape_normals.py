@@ -103,6 +103,20 @@ def load(path: str) -> wrt.Scene:
         return wrt.load_usd(path)
 
 
+def traced_with_oracle(stage, scene: wrt.Scene, centres, seed: int, per_gprim: int):
+    """Rays aimed at ``centres`` traced by wrt and by the float64 oracle: ``(o, d, hits, ref, paths, expected,
+    squarely)``, ``paths`` the prims wrt hit, ``expected`` the oracle's normals facing the rays and ``squarely`` the
+    rays with a sharp hit (not at a rim) that the oracle sees not grazing (there a normal's conditioning is poor)."""
+    o, d = aimed_rays(centres, np.random.default_rng(seed), per_gprim)
+    ref = oracle.trace(stage, o, d)
+    hits = wrt.trace(scene, o, d)
+    paths, _ = scene.hit_paths(hits)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    expected = facing(ref["normal"], d)
+    squarely = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    return o, d, hits, ref, paths, expected, squarely
+
+
 # The normal's error allowed: float32's rounding of the local problem, 16 ulps of the way from the ray's origin to the
 # surface over the surface's smallest radius (0.35: the cylinder's 0.7 times 0.5). Measured: about 1 such ulp at 1e2,
 # 1e4 and 1e5; taken from the world point, 9 at 1e2, 1000 at 1e4, 5000 at 1e5.
@@ -117,17 +131,10 @@ def test_shape_normals_far_from_the_origin_keep_float32s_local_precision(tmp_pat
     path = str(tmp_path / "far.usda")
     stage, centres = write_far_stage(path, position, instanced)
     scene = load(path)
-    o, d = aimed_rays(centres, np.random.default_rng(5), 60)
-    ref = oracle.trace(stage, o, d)
-    hits = wrt.trace(scene, o, d)
+    o, d, hits, ref, paths, expected, squarely = traced_with_oracle(stage, scene, centres, 5, 60)
     if instanced:
         assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
-    paths, _ = scene.hit_paths(hits)
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    expected = facing(ref["normal"], d)
-    # Sharp hits (not at rims) on the gprim the oracle hits, not grazing (there the normal's conditioning is poor).
-    seen = np.einsum("ij,ij->i", expected, -unit) > 0.2
-    clear = np.isfinite(ref["t"]) & ref["sharp"] & (paths == ref["path"]) & seen
+    clear = squarely & (paths == ref["path"])
     assert clear.sum() > 80
     got = facing(hit_normals(scene, hits, o, d), d)
     error = angles(got[clear], expected[clear])
@@ -222,15 +229,8 @@ def test_instanced_shapes_off_their_prototype_origin_keep_float32s_local_precisi
     scene = load(path)
     centres = [m[3, :3] for _, _, m in oracle.placements(stage)]
     assert len(centres) == len(OFF_CENTRE)
-    o, d = aimed_rays(centres, np.random.default_rng(11), 60)
-    ref = oracle.trace(stage, o, d)
-    hits = wrt.trace(scene, o, d)
+    o, d, hits, ref, paths, expected, clear = traced_with_oracle(stage, scene, centres, 11, 60)
     assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
-    paths, _ = scene.hit_paths(hits)
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    expected = facing(ref["normal"], d)
-    seen = np.einsum("ij,ij->i", expected, -unit) > 0.2
-    clear = np.isfinite(ref["t"]) & ref["sharp"] & seen
     assert clear.sum() > 100
     wrong = clear & (paths != ref["path"])
     assert not wrong.any(), f"{wrong.sum()} rays the oracle sees squarely missed or hit another prim at {position:g}"
@@ -302,14 +302,8 @@ def test_shapes_far_inside_their_prototype_keep_float32s_local_precision(tmp_pat
     scene = load(path)
     centres = [m[3, :3] for _, _, m in oracle.placements(stage)]
     assert len(centres) == len(FAR_INSIDE)
-    o, d = aimed_rays(centres, np.random.default_rng(7), 80)
-    ref = oracle.trace(stage, o, d)
-    hits = wrt.trace(scene, o, d)
+    o, d, hits, ref, paths, expected, clear = traced_with_oracle(stage, scene, centres, 7, 80)
     assert (hits.instance[hits.prim >= 0] >= 0).all()  # the gprims were traced as instances
-    paths, _ = scene.hit_paths(hits)
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    expected = facing(ref["normal"], d)
-    clear = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
     assert clear.sum() > 50 and (paths[clear] == ref["path"][clear]).all()
     got = facing(hit_normals(scene, hits, o, d), d)
     error = angles(got[clear], expected[clear])
