@@ -89,6 +89,17 @@ def test_pixels_past_float32_after_the_camera_exposure_are_its_largest_with_a_wa
     np.testing.assert_allclose(batch[1], 0.5e10 * 2.0**-10, rtol=1e-6)
 
 
+def emission_texture_image(texture: np.ndarray, factor: float, spp: int) -> np.ndarray:
+    """The rgb a camera sees of a quad glowing with ``texture`` (RGBA) times ``factor`` (its emissiveColor)."""
+    binding = wrt.TextureInput(image=0, scale=np.float32([factor, factor, factor, 1.0]))
+    glow = wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": binding})
+    mesh = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/quad", material=0)
+    mesh.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
+    return wrt.render(wrt.Scene(meshes=[mesh], materials=[glow], textures=[texture]), camera=cam, width=2, height=2,
+                      spp=spp, device="cpu", integrator="path", max_depth=1).rgb
+
+
 @pytest.mark.parametrize("texel, factor", [(1e6, 1.0), (3e38, 1.0), (1e-9, 1e9)])
 def test_an_emission_texture_past_float16s_range_glows_as_its_texels_say(texel, factor):
     """An emissive quad of a texture of ``texel`` everywhere (times ``factor``, its UsdUVTexture scale), seen by the
@@ -96,15 +107,8 @@ def test_an_emission_texture_past_float16s_range_glows_as_its_texels_say(texel, 
     was clamped to 65504, one of 1e-9 read 0. Each image is now stored divided by a power of two (and the glow of
     3e38 over 4 samples held scaled: wrt.radiance_scale)."""
     texture = np.full((2, 2, 4), np.float32(texel), np.float32)
-    binding = wrt.TextureInput(image=0, scale=np.float32([factor, factor, factor, 1.0]))
-    glow = wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": binding})
-    mesh = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/quad", material=0)
-    mesh.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
-    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
-    img = wrt.render(wrt.Scene(meshes=[mesh], materials=[glow], textures=[texture]), camera=cam, width=2, height=2,
-                     spp=4, device="cpu", integrator="path", max_depth=1)
     expected = np.float64(np.float32(texel)) * np.float64(np.float32(factor))
-    np.testing.assert_allclose(img.rgb, expected, rtol=1e-3)  # float16 keeps 11 bits
+    np.testing.assert_allclose(emission_texture_image(texture, factor, 4), expected, rtol=1e-3)  # float16: 11 bits
 
 
 def test_a_camera_exposure_below_float32s_range_scales_the_image_in_float64():
@@ -164,14 +168,8 @@ def test_a_dim_emission_texture_of_alpha_1_glows_as_its_texels_say(texel, factor
     taken over its alpha too, which held it at 1, and the colour read 0 in float16."""
     texture = np.ones((2, 2, 4), np.float32)
     texture[..., :3] = np.float32(texel)
-    binding = wrt.TextureInput(image=0, scale=np.float32([factor, factor, factor, 1.0]))
-    glow = wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": binding})
-    mesh = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/quad", material=0)
-    mesh.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
-    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
-    img = wrt.render(wrt.Scene(meshes=[mesh], materials=[glow], textures=[texture]), camera=cam, width=2, height=2,
-                     spp=1, device="cpu", integrator="path", max_depth=1)
-    np.testing.assert_allclose(img.rgb, np.float64(np.float32(texel)) * np.float64(np.float32(factor)), rtol=1e-3)
+    np.testing.assert_allclose(emission_texture_image(texture, factor, 1),
+                               np.float64(np.float32(texel)) * np.float64(np.float32(factor)), rtol=1e-3)
 
 
 def test_a_batch_cameras_exposure_below_float32s_normal_range_scales_its_image_in_float64():
