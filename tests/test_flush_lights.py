@@ -1,7 +1,8 @@
 """A rect or disk light flush with a ceiling (the light's plane is the ceiling's, as a panel set into it): next-event
-estimation reaches it (its shadow rays stop a little short of the light, wrt.integrators.path.SHADOW_SHORTEN), so the
-rays a surface scatters, and camera rays, must see it there too, or the path tracer's MIS loses the share it gives
-those rays. Checked against Lambert's closed form for the floor below."""
+estimation reaches it (its shadow rays stop a few float32 rounding steps short of the light,
+wrt.integrators.emitters.shadow_length), so the rays a surface scatters, and camera rays, must see it there too, or
+the path tracer's MIS loses the share it gives those rays. Checked against Lambert's closed form for the floor below.
+A light a little further behind a wall, from any distance, is neither reached nor seen."""
 
 import math
 
@@ -84,4 +85,35 @@ def test_a_camera_far_from_a_wall_does_not_see_a_light_behind_it(integrator, dis
     cam = wrt.Camera.orthographic(eye=(0, 0, distance), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
     img = wrt.render(wrt.Scene(meshes=[wall], lights=[light]), camera=cam, width=2, height=2, spp=1, device="cpu",
                      integrator=integrator, max_depth=1)
+    np.testing.assert_array_equal(img.rgb, 0.0)
+
+
+def floor_beside_a_wall_with_a_light_behind_it(distance, wall=True):
+    """A floor z = 0 from a wall x = 0 out to ``2 distance``, and a rect light ``distance / 2`` across, 0.05 behind
+    the wall (x = -0.05), its emitting side facing the floor through the wall."""
+    floor = quad((distance, 0, 0), (2 * distance, 0, 0), (0, 2 * distance, 0), name="/floor")
+    to_world = np.eye(4)
+    to_world[:3, :3] = [[0, 0, -1], [-1, 0, 0], [0, 1, 0]]  # columns: local x, y, z; local -Z, emitting, along +X
+    to_world[:3, 3] = (-0.05, 0, distance / 2)
+    light = RectLight(to_world=to_world, width=distance / 2, height=distance / 2, color=np.full(3, RADIANCE),
+                      path="/Behind")
+    meshes = [floor]
+    if wall:
+        meshes.append(quad((0, 0, distance), (0, 2 * distance, 0), (0, 0, 2 * distance), name="/wall"))
+    return wrt.Scene(meshes=meshes, lights=[light])
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("distance", [10.0, 1e3, 1e4])
+def test_a_floor_far_from_a_wall_gets_no_light_from_behind_it(integrator, distance):
+    """Direct light (``max_depth`` 1) on a floor ``distance`` from a wall, from a rect light 0.05 behind the wall, is
+    0 (the wall blocks all of it): without the wall the same floor is lit. Shadow rays stopped 1e-4 of their length
+    short of the light, and scattered rays counted a light 1e-4 of its distance behind what they hit
+    (SHADOW_SHORTEN), so from 1000 away the floor was lit through the wall; now both margins are a few float32
+    rounding steps of the distances and coordinates involved."""
+    cam = top_down_camera((distance, 0.0, 0.0), height=1.0, distance=1.0)
+    kwargs = dict(camera=cam, width=4, height=4, spp=16, seed=3, device="cpu", integrator=integrator, max_depth=1)
+    lit = wrt.render(floor_beside_a_wall_with_a_light_behind_it(distance, wall=False), **kwargs)
+    assert (lit.rgb > 0).all()
+    img = wrt.render(floor_beside_a_wall_with_a_light_behind_it(distance), **kwargs)
     np.testing.assert_array_equal(img.rgb, 0.0)

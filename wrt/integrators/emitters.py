@@ -6,10 +6,12 @@ linked to that surface (``collection:lightLink``, :mod:`wrt.light_links`)."""
 
 import warp as wp
 
+from ..floats import largest_magnitude
 from ..light_links import lit_by
 from ..light_sampling import (
     LIGHT_DISTANT,
     LIGHT_DOME,
+    LIGHT_TRIANGLE,
     DeviceLights,
     area_light_pdf,
     distant_in_cone,
@@ -25,11 +27,30 @@ from ..light_sampling import (
 from ..materials import DeviceMaterials
 from ..sampling import power_heuristic
 
-SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance stop this fraction short
-# Camera rays, which no shadow ray stands for, count a light this fraction behind what they hit (a few float32 ulps):
-# a light flush with a ceiling, at its distance but for rounding. SHADOW_SHORTEN of the camera's distance showed a
-# light 0.05 behind a wall through it from 1000 away.
-CAMERA_SHORTEN = wp.constant(2.0**-20)
+# Shadow rays to emissive triangles stop this fraction short: the triangle is geometry the ray must not hit itself.
+SHADOW_SHORTEN = wp.constant(1.0e-4)
+# Shadow rays to analytic lights (no geometry) stop, and every ray counts such a light behind what it hit, this
+# fraction of the largest distance or coordinate involved short: 16 float32 rounding steps, so a light flush with a
+# ceiling, at its distance but for rounding, is still reached. SHADOW_SHORTEN of the length lit a floor 1000 away
+# from a wall by a rect light 0.05 behind it.
+ROUNDING_MARGIN = wp.constant(2.0**-20)
+
+
+@wp.func
+def rounding_margin(o: wp.vec3, end: wp.vec3, length: float):
+    """How far a light at ``end``, ``length`` along a ray from ``o``, may lie behind geometry hit there and still
+    count as flush with it: :data:`ROUNDING_MARGIN` of the largest of ``length`` and the coordinates of ``o`` and
+    ``end`` (the rounding of a hit distance grows with each)."""
+    return ROUNDING_MARGIN * wp.max(length, wp.max(largest_magnitude(o), largest_magnitude(end)))
+
+
+@wp.func
+def shadow_length(lights: DeviceLights, k: int, o: wp.vec3, end: wp.vec3, length: float):
+    """Where a shadow ray from ``o`` to the point ``end`` of light ``k``, ``length`` away, stops: SHADOW_SHORTEN
+    short of an emissive triangle, :func:`rounding_margin` short of an analytic light."""
+    if lights.kinds[k] == LIGHT_TRIANGLE:
+        return length * (1.0 - SHADOW_SHORTEN)
+    return length - rounding_margin(o, end, length)
 
 
 @wp.func
@@ -89,9 +110,8 @@ def lights_on_segment(
     ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
     ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
     and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A light at ``t`` counts where geometry
-    at ``t_max`` would not block a shadow ray to it, which stops ``SHADOW_SHORTEN`` of the way short
-    (:func:`wrt.integrators.path.shadow_ray_to`): ``t (1 - SHADOW_SHORTEN) < t_max`` (for camera rays, which no
-    shadow ray stands for, ``CAMERA_SHORTEN``: rounding alone). A light flush with a ceiling,
+    at ``t_max`` would not block a shadow ray to it, which stops :func:`rounding_margin` short
+    (:func:`shadow_length`): ``t - margin < t_max``, for camera rays too. A light flush with a ceiling,
     which next-event estimation reaches, lay at the ceiling's distance and was left out: the path tracer's
     BSDF-sampled rays lost their MIS share of it (a floor 0.37 below a rect light got 0.67 of its light) and cameras
     saw the ceiling.
@@ -102,13 +122,12 @@ def lights_on_segment(
     total = wp.vec3(0.0)
     behind = wp.min(t_min, 0.0)
     start = o + behind * d
-    kept = 1.0 - wp.where(camera == 1, CAMERA_SHORTEN, SHADOW_SHORTEN)
     for j in range(lights.num_segment_lights):  # the area lights alone (light_table.rays_meet)
         k = lights.segment_lights[j]
         if reaches(lights, k, camera, group):
             t, cos_l = intersect_light(lights, k, start, d)
             t = t + behind
-            if t > t_min and t * kept < t_max:
+            if t > t_min and t - rounding_margin(start, o + t * d, t - behind) < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
                 L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
