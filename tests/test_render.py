@@ -1228,3 +1228,25 @@ def test_a_long_loop_of_renders_and_frames_grows_no_container_and_builds_no_kern
     assert _container_sizes(renderer) == sizes
     assert sum(len(module.execs) for module in warp_context.user_modules.values()) == loaded
     np.testing.assert_array_equal(frame.rgb.numpy(), renderer.render(spp=1, seed=21).rgb.numpy())
+
+
+def test_a_resumed_render_counts_and_names_the_dropped_samples_of_its_whole_image():
+    """With ``resume=True`` the image is that of one render of all the samples, and so is the count of those left
+    out: ``dropped_samples`` equals a single render's of the total (it was already, while the docs said 'of the last
+    render'), and the warning now names the samples per pixel it counts over, so the warnings of successive resumes
+    no longer read as new drops to add up."""
+    quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
+    scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((2, 4, 3), 1e38, np.float32))]
+    cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = wrt.Renderer(scene, camera=cam, width=4, height=4, integrator="path")
+        whole.render(spp=8, seed=2)
+        resumed = wrt.Renderer(scene, camera=cam, width=4, height=4, integrator="path")
+        resumed.render(spp=3, seed=2)
+    assert whole.dropped_samples > 0
+    with pytest.warns(UserWarning, match=rf"{whole.dropped_samples} sample\(s\) .* of the image's 8 sample\(s\) per "
+                                         r"pixel, resumed renders included"):
+        resumed.render(spp=5, seed=2, resume=True)
+    assert resumed.dropped_samples == whole.dropped_samples

@@ -639,7 +639,9 @@ class Renderer:
                               "background only", stacklevel=user_stacklevel())
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
-        self.dropped_samples = 0  # non-finite samples left out of the last render (or frame that frame_image read)
+        # Non-finite samples left out of the image the last render returned (or the frame that frame_image read):
+        # with resume=True, of all the samples that image adds up, as one render of them all would count.
+        self.dropped_samples = 0
         self._camera_args = [camera] if cameras is None else cameras  # as given: followed at each render
         # Why the last sums were dropped, for resume's warning (None: never): a later drop with no sums left (a
         # scene edit's rebuild after a set_cameras) keeps it; it said nothing then.
@@ -1083,7 +1085,8 @@ class Renderer:
                 The image does not depend on it.
             progress: show a progress bar (tqdm) over the samples.
             resume: progressive rendering: add ``spp`` samples to those of the previous call (same ``seed``) and
-                return the mean of all of them, exactly the image one call with the total would give.
+                return the mean of all of them, exactly the image one call with the total would give;
+                :attr:`dropped_samples` and its warning count the samples left out of all of them, as that call would.
         """
         # It reads back between bounces: recorded, its image was of launches not yet run (garbage on the CPU).
         self._outside_capture("render()", "record launch_frame() instead and read frame_image() after a replay")
@@ -1156,7 +1159,7 @@ class Renderer:
             self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first,
                                  "spread": spread, "rows": rows}
         self.dropped_samples = int(dropped.numpy()[0])
-        self._warn_dropped()
+        self._warn_dropped(total, resumed=done > 0)
         return self._mean_image(image, total, aovs, rows)
 
     def _check_launch(self, n_pixels: int, batch: int) -> None:
@@ -1287,7 +1290,7 @@ class Renderer:
                                "the graph or call launch_frame() again")
         # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
         self.dropped_samples = int(dropped.numpy()[0])
-        self._warn_dropped()
+        self._warn_dropped(1)
         # The scene is checked unchanged above, and one camera's ids are expanded at once (finish_image), so they
         # read the instances' prototype ids as they are: copied, 40 MB per frame at 5M instances. A BatchImage
         # expands its views later, after edits maybe, so it keeps a copy.
@@ -1467,13 +1470,18 @@ class Renderer:
             return [1.0] * len(self._exposures)
         return self._exposures if self._radiance_scale == 1.0 else [e / self._radiance_scale for e in self._exposures]
 
-    def _warn_dropped(self) -> None:
-        """Warns of the samples the last render (or frame) left out (:attr:`dropped_samples`): counted alone, they
-        darkened the image without a word (a dome of 1e38 drew a black one, before wrt.radiance_scale)."""
+    def _warn_dropped(self, spp: int, resumed: bool = False) -> None:
+        """Warns of the samples left out of the image the last render (or frame) returned (:attr:`dropped_samples`),
+        of the ``spp`` per pixel it adds up (``resumed``: over several renders): counted alone, they darkened the
+        image without a word (a dome of 1e38 drew a black one, before wrt.radiance_scale). A render with
+        ``resume=True`` counts, and names, every sample of its image, as one render of them all would: its count
+        read as the new samples' alone, the warnings of a few resumes seemed to add up to more than were dropped."""
         if self.dropped_samples:
+            over = f"of the image's {spp} sample(s) per pixel" + (", resumed renders included" if resumed else "")
             warnings.warn(f"{self.scene.source or 'scene'}: {self.dropped_samples} sample(s) were not finite, or "
-                          "passed float32's range in their pixel's sum, and were left out (Renderer.dropped_samples): "
-                          "the pixels they fell in are darker than they should be", stacklevel=user_stacklevel())
+                          f"passed float32's range in their pixel's sum, and were left out (Renderer.dropped_samples, "
+                          f"{over}): the pixels they fell in are darker than they should be",
+                          stacklevel=user_stacklevel())
 
     def _warn_clamped(self, pixels: int) -> None:
         """Warns of ``pixels`` whose mean radiance times the camera's exposure passed float32's range (its largest
