@@ -117,3 +117,35 @@ def test_a_floor_far_from_a_wall_gets_no_light_from_behind_it(integrator, distan
     assert (lit.rgb > 0).all()
     img = wrt.render(floor_beside_a_wall_with_a_light_behind_it(distance), **kwargs)
     np.testing.assert_array_equal(img.rgb, 0.0)
+
+
+def test_a_tilted_glowing_quad_seen_at_a_grazing_angle_does_not_shadow_its_own_light():
+    """Shadow rays to an emissive triangle (geometry, which they must not hit) keep stopping 1e-4 of their length
+    short of it: a few float32 rounding steps, as for analytic lights, let rays aimed at a tilted glowing quad seen
+    at a grazing angle hit the quad itself, and a floor 60 from the centre of a 40 x 40 quad 1 above it got about
+    0.6 of Lambert's formula (shadow_length read the light's kind from ``kinds``, which holds the analytic lights'
+    alone, past its end for the triangles). The scene is turned off the axes and moved off the origin, so rounding
+    is not exact."""
+    res, patch, height, x = 8, 0.4, 1.0, 60.0
+    q, _ = np.linalg.qr(np.array([[0.8, 0.3, -0.5], [0.1, 0.9, 0.4], [0.6, -0.2, 0.7]]))
+    q = q if np.linalg.det(q) > 0 else -q
+
+    def placed(v, shift=0.0):
+        return q @ np.asarray(v, np.float64) + shift
+
+    floor = quad(placed((0, 0, 0), 37.3), placed((400, 0, 0)), placed((0, 400, 0)), name="/floor", material=1)
+    glow = quad(placed((0, 0, height), 37.3), placed((-40, 0, 0)), placed((0, 40, 0)), name="/glow", material=0,
+                double_sided=False)  # its front, cross(u, v), faces the floor
+    mats = [wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE),
+            wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)]  # Lambertian: no specular
+    cam = wrt.Camera.orthographic(eye=placed((x, 0, height / 2), 37.3), target=placed((x, 0, 0), 37.3),
+                                  up=placed((0, 1, 0)), height=patch)
+    img = wrt.render(wrt.Scene(meshes=[floor, glow], materials=mats), camera=cam, width=res, height=res, spp=64,
+                     seed=3, device="cpu", integrator="path", max_depth=1)
+    corners = [np.array(c, np.float64) for c in ((-20, -20, height), (20, -20, height), (20, 20, height),
+                                                 (-20, 20, height))]
+    points = pixel_points((x, 0.0, 0.0), patch, res, res).reshape(-1, 3)  # in the frame before turning
+    expected = np.array([ALBEDO * polygon_irradiance(p, (0, 0, 1), corners, RADIANCE) / math.pi for p in points])
+    residual = img.rgb[..., 0].ravel().astype(np.float64) - expected
+    error = residual.std() / math.sqrt(residual.size)
+    assert abs(residual.mean()) < 4 * error + 0.02 * expected.mean(), (residual.mean() / expected.mean(), error)

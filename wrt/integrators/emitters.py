@@ -19,6 +19,7 @@ from ..light_sampling import (
     dome_radiance,
     emission_shaping,
     intersect_light,
+    light_kind,
     light_texture,
     lobe_factor,
     sampled_alone,
@@ -48,7 +49,7 @@ def rounding_margin(o: wp.vec3, end: wp.vec3, length: float):
 def shadow_length(lights: DeviceLights, k: int, o: wp.vec3, end: wp.vec3, length: float):
     """Where a shadow ray from ``o`` to the point ``end`` of light ``k``, ``length`` away, stops: SHADOW_SHORTEN
     short of an emissive triangle, :func:`rounding_margin` short of an analytic light."""
-    if lights.kinds[k] == LIGHT_TRIANGLE:
+    if light_kind(lights, k) == LIGHT_TRIANGLE:
         return length * (1.0 - SHADOW_SHORTEN)
     return length - rounding_margin(o, end, length)
 
