@@ -1701,7 +1701,7 @@ def test_emissive_material_lights_the_scene(tmp_path):
     scene = wrt.load_usd(path)
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
     renderer = wrt.Renderer(scene, camera=cam, width=4, height=4, device="cpu")
-    assert renderer.lights == []  # an emissive surface is a light source: no default lights are added
+    assert renderer.lights == ()  # an emissive surface is a light source: no default lights are added
     np.testing.assert_allclose(renderer.render().rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)
 
 
