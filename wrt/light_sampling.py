@@ -5,8 +5,9 @@ light a ray hits, for multiple importance sampling (the radiometry is in :mod:`w
 Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count`` (a shaped light's power
 times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
 that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
-:mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny, cylinder and triangle lights uniformly by
-area (cylinders: the half facing the shading point); ellipsoids and elliptic tubes (sphere and cylinder lights under
+:mod:`wrt.spherical_rect`); triangles by solid angle unless they look tiny (:mod:`wrt.spherical_triangle`); other
+disk lights, rect lights and triangles that look tiny, and cylinder lights uniformly by area (cylinders: the half
+facing the shading point); ellipsoids and elliptic tubes (sphere and cylinder lights under
 a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
 soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
@@ -48,6 +49,7 @@ from .sampling import (
 )
 from .scene import DeviceScene
 from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
+from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
 from .transforms import corners_to_world, normal_to_world
 
@@ -510,6 +512,20 @@ def scaled_cross(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 
 @wp.func
+def triangle_weights(a: wp.vec3, b: wp.vec3, c: wp.vec3, q: wp.vec3, down: float):
+    """Barycentric weights ``(of b, of c)`` of point ``q`` of triangle ``a, b, c``'s plane, clamped into the triangle;
+    lengths times ``down`` (:func:`scaled_cross`), so the products neither over- nor underflow."""
+    e1 = (b - a) * down
+    e2 = (c - a) * down
+    dq = (q - a) * down
+    n = wp.cross(e1, e2)
+    nn = wp.dot(n, n)
+    bu = wp.clamp(wp.dot(wp.cross(dq, e2), n) / nn, 0.0, 1.0)
+    bv = wp.clamp(wp.dot(wp.cross(e1, dq), n) / nn, 0.0, 1.0 - bu)
+    return wp.vec2(bu, bv)
+
+
+@wp.func
 def hit_emitter(lights: DeviceLights, slot: int, instance: int):
     """The light entry of an emitter triangle a ray hit in ``instance`` (-1: world geometry), or -1: ``slot`` is its
     ``DeviceSurfaces.emitters``, the entry itself for world geometry, its place among its prototype's emitters for
@@ -526,8 +542,9 @@ def hit_emitter(lights: DeviceLights, slot: int, instance: int):
 def triangle_light_pdf(
     scene: DeviceScene, double_sided: int, prim: int, instance: int, o: wp.vec3, d: wp.vec3, dist: float
 ):
-    """Solid-angle pdf of uniform area sampling of triangle ``prim`` (drawn by ``instance``, -1: world geometry)
-    seen from ``o`` along unit ``d``; 0 from its back when it is single-sided."""
+    """Solid-angle pdf of :func:`sample_light`'s sampling of triangle ``prim`` (drawn by ``instance``, -1: world
+    geometry; by solid angle, else uniformly by area) seen from ``o`` along unit ``d``; 0 from its back when it is
+    single-sided."""
     a, b, c, cr, down = emitter_triangle(scene, prim, instance)
     area2 = stable_length(cr)  # times down^2, as the distance is taken times down
     if area2 <= 0.0:
@@ -537,6 +554,9 @@ def triangle_light_pdf(
         cos_l = wp.abs(cos_l)
     if cos_l <= 0.0:
         return 0.0
+    omega = seen_solid_angle(o, a, b, c)
+    if omega > 0.0:
+        return 1.0 / omega
     scaled = dist * down
     return scaled * scaled / (cos_l * 0.5 * area2)
 
@@ -798,15 +818,29 @@ def sample_light(
     else:
         prim = lights.prims[k]
         a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
-        su = wp.sqrt(u1)
-        bu = u2 * su  # weight of b
-        bv = 1.0 - su  # weight of c ... (any uniform barycentric split works)
-        bw = 1.0 - bu - bv
-        q = bw * a + bu * b + bv * c
         area = 0.5 * stable_length(cr)
         if area <= 0.0:
             return out
         ln = cr / (2.0 * area)
+        bu = float(0.0)  # weight of b
+        bv = float(0.0)  # weight of c
+        omega = seen_solid_angle(p, a, b, c)
+        if omega > 0.0:  # by solid angle (wrt.spherical_triangle): q where the direction meets the plane
+            towards = sample_spherical_triangle(p, a, b, c, omega, u1, u2)
+            facing = wp.dot(towards, ln)
+            if facing == 0.0:
+                return out
+            q = p + (wp.dot(a - p, ln) / facing) * towards
+            weights = triangle_weights(a, b, c, q, down)
+            bu = weights[0]
+            bv = weights[1]
+            pdf_solid_angle = 1.0 / omega
+        else:
+            su = wp.sqrt(u1)
+            bu = u2 * su
+            bv = 1.0 - su  # (any uniform barycentric split works)
+            q = (1.0 - bu - bv) * a + bu * b + bv * c
+        bw = 1.0 - bu - bv
         st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
         L = triangle_emission(lights, mats, k, tri_materials[prim], st)
         if cut_out(mats, tri_materials[prim], st):
