@@ -72,3 +72,30 @@ def test_path_lights_the_floor_as_lamberts_formula_says_under_a_finely_tessellat
     residual = rendered - expected
     error = residual.std() / math.sqrt(residual.size)
     assert abs(residual.mean()) < 4 * error + 2e-3 * expected.mean(), (rendered.mean() / expected.mean(), error)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_glowing_quad_textured_half_red_half_green_lights_each_channel_from_its_half(integrator):
+    """A point sampled by solid angle carries the texture's radiance at its own texture coordinates (the barycentric
+    weights of where the direction meets the triangle): a floor 1 under a quad whose emission texture is red on one
+    half and green on the other gets in each channel Lambert's formula over that half alone."""
+    res, patch, height, spp = 8, 0.4, 1.0, 64
+    texture = np.array([[[1, 0, 0, 1], [0, 1, 0, 1]]], np.float32)  # st.x < 0.5 red (x > centre), else green
+    binding = wrt.TextureInput(image=0, scale=np.float32([RADIANCE, RADIANCE, RADIANCE, 1.0]), filter="closest")
+    glow = quad(CENTRE + (0, 0, height), (-SIDE, 0, 0), (0, SIDE, 0), name="/glow", material=0, double_sided=False)
+    glow.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
+    floor = quad(CENTRE, (400, 0, 0), (0, 400, 0), name="/floor", material=1)
+    mats = [wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": binding}),
+            wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)]
+    cam = wrt.Camera.orthographic(eye=CENTRE + (0, 0, height / 2), target=CENTRE, up=(0, 1, 0), height=patch)
+    img = wrt.render(wrt.Scene(meshes=[floor, glow], materials=mats, textures=[texture]), camera=cam, width=res,
+                     height=res, spp=spp, seed=7, device="cpu", integrator=integrator, max_depth=1)
+    points = pixel_points(CENTRE, patch, res, res).reshape(-1, 3)
+    half = SIDE / 2
+    for channel, (x0, x1) in ((0, (0.0, half)), (1, (-half, 0.0))):
+        corners = [CENTRE + (x, y, height) for x, y in ((x0, -half), (x1, -half), (x1, half), (x0, half))]
+        expected = np.array([ALBEDO * polygon_irradiance(p, (0, 0, 1), corners, RADIANCE) / math.pi for p in points])
+        residual = img.rgb[..., channel].ravel().astype(np.float64) - expected
+        error = residual.std() / math.sqrt(residual.size)
+        assert abs(residual.mean()) < 4 * error + 2e-3 * expected.mean(), (channel, residual.mean(), error)
+    np.testing.assert_array_equal(img.rgb[..., 2], 0.0)
