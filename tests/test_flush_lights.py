@@ -119,13 +119,12 @@ def test_a_floor_far_from_a_wall_gets_no_light_from_behind_it(integrator, distan
     np.testing.assert_array_equal(img.rgb, 0.0)
 
 
-def test_a_tilted_glowing_quad_seen_at_a_grazing_angle_does_not_shadow_its_own_light():
-    """Shadow rays to an emissive triangle (geometry, which they must not hit) keep stopping 1e-4 of their length
-    short of it: a few float32 rounding steps, as for analytic lights, let rays aimed at a tilted glowing quad seen
-    at a grazing angle hit the quad itself, and a floor 60 from the centre of a 40 x 40 quad 1 above it got about
-    0.6 of Lambert's formula (shadow_length read the light's kind from ``kinds``, which holds the analytic lights'
-    alone, past its end for the triangles). The scene is turned off the axes and moved off the origin, so rounding
-    is not exact."""
+def floor_seeing_a_tilted_glowing_quad(back=False):
+    """``(rendered, expected)`` radiance per pixel of a floor 60 from the centre of a 40 x 40 glowing quad 1 above it
+    (direct light, ``path``), the quad seen at a grazing angle; ``back``: with a grey single-sided quad back to back
+    with it (the same corners, facing up: its coincident partner, :mod:`wrt.twins`), listed first (the smaller
+    geometry ids, which win ties). The scene is turned off the axes and moved off the origin, so rounding is not
+    exact."""
     res, patch, height, x = 8, 0.4, 1.0, 60.0
     q, _ = np.linalg.qr(np.array([[0.8, 0.3, -0.5], [0.1, 0.9, 0.4], [0.6, -0.2, 0.7]]))
     q = q if np.linalg.det(q) > 0 else -q
@@ -136,16 +135,41 @@ def test_a_tilted_glowing_quad_seen_at_a_grazing_angle_does_not_shadow_its_own_l
     floor = quad(placed((0, 0, 0), 37.3), placed((400, 0, 0)), placed((0, 400, 0)), name="/floor", material=1)
     glow = quad(placed((0, 0, height), 37.3), placed((-40, 0, 0)), placed((0, 40, 0)), name="/glow", material=0,
                 double_sided=False)  # its front, cross(u, v), faces the floor
+    meshes = [floor, glow]
+    if back:
+        meshes.insert(1, quad(placed((0, 0, height), 37.3), placed((40, 0, 0)), placed((0, 40, 0)), name="/back",
+                              material=1, double_sided=False))
     mats = [wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE),
             wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)]  # Lambertian: no specular
     cam = wrt.Camera.orthographic(eye=placed((x, 0, height / 2), 37.3), target=placed((x, 0, 0), 37.3),
                                   up=placed((0, 1, 0)), height=patch)
-    img = wrt.render(wrt.Scene(meshes=[floor, glow], materials=mats), camera=cam, width=res, height=res, spp=64,
+    img = wrt.render(wrt.Scene(meshes=meshes, materials=mats), camera=cam, width=res, height=res, spp=64,
                      seed=3, device="cpu", integrator="path", max_depth=1)
     corners = [np.array(c, np.float64) for c in ((-20, -20, height), (20, -20, height), (20, 20, height),
                                                  (-20, 20, height))]
     points = pixel_points((x, 0.0, 0.0), patch, res, res).reshape(-1, 3)  # in the frame before turning
     expected = np.array([ALBEDO * polygon_irradiance(p, (0, 0, 1), corners, RADIANCE) / math.pi for p in points])
-    residual = img.rgb[..., 0].ravel().astype(np.float64) - expected
+    return img.rgb[..., 0].ravel().astype(np.float64), expected
+
+
+def test_a_tilted_glowing_quad_seen_at_a_grazing_angle_does_not_shadow_its_own_light():
+    """Shadow rays to an emissive triangle (geometry) are not blocked by the triangle they are aimed at: rounding
+    puts it before their end (a few float32 rounding steps short of the light, as for analytic lights) where a floor
+    sees a tilted glowing quad at a grazing angle, and a floor 60 from the centre of a 40 x 40 quad 1 above it got
+    about 0.6 of Lambert's formula (shadow_length read the light's kind from ``kinds``, which holds the analytic
+    lights' alone, past its end for the triangles, and gave them that margin without telling the quad apart)."""
+    rendered, expected = floor_seeing_a_tilted_glowing_quad()
+    residual = rendered - expected
+    error = residual.std() / math.sqrt(residual.size)
+    assert abs(residual.mean()) < 4 * error + 0.02 * expected.mean(), (residual.mean() / expected.mean(), error)
+
+
+def test_a_glowing_quad_back_to_back_with_another_face_does_not_shadow_its_own_light():
+    """The same with a grey face back to back with the glowing quad (a lamp's two sides as two single-sided quads):
+    a shadow ray that rounding lets hit the back face first, where its coincident partner is the triangle the ray is
+    aimed at, reaches the light, as a bounce ray hitting it there takes the partner. The floor got 0.92 of the
+    formula when only the glowing triangle itself counted."""
+    rendered, expected = floor_seeing_a_tilted_glowing_quad(back=True)
+    residual = rendered - expected
     error = residual.std() / math.sqrt(residual.size)
     assert abs(residual.mean()) < 4 * error + 0.02 * expected.mean(), (residual.mean() / expected.mean(), error)

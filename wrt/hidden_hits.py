@@ -342,35 +342,124 @@ def intersect_visible(
     repeat_passes(retrace_and_cull, scratch, MAX_CULL_PASSES if passes is None else passes, passes is not None)
 
 
+# Shadow rays to an emissive triangle end a few rounding steps short of the point sampled on it
+# (wrt.integrators.emitters.shadow_length), where rounding can still put the triangle itself: the any-hit query, which
+# cannot tell what it hit, stops this fraction of their length shorter, and the rest of the ray is traced for its
+# closest hit, which blocks it unless it is the sampled triangle itself. Ended 1e-4 short in all, a shadow ray lit a
+# floor 1000 away from a wall through it, from a glowing quad 0.05 behind the wall.
+EMITTER_ANY_HIT_SHORTEN = wp.constant(1.0e-4)
+# ``first_emitter`` of shadow rays that go to no light (ambient occlusion): no index reaches it.
+NO_EMITTER = 2**31 - 1
+
+
+@wp.func
+def to_emitter(first_emitter: int, k: int):
+    """Whether a shadow ray of light ``k`` goes to an emissive triangle (entries from ``first_emitter`` on:
+    ``DeviceLights.num_analytic``)."""
+    return k >= first_emitter
+
+
+@wp.func
+def any_hit_end(first_emitter: int, k: int, t_max: float):
+    """Where the any-hit query of a shadow ray of light ``k`` ending at ``t_max`` stops: :data:`EMITTER_ANY_HIT_SHORTEN`
+    of its length short for an emissive triangle (its own triangle lies within rounding of ``t_max``), else at
+    ``t_max``."""
+    if to_emitter(first_emitter, k):
+        return t_max * (1.0 - EMITTER_ANY_HIT_SHORTEN)
+    return t_max
+
+
+@wp.kernel
+def shorten_emitter_rays_kernel(
+    first_emitter: int,
+    shadow_lights: wp.array[wp.int32],
+    t_maxs: wp.array[float],
+    # outputs
+    any_hit_t_maxs: wp.array[float],
+):
+    """The ``t_max`` of each shadow ray's any-hit query (:func:`any_hit_end`)."""
+    i = wp.tid()
+    any_hit_t_maxs[i] = any_hit_end(first_emitter, shadow_lights[i], t_maxs[i])
+
+
 @wp.kernel
 def start_shadow_holes_kernel(
+    recheck_blocked: int,
+    first_emitter: int,
+    shadow_lights: wp.array[wp.int32],
     t_mins: wp.array[float],
     t_maxs: wp.array[float],
-    blocked: wp.array[wp.int32],
     # outputs
     retry_t_mins: wp.array[float],
     retry_t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
     retries: wp.array[wp.int32],
 ):
-    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole), and are counted in
-    ``retries``; the others get an empty one (``retry_t_maxs = 0``: decided). Unlike camera rays (whose ``t_max`` is
-    a clipping range's far, <= 0 for one wholly behind an orthographic camera: :data:`DECIDED_T_MIN`), 0 never
-    marks a live ray: every query takes hits in ``[t_min, t_max)`` and shadow rays start at ``t_min = 0``, so a
-    blocked one has ``t_max > 0``, and its passes move only ``t_min``."""
+    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole), where
+    ``recheck_blocked`` is 1 (holes or shadow links: else the any-hit query decided them); unblocked rays to an
+    emissive triangle take the end of their range that their any-hit query left out (:func:`any_hit_end`), blocked
+    until their closest hit there decides them. Both are counted in ``retries``; the others get an empty range
+    (``retry_t_maxs = 0``: decided). Unlike camera rays (whose ``t_max`` is a clipping range's far, <= 0 for one
+    wholly behind an orthographic camera: :data:`DECIDED_T_MIN`), 0 never marks a live ray: every query takes hits
+    in ``[t_min, t_max)`` and shadow rays start at ``t_min = 0``, so a retried one has ``t_max > 0``, and its passes
+    move only ``t_min``."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
     if blocked[i] == 1:
-        retry_t_mins[i] = t_mins[i]
-        retry_t_maxs[i] = t_maxs[i]
-        wp.atomic_add(retries, 0, 1)
+        if recheck_blocked == 1:
+            retry_t_mins[i] = t_mins[i]
+            retry_t_maxs[i] = t_maxs[i]
+            wp.atomic_add(retries, 0, 1)
+        return
+    k = shadow_lights[i]
+    if t_maxs[i] > 0.0 and to_emitter(first_emitter, k):
+        start = wp.max(t_mins[i], any_hit_end(first_emitter, k, t_maxs[i]))
+        if start < t_maxs[i]:
+            retry_t_mins[i] = start
+            retry_t_maxs[i] = t_maxs[i]
+            blocked[i] = 1
+            wp.atomic_add(retries, 0, 1)
+
+
+@wp.func
+def reaches_its_emitter(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    emitter_prims: wp.array[wp.int32],
+    emitter_instances: wp.array[wp.int32],
+    first_emitter: int,
+    k: int,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+):
+    """Whether a shadow ray of light ``k`` that hit ``(u, v)`` on ``prim`` in ``instance`` met the emissive triangle
+    it was aimed at (``DeviceLights.prims`` and ``instances`` of entry ``k``): that triangle, or a coincident partner
+    (:mod:`wrt.twins`) whose partner there is that triangle, as a bounce ray takes it (``cull_hidden_hits_kernel``). A
+    lamp of two single-sided faces back to back otherwise shadowed up to 8% of its light where a floor sees it at a
+    grazing angle: its other face, hit first by rounding."""
+    if not to_emitter(first_emitter, k) or emitter_instances[k] != instance:
+        return False
+    if emitter_prims[k] == prim:
+        return True
+    if surf.num_partners == 0 or prim >= scene.num_prims:
+        return False
+    if surf.partner_offsets[prim + 1] == surf.partner_offsets[prim]:
+        return False
+    return locate_partner(scene, surf, prim, u, v) == emitter_prims[k]
 
 
 @wp.kernel
 def pass_shadow_holes_kernel(
+    scene: DeviceScene,
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
     links: DeviceLinks,
+    first_emitter: int,
+    emitter_prims: wp.array[wp.int32],
+    emitter_instances: wp.array[wp.int32],
     shadow_lights: wp.array[wp.int32],
     hit_t: wp.array[float],
     hit_u: wp.array[float],
@@ -383,16 +472,20 @@ def pass_shadow_holes_kernel(
     blocked: wp.array[wp.int32],
     retries: wp.array[wp.int32],
 ):
-    """Decides each shadow ray still undecided (``retry_t_maxs > 0``) by its closest hit in its range: none ->
-    unblocked; a hole (:func:`in_hole`), or geometry that casts no shadow of the ray's light (``shadow_lights``,
-    ``collection:shadowLink``) -> undecided, looked at again from just past it (and blocked until then); anything
-    else -> blocked."""
+    """Decides each shadow ray still undecided (``retry_t_maxs > 0``) by its closest hit in its range: none, or the
+    emissive triangle it was aimed at (:func:`reaches_its_emitter`) -> unblocked; a hole (:func:`in_hole`), or geometry
+    that casts no shadow of the ray's light (``shadow_lights``, ``collection:shadowLink``) -> undecided, looked at
+    again from just past it (and blocked until then); anything else -> blocked."""
     i = wp.tid()
     if retry_t_maxs[i] <= 0.0:
         return
     prim = hit_prim[i]
     passed = False
+    reached = prim < 0
     if prim >= 0:
+        reached = reaches_its_emitter(scene, surf, emitter_prims, emitter_instances, first_emitter, shadow_lights[i],
+                                      prim, hit_instance[i], hit_u[i], hit_v[i])
+    if prim >= 0 and not reached:
         passed = in_hole(surf, mats, prim, hit_u[i], hit_v[i])
         if links.shadow_linked == 1 and not passed:
             passed = not casts_shadow(links, link_group(links, prim, hit_instance[i]), shadow_lights[i])
@@ -400,20 +493,23 @@ def pass_shadow_holes_kernel(
         retry_t_mins[i] = t_past(hit_t[i])
         wp.atomic_add(retries, 0, 1)
         return
-    if prim < 0:
+    if reached:
         blocked[i] = 0
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
 
 
 def occluded_through_holes(
-    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, links=None,
-    shadow_lights=None,
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, lights=None,
+    shadow_lights=None, scene=None,
 ) -> None:
     """``accel.occluded`` for shadow rays, which pass through the holes of cut-out materials (see the module
     docstring), and through geometry that casts no shadow of their light (shadow linking): rays the any-hit query
     reports blocked are traced for their closest hit, again from just past it while it is a hole or such geometry.
-    A ray still in a hole after the last pass stays blocked.
+    A ray still in a hole after the last pass stays blocked. A ray to an emissive triangle is not blocked by that
+    triangle itself: its any-hit query stops short of it (:func:`any_hit_end`) and the rest of the ray is decided by
+    its closest hit, which reaches the light where it is the sampled triangle (a bounce ray that hits it sees its
+    emission: the same rule of visibility for path's MIS).
 
     Args:
         accel: the :class:`wrt.trace.Accelerator`.
@@ -425,20 +521,40 @@ def occluded_through_holes(
         passes: run up to this many closest-hit passes without reading anything back to the host (for CUDA
             graph capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no
             ray needs another.
-        links: the lights' :class:`wrt.light_links.DeviceLinks`, or None (every geometry casts every shadow).
+        lights: the :class:`wrt.light_sampling.DeviceLights` the rays go to, or None (rays to no light, as ambient
+            occlusion's: every geometry casts every shadow).
         shadow_lights: ``(N,)`` int32 device array: the light each ray is the shadow ray of (-1: none), with
-            ``links``.
+            ``lights``.
+        scene: the :class:`wrt.scene.DeviceScene`, with ``lights`` that hold emissive triangles (for their
+            coincident partners).
     """
     origins, directions, t_mins, t_maxs = rays
-    if links is None or links.shadow_linked == 0:
-        links, shadow_lights = _no_links(scratch.device), blocked  # shadow_lights is not read then
-    accel.occluded(*rays, blocked)
-    if scratch.no_holes and links.shadow_linked == 0:
-        return
+    device = scratch.device
+    links, first_emitter = _no_links(device), NO_EMITTER
+    emitter_prims = emitter_instances = blocked  # not read without emitters
+    if lights is None:
+        shadow_lights = blocked  # not read then
+    else:
+        links = lights.links if lights.links.shadow_linked == 1 else links
+        if lights.count > lights.num_analytic:
+            if scene is None:
+                raise ValueError("occluded_through_holes: shadow rays to emissive triangles need the DeviceScene "
+                                 "(scene=) to tell the triangle they are aimed at from its coincident partners")
+            first_emitter, emitter_prims, emitter_instances = lights.num_analytic, lights.prims, lights.instances
+    recheck_blocked = not scratch.no_holes or links.shadow_linked == 1
     n = len(origins)
+    if first_emitter == NO_EMITTER:
+        accel.occluded(*rays, blocked)
+        if not recheck_blocked:
+            return
+    else:  # scratch.t_maxs holds the any-hit ends until start_shadow_holes_kernel writes the ranges to retrace
+        wp.launch(shorten_emitter_rays_kernel, n, inputs=[first_emitter, shadow_lights, t_maxs],
+                  outputs=[scratch.t_maxs], device=device)
+        accel.occluded(origins, directions, t_mins, scratch.t_maxs, blocked)
+    scene = DeviceScene() if scene is None else scene  # not read without emitters
     scratch.retries.zero_()
-    wp.launch(start_shadow_holes_kernel, n, inputs=[t_mins, t_maxs, blocked],
-              outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries], device=scratch.device)
+    wp.launch(start_shadow_holes_kernel, n, inputs=[int(recheck_blocked), first_emitter, shadow_lights, t_mins, t_maxs],
+              outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries], device=device)
     h = scratch.hits
 
     def one_pass():
@@ -447,12 +563,15 @@ def occluded_through_holes(
         wp.launch(
             pass_shadow_holes_kernel,
             n,
-            inputs=[surfaces, mats, links, shadow_lights, h.t, h.u, h.v, h.prim, h.instance],
+            inputs=[scene, surfaces, mats, links, first_emitter, emitter_prims, emitter_instances, shadow_lights,
+                    h.t, h.u, h.v, h.prim, h.instance],
             outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries],
-            device=scratch.device,
+            device=device,
         )
 
     limit = MAX_SHADOW_HOLE_PASSES if passes is None else passes
+    if not recheck_blocked:  # the ends of rays to emissive triangles alone: their closest hit decides them at once
+        limit = min(limit, 1)
     if repeat_passes(one_pass, scratch, limit, passes is not None):
         # One message for every call (warned once): a dense canopy, or a forest left out of a sun's shadowLink, would
         # otherwise be shadowed without a word.

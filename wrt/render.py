@@ -1360,12 +1360,13 @@ class Renderer:
     def _occluded(self, w: _Wavefront, to_lights: bool = True, shadows: ShadowRays | None = None):
         """``blocked`` of the shadow rays (``shadows``, or ``w``'s own), which pass through the holes of cut-outs (in
         :meth:`launch_frame` without reading back: :func:`wrt.hidden_hits.repeat_passes`) and, when they go
-        ``to_lights`` (their ``lights``), through the geometry that casts no shadow of their light."""
+        ``to_lights`` (their ``lights``), through the geometry that casts no shadow of their light, and not blocked
+        by the emissive triangle each is aimed at."""
         shadows = shadows or w.shadow_rays()
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
-        links = self.device_lights.links if to_lights else None
+        lights = self.device_lights if to_lights else None
         occluded_through_holes(self.accel, self.surfaces, self.materials, shadows.rays, shadows.blocked,
-                               shadows.scratch, passes, links, shadows.lights)
+                               shadows.scratch, passes, lights, shadows.lights, self.device_scene)
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)

@@ -29,7 +29,9 @@ Conventions:
   while it is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes (as many holes as camera and bounce rays pass);
   a ray still in a hole after them stays blocked, with a warning (none inside a recorded CUDA graph). Geometry that a
   light's ``collection:shadowLink`` leaves out is passed the same way by that light's shadow rays
-  (:mod:`wrt.light_links`).
+  (:mod:`wrt.light_links`). A shadow ray to an emissive triangle ends a few float32 rounding steps short of the
+  point sampled on it, as one to an analytic light does, and is not blocked by that triangle (or its coincident
+  partner there) where rounding puts it first: the end of the ray is traced for its closest hit.
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
 - The AOVs come from a ray through each pixel's centre and the lens centre. Colour samples jitter both

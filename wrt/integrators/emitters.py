@@ -11,7 +11,6 @@ from ..light_links import lit_by
 from ..light_sampling import (
     LIGHT_DISTANT,
     LIGHT_DOME,
-    LIGHT_TRIANGLE,
     DeviceLights,
     area_light_pdf,
     distant_in_cone,
@@ -19,7 +18,6 @@ from ..light_sampling import (
     dome_radiance,
     emission_shaping,
     intersect_light,
-    light_kind,
     light_texture,
     lobe_factor,
     sampled_alone,
@@ -28,12 +26,11 @@ from ..light_sampling import (
 from ..materials import DeviceMaterials
 from ..sampling import power_heuristic
 
-# Shadow rays to emissive triangles stop this fraction short: the triangle is geometry the ray must not hit itself.
-SHADOW_SHORTEN = wp.constant(1.0e-4)
-# Shadow rays to analytic lights (no geometry) stop, and every ray counts such a light behind what it hit, this
-# fraction of the largest distance or coordinate involved short: 16 float32 rounding steps, so a light flush with a
-# ceiling, at its distance but for rounding, is still reached. SHADOW_SHORTEN of the length lit a floor 1000 away
-# from a wall by a rect light 0.05 behind it.
+# Shadow rays stop, and every ray counts an analytic light behind what it hit, this fraction of the largest distance
+# or coordinate involved short: 16 float32 rounding steps, so a light flush with a ceiling, at its distance but for
+# rounding, is still reached. Rounding may still put an emissive triangle itself (geometry) before that end, which
+# blocks no shadow ray aimed at it (wrt.hidden_hits.occluded_through_holes). 1e-4 of the length (SHADOW_SHORTEN, as it
+# was) lit a floor 1000 away from a wall by a rect light, or a glowing quad, 0.05 behind it.
 ROUNDING_MARGIN = wp.constant(2.0**-20)
 
 
@@ -46,11 +43,10 @@ def rounding_margin(o: wp.vec3, end: wp.vec3, length: float):
 
 
 @wp.func
-def shadow_length(lights: DeviceLights, k: int, o: wp.vec3, end: wp.vec3, length: float):
-    """Where a shadow ray from ``o`` to the point ``end`` of light ``k``, ``length`` away, stops: SHADOW_SHORTEN
-    short of an emissive triangle, :func:`rounding_margin` short of an analytic light."""
-    if light_kind(lights, k) == LIGHT_TRIANGLE:
-        return length * (1.0 - SHADOW_SHORTEN)
+def shadow_length(o: wp.vec3, end: wp.vec3, length: float):
+    """Where a shadow ray from ``o`` to the point ``end`` of a light, ``length`` away, stops: :func:`rounding_margin`
+    short of it, for analytic lights and emissive triangles alike (the triangle that a ray is aimed at does not block
+    it: :func:`wrt.hidden_hits.occluded_through_holes`)."""
     return length - rounding_margin(o, end, length)
 
 

@@ -57,16 +57,17 @@ def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.v
     ``u`` draws the reach in a ShadowAPI falloff zone (:func:`wrt.light_sampling.shadow_reach`).
 
     Aimed from ``o`` at the sampled point, not along ``wi``: the ray along ``wi`` from ``o`` ended ``o - p`` away from
-    that point (2e-5 on a floor 40 across), further than SHADOW_SHORTEN keeps it from an emissive triangle where the
-    light is seen obliquely, and crossed the emitter's own surface there: a finely tessellated glowing sphere shadowed
-    1.3% of its own light. It stops short of the light by :func:`wrt.integrators.emitters.shadow_length`."""
+    that point (2e-5 on a floor 40 across), further than the 1e-4 of its length it then stopped short of an emissive
+    triangle where the light is seen obliquely, and crossed the emitter's own surface there: a finely tessellated
+    glowing sphere shadowed 1.3% of its own light. It stops short of the light by
+    :func:`wrt.integrators.emitters.shadow_length`."""
     if dist == wp.inf:
         return shadow_direction(lights, k, wi), shadow_reach(lights, k, float(wp.inf), u)
     to = p + dist * wi - o
     length = stable_length(to)
     if length <= 0.0:
         return wp.vec3(0.0), 0.0
-    reach = shadow_length(lights, k, o, o + to, length)
+    reach = shadow_length(o, o + to, length)
     return shadow_direction(lights, k, to / length), shadow_reach(lights, k, reach, u)
 
 
