@@ -74,8 +74,8 @@ def test_a_camera_under_a_light_flush_with_the_ceiling_sees_the_light(integrator
 @pytest.mark.parametrize("distance", [1.0, 1e3, 1e4])
 def test_a_camera_far_from_a_wall_does_not_see_a_light_behind_it(integrator, distance):
     """A rect light 0.05 behind an opaque wall, facing the camera through it, lights nothing the camera sees: the
-    wall, unlit, is black from any distance. Camera rays counted a light at t where t (1 - SHADOW_SHORTEN) < t_max,
-    the shadow rays' margin (1e-4 of their length) taken of the camera's distance, so from 1000 away the light
+    wall, unlit, is black from any distance. Camera rays counted a light at t where t (1 - 1e-4) < t_max, the
+    shadow rays' old margin (1e-4 of their length) taken of the camera's distance, so from 1000 away the light
     showed through the wall (its full radiance, 2). A flush light is still seen (the test above)."""
     wall = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/wall")
     to_world = np.eye(4)
@@ -108,9 +108,9 @@ def floor_beside_a_wall_with_a_light_behind_it(distance, wall=True):
 def test_a_floor_far_from_a_wall_gets_no_light_from_behind_it(integrator, distance):
     """Direct light (``max_depth`` 1) on a floor ``distance`` from a wall, from a rect light 0.05 behind the wall, is
     0 (the wall blocks all of it): without the wall the same floor is lit. Shadow rays stopped 1e-4 of their length
-    short of the light, and scattered rays counted a light 1e-4 of its distance behind what they hit
-    (SHADOW_SHORTEN), so from 1000 away the floor was lit through the wall; now both margins are a few float32
-    rounding steps of the distances and coordinates involved."""
+    short of the light, and scattered rays counted a light 1e-4 of its distance behind what they hit, so from 1000
+    away the floor was lit through the wall; now both margins are a few float32 rounding steps of the distances and
+    coordinates involved."""
     cam = top_down_camera((distance, 0.0, 0.0), height=1.0, distance=1.0)
     kwargs = dict(camera=cam, width=4, height=4, spp=16, seed=3, device="cpu", integrator=integrator, max_depth=1)
     lit = wrt.render(floor_beside_a_wall_with_a_light_behind_it(distance, wall=False), **kwargs)

@@ -1,8 +1,8 @@
 """Emissive triangles (a glowing material, a mesh light, a glowing quad inside an instance) just behind an opaque
 wall light nothing in front of the wall, however far away: the wall blocks every straight path from the quad (a
 float64 oracle of the scene's geometry needs no more than that). Shadow rays to an emissive triangle stopped 1e-4 of
-their length short of it (SHADOW_SHORTEN), so that they would not hit the triangle itself, which from 1000 away is
-0.1, past a wall 0.05 in front of the quad: the floor was lit through it."""
+their length short of it, so that they would not hit the triangle itself, which from 1000 away is 0.1, past a wall
+0.05 in front of the quad: the floor was lit through it."""
 
 import numpy as np
 import pytest
