@@ -234,3 +234,24 @@ def test_a_layer_of_normals_is_named_for_its_axis_not_its_units(tmp_path):
     (message,) = unit_warnings(stage, "upAxis")
     assert "(normals.usda: none authored, so USD's fallback Y)" in message and "geo.usda" not in message, message
     assert unit_warnings(stage) == []
+
+
+def test_a_layer_of_mesh_normals_is_named_for_its_axis_not_its_units(tmp_path):
+    """The same for the mesh's own ``normals`` attribute (UsdGeom.PointBased, no primvar): a direction without
+    length, so it is named for its upAxis alone. It was named for its metersPerUnit too, as any attribute outside
+    ``primvars:`` counted as a length."""
+    geo = write(tmp_path, "geo.usda", 'def Xform "Chair"\n{\n' + MESH.format(name="Seat") + "}\n",
+                "metersPerUnit = 1", axis="Z")
+    normals = write(tmp_path, "normals.usda", 'over "Chair"\n{\n    over "Seat"\n    {\n'
+                    '        normal3f[] normals = [(0, 1, 0)]\n    }\n}\n', axis=None)
+    stage = write(tmp_path, "scene.usda", 'def "Chair" (\n    prepend references = [@./normals.usda@</Chair>, '
+                  '@./geo.usda@</Chair>]\n)\n{\n}\n', "metersPerUnit = 1", axis="Z")
+    # The oracle: USD composes the attribute as the mesh's normals (role Normal: a direction), the layer alone Y-up
+    # and in centimetres.
+    opened = Usd.Stage.Open(stage)
+    attr = UsdGeom.Mesh(opened.GetPrimAtPath("/Chair/Seat")).GetNormalsAttr()
+    assert attr.GetTypeName().role == "Normal" and tuple(attr.Get()[0]) == (0, 1, 0)
+    assert axis_alone(normals) == "Y" and units_alone(normals) == 0.01 and units_alone(geo) == units_alone(stage) == 1
+    (message,) = unit_warnings(stage, "upAxis")
+    assert "(normals.usda: none authored, so USD's fallback Y)" in message, message
+    assert unit_warnings(stage) == []

@@ -203,17 +203,18 @@ def _sized_spec(spec: Sdf.PrimSpec, directions: bool = False) -> bool:
 
 def _sized_attribute(name: str, type_name: Sdf.ValueTypeName, directions: bool) -> bool:
     """An attribute (of an Xform or an ``over``) whose value is in its layer's units or axis: any but
-    :data:`_UNSIZED_ATTRIBUTES` and primvars, and of primvars ``widths`` and those of a point or vector type (a
-    length and a direction); with ``directions`` also ``normals`` and primvars of a normal type, which turn with the
-    layer's axis but have no length (a layer of normals alone is named for its upAxis, not its units)."""
+    :data:`_UNSIZED_ATTRIBUTES`, primvars and normals, and of primvars ``widths`` and those of a point or vector
+    type (a length and a direction); with ``directions`` also normals (``normals``, ``primvars:normals`` and any
+    attribute of a normal type), which turn with the layer's axis but have no length (a layer of normals alone is
+    named for its upAxis, not its units)."""
     if name in _UNSIZED_ATTRIBUTES:
         return False
+    role = type_name.role
+    if role == "Normal" or name in ("normals", "primvars:normals") or name.startswith("primvars:normals:"):
+        return directions  # directions: they turn with the axis but have no length
     if not name.startswith("primvars:") or name.startswith("primvars:widths"):
         return True
-    role = type_name.role
-    if role in ("Point", "Vector"):
-        return True
-    return directions and (role == "Normal" or name == "primvars:normals" or name.startswith("primvars:normals:"))
+    return role in ("Point", "Vector")
 
 
 def _sublayer_identifiers(layers) -> set[str]:
