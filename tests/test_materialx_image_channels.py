@@ -103,6 +103,32 @@ def base_color_of(tmp_path, png, node_type, chain) -> np.ndarray:
     return albedo(scene, 2).reshape(-1, 3).mean(axis=0)
 
 
+def emitted_channel(tmp_path, png, node_type, chain=(), in2=None, index: int = 3) -> np.ndarray:
+    """The rgb of a 2 x 2 render of a quad that reflects nothing and emits white times ``emission_luminance``,
+    channel ``index`` (``extract``; the fourth by default) of ``chain`` after an ``ND_image_<node_type>`` of
+    ``png``; ``in2``: the constant second input of the chain's first node (of ``node_type``). No node may be
+    refused or the image unread (no such warning)."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+    last = image_node(stage, "/Looks/Image", png, node_type, chain)
+    if in2 is not None:
+        UsdShade.Shader.Get(stage, "/Looks/Image/Node0").CreateInput("in2", USD_TYPES[node_type]).Set(in2)
+    out_type = chain[-1].split("_")[-1] if chain else node_type
+    pick = UsdShade.Shader.Define(stage, "/Looks/Image/Pick")
+    pick.CreateIdAttr(f"ND_extract_{out_type}")
+    pick.CreateInput("in", USD_TYPES[out_type]).ConnectToSource(last.ConnectableAPI(), "out")
+    pick.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(pick.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if any(w in m for w in ("not supported", "comes from", "/Looks/Image/Image"))], \
+        messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    return wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+
+
 def test_a_vector2_image_converted_to_a_colour_has_no_third_channel(tmp_path):
     """A ``vector2`` image of an RGB file plus a constant vector2, converted to a colour (vector3, then color3), is
     ``(r + 0.1, g + 0.2, 0)``: the node outputs the file's first two channels, the add offsets those two, and the
@@ -144,21 +170,7 @@ def test_the_fourth_channel_of_an_image_node_is_the_files_fourth_or_one(tmp_path
     PNG's alpha is its second channel (the node's g), not its fourth. It was the alpha UsdUVTexture reads, so an
     R G EXR emitted its G, a grey + alpha PNG its alpha."""
     png, channels = write_file(tmp_path, kind)
-    stage, path = new_stage(tmp_path)
-    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
-    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
-    image = image_node(stage, "/Looks/Image", png, node_type)
-    fourth = UsdShade.Shader.Define(stage, "/Looks/Image/Fourth")
-    fourth.CreateIdAttr(f"ND_extract_{node_type}")
-    fourth.CreateInput("in", USD_TYPES[node_type]).ConnectToSource(image.ConnectableAPI(), "out")
-    fourth.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
-    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(fourth.ConnectableAPI(), "out")
-    bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    scene, messages = load(path)
-    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
-    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
-    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+    rgb = emitted_channel(tmp_path, png, node_type)
     np.testing.assert_allclose(rgb, materialx_output(channels, 4)[3], atol=2e-3)
 
 
@@ -175,27 +187,9 @@ def test_an_image_node_of_fewer_channels_widened_to_four_has_a_fourth_of_one(tmp
     MaterialX's convert from three channels adds a fourth of 1. It was the file's alpha (0.8 here)."""
     png, channels = write_file(tmp_path, "png RGBA")
     assert channels[3] < 0.9
-    stage, path = new_stage(tmp_path)
-    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
-    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
     chain = ([f"ND_multiply_{node_type}"] if multiply else []) + TO_FOUR[node_type]
-    last = image_node(stage, "/Looks/Image", png, node_type, chain)
-    if multiply:  # by 0.5 in every channel of the node's own
-        UsdShade.Shader.Get(stage, "/Looks/Image/Node0").CreateInput("in2", USD_TYPES[node_type]).Set(
-            (0.5,) * SIZES[node_type])
-    four = chain[-1].split("_")[-1]
-    fourth = UsdShade.Shader.Define(stage, "/Looks/Image/Fourth")
-    fourth.CreateIdAttr(f"ND_extract_{four}")
-    fourth.CreateInput("in", USD_TYPES[four]).ConnectToSource(last.ConnectableAPI(), "out")
-    fourth.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
-    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(fourth.ConnectableAPI(), "out")
-    bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    scene, messages = load(path)
-    assert not [m for m in messages if "not supported" in m or "/Looks/Image/Image" in m], messages
-    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
-    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
-    np.testing.assert_allclose(rgb, 1.0, atol=2e-3)
+    in2 = (0.5,) * SIZES[node_type] if multiply else None  # by 0.5 in every channel of the node's own
+    np.testing.assert_allclose(emitted_channel(tmp_path, png, node_type, chain, in2), 1.0, atol=2e-3)
 
 
 def uv_texture_material(stage, path, png):
@@ -336,22 +330,7 @@ def test_a_convert_that_drops_an_images_fourth_channel_adds_it_back_as_one(tmp_p
     node_type = case.split()[0]
     chain, index = FOURTH_DROPPED[case]
     png, channels = write_file(tmp_path, "png RGBA")
-    stage, path = new_stage(tmp_path)
-    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
-    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
-    last = image_node(stage, "/Looks/Image", png, node_type, chain)
-    four = chain[-1].split("_")[-1]
-    pick = UsdShade.Shader.Define(stage, "/Looks/Image/Pick")
-    pick.CreateIdAttr(f"ND_extract_{four}")
-    pick.CreateInput("in", USD_TYPES[four]).ConnectToSource(last.ConnectableAPI(), "out")
-    pick.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
-    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(pick.ConnectableAPI(), "out")
-    bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    scene, messages = load(path)
-    assert not [m for m in messages if "not supported" in m or "comes from" in m], messages
-    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
-    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
+    rgb = emitted_channel(tmp_path, png, node_type, chain, index=index)
     expected = network_output(node_type, channels, chain)[index]
     assert expected != channels[index]
     np.testing.assert_allclose(rgb, expected, atol=2e-3)
