@@ -42,6 +42,26 @@ def set_transform(prim: Usd.Prim, m: np.ndarray) -> None:
     UsdGeom.Xformable(prim).AddTransformOp().Set(Gf.Matrix4d(np.asarray(m, np.float64).T.tolist()))
 
 
+def native_instance(stage: Usd.Stage) -> UsdGeom.Xform:
+    """An instanceable ``/World/I`` of the prototype ``/Protos/P`` (an Xform under a class prim), both made here."""
+    stage.CreateClassPrim("/Protos")
+    UsdGeom.Xform.Define(stage, "/Protos/P")
+    instance = UsdGeom.Xform.Define(stage, "/World/I")
+    instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
+    instance.GetPrim().SetInstanceable(True)
+    return instance
+
+
+def define_gprims(stage: Usd.Stage, parent: str, gprims: dict) -> None:
+    """Double-sided gprims under ``parent``, one per ``type name: (attributes, translate)`` of ``gprims``."""
+    for type_name, (attrs, translate) in gprims.items():
+        prim = stage.DefinePrim(f"{parent}/{type_name}", type_name)
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(*translate))
+        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
+        for key, value in attrs.items():
+            prim.GetAttribute(key).Set(value)
+
+
 def write_far_stage(path: str, position: float, instanced: bool) -> tuple[Usd.Stage, list[np.ndarray]]:
     """The gprims side by side near ``(position, -position / 2, position / 4)``, scaled non-uniformly and turned:
     each placed directly, or by an instanceable prim (scale ``(2, 0.5, 1)``) of a prototype holding it (scaled
@@ -191,20 +211,11 @@ def write_off_centre_stage(path: str, position: float, instancer: str) -> Usd.St
         points.CreateOrientationsAttr([ORIENTATION])
         proto = "/World/Points/Proto"
     else:
-        stage.CreateClassPrim("/Protos")
-        UsdGeom.Xform.Define(stage, "/Protos/P")
-        instance = UsdGeom.Xform.Define(stage, "/World/I")
-        instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
-        instance.GetPrim().SetInstanceable(True)
+        instance = native_instance(stage)
         instance.AddTranslateOp().Set(Gf.Vec3d(where))
         instance.AddRotateXYZOp().Set(Gf.Vec3f(*TURN_XYZ))
         proto = "/Protos/P"
-    for type_name, (attrs, translate) in OFF_CENTRE.items():
-        prim = stage.DefinePrim(f"{proto}/{type_name}", type_name)
-        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(*translate))
-        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
-        for key, value in attrs.items():
-            prim.GetAttribute(key).Set(value)
+    define_gprims(stage, proto, OFF_CENTRE)
     stage.GetRootLayer().Save()
     return stage
 
@@ -286,18 +297,9 @@ def test_shapes_far_inside_their_prototype_keep_float32s_local_precision(tmp_pat
     path = str(tmp_path / "far_inside.usda")
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.Xform.Define(stage, "/World")
-    stage.CreateClassPrim("/Protos")
-    UsdGeom.Xform.Define(stage, "/Protos/P")
-    instance = UsdGeom.Xform.Define(stage, "/World/I")
-    instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
-    instance.GetPrim().SetInstanceable(True)
+    instance = native_instance(stage)
     instance.AddRotateZOp().Set(turn)  # a quarter turn swaps x and y: the world centres stay float32 numbers
-    for type_name, (attrs, translate) in FAR_INSIDE.items():
-        prim = stage.DefinePrim(f"/Protos/P/{type_name}", type_name)
-        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(*translate))
-        UsdGeom.Gprim(prim).CreateDoubleSidedAttr(True)
-        for key, value in attrs.items():
-            prim.GetAttribute(key).Set(value)
+    define_gprims(stage, "/Protos/P", FAR_INSIDE)
     stage.GetRootLayer().Save()
     scene = load(path)
     centres = [m[3, :3] for _, _, m in oracle.placements(stage)]
@@ -320,17 +322,11 @@ def test_a_sphere_far_inside_a_turned_instance_is_shaded_on_the_sphere_traced(tm
     path = str(tmp_path / "turned.usda")
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.Xform.Define(stage, "/World")
-    stage.CreateClassPrim("/Protos")
-    UsdGeom.Xform.Define(stage, "/Protos/P")
-    instance = UsdGeom.Xform.Define(stage, "/World/I")
-    instance.GetPrim().GetReferences().AddInternalReference("/Protos/P")
-    instance.GetPrim().SetInstanceable(True)
+    instance = native_instance(stage)
     origin = np.array([3.25, -1.5, 7.0])
     instance.AddTranslateOp().Set(Gf.Vec3d(*origin))
     instance.AddRotateXYZOp().Set(Gf.Vec3f(*TURN_XYZ))
-    sphere = stage.DefinePrim("/Protos/P/Sphere", "Sphere")
-    UsdGeom.Xformable(sphere).AddTranslateOp().Set(Gf.Vec3d(*FAR_INSIDE["Sphere"][1]))
-    UsdGeom.Gprim(sphere).CreateDoubleSidedAttr(True)
+    define_gprims(stage, "/Protos/P", {"Sphere": ({}, FAR_INSIDE["Sphere"][1])})  # radius 1: the schema's fallback
     stage.GetRootLayer().Save()
     scene = load(path)
     ((_, _, m),) = oracle.placements(stage)
