@@ -29,11 +29,12 @@ def unit_towards(p: wp.vec3, q: wp.vec3):
 
 @wp.func
 def triangle_solid_angle(a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """Solid angle of the spherical triangle of unit vectors ``a, b, c`` (Van Oosterom and Strackee)."""
+    """Solid angle of the spherical triangle of unit vectors ``a, b, c`` (Van Oosterom and Strackee). The numerator
+    is never negative, so ``atan2`` gives the half-angle in ``[0, pi]`` itself: no correction of a negative one, as
+    the plain arctangent of their quotient would need."""
     numerator = wp.abs(wp.dot(a, wp.cross(b, c)))
     denominator = 1.0 + wp.dot(a, b) + wp.dot(b, c) + wp.dot(c, a)
-    angle = wp.atan2(numerator, denominator)
-    return 2.0 * wp.where(angle < 0.0, angle + PI, angle)
+    return 2.0 * wp.atan2(numerator, denominator)
 
 
 @wp.func
