@@ -1630,10 +1630,11 @@ class MaterialReader:
         return asset_in_layer(text, _authoring_layer(_source_attribute(shader, name), self.time))
 
     def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str,
-                    layout: str = "preview") -> np.ndarray:
+                    layout: str) -> np.ndarray:
         """``(UDIM_TILES,)`` int32 images of the tiles of UDIM pattern ``authored`` (-1: no such file), found as
         ``UsdShade.UdimUtils`` resolves them: relative to the layer that authored ``attr``'s value (also inside a
-        ``.usdz``), tiles 1001 to 1100. No tile at all is reported once per pattern, naming ``material_path``."""
+        ``.usdz``), tiles 1001 to 1100, their texels laid out as ``layout`` (:meth:`_load`). No tile at all is reported
+        once per pattern, naming ``material_path``."""
         from pxr import UsdShade
 
         layer = _authoring_layer(attr, self.time)
@@ -1656,7 +1657,7 @@ class MaterialReader:
                       f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
         return self._udim[key]
 
-    def _image(self, asset, color_space: str, prim, layout: str = "preview") -> int:
+    def _image(self, asset, color_space: str, prim, layout: str) -> int:
         """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures` (laid out as ``layout``:
         :meth:`_load`); -1 (with a warning) when it cannot be read."""
         from pxr import Sdf
@@ -1681,7 +1682,7 @@ class MaterialReader:
         self._tell_file_problem(key, prim)
         return self._images[key]
 
-    def _load(self, resolved: str, authored: str, color_space: str, prim, layout: str = "preview") -> int:
+    def _load(self, resolved: str, authored: str, color_space: str, prim, layout: str) -> int:
         """Index of the image at ``resolved`` in :attr:`textures`, read on first use, its texels laid out as
         ``layout`` reads them: ``preview`` as :func:`wrt.textures.load_image` decodes them (UsdUVTexture's
         channels: grey repeated into r, g and b, two channels grey + alpha), ``materialx`` as a MaterialX image node
