@@ -219,9 +219,10 @@ def test_a_normalized_area_light_too_small_for_its_radiance_is_named_in_a_warnin
         light = wrt.DiskLight(to_world=down, radius=1e-20, color=color, normalize=True, path="/Tiny")
     assert not np.isfinite(light.radiance).any()
     dome = wrt.DomeLight(color=color, path="/Dome")
-    with pytest.warns(UserWarning, match=r"/Tiny: normalized, too small for its radiance .* to fit in float32"):
+    with pytest.warns(UserWarning, match=r"/Tiny: normalized, too small for its radiance .* to fit in float32") as got:
         img = wrt.render(wrt.Scene(meshes=[plane], lights=[light, dome]), camera=cam, width=2, height=2, spp=2,
                          device="cpu", integrator="path", max_depth=1)
+    assert [w.filename for w in got if "/Tiny" in str(w.message)] == [__file__]  # the caller's line, not wrt's
     # the grey plane under the dome alone: 0.5 (float64), as the scene without the light draws it
     reference = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=2, height=2, spp=2,
                            device="cpu", integrator="path", max_depth=1)
@@ -239,7 +240,8 @@ def test_a_normalized_mesh_light_too_small_for_its_radiance_is_named_in_a_warnin
     lights = [wrt.DomeLight(color=np.ones(3, np.float32), path="/Dome"),
               wrt.MeshLight(path="/tiny", color=np.ones(3, np.float32), normalize=True,
                             material_sync="noMaterialResponse")]
-    with pytest.warns(UserWarning, match=r"MeshLight /tiny: normalized, too small for its radiance"):
+    with pytest.warns(UserWarning, match=r"MeshLight /tiny: normalized, too small for its radiance") as got:
         img = wrt.render(wrt.Scene(meshes=[plane, tiny], lights=lights), camera=cam, width=2, height=2, spp=2,
                          device="cpu", integrator="path", max_depth=1)
+    assert [w.filename for w in got if "/tiny" in str(w.message)] == [__file__]  # the caller's line, not wrt's
     np.testing.assert_allclose(img.rgb, 0.5, rtol=1e-6)  # the grey plane under the dome alone (float64)

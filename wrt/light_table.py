@@ -926,7 +926,8 @@ def _warn_unbounded(lights: list, triangles: int) -> None:
     """Names mesh ``lights`` too small for their radiance to fit in float32, whose ``triangles`` light nothing."""
     names = ", ".join(f"MeshLight {light.path or '<light>'}" for light in lights[:5])
     warnings.warn(f"{names}{' and more' if len(lights) > 5 else ''}: normalized, too small for its radiance "
-                  f"(intensity / area) to fit in float32: its {triangles} triangle(s) light nothing", stacklevel=5)
+                  f"(intensity / area) to fit in float32: its {triangles} triangle(s) light nothing",
+                  stacklevel=user_stacklevel())
 
 
 def _too_small(light) -> bool:
@@ -936,7 +937,8 @@ def _too_small(light) -> bool:
     if not (isinstance(light, (RectLight, DiskLight)) and light.normalize) or np.isfinite(light.radiance).all():
         return False
     warnings.warn(f"{type(light).__name__} {light.path or '<light>'}: normalized, too small for its radiance "
-                  f"(intensity / area {light.area:.3g}) to fit in float32: it lights nothing", stacklevel=4)
+                  f"(intensity / area {light.area:.3g}) to fit in float32: it lights nothing",
+                  stacklevel=user_stacklevel())
     return True
 
 
