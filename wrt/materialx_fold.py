@@ -211,10 +211,10 @@ def _convert(node, found: Folded, in_type: str, out_type: str) -> Folded:
     """``convert`` of ``found`` from ``in_type`` to ``out_type``, as the specification's channel nodes define it: a
     float fills every channel; of more channels the first are kept; of fewer they are copied and the ones added are
     0, but for a fourth of 1. A texture's channels past those kept read that 0 or 1 (scale 0, bias 0 or 1), as an
-    image node's past its own type do, and a primvar's third is scaled by 0: a convert passed them through, so a
-    vector3 image narrowed to a vector2 and widened again showed the file's blue (a color4's alpha likewise). A
-    texture read as one channel broadcast holds a float repeated; widened past the channels it was repeated into,
-    it would need ``(x, x, 0)``, which no scale of one broadcast channel reads: that is refused, naming the node."""
+    image node's past its own type do, and a primvar's third is scaled by 0, so that a vector3 image narrowed to a
+    vector2 and widened again shows no blue of the file (a color4's alpha likewise). A texture read as one channel
+    broadcast holds a float repeated; widened past the channels it was repeated into, it would need ``(x, x, 0)``,
+    which no scale of one broadcast channel reads: that is refused, naming the node."""
     n, m = TYPE_SIZES[in_type], TYPE_SIZES[out_type]
     value, source = _converted(found.value, m), found.source
     if source is None:
@@ -246,7 +246,7 @@ def _convert(node, found: Folded, in_type: str, out_type: str) -> Folded:
 def _extract(node, found: Folded, index: Folded, in_type: str) -> Folded:
     """``extract``: channel ``index`` of ``found`` (of type ``in_type``); of an rgb texture that channel's output.
     An index that is no channel of ``in_type`` (2 of a vector2, 3 of a colour3, negative, fractional) has no value
-    in MaterialX: it is refused, saying so, where a vector2's was its x again and a colour3 texture's its alpha."""
+    in MaterialX: it is refused, saying so."""
     if index.source is not None:
         raise Unfoldable(node)
     k, size = float(index.value[0]), TYPE_SIZES[in_type]

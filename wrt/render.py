@@ -1473,10 +1473,9 @@ class Renderer:
 
     def _warn_dropped(self, spp: int, resumed: bool = False) -> None:
         """Warns of the samples left out of the image the last render (or frame) returned (:attr:`dropped_samples`),
-        of the ``spp`` per pixel it adds up (``resumed``: over several renders): counted alone, they darkened the
-        image without a word (a dome of 1e38 drew a black one, before wrt.radiance_scale). A render with
-        ``resume=True`` counts, and names, every sample of its image, as one render of them all would: its count
-        read as the new samples' alone, the warnings of a few resumes seemed to add up to more than were dropped."""
+        of the ``spp`` per pixel it adds up (``resumed``: over several renders), as they darken the pixels they fell
+        in. A render with ``resume=True`` counts, and names, every sample of its image, as one render of them all
+        would, so that the warnings of several resumes do not add up to more than were dropped."""
         if self.dropped_samples:
             over = f"of the image's {spp} sample(s) per pixel" + (", resumed renders included" if resumed else "")
             warnings.warn(f"{self.scene.source or 'scene'}: {self.dropped_samples} sample(s) were not finite, or "

@@ -245,7 +245,7 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, tuple[int,
         grey = np.asarray(img, dtype=np.float32)
         alpha = _transparent_sample_alpha(img, grey, 255 // (2**depth - 1))
         return *_grey_rgba(grey / 255.0, alpha), False, tagged
-    if mode in ("1", "L", "LA"):  # "1": a 1-bit grey PNG, one channel (it was read as colour: RGB places)
+    if mode in ("1", "L", "LA"):  # "1": a 1-bit grey PNG, one grey channel as "L" has
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
@@ -433,7 +433,7 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
         except ValueError as e:
             raise TextureError(f"EXR {name}: {e}") from None
     # The channels read, in R G B A order (Y only without colour), are the texture's channels as the specification
-    # counts them: Z or another layer's beside them made R alone read red, and R G read (R, G, 0, 1).
+    # counts them; Z and other layers' channels beside them do not count.
     read = (colour or [c for c in "Y" if c in mapped]) + [c for c in "A" if c in mapped]
     if len(read) <= 2:  # grey, alpha the second channel or 1
         return _grey_rgba(mapped[read[0]], mapped[read[1]] if len(read) == 2 else None)

@@ -108,10 +108,8 @@ def lights_on_segment(
     ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
     and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A light at ``t`` counts where geometry
     at ``t_max`` would not block a shadow ray to it, which stops :func:`rounding_margin` short
-    (:func:`shadow_length`): ``t - margin < t_max``, for camera rays too. A light flush with a ceiling,
-    which next-event estimation reaches, lay at the ceiling's distance and was left out: the path tracer's
-    BSDF-sampled rays lost their MIS share of it (a floor 0.37 below a rect light got 0.67 of its light) and cameras
-    saw the ceiling.
+    (:func:`shadow_length`): ``t - margin < t_max``, for camera rays too, so that a light flush with a ceiling, which
+    next-event estimation reaches, is met by BSDF-sampled rays (their MIS share of it) and seen by cameras.
     A camera ray of an orthographic camera whose near plane lies behind it has ``t_min < 0``: the lights are
     intersected from its start, ``o + t_min d``, as :func:`intersect_light` finds only hits ahead of its origin (a
     light between the near plane and the camera was not seen, where geometry there was); for ``t_min >= 0`` the
