@@ -527,23 +527,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
                           "harmonic past 3.4e38): its dome term is clamped to float32's largest",
                           stacklevel=user_stacklevel())
 
-    # Selection probabilities.
     n = num_analytic + len(tris.ids)
-    power = np.concatenate([np.asarray(h.power, np.float64), tris.power])
-    power = np.maximum(np.nan_to_num(power, nan=0.0), 0.0)
-    pmf = np.zeros(max(n, 1))
-    if n:
-        pmf[:n] = 0.5 / n + (0.5 * power / power.sum() if power.sum() > 0 else 0.5 / n)
-        pmf[:n] /= pmf[:n].sum()
-    cdf = np.concatenate([[0.0], np.cumsum(pmf[:n])]) if n else np.array([0.0, 1.0])
-    if n:
-        # The cdf on the grid of the uniform numbers that draw from it (multiples of 2^-24, wp.randf; float32 holds
-        # them exactly), each pmf the step that draws it: sample_cdf picks k for the u in [cdf[k], cdf[k + 1]), and
-        # the float32 rounding of the power shares and of their sums drew lights up to 2.4% more or less often than
-        # their light was divided by (200,000 emitters; 7.7% at a million), a fixed pattern no sample count removed.
-        cdf = np.round(cdf * SELECTION_GRID) / SELECTION_GRID
-        cdf[-1] = 1.0
-        pmf[:n] = np.diff(cdf)
+    pmf, cdf = _selection(np.concatenate([np.asarray(h.power, np.float64), tris.power]))
 
     e = len(tris.ids)
     owned = tris.owner >= 0
@@ -660,6 +645,27 @@ def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow
     if len(tri_radiance):
         brightest = max(brightest, float(np.max(np.abs(tri_radiance).max(axis=1) * tri_glow)))
     return brightest
+
+
+def _selection(power: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(pmf, cdf)`` float64 of drawing each of the ``n`` lights of ``power`` (NaN and negative powers as 0): half
+    by power, half uniformly; ``pmf`` has ``max(n, 1)`` entries, ``cdf`` ``n + 1`` (``[0, 1]`` for none).
+
+    The cdf lies on the grid of the uniform numbers that draw from it (multiples of 2^-24, wp.randf; float32 holds
+    them exactly) and each pmf is the step that draws it, as sample_cdf picks k for the u in ``[cdf[k], cdf[k + 1])``:
+    the float32 rounding of the power shares and of their sums would draw lights up to 2.4% more or less often than
+    their light is divided by (200,000 emitters; 7.7% at a million), a fixed pattern no sample count removes."""
+    n = len(power)
+    power = np.maximum(np.nan_to_num(power, nan=0.0), 0.0)
+    pmf = np.zeros(max(n, 1))
+    if not n:
+        return pmf, np.array([0.0, 1.0])
+    pmf[:n] = 0.5 / n + (0.5 * power / power.sum() if power.sum() > 0 else 0.5 / n)
+    pmf[:n] /= pmf[:n].sum()
+    cdf = np.round(np.concatenate([[0.0], np.cumsum(pmf[:n])]) * SELECTION_GRID) / SELECTION_GRID
+    cdf[-1] = 1.0
+    pmf[:n] = np.diff(cdf)
+    return pmf, cdf
 
 
 def _emitter_cdf(pmf: np.ndarray) -> np.ndarray:
