@@ -508,18 +508,10 @@ def build_lights(lights: list, scene, material_emission: list, device,
         if num_analytic:
             h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
 
-    # Every emitted radiance times a power of two that brings the brightest near 1 (wrt.radiance_scale): the lights'
-    # radiance, the dome's harmonics and the triangles' radiance factors that do not multiply their material's glow
-    # (which is scaled with the materials).
+    # Every emitted radiance times a power of two that brings the brightest near 1 (wrt.radiance_scale).
     if glow is None:
         glow = np.array([float(np.max(e)) for e in material_emission] or [0.0])
-    tri_glow = np.where(tris.params[:, 0] > 0.0, glow[scene.triangle_materials()[tris.ids]], 1.0) if len(tris.ids) \
-        else np.zeros(0)
-    scale = radiance_scale(_brightest(h, textured, tris.radiance, tri_glow, glow))
-    tri_radiance = tris.radiance
-    if scale != 1.0:  # (a row at a time took 0.3 s for 100,000 lights)
-        h.radiance = np.asarray(h.radiance, np.float64).reshape(-1, 3) * scale
-        tri_radiance = np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
+    scale, tri_radiance = _scaled_radiance(h, textured, tris, glow, scene.triangle_materials())
     if dome is not None:
         dome_sh, past = device_coefficients(dome_sh * scale)
         if past:
@@ -615,6 +607,22 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
     return d, tris.unsampled
+
+
+def _scaled_radiance(h: HostLights, textured: dict, tris: EmitterTriangles, glow: np.ndarray,
+                     tri_materials: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(scale, triangle radiance)``: the power of two that brings the brightest emitted radiance near 1
+    (:func:`wrt.radiance_scale.radiance_scale` of :func:`_brightest`; ``glow`` per device material, ``tri_materials``
+    the scene's per triangle), ``h.radiance`` made times it in place, and the triangles' radiance factors times it
+    where they do not multiply their material's glow (which is scaled with the materials). The dome's harmonics are
+    the caller's to scale."""
+    tri_glow = np.where(tris.params[:, 0] > 0.0, glow[tri_materials[tris.ids]], 1.0) if len(tris.ids) \
+        else np.zeros(0)
+    scale = radiance_scale(_brightest(h, textured, tris.radiance, tri_glow, glow))
+    if scale == 1.0:
+        return scale, tris.radiance
+    h.radiance = np.asarray(h.radiance, np.float64).reshape(-1, 3) * scale  # (a row at a time: 0.3 s for 100k lights)
+    return scale, np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
 
 
 def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow: np.ndarray,
