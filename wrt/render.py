@@ -428,19 +428,19 @@ def capturing_graph(device) -> wp.Graph | None:
 SHORT_REPRS = ("integrator", "max_depth", "ao_radius", "width", "height", "device", "batched")  # shown when assigned
 
 
-def fixed_setting(name: str, made_by: str, instead: str | None = None) -> property:
-    """A :class:`Renderer` attribute read as any other but refused when assigned, naming what to do instead: each is
-    baked into the buffers, the camera structs, the lights or a recorded graph, so that ``renderer.integrator =
-    "pth"`` drew a black image, ``renderer.max_depth = -1`` read past a buffer, ``renderer.ao_radius = nan`` drew
-    white and ``renderer.width = 4`` drew the old camera's rays into a narrower image, all without a word.
-    ``instead``: what to do, where it is not a new Renderer of the same scene with this setting."""
+def read_only(name: str, why: str, instead: str | None = None) -> property:
+    """A :class:`Renderer` attribute (a setting, its scene, cameras, device or lights) read as any other but refused
+    when assigned, naming what to do instead: each is baked into the buffers, the camera structs, the lights or a
+    recorded graph, so that an assignment would go unseen (``renderer.integrator = "pth"`` would draw a black image,
+    ``renderer.width = 4`` the old camera's rays into a narrower image). ``why``: why it is fixed; ``instead``:
+    what to do, where it is not a new Renderer of the same scene with this setting."""
     instead = instead or f"make a new wrt.Renderer(scene, {name}=...) instead (it reuses the scene's BVH)"
 
     def refuse(self, value):
         shown = repr(value) if name in SHORT_REPRS else f"{type(value).__name__} object"  # a Scene's repr is long
-        raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={shown}): {made_by}; {instead}")
+        raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={shown}): {why}; {instead}")
 
-    return property(lambda self: getattr(self, f"_{name}"), refuse, doc=f"{made_by} (read-only).")
+    return property(lambda self: getattr(self, f"_{name}"), refuse, doc=f"{why} (read-only).")
 
 
 def check_lights(lights) -> None:
@@ -537,7 +537,7 @@ class Renderer:
             diagonal, measured again whenever the renderer builds again for an edited scene.
 
     The settings (``integrator``, ``max_depth``, ``ao_radius``, ``width``, ``height``) are read-only attributes
-    (:func:`fixed_setting`): make a new Renderer for others; it reuses the scene's BVH. So is ``scene``: a Renderer
+    (:func:`read_only`): make a new Renderer for others; it reuses the scene's BVH. So is ``scene``: a Renderer
     follows the edits of its scene, and another scene takes a new Renderer; and so are ``device``, ``batched``,
     ``camera`` and ``cameras``, which :meth:`set_cameras` sets.
 
@@ -552,28 +552,28 @@ class Renderer:
 
     # Its BVH, device data, lights and recorded graphs are of it: another scene assigned was drawn with the old one's
     # where their edit counts matched, and crashed the rebuild otherwise.
-    scene = fixed_setting("scene", "the scene is the one the Renderer was made for (edits of it are followed)",
-                          "make a new wrt.Renderer(other_scene, ...) for another scene")
+    scene = read_only("scene", "the scene is the one the Renderer was made for (edits of it are followed)",
+                      "make a new wrt.Renderer(other_scene, ...) for another scene")
     # Uploaded where they are set (set_cameras): renderer.camera = other drew the old camera without a word, and a
     # longer cameras list read the image sums past their end.
-    camera = fixed_setting("camera", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
-                           "(a field set, to_world edited) is followed", "call set_cameras([camera]) instead")
-    cameras = fixed_setting("cameras", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
-                            "(a field set, to_world edited) is followed", "call set_cameras(cameras) instead")
-    device = fixed_setting("device", "the buffers, BVH and recorded graphs are on the device the Renderer was made on")
-    batched = fixed_setting("batched", "a renderer of cameras= (or after set_cameras) returns BatchImages",
-                            "make a new wrt.Renderer(scene, camera=...) for an Image")
-    integrator = fixed_setting("integrator", "the integrator is chosen when the Renderer is made")
-    max_depth = fixed_setting("max_depth", "the bounce limit is chosen when the Renderer is made")
-    ao_radius = fixed_setting("ao_radius", "the occlusion distance is the one given when the Renderer was made, "
-                              "else the scene's (measured again after each scene edit)")
-    width = fixed_setting("width", "the image width is the one given when the Renderer was made, else the render "
-                          "settings' or the camera's (followed at each render)")
-    height = fixed_setting("height", "the image height is the one given when the Renderer was made, else the render "
-                           "settings' or the camera's (followed at each render)")
+    camera = read_only("camera", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
+                       "(a field set, to_world edited) is followed", "call set_cameras([camera]) instead")
+    cameras = read_only("cameras", "the cameras drawn are uploaded by set_cameras; an edit of a wrt.Camera given "
+                        "(a field set, to_world edited) is followed", "call set_cameras(cameras) instead")
+    device = read_only("device", "the buffers, BVH and recorded graphs are on the device the Renderer was made on")
+    batched = read_only("batched", "a renderer of cameras= (or after set_cameras) returns BatchImages",
+                        "make a new wrt.Renderer(scene, camera=...) for an Image")
+    integrator = read_only("integrator", "the integrator is chosen when the Renderer is made")
+    max_depth = read_only("max_depth", "the bounce limit is chosen when the Renderer is made")
+    ao_radius = read_only("ao_radius", "the occlusion distance is the one given when the Renderer was made, "
+                          "else the scene's (measured again after each scene edit)")
+    width = read_only("width", "the image width is the one given when the Renderer was made, else the render "
+                      "settings' or the camera's (followed at each render)")
+    height = read_only("height", "the image height is the one given when the Renderer was made, else the render "
+                       "settings' or the camera's (followed at each render)")
     # The lights uploaded at the last build, a tuple: appended to or assigned, a list drew nothing new without a word.
-    lights = fixed_setting("lights", "the lights drawn are scene.lights (or the default lights of a stage without "
-                           "any), uploaded at each render after an edit", "edit scene.lights instead")
+    lights = read_only("lights", "the lights drawn are scene.lights (or the default lights of a stage without "
+                       "any), uploaded at each render after an edit", "edit scene.lights instead")
 
     def __init__(
         self,
