@@ -74,14 +74,12 @@ def hit_error(cam: Camera, points: np.ndarray) -> np.ndarray:
     return FLOAT32_STEP * (np.linalg.norm(eye) + np.linalg.norm(points - eye, axis=1))
 
 
-def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None,
-                       name: str | None = None) -> None:
-    """Warns naming ``cam`` (``name``, else its label) where its rays resolve distances at the scene to worse than
+def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set, name: str) -> None:
+    """Warns naming ``cam`` (as ``name``) where its rays resolve distances at the scene to worse than
     :data:`ERROR_SHARE` of the scene's size while the scene covers a pixel or more (see the module docstring); not
     where ``shown`` holds the warning of a camera of that name already (each one given is added to it)."""
-    name = cam.label() if name is None else name
     key = ("scene too far", name)
-    if shown is not None and key in shown:
+    if key in shown:
         return
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     with np.errstate(all="ignore"):
@@ -91,8 +89,7 @@ def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set |
         footprint, ahead = _pixel_footprints(cam, width, height, centre, np.array([0.5 * diagonal]))
         lost = bool(ahead[0]) and error > ERROR_SHARE * diagonal and diagonal > footprint[0]
     if lost:
-        if shown is not None:
-            shown.add(key)
+        shown.add(key)
         distance = float(np.linalg.norm(centre[0] - cam.to_world[:3, 3]))
         warnings.warn(f"{scene.source or 'scene'}: {name} is so far from the scene ({distance:.3g} units; it "
                       f"is {diagonal:.3g} across) that float32 resolves distances along its rays only to about "
@@ -136,13 +133,11 @@ def shape_centres_and_sizes(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(centres), np.concatenate(sizes), np.concatenate(ids).astype(np.int64)
 
 
-def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set | None = None,
-                        name: str | None = None) -> None:
-    """Warns naming ``cam`` (``name``, else its label) and the curved analytic shapes (not planes or disks) that it
+def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set, name: str) -> None:
+    """Warns naming ``cam`` (as ``name``) and the curved analytic shapes (not planes or disks) that it
     sees over a pixel or more and whose float32 hit points err by more than :data:`ERROR_SHARE` of their size (see
     the module docstring); shapes that ``shown`` holds the warning of for a camera of that name already are left out
     (each one named is added to it)."""
-    name = cam.label() if name is None else name
     if not scene.shapes and not any(getattr(p, "shapes", None) for p in scene.prototypes):
         return
     geometry = scene._geometry_shapes()
@@ -152,7 +147,7 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set 
         error = hit_error(cam, centres)
         footprint, ahead = _pixel_footprints(cam, width, height, centres, size)
         lost = curved & ahead & (error > ERROR_SHARE * size) & (2.0 * size > footprint)
-    if shown is not None and lost.any():
+    if lost.any():
         # Only the lost entries' shapes are looked up, each once: a loop over every entry (200k instances) ran at
         # every camera upload of every camera.
         lost_ids = ids[lost]
@@ -161,8 +156,7 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set 
     if lost.any():
         unique, first = np.unique(ids[lost], return_index=True)
         paths = list(dict.fromkeys(geometry[j].path for j in unique[np.argsort(first)]))  # in the order found
-        if shown is not None:
-            shown.update(("shape too far", name, path) for path in paths)
+        shown.update(("shape too far", name, path) for path in paths)
         worst = float(np.max(error[lost]))
         scene._warn_prims(f"{name} sees analytic shapes from so far for their size that float32 places its "
                           f"hit points on them only to within about {worst:.2g} units: their normals are wrong and "
