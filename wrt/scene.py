@@ -71,7 +71,7 @@ class DeviceScene:
     shape_to_local: wp.array[mat34]  # (S,) world (or prototype) space -> the shape's canonical space
     num_shapes: int  # number of unique analytic shapes
     shape_offsets: wp.array[wp.vec3]  # (E,) world offset of each prototype shape from each instance's origin, or (1,)
-    shape_offset_firsts: wp.array[wp.int32]  # (S,) where shape j's offsets start (Scene.instanced_shape_offsets)
+    shape_offset_firsts: wp.array[wp.int32]  # (S,) where shape j's offsets start (Scene.instanced_shape_origins)
     instance_shape_ranks: wp.array[wp.int32]  # (N,) the instance's place among its prototype's, or (1,)
     instance_colors: wp.array[wp.vec3]  # (N,) each instance's colour (Instances.colors; NaN: none), or (1,)
     num_instance_colors: int  # N when any instance has a colour, else 0 (then the arrays beside are placeholders)
@@ -1504,7 +1504,7 @@ class Scene:
             s.num_instances = len(self.instances)
             s.shape_kinds, s.shape_params, s.shape_to_local = self.shape_arrays(device)
             s.num_shapes = len(shapes)
-            offsets, firsts, ranks = self.instanced_shape_offsets()
+            offsets, firsts, ranks = self.instanced_shape_origins()
             s.shape_offsets = wp.array(offsets if len(offsets) else np.zeros((1, 3), np.float32), dtype=wp.vec3,
                                        device=device)
             s.shape_offset_firsts = wp.array(firsts.astype(np.int32) if len(firsts) else np.zeros(1, np.int32),
@@ -1553,7 +1553,7 @@ class Scene:
             )
         return self._cache[key]
 
-    def instanced_shape_offsets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def instanced_shape_origins(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(offsets (E, 3) float32, firsts (S,) int64, ranks (N,) int64)``: where each analytic shape of a prototype
         lies from the origin of each of its instances, in world space (its instance's transform composed with its
         own in float64, less the instance's translation, rounded once), for shape ``j`` (geometry order) in instance
@@ -1561,8 +1561,8 @@ class Scene:
         (:func:`wrt.tlas.shape_entry_transforms`), each prototype's shapes in turn, each over its invertible
         instances in increasing order, so that the trace and shading (:func:`wrt.shade.shape_frame`) place a shape at
         one float32 offset: made apart, they placed it up to an ulp of its offset apart (normals 0.45 degrees off for
-        a sphere 1e5 inside a turned instance)."""
-        key = ("instanced_shape_offsets",)
+        a sphere 1e5 inside a turned instance). (Places in space: :meth:`instance_shape_offsets` numbers ids.)"""
+        key = ("instanced_shape_origins",)
         if key not in self._cache:
             instances = self.instances
             _, invertible = self.instance_inverses()

@@ -185,7 +185,7 @@ def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.
     distance from the world origin: a sphere of radius 1 at 1e5 had normals 0.2 degrees off (a cone's up to 2.4
     degrees near its apex), 0.03 at 1e4, however near the camera. An instanced shape's origin is its instance's plus
     its offset ``w`` from it in world space, the float32 one the trace places it by
-    (:meth:`wrt.Scene.instanced_shape_offsets`): the point is ``A_s A_i (((o - c_i) - w) + t d)``. Summed relative
+    (:meth:`wrt.Scene.instanced_shape_origins`): the point is ``A_s A_i (((o - c_i) - w) + t d)``. Summed relative
     to the instance's origin alone, it was rounded at the scale of the shape's distance from there: a sphere 1e5
     inside its prototype had normals 0.4 degrees off."""
     j = prim - scene.num_prims

@@ -587,7 +587,7 @@ class InstancedAccelerator(Accelerator):
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
         local_lo, local_hi = (b[shape_rows - n_tri] for b in local_boxes(scene._geometry_shapes()))
         shape_xforms, placed = shape_entry_transforms(shape_to_world, shape_to_local, shape_instances,
-                                                      instances.to_world, scene.instanced_shape_offsets()[0])
+                                                      instances.to_world, scene.instanced_shape_origins()[0])
         lo, hi = world_boxes(local_lo, local_hi, placed)
         lowers.append(np.where(shape_ok[:, None], lo, np.inf))  # a degenerate shape: a box no ray enters
         uppers.append(np.where(shape_ok[:, None], hi, -np.inf))
@@ -788,7 +788,7 @@ def shape_entry_transforms(shape_to_world: np.ndarray, shape_to_local: np.ndarra
     """``(xforms (N, 3, 4) float32, placed (N, 4, 4) float64)`` of the shape entries: each shape placed by
     ``shape_to_world`` (an instanced one's: its instance's transform composed with its own; inverse
     ``shape_to_local``) in instance ``shape_instances`` (-1: a world-space shape; the instanced ones last, in the order
-    of :meth:`wrt.Scene.instanced_shape_offsets`, whose float32 ``offsets`` from their instance's origin they take).
+    of :meth:`wrt.Scene.instanced_shape_origins`, whose float32 ``offsets`` from their instance's origin they take).
     ``xforms`` are ``[A | c]`` of :mod:`wrt.transforms` for :func:`shape_entry`, where an instanced shape's ``c`` is
     its offset; ``placed`` has the translations where the device places the shapes, for their boxes (as
     :func:`as_placed`).
