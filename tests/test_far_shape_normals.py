@@ -137,6 +137,22 @@ def traced_with_oracle(stage, scene: wrt.Scene, centres, seed: int, per_gprim: i
     return o, d, hits, ref, paths, expected, squarely
 
 
+def normals_render_with_oracle(stage, scene, eye, target) -> tuple:
+    """A 24 x 24 ``normals`` render of ``scene`` from ``eye`` towards ``target`` and the float64 oracle's trace of its
+    rays: ``(image, the oracle's normals facing the rays, the image's prim ids, where the oracle meets a sharp surface
+    squarely)``, per pixel. A camera far from the world origin is named in a warning, which is not what is tested."""
+    camera = wrt.Camera.look_at(eye, target, (0, 0, 1), 20.0, clipping_range=(0.1, 100.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        image = wrt.render(scene, camera=camera, width=24, height=24, integrator="normals", device="cpu")
+    o, d = (np.asarray(a, np.float64) for a in camera_rays(scene, camera, 24, 24))
+    ref = oracle.trace(stage, o, d)
+    expected = facing(ref["normal"], d)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    squarely = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    return image, expected, image.aovs["prim"].reshape(-1), squarely
+
+
 # The normal's error allowed: float32's rounding of the local problem, 16 ulps of the way from the ray's origin to the
 # surface over the surface's smallest radius (0.35: the cylinder's 0.7 times 0.5). Measured: about 1 such ulp at 1e2,
 # 1e4 and 1e5; taken from the world point, 9 at 1e2, 1000 at 1e4, 5000 at 1e5.
@@ -168,14 +184,8 @@ def test_the_normals_aov_of_a_shape_at_1e5_keeps_float32s_local_precision(tmp_pa
     stage, centres = write_far_stage(path, 1e5, instanced=True)
     scene = load(path)
     eye = centres[2] + EYE_DISTANCE * np.array([0.48, 0.6, 0.64])
-    camera = wrt.Camera.look_at(eye, centres[2], (0, 0, 1), 20.0, clipping_range=(0.1, 100.0))
-    image = wrt.render(scene, camera=camera, width=24, height=24, integrator="normals", device="cpu")
-    o, d = (np.asarray(a, np.float64) for a in camera_rays(scene, camera, 24, 24))
-    ref = oracle.trace(stage, o, d)
-    expected = facing(ref["normal"], d)
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    prim = image.aovs["prim"].reshape(-1)
-    clear = (prim >= 0) & np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    image, expected, prim, squarely = normals_render_with_oracle(stage, scene, eye, centres[2])
+    clear = (prim >= 0) & squarely
     assert clear.sum() > 40
     for aov in ("normal", "geometric_normal"):
         got = image.aovs[aov].reshape(-1, 3).astype(np.float64)
@@ -263,16 +273,7 @@ def test_the_normals_aov_of_a_point_instanced_sphere_off_its_prototype_origin_at
     centre = [m[3, :3] for name, _, m in oracle.placements(stage) if name.endswith("/Sphere")][0]
     # A float32 eye (as the rays start there): looking from the float64 one, the rays were aimed from 4 units away.
     eye = (centre + EYE_DISTANCE * np.array([0.48, 0.6, 0.64])).astype(np.float32).astype(np.float64)
-    camera = wrt.Camera.look_at(eye, centre, (0, 0, 1), 20.0, clipping_range=(0.1, 100.0))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # a camera this far from the world origin is named in a warning
-        image = wrt.render(scene, camera=camera, width=24, height=24, integrator="normals", device="cpu")
-    o, d = (np.asarray(a, np.float64) for a in camera_rays(scene, camera, 24, 24))
-    ref = oracle.trace(stage, o, d)
-    expected = facing(ref["normal"], d)
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    prim = image.aovs["prim"].reshape(-1)
-    clear = np.isfinite(ref["t"]) & ref["sharp"] & (np.einsum("ij,ij->i", expected, -unit) > 0.2)
+    image, expected, prim, clear = normals_render_with_oracle(stage, scene, eye, centre)
     assert clear.sum() > 200
     assert (prim[clear] >= 0).all(), f"{(prim[clear] < 0).sum()} pixels the oracle sees squarely missed"
     got = image.aovs["normal"].reshape(-1, 3).astype(np.float64)
