@@ -103,32 +103,6 @@ def base_color_of(tmp_path, png, node_type, chain) -> np.ndarray:
     return albedo(scene, 2).reshape(-1, 3).mean(axis=0)
 
 
-def emitted_channel(tmp_path, png, node_type, chain=(), in2=None, index: int = 3) -> np.ndarray:
-    """The rgb of a 2 x 2 render of a quad that reflects nothing and emits white times ``emission_luminance``,
-    channel ``index`` (``extract``; the fourth by default) of ``chain`` after an ``ND_image_<node_type>`` of
-    ``png``; ``in2``: the constant second input of the chain's first node (of ``node_type``). No node may be
-    refused or the image unread (no such warning)."""
-    stage, path = new_stage(tmp_path)
-    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
-    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
-    last = image_node(stage, "/Looks/Image", png, node_type, chain)
-    if in2 is not None:
-        UsdShade.Shader.Get(stage, "/Looks/Image/Node0").CreateInput("in2", USD_TYPES[node_type]).Set(in2)
-    out_type = chain[-1].split("_")[-1] if chain else node_type
-    pick = UsdShade.Shader.Define(stage, "/Looks/Image/Pick")
-    pick.CreateIdAttr(f"ND_extract_{out_type}")
-    pick.CreateInput("in", USD_TYPES[out_type]).ConnectToSource(last.ConnectableAPI(), "out")
-    pick.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
-    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(pick.ConnectableAPI(), "out")
-    bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    scene, messages = load(path)
-    assert not [m for m in messages if any(w in m for w in ("not supported", "comes from", "/Looks/Image/Image"))], \
-        messages
-    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
-    return wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
-
-
 def test_a_vector2_image_converted_to_a_colour_has_no_third_channel(tmp_path):
     """A ``vector2`` image of an RGB file plus a constant vector2, converted to a colour (vector3, then color3), is
     ``(r + 0.1, g + 0.2, 0)``: the node outputs the file's first two channels, the add offsets those two, and the
@@ -160,36 +134,6 @@ def test_an_image_node_outputs_the_files_first_channels_and_zero_past_them(tmp_p
     out = materialx_output(channels, SIZES[node_type])
     expected = np.full(3, out[0]) if out.size == 1 else np.append(out, 0.0)[:3]  # convert: fill, or 0 for a third
     np.testing.assert_allclose(base_color_of(tmp_path, png, node_type, TO_COLOR3[node_type]), expected, atol=2e-3)
-
-
-@pytest.mark.parametrize("node_type", ["color4", "vector4"])
-@pytest.mark.parametrize("kind", FILES)
-def test_the_fourth_channel_of_an_image_node_is_the_files_fourth_or_one(tmp_path, kind, node_type):
-    """The fourth output of a color4 or vector4 image node (an OpenPBR ``emission_luminance`` through ``extract``
-    index 3, of a surface that reflects nothing) is the file's fourth channel, 1 for a file of fewer: a grey + alpha
-    PNG's alpha is its second channel (the node's g), not its fourth. It was the alpha UsdUVTexture reads, so an
-    R G EXR emitted its G, a grey + alpha PNG its alpha."""
-    png, channels = write_file(tmp_path, kind)
-    rgb = emitted_channel(tmp_path, png, node_type)
-    np.testing.assert_allclose(rgb, materialx_output(channels, 4)[3], atol=2e-3)
-
-
-# Per node type of fewer than four channels: the converts that widen its output to four (a vector2 through vector3).
-TO_FOUR = {"color3": ["ND_convert_color3_color4"], "vector3": ["ND_convert_vector3_vector4"],
-           "vector2": ["ND_convert_vector2_vector3", "ND_convert_vector3_vector4"]}
-
-
-@pytest.mark.parametrize("multiply", [False, True])
-@pytest.mark.parametrize("node_type", list(TO_FOUR))
-def test_an_image_node_of_fewer_channels_widened_to_four_has_a_fourth_of_one(tmp_path, node_type, multiply):
-    """A color3, vector3 or vector2 image of an RGBA file, converted to a color4 or vector4 (times a constant of its
-    own type, where ``multiply``), has a fourth channel of 1: the node outputs the file's first channels only, and
-    MaterialX's convert from three channels adds a fourth of 1. It was the file's alpha (0.8 here)."""
-    png, channels = write_file(tmp_path, "png RGBA")
-    assert channels[3] < 0.9
-    chain = ([f"ND_multiply_{node_type}"] if multiply else []) + TO_FOUR[node_type]
-    in2 = (0.5,) * SIZES[node_type] if multiply else None  # by 0.5 in every channel of the node's own
-    np.testing.assert_allclose(emitted_channel(tmp_path, png, node_type, chain, in2), 1.0, atol=2e-3)
 
 
 def uv_texture_material(stage, path, png):
@@ -286,10 +230,11 @@ def spec_convert(value: np.ndarray, size: int) -> np.ndarray:
 
 def network_output(node_type: str, channels: np.ndarray, chain) -> np.ndarray:
     """The specification's output of an ``ND_image_<node_type>`` of a file of ``channels`` followed by the converts
-    of ``chain``."""
+    (and multiplies by 0.5) of ``chain``."""
     value = materialx_output(channels, SIZES[node_type])
-    for node_id in chain:
-        value = spec_convert(value, SIZES[node_id.split("_")[-1]])
+    for node_id in chain:  # a multiply: by the 0.5 these tests give it
+        step = SIZES[node_id.split("_")[-1]]
+        value = value * 0.5 if node_id.startswith("ND_multiply_") else spec_convert(value, step)
     return value
 
 
@@ -315,24 +260,65 @@ def test_a_convert_that_narrows_an_image_drops_its_channels(tmp_path, node_type)
                                atol=2e-3)
 
 
+# Per node type of fewer than four channels: the converts that widen its output to four (a vector2 through vector3).
+TO_FOUR = {"color3": ["ND_convert_color3_color4"], "vector3": ["ND_convert_vector3_vector4"],
+           "vector2": ["ND_convert_vector2_vector3", "ND_convert_vector3_vector4"]}
 # Converts that drop a four-channel image's fourth and add it again (1), with the channel read afterwards.
 FOURTH_DROPPED = {"color4": (["ND_convert_color4_color3", "ND_convert_color3_color4"], 3),
                   "vector4": (["ND_convert_vector4_vector3", "ND_convert_vector3_vector4"], 3),
                   "vector4 z": (["ND_convert_vector4_vector2", "ND_convert_vector2_vector3",
                                  "ND_convert_vector3_vector4"], 2)}
+# A channel of an image node's output brought to four channels: (file, node type, the nodes after the image, the
+# index extracted). A color4 or vector4 of every file as it is; a color3, vector3 or vector2 of an RGBA file widened
+# to four (times 0.5 first where a multiply leads); a color4 or vector4 of it narrowed and widened again.
+EXTRACTED = {
+    **{f"{node_type}-{kind}": (kind, node_type, [], 3) for node_type in ("color4", "vector4") for kind in FILES},
+    **{f"{node_type}-widened{'-multiplied' * multiply}": (
+        "png RGBA", node_type, [f"ND_multiply_{node_type}"] * multiply + TO_FOUR[node_type], 3)
+        for node_type in TO_FOUR for multiply in (False, True)},
+    **{f"{case}-dropped": ("png RGBA", case.split()[0], chain, index)
+       for case, (chain, index) in FOURTH_DROPPED.items()},
+}
 
 
-@pytest.mark.parametrize("case", list(FOURTH_DROPPED))
-def test_a_convert_that_drops_an_images_fourth_channel_adds_it_back_as_one(tmp_path, case):
-    """A color4 or vector4 image of an RGBA file narrowed to three channels (or two) and widened to four again has a
-    fourth channel of 1 (and a third of 0 after two), as an OpenPBR ``emission_luminance`` through ``extract`` reads
-    it. It was the file's alpha (0.8) and blue (0.6)."""
-    node_type = case.split()[0]
-    chain, index = FOURTH_DROPPED[case]
-    png, channels = write_file(tmp_path, "png RGBA")
-    rgb = emitted_channel(tmp_path, png, node_type, chain, index=index)
+@pytest.mark.parametrize("case", list(EXTRACTED))
+def test_an_image_nodes_fourth_channel_is_the_files_fourth_or_one(tmp_path, case):
+    """A channel of an image node's output brought to four channels, read by an OpenPBR ``emission_luminance``
+    through ``extract`` (of a surface that reflects nothing), is the specification's:
+
+    - the fourth of a color4 or vector4 image is the file's fourth channel, 1 for a file of fewer: a grey + alpha
+      PNG's alpha is its second channel (the node's g), not its fourth. It was the alpha UsdUVTexture reads, so an
+      R G EXR emitted its G, a grey + alpha PNG its alpha;
+    - a color3, vector3 or vector2 image of an RGBA file converted to a color4 or vector4 (times a constant of its
+      own type first, where multiplied) has a fourth channel of 1: the node outputs the file's first channels only,
+      and MaterialX's convert from three channels adds a fourth of 1. It was the file's alpha (0.8 here);
+    - a color4 or vector4 image of an RGBA file narrowed to three channels (or two) and widened to four again has a
+      fourth channel of 1 (and a third of 0 after two). It was the file's alpha (0.8) and blue (0.6)."""
+    kind, node_type, chain, index = EXTRACTED[case]
+    png, channels = write_file(tmp_path, kind)
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Image", OPEN_PBR, base_weight=0.0, specular_weight=0.0)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+    last = image_node(stage, "/Looks/Image", png, node_type, chain)
+    if chain and chain[0].startswith("ND_multiply_"):  # by 0.5 in every channel of the node's own
+        UsdShade.Shader.Get(stage, "/Looks/Image/Node0").CreateInput("in2", USD_TYPES[node_type]).Set(
+            (0.5,) * SIZES[node_type])
+    four = chain[-1].split("_")[-1] if chain else node_type
+    pick = UsdShade.Shader.Define(stage, "/Looks/Image/Pick")
+    pick.CreateIdAttr(f"ND_extract_{four}")
+    pick.CreateInput("in", USD_TYPES[four]).ConnectToSource(last.ConnectableAPI(), "out")
+    pick.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(pick.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "not supported" in m or "comes from" in m or "/Looks/Image/Image" in m], \
+        messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    rgb = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").rgb
     expected = network_output(node_type, channels, chain)[index]
-    assert expected != channels[index]
+    if chain:  # the file's own channel there would be another answer
+        assert expected != channels[index]
     np.testing.assert_allclose(rgb, expected, atol=2e-3)
 
 
