@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image as PilImage
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
-from test_materials import add_quad, bind, new_stage, preview_material
+from test_materials import add_quad, bind, materialx_preview_stage, new_stage, preview_material
 
 import wrt
 from wrt.textures import srgb_to_linear
@@ -575,6 +575,41 @@ def test_float_and_vector_images_are_data_not_srgb(tmp_path):
     (mat,) = scene.materials
     texels = scene.textures[mat.textures["roughness"].image]
     np.testing.assert_allclose(texels[..., 0], 128 / 255, atol=1e-3)
+
+
+@pytest.mark.parametrize("node", ["ND_image_color3", "ND_tiledimage_color3", "interface input", "ND_UsdUVTexture"])
+def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node):
+    """A MaterialX colour image whose ``file`` has no ``colorSpace`` (nor the Material input it connects to, nor a
+    ``sourceColorSpace`` on an ``ND_UsdUVTexture``) reads an 8-bit RGB PNG's samples as stored, ``s / 255``: the
+    MaterialX specification's working colour space defaults to ``none``, no colour management, and Storm hands
+    MaterialX's textures over raw (``_AddDefaultMtlxTextureValues``: sourceColorSpace raw), transforming only where
+    a colour space is authored. It was read as UsdUVTexture's ``auto``: decoded as sRGB, 102/255 read as 0.133."""
+    samples = np.array([51, 102, 153])
+    png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
+    if node == "ND_UsdUVTexture":
+        path = materialx_preview_stage(tmp_path, png, None, "uv")
+        stage = Usd.Stage.Open(path)
+        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().ClearColorSpace()
+    else:
+        stage, path = new_stage(tmp_path)
+        material, shader = mtlx_material(stage, "/Looks/Colour")
+        image = UsdShade.Shader.Define(stage, "/Looks/Colour/Image")
+        image.CreateIdAttr("ND_image_color3" if node == "interface input" else node)
+        file_input = image.CreateInput("file", Sdf.ValueTypeNames.Asset)
+        if node == "interface input":
+            material.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+            file_input.ConnectToSource(material.GetInput("file").GetAttr().GetPath())
+        else:
+            file_input.Set(Sdf.AssetPath(png))
+        image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+        shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+        bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    np.testing.assert_allclose(texels, np.broadcast_to(samples / 255.0, texels.shape), atol=1e-6)
 
 
 READER_INPUTS = {"ND_geompropvalue_vector2": ("geomprop", "default"),  # texcoord readers: (primvar, fallback)

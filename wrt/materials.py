@@ -1370,7 +1370,9 @@ class MaterialReader:
         fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
 
         materialx = (tex.GetShaderId() or "") != "UsdUVTexture"
-        color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
+        # MaterialX's textures are raw where nothing says otherwise, as Storm hands them over (its default working
+        # colour space is none); an 8-bit colour file was decoded as sRGB (UsdUVTexture's auto).
+        color_space = str(self._constant(tex, "sourceColorSpace") or ("raw" if materialx else "auto"))
         if materialx:  # the file's colorSpace, as MaterialX's image nodes, else sourceColorSpace as UsdUVTexture's
             from .materialx import file_color_space  # that module imports this one
 
@@ -1381,7 +1383,7 @@ class MaterialReader:
             if unknown is not None:
                 self.skip(f"material {material_path}: texture colour space {unknown!r} is read as linear (no gamut "
                           "conversion)", tex.GetPrim())
-            if file_space != "auto":  # a colorSpace is authored on the file
+            if file_space is not None:  # a colorSpace is authored on the file
                 color_space = file_space
         if color_space not in ("auto", "sRGB", "raw"):
             # "linear" or "srgb" (tokens are case-sensitive) were read as auto without a word: an 8-bit map meant

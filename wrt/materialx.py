@@ -58,8 +58,9 @@ channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`),
 ``color4`` nodes the
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
 whichever file channels they hold, as MaterialX transforms the output), ``lin_rec709``/``raw`` and other
-linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
-MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
+linear spaces kept, none kept too (MaterialX's default working space is ``none``, no colour management, and Storm
+reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as MaterialX colour-manages
+colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
 and ``cubic``: bilinear), ``place2d`` nodes and vector2 math of constants before its ``texcoord``
 (:meth:`_Graph._texcoord`),
@@ -169,7 +170,7 @@ TEXCOORD_MATH = {"multiply": (("in1", "in2"), {"in1": 0.0, "in2": 1.0}), "divide
                  "subtract": (("in1", "in2"), {"in1": 0.0, "in2": 0.0}), "rotate2d": (("in",), {"amount": 0.0})}
 TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vector2(FA)?$")
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
-COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
+COLOR_SPACES = {"srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
 
 
 def read_materialx_surface(reader, shader, path: str) -> Material:
@@ -525,12 +526,14 @@ class _Graph:
         return "linear"
 
     def _color_space(self, file_input) -> str:
-        """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input
-        (:func:`file_color_space`); an unknown one is noted."""
+        """wrt's colour space (``sRGB`` or ``raw``) for an image's ``file`` input (:func:`file_color_space`); an
+        unknown one is noted. None authored is ``raw``: MaterialX's working colour space defaults to ``none`` (no
+        colour management) and Storm hands MaterialX its textures raw, so an 8-bit colour file read as UsdUVTexture's
+        ``auto`` was decoded as sRGB where MaterialX reads it as stored."""
         space, unknown = file_color_space(file_input)
         if unknown is not None:
             self.notes.append(f"texture colour space {unknown!r} is read as linear (no gamut conversion)")
-        return space
+        return space or "raw"
 
     def _tiling(self, node) -> np.ndarray:
         """``tiledimage``'s texture-coordinate map ``(st * uvtiling - uvoffset) / realworldimagesize *
@@ -671,18 +674,15 @@ class _Graph:
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
 
-def file_color_space(file_input) -> tuple[str, str | None]:
-    """``(space, unknown)``: wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image node's ``file`` input,
-    from the ``colorSpace`` metadata of the input or of the interface input it connects to, and the name of a colour
-    space wrt does not know (read as ``raw``), else None."""
-    name = ""
+def file_color_space(file_input) -> tuple[str | None, str | None]:
+    """``(space, unknown)``: wrt's colour space (``sRGB`` or ``raw``) for an image node's ``file`` input, from the
+    ``colorSpace`` metadata of the input or of the interface input it connects to (None where neither has one), and
+    the name of a colour space wrt does not know (read as ``raw``), else None."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
         if attr.HasColorSpace():
             name = str(attr.GetColorSpace())
-            break
-    if name in COLOR_SPACES:
-        return COLOR_SPACES[name], None
-    return "raw", name
+            return (COLOR_SPACES[name], None) if name in COLOR_SPACES else ("raw", name)
+    return None, None
 
 
 def _affine(linear=np.eye(2), shift=(0.0, 0.0)) -> np.ndarray:
