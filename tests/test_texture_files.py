@@ -105,9 +105,10 @@ def write_png_with_chunk(path, samples, chunk, data):
     return str(path)
 
 
-def srgb_decoded(samples):
-    """The sRGB transfer function inverted in float64 (IEC 61966-2-1), of 8-bit samples."""
-    x = np.asarray(samples, np.float64) / 255.0
+def srgb_decoded(samples, full=255.0):
+    """The sRGB transfer function inverted in float64 (IEC 61966-2-1), of samples whose largest value is ``full``
+    (8-bit samples by default)."""
+    x = np.asarray(samples, np.float64) / full
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
@@ -383,7 +384,12 @@ def test_pngs_of_every_colour_type_depth_and_interlacing_read_their_samples(tmp_
     """Grey, RGB, palette (with tRNS alpha), grey + alpha and RGBA PNGs at every bit depth the specification allows
     them, Adam7-interlaced or not, grey ones with a transparent sample (tRNS), read as the samples written (scaled
     to [0, 1] by 2^depth - 1; a palette's entries / 255). A 2- or 4-bit grey PNG's transparent sample made no pixel
-    transparent (Pillow compares the unscaled sample with the scaled pixels; stb_image scales it)."""
+    transparent (Pillow compares the unscaled sample with the scaled pixels; stb_image scales it).
+
+    Under ``auto`` (no colour space chunk) RGB, RGBA and palette PNGs of every depth read sRGB-decoded, alpha not,
+    and grey and grey + alpha ones (with a tRNS sample too) as stored: Hydra's PNG reader (Hio_StbImage) decodes
+    where stb_image reports 3 or 4 channels of bytes, which it does for every colour PNG (it hands 16-bit ones over
+    as 8-bit samples and expands palettes to RGB, RGBA with tRNS) and for no grey one (1 channel, 2 with tRNS)."""
     rng = np.random.default_rng(29)
     full = 2**depth - 1
     h, w = 7, 11  # Adam7 passes of several sizes, and partial bytes at low depths
@@ -411,6 +417,9 @@ def test_pngs_of_every_colour_type_depth_and_interlacing_read_their_samples(tmp_
     path = tmp_path / "layout.png"
     path.write_bytes(png(samples, colour_type, depth, interlaced, **extra))
     np.testing.assert_allclose(load_image(str(path), "raw"), expected, atol=1e-6)
+    if colour_type in (2, 3, 6):
+        expected[..., :3] = srgb_decoded(expected[..., :3], 1.0)
+    np.testing.assert_allclose(load_image(str(path), "auto"), expected, atol=2e-6)
 
 
 def refused_pngs():
