@@ -1522,6 +1522,54 @@ def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
 
 
+REFERENCED_LOOK = """#usda 1.0
+def Material "Mat"
+{{
+    token outputs:surface.connect = </Mat/Surface.outputs:surface>
+    def Shader "Surface"
+    {{
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor.connect = </Mat/Image.outputs:rgb>
+        token outputs:surface
+    }}
+    def Shader "Image"
+    {{
+        uniform token info:id = "UsdUVTexture"
+        asset inputs:file = @{file}@
+        float4 inputs:fallback = (0.25, 0.5, 0.75, 1)
+        float3 outputs:rgb
+    }}
+}}
+"""
+
+
+@pytest.mark.parametrize("file", ["./missing.png", "./missing.<UDIM>.png"])
+def test_a_missing_file_of_a_referenced_layer_is_named_where_it_was_looked_for(tmp_path, file):
+    """Two looks author the same relative ``file``, one in a layer of a sub-folder the stage references, the other
+    in the root layer; neither file is there. Each warning names the path the file was looked for at, anchored to
+    the layer that authored it as USD anchors it (``Sdf.ComputeAssetPathRelativeToLayer``), with its own shader,
+    and each look reads its fallback. The warning named the path as authored (``./missing.png``) under the root
+    layer's name, where the file was never looked for, and one warning covered both files."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "look.usda").write_text(REFERENCED_LOOK.format(file=file))
+    (tmp_path / "look.usda").write_text(REFERENCED_LOOK.format(file=file))
+    stage, path = new_stage(tmp_path, "root.usda")
+    for k, look in enumerate(("sub/look.usda", "look.usda")):
+        material = UsdShade.Material(stage.DefinePrim(f"/Look{k}"))
+        material.GetPrim().GetReferences().AddReference(f"./{look}", "/Mat")
+        bind(add_quad(stage, f"/Quad{k}", center=(3.0 * k, 0.0, 0.0)), material)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    for k, look in enumerate(("sub/look.usda", "look.usda")):
+        anchored = Sdf.ComputeAssetPathRelativeToLayer(Sdf.Layer.FindOrOpen(str(tmp_path / look)), file)
+        named = [m for m in messages if anchored in m]
+        assert len(named) == 1, (anchored, messages)
+        assert f"/Look{k}/Image" in named[0] and f"/Look{1 - k}/Image" not in named[0], named
+    for mat in scene.materials:
+        assert mat.textures == {}
+        np.testing.assert_allclose(mat.diffuse_color, (0.25, 0.5, 0.75))
+
+
 @pytest.mark.parametrize("where", ["absolute", "relative"])
 @pytest.mark.parametrize("type_name", ["String", "Token"])
 def test_a_file_authored_as_a_string_is_read_as_an_asset_path(tmp_path, where, type_name):

@@ -800,6 +800,26 @@ def _authoring_layer(attr, time):
     return None
 
 
+def _anchored(path: str, layer) -> str:
+    """Asset path ``path`` anchored to ``layer`` (None: as it is) as USD anchors it to the layer that authors it
+    (``Sdf.ComputeAssetPathRelativeToLayer``): where a relative path is looked for. A search path (``tex.png``, no
+    ``./``) found nowhere stays as it is."""
+    from pxr import Sdf, Tf
+
+    try:
+        return Sdf.ComputeAssetPathRelativeToLayer(layer, path) if layer is not None and path else path
+    except Tf.ErrorException:  # (an anonymous layer, a malformed path): named as authored
+        return path
+
+
+def _where(path: str, layer) -> str:
+    """Asset path ``path`` as a warning names it: with where it was looked for (:func:`_anchored`) where that is
+    another path. A missing ``./tex.png`` of a referenced layer in a sub-folder was named as authored, under the
+    root layer's name, where it was never looked for."""
+    anchored = _anchored(path, layer)
+    return path if anchored == path else f"{path} (looked for at {anchored})"
+
+
 def _rgb(value) -> np.ndarray | None:
     """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one,
     in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load)."""
@@ -1616,7 +1636,10 @@ class MaterialReader:
             asset = self._string_asset(shader, name, asset)
         authored = getattr(asset, "path", "") or ""
         if "<UDIM>" not in authored:
-            return self._image(asset, color_space, shader.GetPrim(), layout), None
+            layer = None
+            if authored and not getattr(asset, "resolvedPath", ""):  # not found: where it was looked for is told
+                layer = _authoring_layer(_source_attribute(shader, name), self.time)
+            return self._image(asset, color_space, shader.GetPrim(), layout, layer), None
         tiles = self._udim_tiles(_source_attribute(shader, name), authored, color_space, shader.GetPrim(),
                                  material_path, layout)
         found = tiles[tiles >= 0]
@@ -1655,13 +1678,14 @@ class MaterialReader:
             for file_key in self._udim_files[key]:
                 self._tell_file_problem(file_key, prim)
         if not np.any(self._udim[key] >= 0):  # told for each material that reads the pattern, not the first only
-            self.skip(f"material {material_path}: texture {authored}: no UDIM tile ({UDIM_FIRST} to "
+            self.skip(f"material {material_path}: texture {_where(authored, layer)}: no UDIM tile ({UDIM_FIRST} to "
                       f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
         return self._udim[key]
 
-    def _image(self, asset, color_space: str, prim, layout: str) -> int:
+    def _image(self, asset, color_space: str, prim, layout: str, layer=None) -> int:
         """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures` (laid out as ``layout``:
-        :meth:`_load`); -1 (with a warning) when it cannot be read."""
+        :meth:`_load`); -1 (with a warning) when it cannot be read. A file not found is named where it was looked
+        for, anchored to ``layer``, the layer that authored it (:func:`_where`)."""
         from pxr import Sdf
 
         if asset is None:  # no file authored (or one fed by a node): the fallback, as for a file not found
@@ -1676,11 +1700,11 @@ class MaterialReader:
         authored = getattr(asset, "path", "") or str(asset)
         if resolved:
             return self._load(resolved, authored, color_space, prim, layout)
-        key = (authored, color_space)
+        key = (_anchored(authored, layer), color_space)  # one relative path authored in two layers: two files
         if key not in self._images:
             self._images[key] = -1
-            self._file_problems[key] = (f"texture {authored}: the file was not found; the texture's fallback value "
-                                        "is used", None)
+            self._file_problems[key] = (f"texture {_where(authored, layer)}: the file was not found; the texture's "
+                                        "fallback value is used", None)
         self._tell_file_problem(key, prim)
         return self._images[key]
 
