@@ -577,13 +577,15 @@ def test_float_and_vector_images_are_data_not_srgb(tmp_path):
     np.testing.assert_allclose(texels[..., 0], 128 / 255, atol=1e-3)
 
 
-@pytest.mark.parametrize("node", ["ND_image_color3", "ND_tiledimage_color3", "interface input", "ND_UsdUVTexture"])
+@pytest.mark.parametrize("node", ["ND_image_color3", "ND_tiledimage_color3", "interface input", "ND_UsdUVTexture",
+                                  "empty colorSpace"])
 def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node):
     """A MaterialX colour image whose ``file`` has no ``colorSpace`` (nor the Material input it connects to, nor a
-    ``sourceColorSpace`` on an ``ND_UsdUVTexture``) reads an 8-bit RGB PNG's samples as stored, ``s / 255``: the
-    MaterialX specification's working colour space defaults to ``none``, no colour management, and Storm hands
-    MaterialX's textures over raw (``_AddDefaultMtlxTextureValues``: sourceColorSpace raw), transforming only where
-    a colour space is authored. It was read as UsdUVTexture's ``auto``: decoded as sRGB, 102/255 read as 0.133."""
+    ``sourceColorSpace`` on an ``ND_UsdUVTexture``; or an empty one, which hdMtlx passes on as none) reads an 8-bit
+    RGB PNG's samples as stored, ``s / 255``, without a word: the MaterialX specification's working colour space
+    defaults to ``none``, no colour management, and Storm hands MaterialX's textures over raw
+    (``_AddDefaultMtlxTextureValues``: sourceColorSpace raw), transforming only where a colour space is authored. It
+    was read as UsdUVTexture's ``auto``: decoded as sRGB, 102/255 read as 0.133."""
     samples = np.array([51, 102, 153])
     png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
     if node == "ND_UsdUVTexture":
@@ -594,8 +596,10 @@ def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node)
         stage, path = new_stage(tmp_path)
         material, shader = mtlx_material(stage, "/Looks/Colour")
         image = UsdShade.Shader.Define(stage, "/Looks/Colour/Image")
-        image.CreateIdAttr("ND_image_color3" if node == "interface input" else node)
+        image.CreateIdAttr(node if node.startswith("ND_") else "ND_image_color3")
         file_input = image.CreateInput("file", Sdf.ValueTypeNames.Asset)
+        if node == "empty colorSpace":
+            file_input.GetAttr().SetColorSpace("")
         if node == "interface input":
             material.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
             file_input.ConnectToSource(material.GetInput("file").GetAttr().GetPath())

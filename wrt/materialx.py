@@ -676,11 +676,12 @@ class _Graph:
 
 def file_color_space(file_input) -> tuple[str | None, str | None]:
     """``(space, unknown)``: wrt's colour space (``sRGB`` or ``raw``) for an image node's ``file`` input, from the
-    ``colorSpace`` metadata of the input or of the interface input it connects to (None where neither has one), and
-    the name of a colour space wrt does not know (read as ``raw``), else None."""
+    ``colorSpace`` metadata of the input or of the interface input it connects to (None where neither has one; an
+    empty one is none, as hdMtlx passes it on), and the name of a colour space wrt does not know (read as ``raw``),
+    else None."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
-        if attr.HasColorSpace():
-            name = str(attr.GetColorSpace())
+        name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
+        if name:
             return (COLOR_SPACES[name], None) if name in COLOR_SPACES else ("raw", name)
     return None, None
 
