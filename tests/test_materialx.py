@@ -616,6 +616,59 @@ def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node)
     np.testing.assert_allclose(texels, np.broadcast_to(samples / 255.0, texels.shape), atol=1e-6)
 
 
+def srgb_decoded(x):
+    """IEC 61966-2-1's sRGB to linear, in float64."""
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+# The MaterialX Specification's colour spaces (1.39) other than srgb_texture and lin_rec709: each one's transfer
+# function to linear as MaterialX's colour transforms decode it (a power of max(x, 0), or sRGB's curve), and whether
+# its primaries are other than Rec.709's (a gamut conversion wrt does not make, to be named).
+TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x**1.8, False),
+             "lin_srgb": (lambda x: x, False), "g22_ap1": (lambda x: x**2.2, True),
+             "g18_ap1": (lambda x: x**1.8, True), "adobergb": (lambda x: x ** (563 / 256), True),
+             "srgb_displayp3": (srgb_decoded, True), "lin_displayp3": (lambda x: x, True),
+             "acescg": (lambda x: x, True), "lin_ap1": (lambda x: x, True), "lin_adobergb": (lambda x: x, True)}
+
+
+@pytest.mark.parametrize("space, mode", [(space, "RGB") for space in TRANSFERS] + [("g22_rec709", "LA"),
+                                                                                   ("g22_rec709", "ND_UsdUVTexture")])
+def test_a_colour_image_is_decoded_by_its_colour_spaces_transfer_function(tmp_path, space, mode):
+    """An ``ND_image_color3`` (or ``ND_UsdUVTexture``) whose ``file`` is in one of the MaterialX colour spaces other
+    than ``srgb_texture`` and ``lin_rec709`` reads an 8-bit PNG's samples through that space's transfer function
+    (``g22_rec709``: ``(s / 255)^2.2``; of a grey + alpha file the alpha the node lays into g too, as MaterialX
+    transforms the node's output), and names the spaces whose primaries are not Rec.709's, which wrt does not
+    convert. Every one was read as stored, named as read linear: a ``g22_rec709`` texel of 128 read 0.502 for
+    MaterialX's 0.220, and ``lin_srgb``, the same space as ``lin_rec709``, was named."""
+    samples = np.array([51, 204]) if mode == "LA" else np.array([51, 102, 153])
+    png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
+    if mode == "ND_UsdUVTexture":
+        path = materialx_preview_stage(tmp_path, png, None, "uv")
+        stage = Usd.Stage.Open(path)
+        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().SetColorSpace(space)
+    else:
+        stage, path = new_stage(tmp_path)
+        material, shader = mtlx_material(stage, "/Looks/Colour")
+        image = UsdShade.Shader.Define(stage, "/Looks/Colour/Image")
+        image.CreateIdAttr("ND_image_color3")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+        image.GetInput("file").GetAttr().SetColorSpace(space)
+        image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+        shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+        bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    decode, other_primaries = TRANSFERS[space]
+    if other_primaries:
+        assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages
+    else:
+        assert not messages, messages
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    expected = np.append(decode(samples / 255.0), [0.0] * (3 - len(samples)))  # (c, a, 0) of grey + alpha
+    np.testing.assert_allclose(texels, np.broadcast_to(expected, texels.shape), rtol=1e-5, atol=1e-6)
+
+
 READER_INPUTS = {"ND_geompropvalue_vector2": ("geomprop", "default"),  # texcoord readers: (primvar, fallback)
                  "ND_UsdPrimvarReader_vector2": ("varname", "fallback"),
                  "UsdPrimvarReader_float2": ("varname", "fallback")}

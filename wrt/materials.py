@@ -65,6 +65,7 @@ from .textures import (
     WRAP_CLAMP,
     WRAP_MODES,
     TextureError,
+    decode_curve,
     image_scale,
     materialx_texels,
     nearest_texel,
@@ -1393,19 +1394,19 @@ class MaterialReader:
         # MaterialX's textures are raw where nothing says otherwise, as Storm hands them over (its default working
         # colour space is none); an 8-bit colour file was decoded as sRGB (UsdUVTexture's auto).
         color_space = str(self._constant(tex, "sourceColorSpace") or ("raw" if materialx else "auto"))
+        file_space = None
         if materialx:  # the file's colorSpace, as MaterialX's image nodes, else sourceColorSpace as UsdUVTexture's
             from .materialx import file_color_space  # that module imports this one
 
             # MaterialX's nodedef has no sourceColorSpace; one authored is what the writer meant for this texture
             # (converters carry UsdUVTexture's over), so it is read as UsdUVTexture's where the file has no
             # colorSpace: a raw mask written so was decoded as sRGB (auto).
-            file_space, unknown = file_color_space(tex.GetInput("file"))
-            if unknown is not None:
-                self.skip(f"material {material_path}: texture colour space {unknown!r} is read as linear (no gamut "
-                          "conversion)", tex.GetPrim())
-            if file_space is not None:  # a colorSpace is authored on the file
+            file_space, note = file_color_space(tex.GetInput("file"))
+            if note is not None:
+                self.skip(f"material {material_path}: {note}", tex.GetPrim())
+            if file_space is not None:  # a colorSpace is authored on the file (its transfer function is known)
                 color_space = file_space
-        if color_space not in ("auto", "sRGB", "raw"):
+        if color_space not in ("auto", "sRGB", "raw") and file_space is None:
             # "linear" or "srgb" (tokens are case-sensitive) were read as auto without a word: an 8-bit map meant
             # linear was decoded as sRGB, 0.5 read as 0.21.
             self.skip(f"material {material_path}: sourceColorSpace is not one of auto, sRGB or raw; it is read as "
@@ -1764,12 +1765,13 @@ class MaterialReader:
 
     def _materialx_texels(self, file_key: tuple[str, str], pixels: np.ndarray, channels: tuple) -> np.ndarray:
         """:func:`wrt.textures.materialx_texels` of a file's ``pixels``, kept with them by the memo (a kept
-        material's replay finds the same array). Colour space ``sRGB`` (``srgb_texture``) decodes the alpha that a
-        grey + alpha file lays into a colour channel too; ``auto`` decodes only what :func:`read_image` decoded."""
-        srgb = file_key[1] == "sRGB"
+        material's replay finds the same array). Colour space ``sRGB`` (``srgb_texture``) and the ``gamma`` ones
+        decode the alpha that a grey + alpha file lays into a colour channel too; ``auto`` decodes only what
+        :func:`read_image` decoded."""
+        decode = decode_curve(file_key[1])
         if self.memo is None or reads_in_place(channels):
-            return materialx_texels(pixels, channels, srgb)
-        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels, srgb))
+            return materialx_texels(pixels, channels, decode)
+        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels, decode))
 
     def _texture_index(self, texels: np.ndarray, file_key: tuple[str, str]) -> int:
         """Index of ``texels`` (of the file of ``file_key``) in :attr:`textures`: the one a read of the file in the

@@ -57,7 +57,8 @@ of a grey file is ``(c, 0, 0)``, a ``vector2`` of an ``R G`` EXR ``(R, G)``, of 
 channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`), ``file`` (for ``color3`` and
 ``color4`` nodes the
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
-whichever file channels they hold, as MaterialX transforms the output), ``lin_rec709``/``raw`` and other
+whichever file channels they hold, as MaterialX transforms the output), ``g22_rec709`` and kin decoded by their
+transfer function (:data:`COLOR_SPACES`; other primaries noted, not converted), ``lin_rec709``/``raw`` and other
 linear spaces kept, none kept too (MaterialX's default working space is ``none``, no colour management, and Storm
 reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as MaterialX colour-manages
 colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
@@ -170,7 +171,14 @@ TEXCOORD_MATH = {"multiply": (("in1", "in2"), {"in1": 0.0, "in2": 1.0}), "divide
                  "subtract": (("in1", "in2"), {"in1": 0.0, "in2": 0.0}), "rotate2d": (("in",), {"amount": 0.0})}
 TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vector2(FA)?$")
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
-COLOR_SPACES = {"srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
+# MaterialX's colour spaces (Specification 1.39) -> (wrt's colour space, whether its primaries are other than
+# Rec.709's: a gamut conversion wrt does not make, named in a note). The transfer functions are those of MaterialX's
+# colour transforms: max(x, 0)^2.2 or ^1.8, Adobe RGB's ^(563/256), sRGB's curve for srgb_displayp3.
+COLOR_SPACES = {"srgb_texture": ("sRGB", False), "lin_rec709": ("raw", False), "raw": ("raw", False),
+                "lin_srgb": ("raw", False), "g22_rec709": ("gamma 2.2", False), "g18_rec709": ("gamma 1.8", False),
+                "acescg": ("raw", True), "lin_ap1": ("raw", True), "g22_ap1": ("gamma 2.2", True),
+                "g18_ap1": ("gamma 1.8", True), "adobergb": (f"gamma {563 / 256}", True),
+                "lin_adobergb": ("raw", True), "srgb_displayp3": ("sRGB", True), "lin_displayp3": ("raw", True)}
 
 
 def read_materialx_surface(reader, shader, path: str) -> Material:
@@ -526,13 +534,14 @@ class _Graph:
         return "linear"
 
     def _color_space(self, file_input) -> str:
-        """wrt's colour space (``sRGB`` or ``raw``) for an image's ``file`` input (:func:`file_color_space`); an
-        unknown one is noted. None authored is ``raw``: MaterialX's working colour space defaults to ``none`` (no
-        colour management) and Storm hands MaterialX its textures raw, so an 8-bit colour file read as UsdUVTexture's
-        ``auto`` was decoded as sRGB where MaterialX reads it as stored."""
-        space, unknown = file_color_space(file_input)
-        if unknown is not None:
-            self.notes.append(f"texture colour space {unknown!r} is read as linear (no gamut conversion)")
+        """wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``) for an image's ``file`` input
+        (:func:`file_color_space`); an unknown one, or one of other primaries, is noted. None authored is ``raw``:
+        MaterialX's working colour space defaults to ``none`` (no colour management) and Storm hands MaterialX its
+        textures raw, so an 8-bit colour file read as UsdUVTexture's ``auto`` was decoded as sRGB where MaterialX
+        reads it as stored."""
+        space, note = file_color_space(file_input)
+        if note is not None:
+            self.notes.append(note)
         return space or "raw"
 
     def _tiling(self, node) -> np.ndarray:
@@ -675,14 +684,19 @@ class _Graph:
         return "st", no_fallback, None
 
 def file_color_space(file_input) -> tuple[str | None, str | None]:
-    """``(space, unknown)``: wrt's colour space (``sRGB`` or ``raw``) for an image node's ``file`` input, from the
-    ``colorSpace`` metadata of the input or of the interface input it connects to (None where neither has one; an
-    empty one is none, as hdMtlx passes it on), and the name of a colour space wrt does not know (read as ``raw``),
-    else None."""
+    """``(space, note)``: wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for an image
+    node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input it connects to
+    (None where neither has one; an empty one is none, as hdMtlx passes it on), and what a note says of it: a colour
+    space wrt does not know (read as ``raw``), or one whose primaries it does not convert; else None. The spaces of
+    other transfer functions were read as stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
         name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
-        if name:
-            return (COLOR_SPACES[name], None) if name in COLOR_SPACES else ("raw", name)
+        if name not in COLOR_SPACES:
+            note = f"texture colour space {name!r} is read as linear (no gamut conversion)"
+            return ("raw", note) if name else (None, None)
+        space, other_primaries = COLOR_SPACES[name]
+        return space, (f"texture colour space {name!r} is decoded by its transfer function, its primaries taken for "
+                       "Rec.709's (no gamut conversion)" if other_primaries else None)
     return None, None
 
 

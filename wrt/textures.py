@@ -10,14 +10,14 @@ Conventions, stated once:
 - Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping), or of the one texel whose
   square holds ``st`` for the ``closest`` filter (:data:`FILTER_MODES`).
-- ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
-  keeps values; ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for
-  8-bit RGB/RGBA images and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and
-  raw for everything else (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers
-  decide. Missing channels read as grey ``L`` ->
-  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour), as UsdUVTexture reads
-  them; a MaterialX image node takes a file's channels in order instead (:func:`materialx_texels`). 16-bit PNGs and
-  RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
+- ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear), ``"gamma g"``
+  (MaterialX's ``g22_rec709`` and kin) with ``max(x, 0)^g`` (:func:`decode_curve`); ``"raw"`` keeps values;
+  ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for 8-bit RGB/RGBA images
+  and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and raw for everything else
+  (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers decide. Missing channels
+  read as grey ``L`` -> ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour),
+  as UsdUVTexture reads them; a MaterialX image node takes a file's channels in order instead
+  (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
@@ -59,6 +59,7 @@ SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGBA;16B", "RGBA;16L", "LA;16B")
 EXR_CHANNEL_ROLES = {"r": "R", "red": "R", "g": "G", "green": "G", "b": "B", "blue": "B", "a": "A", "alpha": "A",
                      "y": "Y"}
 EXR_CHROMA_ROLES = {"ry": "RY", "by": "BY"}  # the chroma beside Y of a luminance-chroma EXR (OpenEXR's RgbaYca)
+GAMMA_PREFIX = "gamma "  # wrt's colour space "gamma <g>": samples decoded to linear as max(x, 0)^g (decode_curve)
 UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
@@ -77,6 +78,18 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     """The inverse sRGB transfer function (IEC 61966-2-1)."""
     x = np.asarray(x, np.float32)
     return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4)).astype(np.float32)
+
+
+def decode_curve(color_space: str):
+    """The function that decodes colour samples in wrt's colour space ``color_space`` to linear float32: ``sRGB``
+    :func:`srgb_to_linear`, ``gamma <g>`` ``max(x, 0)^g`` (MaterialX's ``g22_rec709``, ``g18_rec709``, ... as its
+    colour transforms decode them); None for ``raw`` (and ``auto``, which :func:`read_image` settles first)."""
+    if color_space == "sRGB":
+        return srgb_to_linear
+    if color_space.startswith(GAMMA_PREFIX):
+        gamma = float(color_space[len(GAMMA_PREFIX):])
+        return lambda x: np.power(np.maximum(np.asarray(x, np.float32), 0.0), gamma, dtype=np.float32)
+    return None
 
 
 def read_asset_bytes(resolved_path: str) -> bytes:
@@ -125,11 +138,11 @@ def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarra
         (rgba, channels), auto_srgb = _read_exr(data, resolved_path), False
     else:
         rgba, channels, auto_srgb = _read_pillow(data, resolved_path)
-    srgb = color_space == "sRGB" or (color_space == "auto" and auto_srgb)
+    decode = decode_curve(("sRGB" if auto_srgb else "raw") if color_space == "auto" else color_space)
     if rgba.dtype == np.uint8:
-        return _decode_8bit(rgba, srgb), channels
-    if srgb:
-        rgba[..., :3] = srgb_to_linear(rgba[..., :3])
+        return _decode_8bit(rgba, decode), channels
+    if decode is not None:
+        rgba[..., :3] = decode(rgba[..., :3])
     return np.ascontiguousarray(rgba, dtype=np.float32), channels
 
 
@@ -139,33 +152,33 @@ def reads_in_place(channels: tuple[int, ...]) -> bool:
     return tuple(channels[:3]) == (0, 1, 2)
 
 
-def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], srgb: bool = False) -> np.ndarray:
+def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], decode=None) -> np.ndarray:
     """``pixels`` (:func:`read_image`'s, the file's channels at RGBA places ``channels``) as a MaterialX image node
     reads its file: the file's channels first, in its order, 0 past them but for a fourth of 1, as the Standard
     Nodes specification has it and MaterialX's GLSL, MSL and OSL implementations sample (MaterialX pull requests
     2985 and 3073): grey ``(c, 0, 0, 1)``, grey + alpha ``(c, a, 0, 1)``, an EXR's ``R G`` ``(R, G, 0, 1)``.
     UsdUVTexture reads grey as ``(c, c, c)`` and two channels as grey + alpha (the UsdPreviewSurface specification's
     rule).
-    ``pixels`` itself where they lie so already (colour in its places). ``srgb``: ``pixels`` were decoded from sRGB
-    (:func:`read_image` decodes places 0 to 2, not alpha), and MaterialX's colour transform, applied to the node's
-    output, decodes all of its colour channels: a file's alpha laid into r, g or b is decoded there too."""
+    ``pixels`` itself where they lie so already (colour in its places). ``decode``: the :func:`decode_curve` the
+    ``pixels`` were decoded by (:func:`read_image` decodes places 0 to 2, not alpha), and MaterialX's colour
+    transform, applied to the node's output, decodes all of its colour channels: a file's alpha laid into r, g or b
+    is decoded there too."""
     if reads_in_place(channels):
         return pixels
     texels = np.zeros(pixels.shape, np.float32)
     texels[..., 3] = 1.0
     for k, place in enumerate(channels):
-        decode = srgb and k < 3 <= place
-        texels[..., k] = srgb_to_linear(pixels[..., place]) if decode else pixels[..., place]
+        texels[..., k] = decode(pixels[..., place]) if decode is not None and k < 3 <= place else pixels[..., place]
     return texels
 
 
-def _decode_8bit(rgba: np.ndarray, srgb: bool) -> np.ndarray:
-    """``(H, W, 4)`` float32 linear RGBA of ``(H, W, 4)`` uint8 samples (colour decoded from sRGB when ``srgb``),
-    looked up in 256-entry tables of the values ``sample / 255`` (and :func:`srgb_to_linear` of them) take: the same
-    numbers as converting the whole image in float32, without its image-sized temporaries (an 8k x 8k texture took
-    3.7 GB and 9 s to read into its 1 GB of texels)."""
+def _decode_8bit(rgba: np.ndarray, decode=None) -> np.ndarray:
+    """``(H, W, 4)`` float32 linear RGBA of ``(H, W, 4)`` uint8 samples (colour decoded by ``decode``, a
+    :func:`decode_curve`, where given), looked up in 256-entry tables of the values ``sample / 255`` (and ``decode``
+    of them) take: the same numbers as converting the whole image in float32, without its image-sized temporaries (an
+    8k x 8k texture took 3.7 GB and 9 s to read into its 1 GB of texels)."""
     linear = np.arange(256, dtype=np.float32) / 255.0
-    tables = (srgb_to_linear(linear) if srgb else linear,) * 3 + (linear,)
+    tables = (linear if decode is None else decode(linear),) * 3 + (linear,)
     out = np.empty(rgba.shape, np.float32)
     for c, table in enumerate(tables):
         out[..., c] = table[rgba[..., c]]
