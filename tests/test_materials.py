@@ -1570,6 +1570,17 @@ def test_a_missing_file_of_a_referenced_layer_is_named_where_it_was_looked_for(t
         np.testing.assert_allclose(mat.diffuse_color, (0.25, 0.5, 0.75))
 
 
+def test_a_missing_file_named_by_a_uri_is_named_as_authored(tmp_path):
+    """A texture whose ``file`` is a URI no resolver finds is named in the warning as authored: anchoring it to its
+    layer as a relative path would have named ``http:/example.com/wood.png``, a path no one wrote."""
+    path = textured_stage(tmp_path, "http://example.com/wood.png")
+    scene, messages = load_with_messages(path)
+    named = [m for m in messages if "http://example.com/wood.png: the file was not found" in m]
+    assert named and "/Looks/Tex/Image" in named[0], messages
+    assert not [m for m in messages if "http:/example" in m], messages
+    assert scene.materials[0].textures == {}
+
+
 @pytest.mark.parametrize("where", ["absolute", "relative"])
 @pytest.mark.parametrize("type_name", ["String", "Token"])
 def test_a_file_authored_as_a_string_is_read_as_an_asset_path(tmp_path, where, type_name):

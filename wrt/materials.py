@@ -807,9 +807,12 @@ def _anchored(path: str, layer) -> str:
     ``./``) found nowhere stays as it is."""
     from pxr import Sdf, Tf
 
+    # A URI ("http://...": anchoring makes it "http:/..."), an expression or an anonymous layer: named as authored.
+    if layer is None or not path or "://" in path or path.startswith("`") or layer.anonymous:
+        return path
     try:
-        return Sdf.ComputeAssetPathRelativeToLayer(layer, path) if layer is not None and path else path
-    except Tf.ErrorException:  # (an anonymous layer, a malformed path): named as authored
+        return Sdf.ComputeAssetPathRelativeToLayer(layer, path)
+    except Tf.ErrorException:  # (a malformed path)
         return path
 
 
