@@ -9,6 +9,7 @@ import pytest
 from PIL import Image as PilImage
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from test_materials import add_quad, bind, materialx_preview_stage, new_stage, preview_material
+from test_texture_files import srgb_decoded
 
 import wrt
 from wrt.textures import srgb_to_linear
@@ -616,18 +617,13 @@ def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node)
     np.testing.assert_allclose(texels, np.broadcast_to(samples / 255.0, texels.shape), atol=1e-6)
 
 
-def srgb_decoded(x):
-    """IEC 61966-2-1's sRGB to linear, in float64."""
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-
-
 # The MaterialX Specification's colour spaces (1.39) other than srgb_texture and lin_rec709: each one's transfer
 # function to linear as MaterialX's colour transforms decode it (a power of max(x, 0), or sRGB's curve), and whether
 # its primaries are other than Rec.709's (a gamut conversion wrt does not make, to be named).
 TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x**1.8, False),
              "lin_srgb": (lambda x: x, False), "g22_ap1": (lambda x: x**2.2, True),
              "g18_ap1": (lambda x: x**1.8, True), "adobergb": (lambda x: x ** (563 / 256), True),
-             "srgb_displayp3": (srgb_decoded, True), "lin_displayp3": (lambda x: x, True),
+             "srgb_displayp3": (lambda x: srgb_decoded(x, 1.0), True), "lin_displayp3": (lambda x: x, True),
              "acescg": (lambda x: x, True), "lin_ap1": (lambda x: x, True), "lin_adobergb": (lambda x: x, True)}
 
 
