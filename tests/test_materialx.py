@@ -627,15 +627,17 @@ TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x
              "acescg": (lambda x: x, True), "lin_ap1": (lambda x: x, True), "lin_adobergb": (lambda x: x, True)}
 
 
-@pytest.mark.parametrize("space, mode", [(space, "RGB") for space in TRANSFERS] + [("g22_rec709", "LA"),
-                                                                                   ("g22_rec709", "ND_UsdUVTexture")])
+@pytest.mark.parametrize("space, mode", [(space, "RGB") for space in TRANSFERS] + [
+    ("g22_rec709", "LA"), ("g22_rec709", "ND_UsdUVTexture"), ("g22_rec709", "interface input"),
+    ("srgb_displayp3", "interface input")])
 def test_a_colour_image_is_decoded_by_its_colour_spaces_transfer_function(tmp_path, space, mode):
     """An ``ND_image_color3`` (or ``ND_UsdUVTexture``) whose ``file`` is in one of the MaterialX colour spaces other
     than ``srgb_texture`` and ``lin_rec709`` reads an 8-bit PNG's samples through that space's transfer function
     (``g22_rec709``: ``(s / 255)^2.2``; of a grey + alpha file the alpha the node lays into g too, as MaterialX
     transforms the node's output), and names the spaces whose primaries are not Rec.709's, which wrt does not
-    convert. Every one was read as stored, named as read linear: a ``g22_rec709`` texel of 128 read 0.502 for
-    MaterialX's 0.220, and ``lin_srgb``, the same space as ``lin_rec709``, was named."""
+    convert; the colour space may be that of the Material input the ``file`` connects to. Every one was read as
+    stored, named as read linear: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220, and ``lin_srgb``,
+    the same space as ``lin_rec709``, was named."""
     samples = np.array([51, 204]) if mode == "LA" else np.array([51, 102, 153])
     png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
     if mode == "ND_UsdUVTexture":
@@ -647,8 +649,12 @@ def test_a_colour_image_is_decoded_by_its_colour_spaces_transfer_function(tmp_pa
         material, shader = mtlx_material(stage, "/Looks/Colour")
         image = UsdShade.Shader.Define(stage, "/Looks/Colour/Image")
         image.CreateIdAttr("ND_image_color3")
-        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
-        image.GetInput("file").GetAttr().SetColorSpace(space)
+        file_input = image.CreateInput("file", Sdf.ValueTypeNames.Asset)
+        if mode == "interface input":
+            file_input = material.CreateInput("file", Sdf.ValueTypeNames.Asset)
+            image.GetInput("file").ConnectToSource(file_input.GetAttr().GetPath())
+        file_input.Set(Sdf.AssetPath(png))
+        file_input.GetAttr().SetColorSpace(space)
         image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
         shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
         bind(add_quad(stage, "/Quad"), material)

@@ -691,9 +691,10 @@ def file_color_space(file_input) -> tuple[str | None, str | None]:
     other transfer functions were read as stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
         name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
+        if not name:  # none here: the interface input's, if any
+            continue
         if name not in COLOR_SPACES:
-            note = f"texture colour space {name!r} is read as linear (no gamut conversion)"
-            return ("raw", note) if name else (None, None)
+            return "raw", f"texture colour space {name!r} is read as linear (no gamut conversion)"
         space, other_primaries = COLOR_SPACES[name]
         return space, (f"texture colour space {name!r} is decoded by its transfer function, its primaries taken for "
                        "Rec.709's (no gamut conversion)" if other_primaries else None)
