@@ -1300,3 +1300,36 @@ def test_a_multiply_whose_other_input_is_unauthored_takes_that_inputs_default(tm
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0, 0, 1], (2, 2, 3)), atol=1e-3)
+
+
+@pytest.mark.parametrize("space, where", [("srgb_texture", "input"), ("g22_rec709", "input"),
+                                          ("srgb_texture", "interface input"), ("lin_rec709", "input"),
+                                          ("acescg", "input")])
+def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function(tmp_path, space, where):
+    """A standard_surface ``base_color`` constant whose ``colorSpace`` (or that of the Material input it connects
+    to) is ``srgb_texture`` or ``g22_rec709`` is decoded as MaterialX decodes a value bound to a node input with a
+    colour space (ShaderGraph's colour transform of bound inputs): (0.2, 0.5, 0.8) in ``srgb_texture`` is the sRGB
+    decode of each, in float64 here; ``lin_rec709`` keeps it and ``acescg`` keeps it, named as not converted. Its
+    colour space was ignored: the constant was read as linear."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    color = Gf.Vec3f(0.2, 0.5, 0.8)
+    base_color = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
+    if where == "interface input":
+        source = material.CreateInput("paint", Sdf.ValueTypeNames.Color3f)
+        base_color.ConnectToSource(source.GetAttr().GetPath())
+    else:
+        source = base_color
+    source.Set(color)
+    source.GetAttr().SetColorSpace(space)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    decode, other_primaries = {**TRANSFERS, "srgb_texture": (lambda x: srgb_decoded(x, 1.0), False),
+                               "lin_rec709": (lambda x: x, False)}[space]
+    if other_primaries:
+        assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages
+    else:
+        assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)

@@ -100,6 +100,7 @@ from .materials import (
     two_finite_numbers,
 )
 from .materialx_fold import TYPE_SIZES, Folded, Unfoldable, fold
+from .textures import decode_curve
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -253,7 +254,7 @@ class _Graph:
             if value is None:
                 self.notes.append(f"{name} is not a finite number of its type; its default is used")
                 return default, None
-            return value, None
+            return self._decoded(name, value), None
         node = found[1]
         own = _input_array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
         constant = default if own is None else own  # the value authored beside the connection
@@ -281,6 +282,20 @@ class _Graph:
                               "used")
             return constant, None
         return value, folded.source
+
+    def _decoded(self, name: str, value: np.ndarray) -> np.ndarray:
+        """Constant ``value`` of colour input ``name`` decoded from the colour space of its ``colorSpace`` (or that
+        of the interface input it connects to: :func:`file_color_space`), as MaterialX transforms a value bound to a
+        node input of a colour type; as it is for other inputs and where none is authored. A base_color of 0.5 in
+        ``srgb_texture`` was read as 0.5 for MaterialX's 0.214."""
+        inp = self.shader.GetInput(name)
+        if value.size != 3 or not inp or inp.GetTypeName().role != "Color":
+            return value
+        space, note = file_color_space(inp, f"{name}'s")
+        decode = decode_curve(space or "raw")
+        if note is not None:
+            self.notes.append(note)
+        return value if decode is None else decode(value).astype(np.float64)
 
     def scalar(self, role: str) -> tuple[float, TextureInput | None]:
         """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""
@@ -683,20 +698,21 @@ class _Graph:
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
 
-def file_color_space(file_input) -> tuple[str | None, str | None]:
+def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
     """``(space, note)``: wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for an image
     node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input it connects to
     (None where neither has one; an empty one is none, as hdMtlx passes it on), and what a note says of it: a colour
-    space wrt does not know (read as ``raw``), or one whose primaries it does not convert; else None. The spaces of
+    space wrt does not know (read as ``raw``), or one whose primaries it does not convert, the ``what`` colour space
+    (``texture``: an image's file; an input's name for a constant); else None. The spaces of
     other transfer functions were read as stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
         name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
         if not name:  # none here: the interface input's, if any
             continue
         if name not in COLOR_SPACES:
-            return "raw", f"texture colour space {name!r} is read as linear (no gamut conversion)"
+            return "raw", f"{what} colour space {name!r} is read as linear (no gamut conversion)"
         space, other_primaries = COLOR_SPACES[name]
-        return space, (f"texture colour space {name!r} is decoded by its transfer function, its primaries taken for "
+        return space, (f"{what} colour space {name!r} is decoded by its transfer function, its primaries taken for "
                        "Rec.709's (no gamut conversion)" if other_primaries else None)
     return None, None
 
