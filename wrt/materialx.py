@@ -700,11 +700,11 @@ class _Graph:
 
 def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
     """``(space, note)``: wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for an image
-    node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input it connects to
-    (None where neither has one; an empty one is none, as hdMtlx passes it on), and what a note says of it: a colour
-    space wrt does not know (read as ``raw``), or one whose primaries it does not convert, the ``what`` colour space
-    (``texture``: an image's file; an input's name for a constant); else None. The spaces of
-    other transfer functions were read as stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
+    node's ``file`` input (or a constant colour input), from the ``colorSpace`` metadata of the input or of the
+    interface input it connects to (None where neither has one; an empty one is none, as hdMtlx passes it on), and
+    the note to give, None but for a colour space wrt does not know (read as ``raw``) or whose primaries it does not
+    convert, naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as
+    stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
     for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
         name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
         if not name:  # none here: the interface input's, if any
