@@ -1333,3 +1333,29 @@ def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function
         assert not messages, messages
     (mat,) = scene.materials
     np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)
+
+
+@pytest.mark.parametrize("space", ["srgb_texture", "g18_rec709", "lin_rec709"])
+def test_an_image_nodes_default_in_a_colour_space_is_decoded(tmp_path, space):
+    """The ``default`` of a color3 image node whose file is missing, authored with a ``colorSpace``, is decoded by
+    that space's transfer function, as the MaterialX Specification's example of an image's default "in lin_rec709"
+    has it (both a file and a default are transformed to the working space): (0.2, 0.5, 0.8) in ``srgb_texture`` is
+    the sRGB decode of each (float64 here). It was read as linear whatever its colour space."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    image = UsdShade.Shader.Define(stage, "/Looks/Paint/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath("missing.png"))
+    default = image.CreateInput("default", Sdf.ValueTypeNames.Color3f)
+    default.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    default.GetAttr().SetColorSpace(space)
+    image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert [m for m in messages if "missing.png" in m], messages
+    decode = {"srgb_texture": lambda x: srgb_decoded(x, 1.0), "g18_rec709": TRANSFERS["g18_rec709"][0],
+              "lin_rec709": lambda x: x}[space]
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)

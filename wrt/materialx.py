@@ -254,7 +254,7 @@ class _Graph:
             if value is None:
                 self.notes.append(f"{name} is not a finite number of its type; its default is used")
                 return default, None
-            return self._decoded(name, value), None
+            return self._decoded(self.shader.GetInput(name), value, f"{name}'s"), None
         node = found[1]
         own = _input_array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
         constant = default if own is None else own  # the value authored beside the connection
@@ -283,19 +283,23 @@ class _Graph:
             return constant, None
         return value, folded.source
 
-    def _decoded(self, name: str, value: np.ndarray) -> np.ndarray:
-        """Constant ``value`` of colour input ``name`` decoded from the colour space of its ``colorSpace`` (or that
-        of the interface input it connects to: :func:`file_color_space`), as MaterialX transforms a value bound to a
-        node input of a colour type; as it is for other inputs and where none is authored. A base_color of 0.5 in
+    def _decoded(self, inp, value: np.ndarray, what: str) -> np.ndarray:
+        """Constant ``value`` of colour input ``inp`` (a surface's ``base_color``, an image's ``default``; 3 or 4
+        numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface input it
+        connects to: :func:`file_color_space`, noted as ``what``'s), as MaterialX transforms a value bound to a node
+        input of a colour type; as it is for other inputs and where none is authored. A base_color of 0.5 in
         ``srgb_texture`` was read as 0.5 for MaterialX's 0.214."""
-        inp = self.shader.GetInput(name)
-        if value.size != 3 or not inp or inp.GetTypeName().role != "Color":
+        if value.size not in (3, 4) or not inp or inp.GetTypeName().role != "Color":
             return value
-        space, note = file_color_space(inp, f"{name}'s")
+        space, note = file_color_space(inp, what)
         decode = decode_curve(space or "raw")
         if note is not None:
             self.notes.append(note)
-        return value if decode is None else decode(value).astype(np.float64)
+        if decode is None:
+            return value
+        decoded = np.array(value, np.float64)
+        decoded[:3] = decode(value[:3])
+        return decoded
 
     def scalar(self, role: str) -> tuple[float, TextureInput | None]:
         """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""
@@ -474,8 +478,8 @@ class _Graph:
         reader = self.reader
         size = TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)]
         default = _array(reader._constant(node, "default"), size)
-        if default is not None:
-            fallback = default
+        if default is not None:  # in its colorSpace, if any: the specification's example default is in lin_rec709
+            fallback = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default")
         elif unauthored_default is not None:
             fallback = np.asarray(unauthored_default, np.float64)
         else:
