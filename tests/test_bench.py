@@ -291,6 +291,21 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
     assert rows.read_text().startswith(line)
 
 
+def test_resume_names_a_row_of_a_render_log_as_such(tmp_path):
+    """A render's log row in rows.jsonl (wrt render --log OUT/rows.jsonl) was named only as 'not a benchmark row';
+    it is named as a render log's, with the image it names."""
+    scene = tmp_path / "a.usda"
+    scene.write_text("#usda 1.0\n")
+    log = tmp_path / "rows.jsonl"
+    assert main(["render", str(scene), "-o", str(tmp_path / "a.png"), "--width", "4", "--height", "3", "--log",
+                 str(log), "-q"]) == 0
+    text = log.read_text()
+    with pytest.raises(ValueError, match=f"rows.jsonl: line 1 is a row of a wrt render log \\(image "
+                                         f"{re.escape(str(tmp_path / 'a.png'))}\\), not a benchmark row"):
+        run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert log.read_text() == text
+
+
 @pytest.mark.parametrize(
     "field, needle",
     [

@@ -961,6 +961,28 @@ def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys,
     assert main(args) == 0 and len(log.read_text().split("\n")) == 4  # "", the row before, the new one, ""
 
 
+def test_a_log_that_is_wrt_bench_rows_is_refused_naming_what_it_holds(tmp_path, capsys):
+    """--log bench-out/rows.jsonl (a JSON-lines file, as a log is) took wrt bench's timings for a render log: the
+    render appended its rows there, and the next 'wrt bench --resume' stopped at them as no benchmark rows;
+    --resume read it as a log naming no image and rendered everything."""
+    bench = tmp_path / "bench-out"
+    assert main(["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+                 "--n-rays", "16", "--repeats", "1", "--threads", "1", "-o", str(bench), "-q"]) == 0
+    rows = bench / "rows.jsonl"
+    before = rows.read_bytes()
+    first = json.loads(before.splitlines()[0])
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    capsys.readouterr()
+    for resume in ([], ["--resume"]):
+        args = ["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "out") + "/", "--log", str(rows), *resume]
+        assert main([*args, "-q"]) == 2
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+        assert errors == [f"wrt: error: --log {rows}: line 1 is a row of wrt bench (sphere:100 / {first['accel']} / "
+                          "primary rays), so the file holds benchmark timings, not a render log; rows are appended to "
+                          "a log: give a new file, or the log of an earlier wrt render"], errors
+        assert rows.read_bytes() == before and not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("args, message", [
     (["render", ""], "argument scene: is empty"),  # was '.: a directory, not a USD file'
     (["render", "{dir}/a.usda", " "], "argument scene: is empty"),

@@ -869,6 +869,9 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
                 warnings.warn(f"{jsonl}: line {number} was cut short (an interrupted run?); its row runs again")
                 break
             raise ValueError(f"{jsonl}: line {number} is not a JSON row ({e.msg}); remove it to resume") from None
+        if isinstance(row, dict) and isinstance(row.get("output"), str):  # every row of wrt render's logs names one
+            raise ValueError(f"{jsonl}: line {number} is a row of a wrt render log (image {row['output']}), not a "
+                             "benchmark row; remove it to resume")
         if not isinstance(row, dict) or ("error" not in row and any(name not in row for name in ROW_KEY_FIELDS)):
             raise ValueError(f"{jsonl}: line {number} is not a benchmark row (an object with "
                              f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")

@@ -92,6 +92,20 @@ def check_appendable(log: Path, option: str = "--log") -> None:
     if head.strip() and not head.lstrip().startswith(b"{"):
         raise ValueError(f"{option} {log}: line {number} is not a JSON row, so the file is no log of wrt's; rows are "
                          "appended to a log: give a new file, or the log of an earlier wrt render")
+    try:
+        row = json.loads(head)
+    except ValueError:  # cut short (a killed run), or a line past the length read: the rows after it decide
+        return
+    if isinstance(row, dict) and is_bench_row(row):  # wrt bench's rows.jsonl: its --resume refused the render rows
+        raise ValueError(f"{option} {log}: line {number} is a row of wrt bench ({row.get('scene')} / "
+                         f"{row.get('accel')} / {row.get('rays')} rays), so the file holds benchmark timings, not a "
+                         "render log; rows are appended to a log: give a new file, or the log of an earlier wrt render")
+
+
+def is_bench_row(row: dict) -> bool:
+    """Whether ``row`` is one of ``wrt bench`` (its ``rows.jsonl``): it names an accelerator and a ray kind, and no
+    image, which every row of a render log names (``output``)."""
+    return "output" not in row and all(name in row for name in ("scene", "accel", "device", "rays"))
 
 
 def append_row(log: Path, line: str) -> None:
@@ -171,5 +185,5 @@ def _shown(value) -> str:
     return str(value)
 
 
-__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "device_kind", "mtime_ns", "new_run", "read_rows",
-           "skipped_fields"]
+__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "check_appendable", "device_kind", "is_bench_row", "mtime_ns",
+           "new_run", "read_rows", "skipped_fields"]
