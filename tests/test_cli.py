@@ -961,6 +961,56 @@ def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys,
     assert main(args) == 0 and len(log.read_text().split("\n")) == 4  # "", the row before, the new one, ""
 
 
+def test_warp_lbvh_on_the_cpu_is_said_once_in_wrts_words_and_renders_warps_sah_tree(tmp_path, capfd):
+    """--accel warp --builder lbvh on the CPU printed Warp's own 'LBVH constructor is not available for a CPU tree',
+    naming no option, and the progress line said 'built warp BVH (lbvh)' of the sah tree that Warp built."""
+    size = ["--width", "16", "--height", "12", "--accel", "warp", "--device", "cpu"]
+    assert main(["render", "-o", str(tmp_path / "asked.npy"), *size, "--builder", "lbvh"]) == 0
+    err = capfd.readouterr().err
+    assert "LBVH constructor" not in err, err
+    said = [line for line in err.splitlines() if line.startswith("wrt: warning")]
+    assert said == ["wrt: warning: --builder lbvh with --accel warp: wp.Mesh has no lbvh builder on the CPU (--device "
+                    "cpu), so it builds its sah tree, which finds the same hits"], said
+    assert "built warp BVH (sah) on cpu" in err
+    assert main(["render", "-o", str(tmp_path / "sah.npy"), *size, "--builder", "sah", "-q"]) == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "asked.npy"), np.load(tmp_path / "sah.npy"))
+
+
+def test_the_api_says_warps_lbvh_fallback_on_the_cpu_in_its_own_words(capfd):
+    import wrt
+    from wrt.cli import default_scene_path
+
+    scene = wrt.load_usd(default_scene_path())
+    with pytest.warns(UserWarning, match="accel='warp' with builder='lbvh': wp.Mesh has no lbvh builder on the CPU"):
+        renderer = wrt.Renderer(scene, width=4, height=3, accel="warp", builder="lbvh", device="cpu")
+    renderer.render()
+    assert "LBVH constructor" not in capfd.readouterr().err
+
+
+@pytest.mark.parametrize("accel, builder, message", [
+    ("warp", "ploc", "--builder ploc builds wrt's BVH (--accel wrt); --accel warp builds Warp's wp.Mesh, whose "
+                     "builders are sah, median, lbvh, cubql"),
+    ("wrt", "cubql", "--builder cubql builds Warp's wp.Mesh (--accel warp); wrt's BVH (--accel wrt, the default) is "
+                     "built by sah, sweep_sah, median, middle, lbvh, ploc"),
+])
+def test_a_builder_the_accelerator_has_not_is_refused_before_the_load(tmp_path, capsys, accel, builder, message):
+    """--accel warp --builder ploc loaded the scene, then failed in the library's words ('valid builders for
+    accel='warp': (...)'); cubql, a wp.Mesh builder, was no choice of --builder at all."""
+    scene = tmp_path / "a.usda"
+    scene.write_text("#usda 1.0\n")
+    assert main(["render", str(scene), "-o", str(tmp_path / "a.png"), "--accel", accel, "--builder", builder]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert [line for line in err if line.startswith("wrt: ")] == [f"wrt: error: {message}"], err
+    assert sorted(tmp_path.iterdir()) == [scene]
+
+
+def test_warp_cubql_renders_what_warp_sah_renders(tmp_path):
+    size = ["--width", "16", "--height", "12", "--accel", "warp", "-q"]
+    for builder in ("cubql", "sah"):
+        assert main(["render", "-o", str(tmp_path / f"{builder}.npy"), *size, "--builder", builder]) == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "cubql.npy"), np.load(tmp_path / "sah.npy"))
+
+
 def test_a_log_that_is_wrt_bench_rows_is_refused_naming_what_it_holds(tmp_path, capsys):
     """--log bench-out/rows.jsonl (a JSON-lines file, as a log is) took wrt bench's timings for a render log: the
     render appended its rows there, and the next 'wrt bench --resume' stopped at them as no benchmark rows;

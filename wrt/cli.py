@@ -320,7 +320,7 @@ def _seed(text: str) -> int:
 
 def _add_render(sub) -> None:
     from .bvh.build import Builder
-    from .trace import ACCELERATORS
+    from .trace import ACCELERATORS, WARP_BUILDERS
 
     p = sub.add_parser(
         "render",
@@ -365,7 +365,9 @@ def _add_render(sub) -> None:
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
-    p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
+    builders += [b for b in WARP_BUILDERS if b not in builders]  # cubql: wp.Mesh's alone
+    p.add_argument("--builder", default="sah", choices=builders, help="BVH builder: with --accel wrt, any but cubql; "
+                   "with --accel warp, wp.Mesh's: sah, median, lbvh (CUDA only: sah on the CPU) or cubql")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh (triangles "
                    "only: with warp, gprims such as spheres and cubes are loaded as triangle meshes)")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
@@ -556,6 +558,40 @@ def _warn_unused_integrator_options(args) -> None:
                       f"{args.integrator} does not use it", stacklevel=2)
 
 
+def _check_builder(args) -> None:
+    """Refuses, before any load, a ``--builder`` that ``--accel`` has not (wrt's ploc for wp.Mesh was refused after
+    the load, in the library's words, ``accel='warp'``); warns once where wp.Mesh builds another tree than the one
+    asked for: lbvh on the CPU, which Warp itself said in its own raw words (see :func:`_built_builder`)."""
+    from .bvh.build import ALIASES, Builder
+    from .trace import WARP_BUILDERS
+
+    if args.accel == "warp" and args.builder not in (*WARP_BUILDERS, *ALIASES):
+        raise ValueError(f"--builder {args.builder} builds wrt's BVH (--accel wrt); --accel warp builds Warp's "
+                         f"wp.Mesh, whose builders are {', '.join(WARP_BUILDERS)}")
+    wrt_builders = [b.value for b in Builder]
+    if args.accel == "wrt" and args.builder not in (*wrt_builders, *ALIASES):
+        raise ValueError(f"--builder {args.builder} builds Warp's wp.Mesh (--accel warp); wrt's BVH (--accel wrt, the "
+                         f"default) is built by {', '.join(wrt_builders)}")
+    if _built_builder(args) != args.builder:
+        warnings.warn(f"--builder lbvh with --accel warp: wp.Mesh has no lbvh builder on the CPU (--device "
+                      f"{args.device}), so it builds its sah tree, which finds the same hits", stacklevel=2)
+
+
+def _built_builder(args) -> str:
+    """The builder that ``wrt render`` asks for: ``--builder``, but sah for wp.Mesh's lbvh where every device is a
+    CPU, which Warp builds instead after a warning of its own (``LBVH constructor is not available``)."""
+    if args.accel != "warp" or args.builder != "lbvh" or args.dask is not None:  # Dask's workers pick devices
+        return args.builder
+    from .bvh.common import resolve_device_option
+
+    devices = [d.strip() for d in (args.devices or args.device).split(",") if d.strip()]
+    try:
+        cpu_only = all(resolve_device_option(d).is_cpu for d in devices)
+    except ValueError:  # a device that does not exist: named where the devices are checked
+        return args.builder
+    return "sah" if devices and cpu_only else args.builder
+
+
 def _drawn_spp(args) -> int:
     """The samples per pixel a render draws: ``--spp``, but one for the quick looks, whatever ``--spp`` says."""
     from .render import QUICK_LOOKS
@@ -610,8 +646,8 @@ def _check_distinct_outputs(paths: list, files: list) -> None:
 
 def _renderer_options(args) -> dict:
     """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device."""
-    names = ("camera", "width", "height", "builder", "accel", "integrator", "max_depth", "ao_radius")
-    return {name: getattr(args, name) for name in names}
+    names = ("camera", "width", "height", "accel", "integrator", "max_depth", "ao_radius")
+    return {**{name: getattr(args, name) for name in names}, "builder": _built_builder(args)}
 
 
 def _load_options(args) -> dict:
@@ -688,7 +724,8 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp, device_texture_bytes(scene))
     check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
-    progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
+    built = renderer.timers["build"][0] / 1000.0
+    progress(f"built {args.accel} BVH ({_built_builder(args)}) on {renderer.device}", built)
     try:
         image = renderer.render(spp=args.spp, seed=args.seed, progress=progress.bar)
     except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
@@ -772,6 +809,7 @@ def _run_render(args) -> int:
     if args.devices and args.dask is not None:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
     _warn_unused_integrator_options(args)
+    _check_builder(args)
     if not (args.devices or args.dask is not None):  # those choose their own devices, checked where they are used
         from .bvh.common import resolve_device_option
         from .trace import resolve_threads
@@ -875,7 +913,7 @@ def _run_products(args, paths: list, progress) -> int:
     progress(loaded_summary(paths[0].name, scene.stats()), time.perf_counter() - start)
     start = time.perf_counter()
     written = wrt.render_products(scene, directory, spp=args.spp, device=args.device, seed=args.seed,
-                                  builder=args.builder, accel=args.accel, integrator=args.integrator,
+                                  builder=_built_builder(args), accel=args.accel, integrator=args.integrator,
                                   max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
                                   progress=progress.bar)
     progress(f"rendered {counted(len(written), 'product')} at {_drawn_spp(args)} spp ({args.integrator})",

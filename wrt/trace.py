@@ -457,6 +457,12 @@ class WarpMeshAccelerator(Accelerator):
                              f"builders for accel='warp': {WARP_BUILDERS}")
         check_flattenable(scene, "accel='warp'")
         self.device = device
+        if builder == "lbvh" and wp.get_device(device).is_cpu:  # said in wrt's words: Warp's named no option
+            import warnings
+
+            warnings.warn("accel='warp' with builder='lbvh': wp.Mesh has no lbvh builder on the CPU, so it builds its "
+                          "sah tree, which finds the same hits", stacklevel=3)
+            builder = "sah"
         self.builder = builder
         self._build(scene)
 
