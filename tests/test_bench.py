@@ -291,6 +291,17 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
     assert rows.read_text().startswith(line)
 
 
+def test_a_device_refused_leaves_no_output_folder_behind(tmp_path, capsys):
+    """wrt bench --devices cuda:7 on a machine without it made the output folder (bench-out/), then stopped at the
+    device: an empty folder was left where none had been."""
+    out = tmp_path / "new" / "bench-out"
+    assert main(["bench", "--scenes", "sphere:100", "--devices", "cuda:99", "-o", str(out), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1, errors
+    assert errors[0].startswith("wrt: error: argument --devices: unknown or unavailable device 'cuda:99'"), errors
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_resume_names_a_row_of_a_render_log_as_such(tmp_path):
     """A render's log row in rows.jsonl (wrt render --log OUT/rows.jsonl) was named only as 'not a benchmark row';
     it is named as a render log's, with the image it names."""

@@ -991,7 +991,6 @@ def run_grid(
             raise ValueError(f"output folder {str(out)!r}: {str(files[0])!r} is a file, not a folder")
         if (out / "rows.jsonl").is_dir():  # found only when the first row was written, after it was measured
             raise ValueError(f"output folder {str(out)!r}: {str(out / 'rows.jsonl')!r}, where the rows go, is a folder")
-        out.mkdir(parents=True, exist_ok=True)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             _check_resumed_settings(out / SETTINGS_FILE, grid)
@@ -1008,6 +1007,8 @@ def run_grid(
         rows = _as_grid_scenes(rows, grid.scenes)
         resumed = {row_key(r): r for r in rows}
     devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
+    if out is not None:  # made once the devices are known: a misspelt one left an empty folder behind
+        out.mkdir(parents=True, exist_ok=True)
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
     if missing:  # after the checks: a misspelt device was refused under this warning
         import warnings
