@@ -1011,6 +1011,18 @@ def test_warp_cubql_renders_what_warp_sah_renders(tmp_path):
     np.testing.assert_array_equal(np.load(tmp_path / "cubql.npy"), np.load(tmp_path / "sah.npy"))
 
 
+def test_a_frame_pattern_without_frames_is_warned_about(tmp_path, capsys):
+    """-o out/frame_####.png without --frames rendered one image into a file named 'frame_####.png' without a word."""
+    scene = tmp_path / "a.usda"
+    scene.write_text('#usda 1.0\ndef Sphere "S" {}\n')
+    output = tmp_path / "frame_####.png"
+    assert main(["render", str(scene), "-o", str(output), "--width", "4", "--height", "3", "-q"]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning")]
+    assert warned == [f"wrt: warning: -o {output}: a run of # is the frame number with --frames only; without it one "
+                      "image is rendered, its file name keeping the # as they are"], warned
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "frame_####.png"]
+
+
 def test_a_log_that_is_wrt_bench_rows_is_refused_naming_what_it_holds(tmp_path, capsys):
     """--log bench-out/rows.jsonl (a JSON-lines file, as a log is) took wrt bench's timings for a render log: the
     render appended its rows there, and the next 'wrt bench --resume' stopped at them as no benchmark rows;

@@ -824,6 +824,9 @@ def _run_render(args) -> int:
         return _run_frames(args, paths, progress)
     if args.devices or args.dask is not None:
         raise ValueError("--devices and --dask apply to --frames only")
+    if args.output and "#" in args.output:  # a pattern of frames: --frames left out renders one image, named so
+        warnings.warn(f"-o {args.output}: a run of # is the frame number with --frames only; without it one image is "
+                      "rendered, its file name keeping the # as they are", stacklevel=2)
     several = len(paths) > 1
     if args.resume and not (several or args.log):  # one scene writes no log without --log: nothing to resume from
         raise ValueError("--resume reads the log of an earlier run; give it with --log FILE (a batch of several "
