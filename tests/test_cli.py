@@ -1085,6 +1085,29 @@ def test_a_log_that_is_a_pipe_is_refused_and_dev_null_taken(tmp_path, capsys):
     assert main([*args, "--log", os.devnull]) == 0 and (tmp_path / "out" / "a.png").is_file()
 
 
+@pytest.mark.skipif(not os.path.isdir("/dev/fd"), reason="/dev/fd names a process's open files on Linux and macOS")
+def test_a_log_that_is_a_stream_is_refused_as_such_before_a_render(tmp_path, capsys):
+    """--log /dev/stdout into a pipe was refused as 'cannot write into /proc/PID/fd: ... takes no new files' (the
+    path it resolves to), on a terminal as 'cannot write into /dev/pts: ... takes no new files': the folder of a
+    file that exists was checked for new files (so a user's --log /dev/null failed on /dev too)."""
+    pty = pytest.importorskip("pty")
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    args = ["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "out") + "/", "-q", "--width", "4", "--height",
+            "4"]
+    read, write = os.pipe()
+    terminal, other_end = pty.openpty()
+    try:
+        pipe, tty = f"/dev/fd/{write}", os.ttyname(other_end)
+        for log, what in ((pipe, "a pipe or socket, not a file"),
+                          (tty, "a terminal or another stream that rows cannot be appended to, not a file")):
+            assert main([*args, "--log", log]) == 2
+            assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {log}: {what}"]
+            assert not (tmp_path / "out").exists()
+    finally:
+        for fd in (read, write, terminal, other_end):
+            os.close(fd)
+
+
 def test_exposure_help_states_the_range_the_option_accepts(capsys):
     """--exposure refused values beyond +-150 stops, a range its help did not give."""
     import re

@@ -501,7 +501,7 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
     """Raises ValueError when the log would be written where an image goes, or where a folder of the images must be
     created (``-o out --log out``): the run would fail at its first log row, after the first render; or into one of
     the ``scenes`` read: its rows would be appended to the USD file, breaking it; or into a file that is no log."""
-    log = log.resolve()
+    given, log = log, log.resolve()
     for scene in scenes:
         if log == Path(scene).resolve():
             raise ValueError(f"--log {log} is the scene file {scene}; its rows would be appended to it: give the log "
@@ -511,10 +511,12 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
         if log == output or log in output.parents:
             raise ValueError(f"--log {log} is where {output} or its folder goes; give the log a file name "
                              "of its own, e.g. --log render-log.jsonl")
-    _check_output_file(log)
     from .render_log import check_appendable
 
-    check_appendable(log)
+    # As given: /dev/stdout, a pipe, resolves to /proc/PID/fd/pipe:[N], named by a failed check of its folder.
+    check_appendable(given)
+    if not given.exists() or given.is_dir():  # one there (a file, /dev/null) is appended to; its folder is no matter
+        _check_output_file(log)
 
 
 def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> None:

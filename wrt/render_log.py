@@ -80,6 +80,8 @@ def check_appendable(log: Path, option: str = "--log") -> None:
         from .errors import not_a_file
 
         raise ValueError(f"{option} {log}: {not_a_file(log)}, not a file")
+    if log.exists() and not log.is_file() and not log.is_dir() and not _seekable(log):
+        raise ValueError(f"{option} {log}: a terminal or another stream that rows cannot be appended to, not a file")
     if not log.is_file():  # made by the run, or a device such as /dev/null (no log kept)
         return
     try:
@@ -106,6 +108,23 @@ def is_bench_row(row: dict) -> bool:
     """Whether ``row`` is one of ``wrt bench`` (its ``rows.jsonl``): it names an accelerator and a ray kind, and no
     image, which every row of a render log names (``output``)."""
     return "output" not in row and all(name in row for name in ("scene", "accel", "device", "rays"))
+
+
+def _seekable(device: Path) -> bool:
+    """Whether ``device`` (no regular file) can be opened as :func:`append_row` opens a log, which seeks to its end:
+    /dev/null can, a terminal (/dev/stdout on one) cannot ('File or stream is not seekable' at the first row).
+    Opened without blocking and without becoming the controlling terminal."""
+    try:
+        fd = os.open(device, os.O_WRONLY | os.O_APPEND | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError:
+        return True  # not opened: the first row's write names the problem, as for an unreadable file
+    try:
+        os.lseek(fd, 0, os.SEEK_END)
+        return not os.isatty(fd)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
 
 
 def append_row(log: Path, line: str) -> None:
