@@ -1024,6 +1024,19 @@ def test_a_frame_pattern_without_frames_is_warned_about(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "frame_####.png"]
 
 
+@pytest.mark.parametrize("name", ["out.png", "frames/f.EXR", "depth.npy"])
+def test_a_log_named_as_an_image_is_refused(tmp_path, capsys, name):
+    """--log out.png (-o and --log swapped) wrote the JSON rows into a new file named out.png."""
+    scene = tmp_path / "a.usda"
+    scene.write_text("#usda 1.0\n")
+    log = tmp_path / name
+    assert main(["render", str(scene), "-o", str(tmp_path / "a.png"), "--log", str(log), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert errors == [f"wrt: error: --log {log} names an image; the log is JSON lines: give it a file name of its "
+                      "own, e.g. --log render-log.jsonl, and the image with -o"], errors
+    assert sorted(tmp_path.iterdir()) == [scene]
+
+
 def test_a_log_that_is_wrt_bench_rows_is_refused_naming_what_it_holds(tmp_path, capsys):
     """--log bench-out/rows.jsonl (a JSON-lines file, as a log is) took wrt bench's timings for a render log: the
     render appended its rows there, and the next 'wrt bench --resume' stopped at them as no benchmark rows;

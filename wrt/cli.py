@@ -511,6 +511,12 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
         if log == output or log in output.parents:
             raise ValueError(f"--log {log} is where {output} or its folder goes; give the log a file name "
                              "of its own, e.g. --log render-log.jsonl")
+    from .image import IMAGE_FORMATS
+
+    # -o and --log swapped: the rows went into a new file named out.png. A folder of that name is refused as such below.
+    if given.suffix.lower() in IMAGE_FORMATS and not given.is_dir():
+        raise ValueError(f"--log {given} names an image; the log is JSON lines: give it a file name of its own, e.g. "
+                         "--log render-log.jsonl, and the image with -o")
     from .render_log import check_appendable
 
     # As given: /dev/stdout, a pipe, resolves to /proc/PID/fd/pipe:[N], named by a failed check of its folder.
