@@ -740,7 +740,9 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
         image = renderer.image_so_far()
         if image is not None:
             out = image.save(output, exposure=_png_exposure(args))
-            progress(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}")
+            # A warning, not a progress line: with -q the file under the final name was left without a word.
+            warnings.warn(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}, the image of "
+                          "those samples only", stacklevel=2)
         raise
     progress(
         f"rendered {width}x{height} at {_drawn_spp(args)} spp ({args.integrator})",
