@@ -584,6 +584,33 @@ def test_a_suite_argument_that_is_a_folder_or_a_scene_says_so(tmp_path, capsys, 
     assert not (tmp_path / "out").exists()
 
 
+def test_a_suite_argument_that_is_a_file_wrt_wrote_names_what_it_holds(tmp_path, capsys):
+    """'wrt bench bench-out/rows.jsonl' said 'not a JSON suite (Extra data at line 2, column 1)', and its
+    settings.json 'unknown suite keys ['scaling_n_rays'] (did you mean 'scaling'?)', as if a suite had a typo."""
+    out = tmp_path / "bench-out"
+    assert main(["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+                 "--n-rays", "16", "--repeats", "1", "--threads", "1", "-o", str(out), "-q"]) == 0
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    log = tmp_path / "log.jsonl"
+    assert main(["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "a.png"), "--width", "4", "--height", "3",
+                 "--log", str(log), "-q"]) == 0
+    capsys.readouterr()
+    names = sorted(p.stem for p in bench_module.SUITES_DIR.glob("*.json"))  # cpu, gpu, quick
+    suites = f"give a suite ({', '.join([*names, 'a JSON file of grid fields'])})"
+    for given, what, hint in (
+        (out / "rows.jsonl", "rows that wrt bench measured (its OUT/rows.jsonl)", f"; to keep its folder's rows, add "
+                                                                                  f"-o {out} --resume"),
+        (out / "settings.json", "the settings.json of a wrt bench output folder (the ray counts and repeats of its "
+                                "rows)", f"; to keep its folder's rows, add -o {out} --resume"),
+        (log, "rows of a wrt render log", ""),
+    ):
+        before = given.read_bytes()
+        assert main(["bench", str(given), "-o", str(tmp_path / "new")]) == 2
+        err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+        assert err == [f"wrt: error: {given}: {what}, not a benchmark suite; {suites}{hint}"], err
+        assert given.read_bytes() == before and not (tmp_path / "new").exists()
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
 def test_a_suite_that_is_a_named_pipe_is_a_one_line_error_not_a_hang(tmp_path):
     """A FIFO given as the suite file made read_text() wait for a writer that never came: wrt bench hung. It is

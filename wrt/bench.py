@@ -112,12 +112,14 @@ class Grid:
         try:
             data = json.loads(path.read_text())
         except json.JSONDecodeError as e:
+            _refuse_wrt_output(path)
             raise ValueError(f"{path}: not a JSON suite ({e.msg} at line {e.lineno}, column {e.colno})") from None
         if not isinstance(data, dict):
             raise ValueError(f"{path.name}: a suite is a JSON object of grid fields, got {type(data).__name__}")
         keys = [f.name for f in dataclasses.fields(cls)] + ["description"]
         unknown = sorted(set(data) - set(keys))
         if unknown:  # a misspelt key would leave its field at the default without a word
+            _refuse_wrt_output(path)
             raise ValueError(f"{path.name}: unknown suite keys {unknown}{did_you_mean(unknown[0], keys)}; valid: "
                              f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
@@ -842,6 +844,34 @@ def _check_resumed_settings(path: Path, grid: Grid) -> None:
     if changed:
         raise ValueError(f"{path.parent}: its rows were measured with other settings ({', '.join(changed)}); "
                          "resume with the same settings, or run without --resume to start over")
+
+
+def _refuse_wrt_output(path: Path) -> None:
+    """Raises ValueError when ``path``, given as a suite and read as none, is a file that wrt writes: the rows of a
+    bench (``rows.jsonl``), its ``settings.json``, or a render log. 'wrt bench bench-out/rows.jsonl' was 'not a JSON
+    suite (Extra data at line 2 ...)', and settings.json had 'unknown suite keys ['scaling_n_rays'] (did you mean
+    'scaling'?)', as if a suite had a misspelt key."""
+    from .render_log import is_bench_row
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            first = json.loads(f.readline())
+    except (OSError, ValueError):
+        return
+    if not isinstance(first, dict):
+        return
+    folder = f"; to keep its folder's rows, add -o {path.parent} --resume"
+    if set(first) == set(_SETTING_NAMES):
+        what = f"the {SETTINGS_FILE} of a wrt bench output folder (the ray counts and repeats of its rows)"
+    elif is_bench_row(first):
+        what = "rows that wrt bench measured (its OUT/rows.jsonl)"
+    elif isinstance(first.get("output"), str):
+        what, folder = "rows of a wrt render log", ""
+    else:
+        return
+    suites = [p.stem for p in sorted(SUITES_DIR.glob("*.json"))] if SUITES_DIR.exists() else []
+    suites.append("a JSON file of grid fields")
+    raise ValueError(f"{path}: {what}, not a benchmark suite; give a suite ({', '.join(suites)}){folder}")
 
 
 def _resumed_rows(jsonl: Path) -> list[dict]:
