@@ -978,6 +978,16 @@ def test_warp_lbvh_on_the_cpu_is_said_once_in_wrts_words_and_renders_warps_sah_t
     np.testing.assert_array_equal(np.load(tmp_path / "asked.npy"), np.load(tmp_path / "sah.npy"))
 
 
+def test_warps_lbvh_fallback_names_the_devices_option_that_chose_the_cpus():
+    import argparse
+
+    from wrt.cli import _check_builder
+
+    args = argparse.Namespace(accel="warp", builder="lbvh", device="cpu", devices="cpu,cpu", dask=None)
+    with pytest.warns(UserWarning, match=r"on the CPU \(--devices cpu,cpu\), so it builds its sah tree"):
+        _check_builder(args)
+
+
 def test_the_api_says_warps_lbvh_fallback_on_the_cpu_in_its_own_words(capfd):
     import wrt
     from wrt.cli import default_scene_path

@@ -581,8 +581,9 @@ def _check_builder(args) -> None:
         raise ValueError(f"--builder {args.builder} builds Warp's wp.Mesh (--accel warp); wrt's BVH (--accel wrt, the "
                          f"default) is built by {', '.join(wrt_builders)}")
     if _built_builder(args) != args.builder:
-        warnings.warn(f"--builder lbvh with --accel warp: wp.Mesh has no lbvh builder on the CPU (--device "
-                      f"{args.device}), so it builds its sah tree, which finds the same hits", stacklevel=2)
+        device = f"--devices {args.devices}" if args.devices else f"--device {args.device}"
+        warnings.warn(f"--builder lbvh with --accel warp: wp.Mesh has no lbvh builder on the CPU ({device}), so it "
+                      "builds its sah tree, which finds the same hits", stacklevel=2)
 
 
 def _built_builder(args) -> str:
