@@ -993,8 +993,10 @@ def test_the_api_says_warps_lbvh_fallback_on_the_cpu_in_its_own_words(capfd):
     from wrt.cli import default_scene_path
 
     scene = wrt.load_usd(default_scene_path())
-    with pytest.warns(UserWarning, match="accel='warp' with builder='lbvh': wp.Mesh has no lbvh builder on the CPU"):
+    with pytest.warns(UserWarning, match="accel='warp' with builder='lbvh': wp.Mesh has no lbvh builder on the CPU") \
+            as caught:
         renderer = wrt.Renderer(scene, width=4, height=3, accel="warp", builder="lbvh", device="cpu")
+    assert [w.filename for w in caught if "builder='lbvh'" in str(w.message)] == [__file__]  # the caller's line
     renderer.render()
     assert "LBVH constructor" not in capfd.readouterr().err
 

@@ -30,7 +30,7 @@ from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
-from .errors import did_you_mean
+from .errors import did_you_mean, user_stacklevel
 from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
@@ -461,7 +461,7 @@ class WarpMeshAccelerator(Accelerator):
             import warnings
 
             warnings.warn("accel='warp' with builder='lbvh': wp.Mesh has no lbvh builder on the CPU, so it builds its "
-                          "sah tree, which finds the same hits", stacklevel=3)
+                          "sah tree, which finds the same hits", stacklevel=user_stacklevel())
             builder = "sah"
         self.builder = builder
         self._build(scene)
