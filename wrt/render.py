@@ -658,9 +658,10 @@ class Renderer:
         self._camera_uploads = 0
         self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
         self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
-        # Far-view warnings said (wrt.far_views), each once: every camera upload (set_cameras each frame of an
-        # animation, a rebuild) repeated them. Shared by the Renderers of a FrameRenderer, one per frame.
-        self._far_warnings = shown_set()
+        # Warnings said once, by key: the far-view ones (wrt.far_views), which every camera upload (set_cameras each
+        # frame of an animation, a rebuild) repeated, and those of each image (_warn_once), which a loop of frames
+        # gave at every frame. Shared by the Renderers of a FrameRenderer, one per frame.
+        self._said_once = shown_set()
         self._build()
         self._camera_key = self._camera_sources_key()
         self._note_views()
@@ -1024,8 +1025,8 @@ class Renderer:
             # Named as camera_structs names it: by its label alone, "camera" for all made in Python, the first only
             # was warned of. (One alone, set_cameras([c]) each frame of an animation as Renderer(camera=c), keeps it.)
             name = camera_name(cam, k, len(cameras))
-            warn_scene_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
-            warn_shapes_too_far(self.scene, cam, self.width, self.height, self._far_warnings, name)
+            warn_scene_too_far(self.scene, cam, self.width, self.height, self._said_once, name)
+            warn_shapes_too_far(self.scene, cam, self.width, self.height, self._said_once, name)
         lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
@@ -1475,21 +1476,33 @@ class Renderer:
         """Warns of the samples left out of the image the last render (or frame) returned (:attr:`dropped_samples`),
         of the ``spp`` per pixel it adds up (``resumed``: over several renders), as they darken the pixels they fell
         in. A render with ``resume=True`` counts, and names, every sample of its image, as one render of them all
-        would, so that the warnings of several resumes do not add up to more than were dropped."""
+        would, so that the warnings of several resumes do not add up to more than were dropped. Said once
+        (:meth:`_warn_once`), and once more for the first resumed image, whose count covers earlier renders: the
+        count in the words changes from frame to frame, so a loop of 1000 frames gave 1000 lines."""
         if self.dropped_samples:
             over = f"of the image's {spp} sample(s) per pixel" + (", resumed renders included" if resumed else "")
-            warnings.warn(f"{self.scene.source or 'scene'}: {self.dropped_samples} sample(s) were not finite, or "
-                          f"passed float32's range in their pixel's sum, and were left out (Renderer.dropped_samples, "
-                          f"{over}): the pixels they fell in are darker than they should be",
-                          stacklevel=user_stacklevel())
+            self._warn_once(("dropped samples", resumed), f"{self.scene.source or 'scene'}: {self.dropped_samples} "
+                            "sample(s) were not finite, or passed float32's range in their pixel's sum, and were left "
+                            f"out (Renderer.dropped_samples, {over}): the pixels they fell in are darker than they "
+                            "should be; said once: Renderer.dropped_samples counts those of each later image")
 
     def _warn_clamped(self, pixels: int) -> None:
         """Warns of ``pixels`` whose mean radiance times the camera's exposure passed float32's range (its largest
-        stands for it: inf reached the image, and NaN its tone mapping)."""
+        stands for it: inf reached the image, and NaN its tone mapping); once (:meth:`_warn_once`), as every frame
+        of a loop gave it again."""
         if pixels:
-            warnings.warn(f"{self.scene.source or 'scene'}: {pixels} pixel(s) of radiance times the camera's exposure "
-                          f"past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the exposure "
-                          "or the lights", stacklevel=user_stacklevel())
+            self._warn_once(("clamped pixels",),
+                            f"{self.scene.source or 'scene'}: {pixels} pixel(s) of radiance times the camera's "
+                            f"exposure past float32's range were clamped to its largest ({FLOAT32_MAX:.4g}): lower the "
+                            "exposure or the lights; said once, not for each later image")
+
+    def _warn_once(self, key: tuple, message: str) -> None:
+        """Warns ``message`` unless a warning of ``key`` was said (:attr:`_said_once`): an image's warnings name its
+        own counts, so Python's filter, which shows a message once, let a loop of frames repeat them at every frame."""
+        if key in self._said_once:
+            return
+        warnings.warn(message, stacklevel=user_stacklevel())
+        self._said_once.add(key)  # after: a warning that a filter makes an error raises again at the next image
 
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel, prim

@@ -1,0 +1,171 @@
+"""A Renderer kept for a loop of frames (a simulation's thousands of steps, a progressive viewer) says each warning of
+its images once: the counts in the words changed from frame to frame, so Python's filter (which shows a message once)
+let every frame repeat the line, and a 1000-frame run gave 1000 near-identical lines on stderr. The counts stay
+exact in ``Renderer.dropped_samples`` at every frame."""
+
+import warnings
+
+import numpy as np
+from shading_helpers import quad
+
+import wrt
+
+FRAMES = 5
+
+
+def _blinding_scene() -> tuple:
+    """A dome of 1e38 over a texture of 1e38 over a quad: path samples past float32's range are left out."""
+    scene = wrt.Scene(meshes=[quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), name="/quad")])
+    scene.lights = [wrt.DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((2, 4, 3), 1e38, np.float32))]
+    return scene, wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
+
+
+def _overexposed_scene() -> tuple:
+    """A dome of 1e38 over a grey plane through a camera exposure of 2^10: every pixel passes float32's range."""
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    cam.exposure_scale = 2.0**10
+    return wrt.Scene(meshes=[plane], lights=[wrt.DomeLight(color=np.full(3, 1e38, np.float32))]), cam
+
+
+OPTIONS = {"width": 8, "height": 8, "device": "cpu", "integrator": "path"}
+
+
+def _said(caught, part: str) -> list[str]:
+    return [str(w.message) for w in caught if part in str(w.message)]
+
+
+def test_a_loop_of_renders_warns_of_dropped_samples_once_and_counts_every_frame():
+    scene, cam = _blinding_scene()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        # A fresh Renderer per frame: the count each frame must give, with nothing said before it.
+        expected = [wrt.Renderer(scene, camera=cam, **OPTIONS) for _ in range(FRAMES)]
+        for k, fresh in enumerate(expected):
+            fresh.render(spp=2, seed=k)
+    assert all(fresh.dropped_samples > 0 for fresh in expected)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer = wrt.Renderer(scene, camera=cam, **OPTIONS)
+        counts = []
+        for k in range(FRAMES):
+            renderer.render(spp=2, seed=k)
+            counts.append(renderer.dropped_samples)
+    assert counts == [fresh.dropped_samples for fresh in expected]
+    said = _said(caught, "were not finite")
+    assert len(said) == 1, said
+    assert f" {counts[0]} sample(s) were not finite" in said[0] and "Renderer.dropped_samples counts" in said[0]
+
+
+def test_a_progressive_loop_warns_of_its_first_image_and_of_its_first_resumed_one_only():
+    scene, cam = _blinding_scene()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer = wrt.Renderer(scene, camera=cam, **OPTIONS)
+        renderer.render(spp=2, seed=1)
+        for _ in range(FRAMES):
+            renderer.render(spp=2, seed=1, resume=True)
+    said = _said(caught, "were not finite")
+    assert len(said) == 2, said
+    assert "resumed renders included" not in said[0] and "of the image's 4 sample(s) per pixel, resumed" in said[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = wrt.Renderer(scene, camera=cam, **OPTIONS)
+        whole.render(spp=2 * (FRAMES + 1), seed=1)
+    assert renderer.dropped_samples == whole.dropped_samples > 0
+
+
+def test_a_loop_of_frames_warns_of_dropped_samples_once_and_counts_every_frame():
+    scene, cam = _blinding_scene()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = []
+        for k in range(FRAMES):
+            fresh = wrt.Renderer(scene, camera=cam, **OPTIONS)
+            fresh.render(spp=1, seed=k)
+            expected.append(fresh.dropped_samples)
+    assert all(expected)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer = wrt.Renderer(scene, camera=cam, **OPTIONS)
+        counts = []
+        for k in range(FRAMES):
+            renderer.launch_frame(seed=k)
+            renderer.frame_image()
+            counts.append(renderer.dropped_samples)
+    assert counts == expected
+    assert len(_said(caught, "were not finite")) == 1
+
+
+def test_a_loop_of_renders_and_batches_warns_of_clamped_pixels_once():
+    scene, cam = _overexposed_scene()
+    for cameras in (None, [cam, cam]):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            views = {"camera": cam} if cameras is None else {"cameras": cameras}
+            renderer = wrt.Renderer(scene, **views, **dict(OPTIONS, width=4, height=4, max_depth=1))
+            for k in range(FRAMES):
+                image = renderer.render(spp=2, seed=k)
+                rgb = image.rgb if cameras is None else image.rgb.numpy()
+                assert np.all(rgb == np.finfo(np.float32).max)
+        said = _said(caught, "were clamped to its largest")
+        assert len(said) == 1, said
+        assert said[0].startswith(f"scene: {16 * (1 if cameras is None else 2)} pixel(s)")
+
+
+def test_a_warning_made_an_error_is_raised_at_every_frame():
+    """A filter that makes the warning an error fails each frame that drops samples, not the first one alone."""
+    scene, cam = _blinding_scene()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        renderer = wrt.Renderer(scene, camera=cam, **OPTIONS)
+        warnings.filterwarnings("error", message=".*were not finite")
+        for k in range(3):
+            try:
+                renderer.render(spp=2, seed=k)
+            except UserWarning as e:
+                assert "were not finite" in str(e)
+            else:
+                raise AssertionError(f"frame {k} dropped {renderer.dropped_samples} samples without raising")
+
+
+OVEREXPOSED_USDA = """#usda 1.0
+(
+    endTimeCode = 4
+    startTimeCode = 1
+    upAxis = "Y"
+)
+def Cube "Box"
+{
+    double size = 100
+    double3 xformOp:translate.timeSamples = {1: (0, -50, 0), 4: (0.5, -50, 0)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def DomeLight "Dome"
+{
+    float inputs:intensity = 1e38
+}
+def Camera "Cam"
+{
+    float exposure = 10
+    float2 clippingRange = (0.1, 100)
+    double3 xformOp:translate = (0, 3, 0)
+    double3 xformOp:rotateXYZ = (-90, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}
+"""
+
+
+def test_the_frames_of_a_frame_renderer_warn_of_clamped_pixels_once(tmp_path):
+    """FrameRenderer makes a Renderer per frame; they share what was said, as they do the far-view warnings."""
+    from wrt.animation import FrameRenderer
+
+    path = tmp_path / "overexposed.usda"
+    path.write_text(OVEREXPOSED_USDA)
+    renderer = FrameRenderer(path, camera="/Cam", width=4, height=4, device="cpu", integrator="path", max_depth=1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for frame in range(1, 5):
+            assert np.all(renderer.render(frame, spp=2, seed=frame).rgb == np.finfo(np.float32).max)
+    said = _said(caught, "were clamped to its largest")
+    assert len(said) == 1, said
