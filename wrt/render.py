@@ -1293,7 +1293,7 @@ class Renderer:
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped(1)
         # The scene is checked unchanged above, and one camera's ids are expanded at once (finish_image), so they
-        # read the instances' prototype ids as they are: copied, 40 MB per frame at 5M instances. A BatchImage
+        # read the instances' prototype ids as they are: copied, 20 MB per frame at 5M instances. A BatchImage
         # expands its views later, after edits maybe, so it keeps a copy.
         return self._mean_image(image, 1, aovs, self.scene.id_rows(copy=self.batched))
 
