@@ -169,3 +169,37 @@ def test_the_frames_of_a_frame_renderer_warn_of_clamped_pixels_once(tmp_path):
             assert np.all(renderer.render(frame, spp=2, seed=frame).rgb == np.finfo(np.float32).max)
     said = _said(caught, "were clamped to its largest")
     assert len(said) == 1, said
+
+
+BLIND_USDA = """#usda 1.0
+(
+    endTimeCode = 4
+    startTimeCode = 1
+    upAxis = "Y"
+)
+def Cube "Box"
+{
+    double3 xformOp:translate.timeSamples = {1: (0, 0, -50), 4: (0, 0, -60)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Camera "Cam"
+{
+    float2 clippingRange = (0.1, 10)
+}
+"""
+
+
+def test_a_camera_that_sees_nothing_at_every_frame_of_a_frame_renderer_is_warned_of_once(tmp_path):
+    """The box moves away from a camera whose far plane (10) is nearer than it (50 to 60): the warning names the
+    box's extent along the view, new at each frame, and FrameRenderer's Renderer of each frame said it again."""
+    from wrt.animation import FrameRenderer
+
+    path = tmp_path / "blind.usda"
+    path.write_text(BLIND_USDA)
+    renderer = FrameRenderer(path, camera="/Cam", width=4, height=4, device="cpu")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for frame in range(1, 5):
+            assert (renderer.render(frame).aovs["prim"] == -1).all()
+    said = _said(caught, "sees nothing")
+    assert len(said) == 1 and "lies from 49 to 51 along its view" in said[0], said

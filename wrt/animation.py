@@ -278,8 +278,8 @@ class FrameRenderer:
         self.log = []
         self._scene = None
         self._frames = None  # the StageFrames that loads every frame: the stage and unchanged meshes kept
-        # Warnings said once over the frames (wrt.far_views.shown_set): far-view ones name the camera's distance,
-        # and each image's its own counts (dropped samples, clamped pixels), so every frame said them again.
+        # Warnings said once over the frames (wrt.far_views.shown_set): far-view ones name the camera's distance, a
+        # camera that sees nothing the scene's extent, each image's its own counts, so every frame said them again.
         self._far_warnings = set()
 
     def render(self, frame: float, spp: int = 1, seed: int = 0):

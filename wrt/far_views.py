@@ -48,8 +48,9 @@ def shown_across_renderers(shown: set):
 
 
 def shown_set() -> set:
-    """The set of warnings said once (the far-view ones, and those of each image: ``Renderer._warn_once``) that a new
-    Renderer keeps: the one :func:`shown_across_renderers` shares, else a new one."""
+    """The set of warnings said once (the far-view ones, a camera that sees nothing, and those of each image:
+    ``Renderer._warn_once``) that a new Renderer keeps: the one :func:`shown_across_renderers` shares, else a new
+    one."""
     shared = _SHARED_SHOWN.get()
     return set() if shared is None else shared
 

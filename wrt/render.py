@@ -658,14 +658,14 @@ class Renderer:
         self._camera_uploads = 0
         self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
         self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
-        # Warnings said once, by key: the far-view ones (wrt.far_views), which every camera upload (set_cameras each
-        # frame of an animation, a rebuild) repeated, and those of each image (_warn_once), which a loop of frames
-        # gave at every frame. Shared by the Renderers of a FrameRenderer, one per frame.
+        # Warnings said once, by key: the far-view and clipped-away ones (wrt.far_views, warn_clipped_away), which
+        # every camera upload (set_cameras each step of a simulation, a rebuild) repeated, and those of each image
+        # (_warn_once), which a loop of frames gave at every frame. Shared by the Renderers of a FrameRenderer, one
+        # per frame: their words name the scene's extent, a camera's distance or a count, which change each frame.
         self._said_once = shown_set()
         self._build()
         self._camera_key = self._camera_sources_key()
         self._note_views()
-        self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
         self._warn_clipped_away()
 
     def _build(self) -> None:
@@ -746,7 +746,7 @@ class Renderer:
         Called whenever the cameras or the scene change: a camera given by set_cameras, or edited since, that sees
         nothing drew background without a word, where a new Renderer warned."""
         if self._draws_anything:
-            warn_clipped_away(self.scene, self.cameras, self._clip_warnings)
+            warn_clipped_away(self.scene, self.cameras, self._said_once)
 
     def _camera_sources_key(self) -> tuple:
         """What the renderer's cameras are made from, as it is now: each camera given, or the scene's camera at its
