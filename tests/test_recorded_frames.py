@@ -346,3 +346,22 @@ def test_the_ids_a_render_keeps_hold_no_more_memory_than_the_instances_prototype
     assert rows.prototype is not scene.instances.prototype
     np.testing.assert_array_equal(rows.prototype, scene.instances.prototype)
     assert rows.prototype.nbytes <= scene.instances.prototype.nbytes
+
+
+def test_frames_keep_working_past_two_to_the_31_camera_uploads_and_frame_buffers():
+    """A simulation calls set_cameras every step, and a scene edited in place every step makes new frame buffers:
+    both are numbered on the device in an int32, and past 2^31 - 1 of them the device's number wrapped negative while
+    the renderer's Python count did not, so every frame_image from then on raised that the frame was drawn before the
+    cameras (or the scene) last changed. The counts start near the limit here, as 2^31 steps cannot run in a test;
+    oracle: a fresh renderer's frame of the same camera."""
+    scene, cams = sensor_scene(), ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, camera=cams[0], width=6, height=4, device="cpu")
+    renderer._camera_uploads = renderer._frames_made = 2**31 - 2
+    for k in range(4):
+        renderer.set_cameras([cams[k % 2]])
+        scene.invalidate()  # rebuilt at the next frame: new frame buffers, numbered anew
+        renderer.launch_frame(seed=k)
+        fresh = wrt.Renderer(scene, cameras=[cams[k % 2]], width=6, height=4, device="cpu")
+        fresh.launch_frame(seed=k)
+        np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), fresh.frame_image().rgb.numpy(),
+                                      err_msg=f"step {k}")

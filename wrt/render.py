@@ -77,6 +77,13 @@ MAX_SPP = 0x7FFFFFFF  # the kernels number samples with a 32-bit int: sample 2^3
 CAPTURE_CULL_PASSES = 2
 
 
+def next_number(number: int) -> int:
+    """``number + 1`` within int32's positive range, 0 after 2^31 - 1: the renderer's upload and frame-buffer numbers
+    are compared with their copies in device int32s, which wrapped negative past 2^31 - 1 while the Python count did
+    not, and every frame_image of a simulation that had called set_cameras at each of 2^31 steps raised from then on."""
+    return (number + 1) % (1 << 31)
+
+
 def check_pixels(width: int, height: int, n_views: int = 1) -> None:
     """Raises ``ValueError`` when ``n_views`` images of ``width x height`` exceed ``MAX_PIXELS``."""
     if width * height * n_views > MAX_PIXELS:
@@ -1036,7 +1043,7 @@ class Renderer:
         else:
             self._cams, self._lenses = cams, lenses
         self._cameras, self._camera = tuple(cameras), cameras[0]
-        self._camera_uploads += 1
+        self._camera_uploads = next_number(self._camera_uploads)
         self._camera_upload_number.fill_(self._camera_uploads)
         self._thin_lens = any(radius > 0.0 for radius, _ in lens_list)  # some camera has depth of field
         # Read now, as the pose and lens are: a camera changed after this is uploaded again at the next render
@@ -1213,7 +1220,7 @@ class Renderer:
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
             self._check_launch(n_pixels, 1)
-            self._frames_made += 1
+            self._frames_made = next_number(self._frames_made)
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device),
