@@ -203,3 +203,54 @@ def test_a_camera_that_sees_nothing_at_every_frame_of_a_frame_renderer_is_warned
             assert (renderer.render(frame).aovs["prim"] == -1).all()
     said = _said(caught, "sees nothing")
     assert len(said) == 1 and "lies from 49 to 51 along its view" in said[0], said
+
+
+BLINDING_USDA = """#usda 1.0
+(
+    endTimeCode = 4
+    startTimeCode = 1
+    upAxis = "Y"
+)
+def Cube "Box"
+{
+    double3 xformOp:translate.timeSamples = {1: (0, 0, 0), 4: (0.5, 0, 0)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def DomeLight "Dome"
+{
+    float inputs:intensity = 1e38
+    asset inputs:texture:file = @sky.tif@
+}
+def Camera "Cam"
+{
+    double3 xformOp:translate = (0, 0, 4)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_a_frame_renderer_logs_each_frames_dropped_samples(tmp_path):
+    """Said once over the frames, the dropped-sample warning no longer gives each frame's count, and a FrameRenderer's
+    per-frame Renderer (with its dropped_samples) is not the caller's: each log row has the frame's count. A dome of
+    1e38 over a float TIFF of 1e38 drops samples; oracle: a Renderer of the stage loaded at that frame."""
+    from PIL import Image as PilImage
+
+    from wrt.animation import FrameRenderer
+
+    PilImage.fromarray(np.full((2, 4), 1e38, np.float32), mode="F").save(tmp_path / "sky.tif")
+    path = tmp_path / "blinding.usda"
+    path.write_text(BLINDING_USDA)
+    options = {"width": 6, "height": 6, "device": "cpu", "integrator": "path"}
+    renderer = FrameRenderer(path, camera="/Cam", **options)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for frame in (1, 2, 3):
+            renderer.render(frame, spp=2, seed=frame)
+    said = _said(caught, "were not finite")
+    assert len(said) == 1, said
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for row in renderer.log:
+            fresh = wrt.Renderer(wrt.load_usd(path, time=row["frame"]), camera="/Cam", **options)
+            fresh.render(spp=2, seed=int(row["frame"]))
+            assert row["dropped_samples"] == fresh.dropped_samples > 0

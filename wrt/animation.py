@@ -265,7 +265,8 @@ class FrameRenderer:
     Attributes:
         log: one dict per rendered frame: ``frame``, ``change`` (what the BVH did), ``rebuilt_trees`` (trees built
             anew: all of them on a ``build``, those past the refit limit on a ``refit``), ``load_ms``, ``update_ms``
-            (build, refit or TLAS rebuild), ``render_ms``.
+            (build, refit or TLAS rebuild), ``render_ms``, ``dropped_samples`` (the frame's samples left out as not
+            finite: :attr:`wrt.Renderer.dropped_samples`; their warning is said once over the frames).
     """
 
     def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, variants=None,
@@ -327,6 +328,8 @@ class FrameRenderer:
                 "load_ms": 1e3 * (loaded - start),
                 "update_ms": 1e3 * (updated - loaded),
                 "render_ms": renderer.timers["render"][0],
+                # The frame's own count: its warning is said once over the frames (Renderer._warn_once).
+                "dropped_samples": renderer.dropped_samples,
             }
         )
         return image
