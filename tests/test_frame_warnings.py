@@ -254,3 +254,22 @@ def test_a_frame_renderer_logs_each_frames_dropped_samples(tmp_path):
             fresh = wrt.Renderer(wrt.load_usd(path, time=row["frame"]), camera="/Cam", **options)
             fresh.render(spp=2, seed=int(row["frame"]))
             assert row["dropped_samples"] == fresh.dropped_samples > 0
+
+
+def test_a_loop_that_resumes_with_a_new_seed_each_frame_is_told_once_that_it_starts_over():
+    """resume=True adds samples of the same seed only: a loop passing the frame number as the seed starts over at
+    every frame, and the warning naming both seeds (new words each frame) was said at every frame. Each image is
+    still a fresh render's of its seed."""
+    scene, cam = _overexposed_scene()
+    options = dict(OPTIONS, integrator="whitted", width=4, height=4)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer = wrt.Renderer(scene, camera=cam, **options)
+        for k in range(FRAMES):
+            image = renderer.render(spp=2, seed=k, resume=True)
+    said = _said(caught, "starts over from no samples")
+    assert len(said) == 1 and "seed 1 is not the previous render's (0)" in said[0], said
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fresh = wrt.Renderer(scene, camera=cam, **options).render(spp=2, seed=FRAMES - 1)
+    np.testing.assert_array_equal(image.rgb, fresh.rgb)

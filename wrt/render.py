@@ -1112,10 +1112,12 @@ class Renderer:
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
         if resume and not resuming and not quick_look and (state is not None or self._sums_dropped):
-            # The image is of these samples alone: said, where a caller adding samples would take it for the sum.
-            why = (f"seed {seed} is not the previous render's ({state['seed']})" if state is not None
-                   else f"{self._sums_dropped} since the previous render")
-            warnings.warn(f"resume=True starts over from no samples: {why}", stacklevel=user_stacklevel())
+            # The image is of these samples alone: said, where a caller adding samples would take it for the sum; once
+            # per cause (_warn_once), as a loop passing the frame number as the seed started over at every frame.
+            why = (f"seed {seed} is not the previous render's ({state['seed']}); said once: a later render of another "
+                   "seed starts over too" if state is not None else f"{self._sums_dropped} since the previous render")
+            self._warn_once(("resume starts over", "seed" if state is not None else self._sums_dropped),
+                            f"resume=True starts over from no samples: {why}")
         if quick_look:
             spp = 1
         if (state["samples"] if resuming else 0) + spp > MAX_SPP:
