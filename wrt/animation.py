@@ -281,7 +281,7 @@ class FrameRenderer:
         self._frames = None  # the StageFrames that loads every frame: the stage and unchanged meshes kept
         # Warnings said once over the frames (wrt.far_views.shown_set): far-view ones name the camera's distance, a
         # camera that sees nothing the scene's extent, each image's its own counts, so every frame said them again.
-        self._far_warnings = set()
+        self._said_once = set()
 
     def render(self, frame: float, spp: int = 1, seed: int = 0):
         """The :class:`wrt.Image` of time code ``frame``."""
@@ -312,7 +312,7 @@ class FrameRenderer:
             if change == "build":
                 for key in accels:
                     scene._cache.pop(key, None)
-        with shown_across_renderers(self._far_warnings):  # said once over the frames, not once per frame
+        with shown_across_renderers(self._said_once):  # said once over the frames, not once per frame
             renderer = Renderer(scene, camera=self.camera, **self.options)
         if change == "build":
             renderer.accel.built_sah = tree_costs(renderer.accel)
