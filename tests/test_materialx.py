@@ -616,6 +616,7 @@ def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node)
 # function to linear as MaterialX's colour transforms decode it (a power of max(x, 0), or sRGB's curve), and whether
 # its primaries are other than Rec.709's (a gamut conversion wrt does not make, to be named).
 TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x**1.8, False),
+             "rec709_display": (lambda x: x**2.4, False),
              "lin_srgb": (lambda x: x, False), "g22_ap1": (lambda x: x**2.2, True),
              "g18_ap1": (lambda x: x**1.8, True), "adobergb": (lambda x: x ** (563 / 256), True),
              "srgb_displayp3": (lambda x: srgb_decoded(x, 1.0), True), "lin_displayp3": (lambda x: x, True),

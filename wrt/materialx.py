@@ -174,9 +174,11 @@ TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vect
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 # MaterialX's colour spaces (Specification 1.39) -> (wrt's colour space, whether its primaries are other than
 # Rec.709's: a gamut conversion wrt does not make, named in a note). The transfer functions are those of MaterialX's
-# colour transforms: max(x, 0)^2.2 or ^1.8, Adobe RGB's ^(563/256), sRGB's curve for srgb_displayp3.
+# colour transforms: max(x, 0)^2.2 or ^1.8, rec709_display's ^2.4 (cmlib's NG_rec709_display_to_lin_rec709), Adobe
+# RGB's ^(563/256), sRGB's curve for srgb_displayp3.
 COLOR_SPACES = {"srgb_texture": ("sRGB", False), "lin_rec709": ("raw", False), "raw": ("raw", False),
                 "lin_srgb": ("raw", False), "g22_rec709": ("gamma 2.2", False), "g18_rec709": ("gamma 1.8", False),
+                "rec709_display": ("gamma 2.4", False),
                 "acescg": ("raw", True), "lin_ap1": ("raw", True), "g22_ap1": ("gamma 2.2", True),
                 "g18_ap1": ("gamma 1.8", True), "adobergb": (f"gamma {563 / 256}", True),
                 "lin_adobergb": ("raw", True), "srgb_displayp3": ("sRGB", True), "lin_displayp3": ("raw", True)}
