@@ -75,9 +75,11 @@ class TextureError(ValueError):
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
-    """The inverse sRGB transfer function (IEC 61966-2-1)."""
+    """The inverse sRGB transfer function (IEC 61966-2-1), negatives on its linear segment, as MaterialX's
+    ``srgb_texture`` transform takes them: the power's base is ``max(x + 0.055, 0)``, as there, so that the power
+    taken of every number before the choice does not warn of an invalid value for a negative one."""
     x = np.asarray(x, np.float32)
-    return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4)).astype(np.float32)
+    return np.where(x <= 0.04045, x / 12.92, np.power(np.maximum(x + 0.055, 0.0) / 1.055, 2.4)).astype(np.float32)
 
 
 def decode_curve(color_space: str):
