@@ -1327,6 +1327,60 @@ def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function
     np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)
 
 
+@pytest.mark.parametrize("space", ["srgb_texture", "g22_rec709"])
+def test_a_constant_colour_decoded_past_float32s_range_is_named_and_its_default_used(tmp_path, space):
+    """An ``emission_color`` of (1e20, 0.5, 0.5), finite in float32, in ``srgb_texture`` or ``g22_rec709`` decodes to
+    past float32's range (1e20^2.4, ^2.2): its default (1, 1, 1) is used, with a note naming the input, as for any
+    input that is not a finite number, and the surface emits nothing (the emission weight's default is 0). Its decode
+    was taken: the infinite colour times the emission weight 0 was NaN, and the whole stage failed to load
+    (Material emissive_color must be finite)."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Glow")
+    glow = shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f)
+    glow.Set(Gf.Vec3f(1e20, 0.5, 0.5))
+    glow.GetAttr().SetColorSpace(space)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert [m for m in messages if "emission_color" in m and "default" in m], messages
+    (mat,) = scene.materials
+    np.testing.assert_array_equal(mat.emissive_color, 0.0)
+
+
+def test_an_image_default_decoded_past_float32s_range_is_named_and_materialx_default_used(tmp_path):
+    """The same for a color3 image node's ``default`` of (1e20, 0.5, 0.5) in ``srgb_texture`` (its file missing):
+    MaterialX's default of an unauthored one, black, is used, with a note naming the node's default."""
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    default = base_color_image(stage, "/Looks/Paint", "missing.png").CreateInput("default", Sdf.ValueTypeNames.Color3f)
+    default.Set(Gf.Vec3f(1e20, 0.5, 0.5))
+    default.GetAttr().SetColorSpace("srgb_texture")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert [m for m in messages if "default decoded from its colour space" in m], messages
+    (mat,) = scene.materials
+    np.testing.assert_array_equal(mat.diffuse_color, 0.0)
+
+
+def test_a_negative_constant_colour_in_srgb_texture_is_decoded_without_a_word(tmp_path):
+    """A ``base_color`` of (-0.5, 0.02, 0.5) in ``srgb_texture`` reads MaterialX's decode, ``x / 12.92`` at and below
+    0.04045 (negatives too), the power of ``max(x + 0.055, 0) / 1.055`` above, in float64 here, and says nothing:
+    numpy's "invalid value encountered in power" (the power taken of every number before the choice) was passed on
+    as a warning of the load."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    paint = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
+    paint.Set(Gf.Vec3f(-0.5, 0.02, 0.5))
+    paint.GetAttr().SetColorSpace("srgb_texture")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, [-0.5 / 12.92, 0.02 / 12.92, (0.555 / 1.055) ** 2.4], rtol=1e-5)
+
+
 @pytest.mark.parametrize("space", ["srgb_texture", "g18_rec709", "lin_rec709"])
 def test_an_image_nodes_default_in_a_colour_space_is_decoded(tmp_path, space):
     """The ``default`` of a color3 image node whose file is missing, authored with a ``colorSpace``, is decoded by

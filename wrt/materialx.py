@@ -256,7 +256,11 @@ class _Graph:
             if value is None:
                 self.notes.append(f"{name} is not a finite number of its type; its default is used")
                 return default, None
-            return self._decoded(self.shader.GetInput(name), value, f"{name}'s"), None
+            decoded = self._decoded(self.shader.GetInput(name), value, f"{name}'s")
+            if decoded is None:
+                self.notes.append(f"{name} decoded from its colour space is past float32's range; its default is used")
+                return default, None
+            return decoded, None
         node = found[1]
         own = _input_array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
         constant = default if own is None else own  # the value authored beside the connection
@@ -285,12 +289,14 @@ class _Graph:
             return constant, None
         return value, folded.source
 
-    def _decoded(self, inp, value: np.ndarray, what: str) -> np.ndarray:
+    def _decoded(self, inp, value: np.ndarray, what: str) -> np.ndarray | None:
         """Constant ``value`` of colour input ``inp`` (a surface's ``base_color``, an image's ``default``; 3 or 4
         numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface input it
         connects to: :func:`file_color_space`, noted as ``what``'s), as MaterialX transforms a value bound to a node
         input of a colour type; as it is for other inputs and where none is authored. A base_color of 0.5 in
-        ``srgb_texture`` was read as 0.5 for MaterialX's 0.214."""
+        ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes float32's range (1e20
+        in ``srgb_texture``), for the caller to use its default: an emission_color so, times the emission weight 0,
+        was NaN, and the stage failed to load."""
         if value.size not in (3, 4) or not inp or inp.GetTypeName().role != "Color":
             return value
         space, note = file_color_space(inp, what)
@@ -300,8 +306,9 @@ class _Graph:
         if decode is None:
             return value
         decoded = np.array(value, np.float64)
-        decoded[:3] = decode(value[:3])
-        return decoded
+        with np.errstate(over="ignore"):  # told by the caller, naming the input
+            decoded[:3] = decode(value[:3])
+        return decoded if np.isfinite(decoded).all() else None
 
     def scalar(self, role: str) -> tuple[float, TextureInput | None]:
         """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""
@@ -481,7 +488,12 @@ class _Graph:
         size = TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)]
         default = _array(reader._constant(node, "default"), size)
         if default is not None:  # in its colorSpace, if any: the specification's example default is in lin_rec709
-            fallback = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default")
+            default = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default")
+            if default is None:
+                self.notes.append(f"{node.GetPath()}'s default decoded from its colour space is past float32's range; "
+                                  "MaterialX's default is used")
+        if default is not None:
+            fallback = default
         elif unauthored_default is not None:
             fallback = np.asarray(unauthored_default, np.float64)
         else:
