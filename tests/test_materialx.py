@@ -1327,6 +1327,31 @@ def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function
     np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)
 
 
+@pytest.mark.parametrize("node", ["ND_constant_color3", "ND_multiply_color3"])
+def test_a_nodes_constant_colour_in_a_colour_space_is_decoded(tmp_path, node):
+    """A colour value bound to an input of a node of the graph (a ``constant``'s ``value``, a ``multiply``'s ``in2``
+    times 1) feeding ``base_color``, in ``srgb_texture``, is decoded as MaterialX's ShaderGraph decodes a value bound
+    to any node's colour input: (0.2, 0.5, 0.8) reads the sRGB decode of each, in float64 here. Only the surface's
+    own inputs were decoded: one node away the constant was read as linear without a word."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    paint = UsdShade.Shader.Define(stage, "/Looks/Paint/Paint")
+    paint.CreateIdAttr(node)
+    value = paint.CreateInput("value" if node == "ND_constant_color3" else "in2", Sdf.ValueTypeNames.Color3f)
+    value.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    value.GetAttr().SetColorSpace("srgb_texture")
+    if node == "ND_multiply_color3":
+        paint.CreateInput("in1", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1.0, 1.0, 1.0))
+    paint.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(paint.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, srgb_decoded(np.array([0.2, 0.5, 0.8]), 1.0), rtol=1e-5)
+
+
 @pytest.mark.parametrize("space", ["srgb_texture", "g22_rec709"])
 def test_a_constant_colour_decoded_past_float32s_range_is_named_and_its_default_used(tmp_path, space):
     """An ``emission_color`` of (1e20, 0.5, 0.5), finite in float32, in ``srgb_texture`` or ``g22_rec709`` decodes to

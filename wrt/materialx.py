@@ -290,25 +290,14 @@ class _Graph:
         return value, folded.source
 
     def _decoded(self, inp, value: np.ndarray, what: str) -> np.ndarray | None:
-        """Constant ``value`` of colour input ``inp`` (a surface's ``base_color``, an image's ``default``; 3 or 4
-        numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface input it
-        connects to: :func:`file_color_space`, noted as ``what``'s), as MaterialX transforms a value bound to a node
-        input of a colour type; as it is for other inputs and where none is authored. A base_color of 0.5 in
-        ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes float32's range (1e20
-        in ``srgb_texture``), for the caller to use its default: an emission_color so, times the emission weight 0,
-        was NaN, and the stage failed to load."""
-        if value.size not in (3, 4) or not inp or inp.GetTypeName().role != "Color":
-            return value
-        space, note = file_color_space(inp, what)
-        decode = decode_curve(space or "raw")
+        """:func:`decoded_color` of ``value``, its note (a colour space of other primaries, or unknown) kept. A
+        base_color of 0.5 in ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes
+        float32's range (1e20 in ``srgb_texture``), for the caller to use its default: an emission_color so, times
+        the emission weight 0, was NaN, and the stage failed to load."""
+        decoded, note = decoded_color(inp, value, what)
         if note is not None:
             self.notes.append(note)
-        if decode is None:
-            return value
-        decoded = np.array(value, np.float64)
-        with np.errstate(over="ignore"):  # told by the caller, naming the input
-            decoded[:3] = decode(value[:3])
-        return decoded if np.isfinite(decoded).all() else None
+        return decoded
 
     def scalar(self, role: str) -> tuple[float, TextureInput | None]:
         """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""
@@ -715,6 +704,24 @@ class _Graph:
         self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
+
+def decoded_color(inp, value: np.ndarray, what: str) -> tuple[np.ndarray | None, str | None]:
+    """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
+    node's; 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface
+    input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's ShaderGraph
+    transforms a value bound to a node input of a colour type; as it is for other inputs and where none is authored.
+    ``decoded`` is None where the decode passes float32's range."""
+    if value.size not in (3, 4) or not inp or inp.GetTypeName().role != "Color":
+        return value, None
+    space, note = file_color_space(inp, what)
+    decode = decode_curve(space or "raw")
+    if decode is None:
+        return value, note
+    decoded = np.array(value, np.float64)
+    with np.errstate(over="ignore"):  # told by the caller, naming the input
+        decoded[:3] = decode(value[:3])
+    return (decoded if np.isfinite(decoded).all() else None), note
+
 
 def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
     """``(space, note)``: wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for an image

@@ -117,7 +117,14 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
             raise Unfoldable(node) from None
         if value.size == 0 or not np.all(np.isfinite(value)):
             raise Unfoldable(node)
-        return Folded(value)
+        from .materialx import decoded_color  # that module imports this one
+
+        # In its colorSpace, as MaterialX transforms a colour value bound to any node's input: a constant node's
+        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.)
+        decoded, _ = decoded_color(node.GetInput(name), value, name)
+        if decoded is None:
+            raise Unfoldable(node, f"{name} decoded from its colour space is past float32's range")
+        return Folded(decoded)
 
     names = TYPE_NAME.findall(types)  # the output's type: a convert's last, any other node's first
     if not names:
