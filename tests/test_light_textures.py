@@ -377,3 +377,45 @@ def test_light_texels_that_cannot_be_emitted_are_named_in_a_warning(tmp_path, va
     img = wrt.render(scene, camera=wrt.Camera.look_at((0, 0, 5), (0, 0, 0)), width=8, height=6, spp=2, device="cpu",
                      integrator="path")
     assert np.isfinite(img.rgb).all() and (img.rgb >= 0).all()
+
+
+def srgb_decoded(samples):
+    """8-bit samples through the inverse sRGB transfer function in float64 (IEC 61966-2-1)."""
+    x = np.asarray(samples, np.float64) / 255.0
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def light_from_usd(tmp_path, kind, texture, file_metadata=""):
+    """The one light of a stage holding a ``kind`` light (``DomeLight`` or ``RectLight``) textured with
+    ``texture`` (a file in ``tmp_path``); ``file_metadata``: metadata on its ``inputs:texture:file``."""
+    path = tmp_path / "light.usda"
+    fmt = '    token inputs:texture:format = "latlong"\n' if kind == "DomeLight" else ""
+    path.write_text(f'#usda 1.0\ndef {kind} "Light"\n{{\n    asset inputs:texture:file = @{texture.name}@'
+                    f'{file_metadata}\n{fmt}}}\n')
+    (light,) = wrt.load_usd(path).lights
+    return light
+
+
+# Samples spanning the sRGB curve's linear toe (0..10), its knee and the top.
+RAMP = np.array([[0, 5, 10, 11, 64, 128], [188, 200, 230, 250, 254, 255]], np.uint8)
+
+
+@pytest.mark.parametrize("kind", ["DomeLight", "RectLight"])
+def test_light_texture_of_8_bit_colour_is_srgb_decoded_and_grey_is_read_as_stored(tmp_path, kind):
+    """UsdLux has no sourceColorSpace: Storm reads a dome's texture as UsdUVTexture's ``auto``
+    (HdStAssetUvSubtextureIdentifier(..., sourceColorSpace = colorSpaceAuto) in hdSt's simpleLightingShader), so an
+    8-bit RGB or RGBA PNG is sRGB-decoded and a grey PNG (8 or 16 bits) is read as stored. A RectLight's texture is
+    read by the same rule. Checked against the sRGB curve in float64. No fix: nothing checked the light textures'
+    transfer function (the other tests' texels are 0 and 255, the same under both)."""
+    rgb = np.stack([RAMP, RAMP[:, ::-1], np.full_like(RAMP, 128)], -1)
+    PilImage.fromarray(rgb, "RGB").save(tmp_path / "rgb.png")
+    rgba = np.concatenate([rgb, np.full_like(RAMP, 77)[..., None]], -1)
+    PilImage.fromarray(rgba, "RGBA").save(tmp_path / "rgba.png")
+    PilImage.fromarray(RAMP, "L").save(tmp_path / "grey.png")
+    PilImage.fromarray(RAMP.astype(np.uint16) * 257).save(tmp_path / "grey16.png")
+    for name, samples in (("rgb.png", rgb), ("rgba.png", rgb)):
+        texture = light_from_usd(tmp_path, kind, tmp_path / name).texture
+        np.testing.assert_allclose(texture[..., :3], srgb_decoded(samples), atol=2e-6)
+    grey = np.repeat(RAMP[..., None], 3, -1) / 255.0
+    for name in ("grey.png", "grey16.png"):
+        np.testing.assert_allclose(light_from_usd(tmp_path, kind, tmp_path / name).texture[..., :3], grey, atol=2e-6)
