@@ -419,3 +419,17 @@ def test_light_texture_of_8_bit_colour_is_srgb_decoded_and_grey_is_read_as_store
     grey = np.repeat(RAMP[..., None], 3, -1) / 255.0
     for name in ("grey.png", "grey16.png"):
         np.testing.assert_allclose(light_from_usd(tmp_path, kind, tmp_path / name).texture[..., :3], grey, atol=2e-6)
+
+
+@pytest.mark.parametrize("kind", ["DomeLight", "RectLight"])
+def test_light_texture_colour_space_metadata_is_named_as_not_read(tmp_path, kind):
+    """A ``colorSpace`` on a light's ``inputs:texture:file`` is not what Storm reads (the dome's texture is read as
+    ``auto`` whatever it says), so the image is decoded as ``auto`` (sRGB here, against float64) and the light and
+    the colour space are named in a warning: an 8-bit colour file marked ``lin_rec709_scene`` was sRGB-decoded
+    without a word."""
+    rgb = np.stack([RAMP, RAMP[:, ::-1], np.full_like(RAMP, 128)], -1)
+    PilImage.fromarray(rgb, "RGB").save(tmp_path / "rgb.png")
+    linear = ' (\n        colorSpace = "lin_rec709_scene"\n    )'
+    with pytest.warns(UserWarning, match=r"colorSpace of inputs:texture:file is not read.*lin_rec709_scene.*/Light"):
+        light = light_from_usd(tmp_path, kind, tmp_path / "rgb.png", linear)
+    np.testing.assert_allclose(light.texture[..., :3], srgb_decoded(rgb), atol=2e-6)

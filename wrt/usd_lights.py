@@ -660,6 +660,14 @@ def _read_texture(prim, asset, kind: str, skip, textures: LightTextures):
     except TextureError as e:
         skip(f"{kind} texture: {e}; the light's colour is used", prim)
         return None, ""
+    attr = prim.GetAttribute("inputs:texture:file")
+    if attr and attr.HasColorSpace() and str(attr.GetColorSpace()):
+        # Storm reads a light's texture as UsdUVTexture's auto whatever the attribute's colorSpace says (hdSt's
+        # dome light texture hardcodes it); UsdLux has no sourceColorSpace. An 8-bit colour file marked
+        # lin_rec709_scene was sRGB-decoded without a word.
+        skip(f"{kind} texture: the colorSpace of inputs:texture:file is not read; the image is decoded as Storm "
+             "decodes a light's texture (UsdUVTexture's sourceColorSpace auto: sRGB for 8-bit colour, else as "
+             "stored)", prim, str(attr.GetColorSpace()))
     if resolved not in textures.dark:
         textures.dark[resolved] = _unemitted(image, os.path.basename(resolved))
     if textures.dark[resolved]:  # light_table makes them 0: an HDR's sun stored as inf went black without a word
