@@ -538,6 +538,33 @@ def test_unknown_source_color_space_is_named_and_read_as_auto(tmp_path):
     np.testing.assert_allclose(img, float(srgb_to_linear(np.float32(128 / 255))), atol=2e-3)  # auto: sRGB for 8 bits
 
 
+@pytest.mark.parametrize(
+    "mode, source_color_space, file_color_space",
+    [("RGB", "raw", "srgb_rec709_scene"), ("L", "sRGB", "lin_rec709_scene"), ("RGB", None, "raw")],
+)
+def test_a_usd_uv_textures_file_color_space_is_named_and_its_source_color_space_decides(
+        tmp_path, mode, source_color_space, file_color_space):
+    """Storm decodes a UsdUVTexture by its ``sourceColorSpace`` alone (``auto`` where unauthored): hdSt's
+    materialNetwork resolves that input and reads no ``colorSpace`` metadata for a glslfx texture node. So an 8-bit
+    texel of 128 marked ``srgb_rec709_scene`` under ``sourceColorSpace = raw`` reads 128/255, a grey one marked
+    ``lin_rec709_scene`` under ``sRGB`` and an RGB one marked ``raw`` under ``auto`` are sRGB-decoded (float64
+    here). wrt read them so without a word about the colorSpace it left out; it is named now."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3) if mode == "RGB" else (2, 2), 128))
+    path = textured_stage(tmp_path, png, color_space=source_color_space)
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/Image").GetInput("file").GetAttr().SetColorSpace(file_color_space)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    read_as = source_color_space or "auto"
+    (note,) = [m for m in messages if "colorSpace is not read" in m]
+    assert f"sourceColorSpace {read_as}" in note and file_color_space in note and "/Looks/Tex/Image" in note
+    (mat,) = scene.materials
+    texels = np.asarray(scene.textures[mat.textures["diffuseColor"].image][..., :3], np.float64)
+    stored = 128 / 255
+    want = stored if read_as == "raw" else ((stored + 0.055) / 1.055) ** 2.4
+    np.testing.assert_allclose(texels, want, rtol=1e-5)
+
+
 def test_unknown_texture_output_is_named_and_read_as_rgb(tmp_path):
     """A UsdUVTexture has the outputs r, g, b, a and rgb; one named otherwise (``result``, as other readers call it)
     was read as rgb without a word."""

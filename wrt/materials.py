@@ -1415,6 +1415,8 @@ class MaterialReader:
             self.skip(f"material {material_path}: sourceColorSpace is not one of auto, sRGB or raw; it is read as "
                       "auto", tex.GetPrim(), detail=color_space)
             color_space = "auto"
+        if not materialx:
+            self._note_unread_file_color_space(tex, material_path, color_space)
         image, tiles = self.file_images(tex, color_space, material_path)
         if image < 0:
             return None, fallback_value
@@ -1596,6 +1598,21 @@ class MaterialReader:
                       "(0, 0) is used", reader.GetPrim(), detail=str(value))
             return np.zeros(2, np.float32)
         return v.astype(np.float32)
+
+    def _note_unread_file_color_space(self, tex, material_path: str, color_space: str) -> None:
+        """Names a ``colorSpace`` on a UsdUVTexture's ``file`` (or the interface input it connects to) as not read:
+        Storm decodes a UsdUVTexture by its ``sourceColorSpace`` alone (``auto`` where unauthored; hdSt's
+        materialNetwork reads no colour space metadata for it), and so does wrt, so ``sourceColorSpace = raw``
+        beside ``colorSpace = "srgb_rec709_scene"`` reads the file raw. Only MaterialX's image nodes (and its
+        ``ND_UsdUVTexture``) take the file's colorSpace. It was left out without a word."""
+        file_input = tex.GetInput("file")
+        for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
+            name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
+            if name:
+                self.skip(f"material {material_path}: a UsdUVTexture file's colorSpace is not read (Storm reads "
+                          f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
+                          tex.GetPrim(), detail=name)
+                return
 
     def file_images(self, shader, color_space: str, material_path: str, name: str = "file", layout: str = "preview"):
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX
