@@ -96,12 +96,13 @@ def test_jpeg_exif_orientation_is_ignored(tmp_path):
     np.testing.assert_allclose(image[4:12:7, 4:12:7, :3], stored[4:12:7, 4:12:7] / 255.0, atol=0.02)
 
 
-def write_png_with_chunk(path, samples, chunk, data):
-    """An 8-bit PNG with one extra ancillary chunk (``gAMA``, ``sRGB``) before its pixels."""
+def write_png_with_chunks(path, samples, chunks):
+    """An 8-bit PNG with extra ancillary chunks (``(name, data)``: ``gAMA``, ``sRGB``) before its pixels."""
     info = PngImagePlugin.PngInfo()
-    info.add(chunk, data)
+    for chunk, data in chunks:
+        info.add(chunk, data)
     PilImage.fromarray(np.asarray(samples, np.uint8)).save(path, pnginfo=info)
-    assert chunk in path.read_bytes()
+    assert all(chunk in path.read_bytes() for chunk, _ in chunks)
     return str(path)
 
 
@@ -112,21 +113,29 @@ def srgb_decoded(samples, full=255.0):
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
+GAMMA_SRGB = (b"gAMA", struct.pack(">I", 45455))  # 1 / 2.2 in units of 1e-5
+GAMMA_LINEAR = (b"gAMA", struct.pack(">I", 100000))
+SRGB_CHUNK = (b"sRGB", b"\0")  # perceptual intent
+
+
 @pytest.mark.parametrize(
-    "samples, chunk, data, srgb",
+    "samples, chunks, srgb",
     [
-        ([[0, 128, 255]], b"gAMA", struct.pack(">I", 45455), True),  # grey tagged 1/2.2: sRGB
-        ([[[200, 128, 3]]], b"gAMA", struct.pack(">I", 100000), False),  # colour tagged linear: raw
-        ([[0, 128, 255]], b"sRGB", b"\0", True),  # grey with an sRGB chunk: sRGB
-        ([[0, 128, 255]], b"gAMA", struct.pack(">I", 22000), False),  # another gamma: grey stays raw
+        ([[0, 128, 255]], [GAMMA_SRGB], True),  # grey tagged 1/2.2: sRGB
+        ([[[200, 128, 3]]], [GAMMA_LINEAR], False),  # colour tagged linear: raw
+        ([[0, 128, 255]], [SRGB_CHUNK], True),  # grey with an sRGB chunk: sRGB (Storm reads no sRGB chunk: raw)
+        ([[0, 128, 255]], [(b"gAMA", struct.pack(">I", 22000))], False),  # another gamma: grey stays raw
+        ([[[200, 128, 3]]], [SRGB_CHUNK, GAMMA_LINEAR], False),  # both: gAMA decides, as in Storm
+        ([[0, 128, 255]], [SRGB_CHUNK, (b"gAMA", struct.pack(">I", 80000))], True),  # gAMA 0.8, unread: the chunk
     ],
-    ids=["grey_gamma_1/2.2", "colour_gamma_1", "grey_srgb_chunk", "grey_gamma_0.22"],
+    ids=["grey_gamma_1/2.2", "colour_gamma_1", "grey_srgb_chunk", "grey_gamma_0.22", "colour_srgb_chunk_gamma_1",
+         "grey_srgb_chunk_gamma_0.8"],
 )
-def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunk, data, srgb):
+def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunks, srgb):
     """UsdUVTexture's ``auto`` reads colour space metadata first (gAMA near 1/2.2 or an sRGB chunk: sRGB, gAMA near
-    1: raw, with the tolerance of Hydra's PNG reader); only without it do 8-bit colour images read as sRGB. ``raw``
-    and ``sRGB`` authored on the shader still win."""
-    path = write_png_with_chunk(tmp_path / "tagged.png", samples, chunk, data)
+    1: raw, with the tolerance of Hydra's PNG reader, which decides by gAMA alone where there is one it knows);
+    only without it do 8-bit colour images read as sRGB. ``raw`` and ``sRGB`` authored on the shader still win."""
+    path = write_png_with_chunks(tmp_path / "tagged.png", samples, chunks)
     samples = np.asarray(samples, np.float64)
     grey = samples.ndim == 2
     rgb = np.repeat(samples[..., None], 3, axis=2) if grey else samples

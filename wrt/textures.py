@@ -12,7 +12,8 @@ Conventions, stated once:
   square holds ``st`` for the ``closest`` filter (:data:`FILTER_MODES`).
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear), ``"gamma g"``
   (MaterialX's ``g22_rec709`` and kin) with ``max(x, 0)^g`` (:func:`decode_curve`); ``"raw"`` keeps values;
-  ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for 8-bit RGB/RGBA images
+  ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`, which says where Storm reads them
+  otherwise), else means sRGB for 8-bit RGB/RGBA images
   and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and raw for everything else
   (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers decide. Missing channels
   read as grey ``L`` -> ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour),
@@ -208,9 +209,13 @@ def tagged_srgb(img) -> bool | None:
     Pillow, which parses the chunks before the image data when it opens it (the file is read once).
 
     UsdUVTexture's ``auto`` checks the file's colour space metadata before it guesses from the sample type, and
-    Hydra's PNG reader (stb_image, patched to return ``gAMA``) decides with the same tolerances: an 8-bit grey
-    roughness map saved with ``gAMA`` 0.45455, as image editors write it, was read raw, 0.5 for Storm's 0.21, and
-    colour written with ``gAMA`` 1 was decoded as sRGB."""
+    Hydra's PNG reader (stb_image, patched to return ``gAMA``) decides with the same tolerances: colour written with
+    ``gAMA`` 1 was decoded as sRGB. Storm differs in two ways, where wrt keeps to the specification's "if metadata
+    is indicative of sRGB, mark texture as sRGB": its reader reads no ``sRGB`` chunk (``gAMA`` alone, which decides
+    here too where both are present and it is one of the two), so a grey PNG with an ``sRGB`` chunk and no ``gAMA``
+    is raw to it; and it refuses a one- or two-channel texture marked sRGB (hdSt's textureUtils: "One and two channel
+    srgb texture formats not supported by Storm") and draws the fallback, where wrt decodes the grey by the sRGB
+    curve (an 8-bit grey roughness map saved with ``gAMA`` 0.45455, as image editors write it, reads 0.21 for 128)."""
     if img.format != "PNG":
         return None
     gamma = img.info.get("gamma")
