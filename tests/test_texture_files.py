@@ -131,6 +131,7 @@ SRGB_CHUNK = (b"sRGB", b"\0")  # perceptual intent
     ids=["grey_gamma_1/2.2", "colour_gamma_1", "grey_srgb_chunk", "grey_gamma_0.22", "colour_srgb_chunk_gamma_1",
          "grey_srgb_chunk_gamma_0.8"],
 )
+@pytest.mark.filterwarnings("ignore:PNG .*is neither sRGB's:UserWarning")  # gAMA 0.22: its own test's
 def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunks, srgb):
     """UsdUVTexture's ``auto`` reads colour space metadata first (gAMA near 1/2.2 or an sRGB chunk: sRGB, gAMA near
     1: raw, with the tolerance of Hydra's PNG reader, which decides by gAMA alone where there is one it knows);
@@ -143,6 +144,22 @@ def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunks, srgb):
     np.testing.assert_allclose(load_image(path, "auto")[..., :3], expected, atol=1e-6)
     np.testing.assert_allclose(load_image(path, "raw")[..., :3], rgb / 255.0, atol=1e-6)
     np.testing.assert_allclose(load_image(path, "sRGB")[..., :3], srgb_decoded(rgb), atol=1e-6)
+
+
+@pytest.mark.parametrize("gamma", [22000, 55556])
+def test_a_png_gamma_auto_does_not_decode_is_named(tmp_path, gamma):
+    """A ``gAMA`` neither near 1/2.2 nor near 1 (0.22; 1/1.8, just past the tolerance) is decoded by no transfer
+    function: ``auto`` reads the file as if it had none (grey: as stored), as Storm's reader does after its
+    "Unsupported gamma encoding" warning. wrt gave none; the file and the gamma are named now, under ``auto`` only
+    (``raw`` and ``sRGB`` say what the file is)."""
+    path = write_png_with_chunks(tmp_path / "odd.png", [[0, 128, 255]], [(b"gAMA", struct.pack(">I", gamma))])
+    with pytest.warns(UserWarning, match=rf"odd\.png: gAMA {gamma / 1e5:.5g} is neither sRGB's 1/2\.2 nor linear 1"):
+        image = load_image(path, "auto")
+    np.testing.assert_allclose(image[0, :, 0], np.array([0, 128, 255]) / 255.0, atol=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_image(path, "raw")
+        load_image(path, "sRGB")
 
 
 def damaged_files(tmp_path):

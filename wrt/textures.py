@@ -30,6 +30,7 @@ from __future__ import annotations
 import io
 import math
 import struct
+import warnings
 
 import numpy as np
 import warp as wp
@@ -140,7 +141,7 @@ def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarra
     elif name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
         (rgba, channels), auto_srgb = _read_exr(data, resolved_path), False
     else:
-        rgba, channels, auto_srgb = _read_pillow(data, resolved_path)
+        rgba, channels, auto_srgb = _read_pillow(data, resolved_path, color_space == "auto")
     decode = decode_curve(("sRGB" if auto_srgb else "raw") if color_space == "auto" else color_space)
     if rgba.dtype == np.uint8:
         return _decode_8bit(rgba, decode), channels
@@ -195,11 +196,11 @@ def png_bit_depth(data: bytes) -> int:
     return 0
 
 
-def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, tuple[int, ...], bool]:
+def _read_pillow(data: bytes, name: str, auto: bool = False) -> tuple[np.ndarray, tuple[int, ...], bool]:
     """The image as ``(H, W, 4)`` RGBA samples, the places of its channels (:func:`read_image`) and whether
     ``auto`` reads it as sRGB: as the file's colour space metadata says (:func:`tagged_srgb`), else for 8-bit
-    colour."""
-    rgba, channels, is_8bit_color, tagged = _read_pillow_samples(data, name)
+    colour. ``auto``: the file is read as ``auto``, so a PNG gamma that says neither is named in a warning."""
+    rgba, channels, is_8bit_color, tagged = _read_pillow_samples(data, name, auto)
     return rgba, channels, is_8bit_color if tagged is None else tagged
 
 
@@ -226,9 +227,20 @@ def tagged_srgb(img) -> bool | None:
     return True if "srgb" in img.info else None
 
 
-def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, tuple[int, ...], bool, bool | None]:
+def _warn_unread_gamma(name: str, gamma: float) -> None:
+    """Names a PNG whose ``gAMA`` (``gamma``) is neither sRGB's nor linear, which ``auto`` does not decode: its
+    samples are then read by the guess from their type, as Storm's reader reads them after its own warning
+    ("Unsupported gamma encoding"). A map saved with gamma 1/1.8 was read so without a word."""
+    warnings.warn(f"PNG {name}: gAMA {gamma:.5g} is neither sRGB's 1/2.2 nor linear 1 (within 0.1, as Storm's "
+                  "reader reads it) and is not decoded; sourceColorSpace auto reads the file as for no gamma (sRGB "
+                  "for 8-bit colour, else as stored), as Storm does; author sourceColorSpace to say which",
+                  stacklevel=4)
+
+
+def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np.ndarray, tuple[int, ...], bool,
+                                                                             bool | None]:
     """The samples and their channels' places as :func:`_read_pillow` gives them, whether they are 8-bit colour,
-    and :func:`tagged_srgb`."""
+    and :func:`tagged_srgb` (``auto``: :func:`_read_pillow`'s)."""
     from PIL import Image as PilImage
 
     problem = png_chunk_problem(data)
@@ -237,6 +249,8 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, tuple[int,
     try:
         img = PilImage.open(io.BytesIO(data))
         tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
+        if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
+            _warn_unread_gamma(name, img.info["gamma"])
         rawmode = _sixteen_bit_rawmode(img)
         if rawmode is not None:
             # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
