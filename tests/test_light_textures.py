@@ -2,6 +2,7 @@
 Expected values come from each layout's definition written out here and from closed-form irradiance."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -193,17 +194,38 @@ def test_automatic_format_is_guessed_from_the_image_shape(tmp_path):
 
 
 def test_automatic_format_keeps_lat_long_and_an_authored_format(tmp_path):
-    """A 2:1 image is lat-long as before; an authored ``latlong`` on a square image is not second-guessed; an image
-    of another shape is read as lat-long with a warning naming the dome and its size."""
+    """A 2:1 image is lat-long as before; an authored ``latlong`` on a square image is not second-guessed (it is
+    named as not of the layout's shape, test below); an image of another shape is read as lat-long with a warning
+    naming the dome and its size."""
     rng = np.random.default_rng(123)
     for name, (height, width) in (("wide", (8, 16)), ("square", (8, 8)), ("odd", (8, 12))):
         PilImage.fromarray(rng.integers(0, 255, (height, width, 3), np.uint8)).save(tmp_path / f"{name}.png")
     wide = dome_from_usd(tmp_path, tmp_path / "wide.png", "automatic")
     assert wide.texture.shape[:2] == (8, 16)
-    assert dome_from_usd(tmp_path, tmp_path / "square.png", "latlong").texture.shape[:2] == (8, 8)
+    with pytest.warns(UserWarning, match=r"texture:format latlong: the image's shape is not the layout's"):
+        assert dome_from_usd(tmp_path, tmp_path / "square.png", "latlong").texture.shape[:2] == (8, 8)
     with pytest.warns(UserWarning, match=r"automatic.*read as latlong.*12x8.*/Dome"):
         odd = dome_from_usd(tmp_path, tmp_path / "odd.png", "automatic")
     assert odd.texture.shape[:2] == (8, 12)
+
+
+@pytest.mark.parametrize(("fmt", "shape"), [("angular", (8, 16)), ("mirroredBall", (8, 16)),
+                                           ("cubeMapVerticalCross", (8, 16)), ("latlong", (12, 9))])
+def test_an_authored_format_on_an_image_of_another_shape_is_named(tmp_path, fmt, shape):
+    """An authored layout whose shape the image does not have (a 2:1 image said to be an angular or mirror-ball
+    probe or a 3:4 cross, a 3:4 cross said to be lat-long) is read as authored, stretched to the image, and named
+    with the dome and the image's size: it was stretched without a word. Images of the layout's shape stay
+    silent."""
+    height, width = shape
+    PilImage.fromarray(np.full((height, width, 3), 128, np.uint8)).save(tmp_path / "odd.png")
+    with pytest.warns(UserWarning, match=rf"texture:format {fmt}: the image's shape is not the layout's"
+                                         rf".*{width}x{height}.*/Dome"):
+        dome_from_usd(tmp_path, tmp_path / "odd.png", fmt)
+    fitting = {"latlong": (8, 16), "cubeMapVerticalCross": (12, 9)}.get(fmt, (8, 8))
+    PilImage.fromarray(np.full((*fitting, 3), 128, np.uint8)).save(tmp_path / "fits.png")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dome_from_usd(tmp_path, tmp_path / "fits.png", fmt)
 
 
 def camera_directions(forward, up, fov_y_deg, width, height):

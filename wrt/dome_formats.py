@@ -62,6 +62,15 @@ def automatic_format(width: int, height: int) -> str | None:
     return None
 
 
+def fits_layout(fmt: str, width: int, height: int) -> bool:
+    """Whether a ``width x height`` image has the shape of layout ``fmt`` (:data:`ASPECTS`; a ``mirroredBall`` is
+    square as an ``angular`` map is; ``automatic`` fits any shape it resolves to)."""
+    if fmt == "automatic":
+        return automatic_format(width, height) is not None
+    expected = ASPECTS["angular" if fmt == "mirroredBall" else fmt]
+    return abs(width / max(height, 1) / expected - 1.0) <= ASPECT_TOLERANCE
+
+
 def latlong_directions(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Unit directions ``(..., 3)`` of lat-long coordinates ``u, v`` in ``[0, 1]`` (``v = 0`` at the top row)."""
     lon = np.pi * (1.0 - 2.0 * u)

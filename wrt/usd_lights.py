@@ -616,7 +616,7 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
 def _read_dome(prim, m, color, time, up_axis, skip, get, textures):
     from pxr import UsdLux
 
-    from .dome_formats import FORMATS, automatic_format
+    from .dome_formats import FORMATS, fits_layout
 
     rotation = m.copy()
     if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
@@ -637,9 +637,13 @@ def _read_dome(prim, m, color, time, up_axis, skip, get, textures):
     dome.texture_path = resolved
     if texture is not None:
         height, width = texture.shape[:2]
-        if fmt == "automatic" and automatic_format(width, height) is None:
+        if fmt == "automatic" and not fits_layout(fmt, width, height):
             skip("DomeLight texture:format automatic: the image's shape is none of the layouts' (2:1 latlong, 1:1 "
                  "angular, 3:4 cubeMapVerticalCross); read as latlong", prim, f"{width}x{height}")
+        elif not fits_layout(fmt, width, height):  # a cross or a probe labelled latlong was stretched silently
+            skip(f"DomeLight texture:format {fmt}: the image's shape is not the layout's (2:1 latlong, 1:1 angular "
+                 "or mirroredBall, 3:4 cubeMapVerticalCross); read as that layout, stretched to the image", prim,
+                 f"{width}x{height}")
         dome.texture = textures.latlong(resolved, texture, fmt)
     return dome
 
