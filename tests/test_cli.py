@@ -1330,3 +1330,27 @@ def test_zero_with_any_exponent_is_zero(text, capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["bench", "--n-rays", text])
     assert "must be a positive integer, got 0" in capsys.readouterr().err
+
+
+def test_help_texts_name_the_defaults_the_library_uses(capsys):
+    """Defaults that argparse cannot show (the option's own default is None: chosen later) are written into the help:
+    they name the library's values, read here from the code that applies them, not copies of them."""
+    import inspect
+    import re
+
+    from wrt.bvh.build import build_bvh_device
+    from wrt.cli import build_parser
+    from wrt.render import DEFAULT_MAX_DEPTH
+
+    def help_of(command):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args([command, "--help"])
+        return " ".join(capsys.readouterr().out.split())
+
+    render = help_of("render")
+    depths = re.search(r"--max-depth MAX_DEPTH bounces per path; default (.*?) --", render).group(1)
+    assert dict((name, int(depth)) for depth, name in re.findall(r"(\d+) \((\w+)\)", depths)) == DEFAULT_MAX_DEPTH
+    built = inspect.signature(build_bvh_device).parameters
+    stats = help_of("bvh-stats")
+    assert f"wrt's most triangles per leaf (default {built['leaf_size'].default})" in stats
+    assert f"SAH bins per axis for sah (default {built['bins'].default})" in stats

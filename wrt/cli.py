@@ -398,10 +398,11 @@ def _add_render(sub) -> None:
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
-    from .render import MAX_DEPTH
+    from .render import DEFAULT_MAX_DEPTH, MAX_DEPTH
 
+    depths = ", ".join(f"{depth} ({name})" for name, depth in DEFAULT_MAX_DEPTH.items())
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
-                   help="bounces per path; default 10 (path), 8 (whitted)")
+                   help=f"bounces per path; default {depths}")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
                    help="ao distance, in scene units; default a tenth of the scene's size")
     from .image import MAX_EXPOSURE

@@ -7,10 +7,12 @@ canonical layout), so both sides are measured by the same code under the same co
 
 from __future__ import annotations
 
+import inspect
+
 from ..errors import did_you_mean
 from ..strict_json import strict_json
 from ..wording import counted
-from .build import Builder, build_bvh, builder_names, check_costs
+from .build import Builder, build_bvh, build_bvh_device, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
 
 WARP_PREFIX = "warp:"  # builder names of the form "warp:<bvh_constructor>" read wp.Mesh's tree
@@ -58,7 +60,7 @@ def collect_stats(
     layout: str = "binary",
     leaf_size: int | None = None,
     warp_leaf_size: int | None = None,
-    bins: int = 16,
+    bins: int | None = None,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
     epo_samples: int | None = None,
@@ -74,7 +76,7 @@ def collect_stats(
         layout: layout whose node count and bytes are added as ``layout_nodes`` / ``layout_bytes``.
         leaf_size: wrt's ``leaf_size`` (its default when ``None``).
         warp_leaf_size: Warp's ``bvh_leaf_size`` (Warp's default when ``None``).
-        bins: SAH bins of ``sah``.
+        bins: SAH bins of ``sah`` (its default when ``None``).
         traversal_cost: SAH/EPO ``C_t``, also used by the SAH builders.
         intersection_cost: SAH/EPO ``C_i``.
         epo_samples: surface samples of the EPO estimate (default when ``None``).
@@ -91,12 +93,12 @@ def collect_stats(
         if name.startswith(WARP_PREFIX):
             bvh = warp_mesh_bvh(points, indices, name[len(WARP_PREFIX) :], warp_leaf_size, device)
         else:
-            options = {} if leaf_size is None else {"leaf_size": int(leaf_size)}
+            options = {key: int(value) for key, value in (("leaf_size", leaf_size), ("bins", bins))
+                       if value is not None}
             bvh = build_bvh(
                 points,
                 indices,
                 name,
-                bins=bins,
                 traversal_cost=traversal_cost,
                 intersection_cost=intersection_cost,
                 presplit=presplit,
@@ -192,11 +194,13 @@ def add_bvh_stats(sub) -> None:
         "wp.Mesh's tree (default: sah)",
     )
     p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
+    built = inspect.signature(build_bvh_device).parameters  # the builders' defaults, which an option left out keeps
     p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
-                   help="wrt's most triangles per leaf (default 8)")
+                   help=f"wrt's most triangles per leaf (default {built['leaf_size'].default})")
     p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
                    help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default 16)")
+    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default "
+                   f"{built['bins'].default})")
     p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
     p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=1 << 16,
@@ -249,7 +253,7 @@ def run_bvh_stats(args) -> int:
         layout=args.layout,
         leaf_size=args.leaf_size,
         warp_leaf_size=args.warp_leaf_size,
-        bins=16 if args.bins is None else args.bins,
+        bins=args.bins,
         traversal_cost=args.traversal_cost,
         intersection_cost=args.intersection_cost,
         epo_samples=args.epo_samples,
