@@ -1153,6 +1153,20 @@ def test_exposure_help_states_the_range_the_option_accepts(capsys):
     capsys.readouterr()
 
 
+def test_exposure_help_names_the_integrators_whose_images_it_leaves_as_they_are(capsys):
+    """--exposure said 'PNG only' and nothing more, while a PNG of the normals or depth integrator is written without
+    it (their images are data; the run warns only once the option is given)."""
+    import re
+
+    from wrt.cli import build_parser
+    from wrt.render import DATA_INTEGRATORS
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["render", "--help"])
+    help_text = re.search(r"--exposure EXPOSURE (.*?) --aov", " ".join(capsys.readouterr().out.split())).group(1)
+    assert "integrator" in help_text and all(name in help_text for name in DATA_INTEGRATORS), help_text
+
+
 @pytest.mark.parametrize("option", ["-o", "--aov-dir", "--log"])
 def test_an_os_error_names_the_path_first_without_python_s_errno(tmp_path, capsys, monkeypatch, option):
     """A name longer than the file system takes (255 bytes) read '[Errno 36] File name too long: ...': Python's

@@ -406,10 +406,12 @@ def _add_render(sub) -> None:
     p.add_argument("--ao-radius", type=_positive_float, default=None,
                    help="ao distance, in scene units; default a tenth of the scene's size")
     from .image import MAX_EXPOSURE
+    from .render import DATA_INTEGRATORS
 
     p.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"PNG only: scale the image by 2^EXPOSURE (in stops, from -{MAX_EXPOSURE:g} to "
-                   f"{MAX_EXPOSURE:g}) before sRGB")
+                   f"{MAX_EXPOSURE:g}) before sRGB; not the {' and '.join(DATA_INTEGRATORS)} integrators' images, "
+                   "which are data stored as they are")
     from .render import AOV_NAMES
 
     p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a PNG preview of "
