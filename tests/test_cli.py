@@ -1368,3 +1368,18 @@ def test_help_texts_name_the_defaults_the_library_uses(capsys):
     stats = help_of("bvh-stats")
     assert f"wrt's most triangles per leaf (default {built['leaf_size'].default})" in stats
     assert f"SAH bins per axis for sah (default {built['bins'].default})" in stats
+
+
+def test_ao_radius_help_says_what_the_default_measures(capsys):
+    """--ao-radius said 'a tenth of the scene's size': the renderer takes a tenth of its box's diagonal (a 3 x 4 x 12
+    box: 1.3), not of a side or of the largest extent."""
+    import wrt
+    from wrt.cli import build_parser
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["render", "--help"])
+    assert "default a tenth of the diagonal of the scene's box" in " ".join(capsys.readouterr().out.split())
+    corners = np.array([[0, 0, 0], [3, 0, 0], [3, 4, 12]], np.float32)  # a triangle whose box is 3 x 4 x 12
+    scene = wrt.Scene.from_triangles(corners, np.array([[0, 1, 2]], np.int32))
+    renderer = wrt.Renderer(scene, integrator="ao", width=4, height=4, device="cpu")
+    assert renderer.ao_radius == pytest.approx(0.1 * np.sqrt(3.0**2 + 4.0**2 + 12.0**2))

@@ -404,7 +404,7 @@ def _add_render(sub) -> None:
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
                    help=f"bounces per path; default {depths}")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
-                   help="ao distance, in scene units; default a tenth of the scene's size")
+                   help="ao distance, in scene units; default a tenth of the diagonal of the scene's box")
     from .image import MAX_EXPOSURE
     from .render import DATA_INTEGRATORS
 
