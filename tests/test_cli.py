@@ -1347,8 +1347,9 @@ def test_zero_with_any_exponent_is_zero(text, capsys):
 
 
 def test_help_texts_name_the_defaults_the_library_uses(capsys):
-    """Defaults that argparse cannot show (the option's own default is None: chosen later) are written into the help:
-    they name the library's values, read here from the code that applies them, not copies of them."""
+    """Defaults that argparse cannot show (the option's own default is None: chosen later), and the AOV files
+    --aov-dir writes, are written into the help: they name the library's values, read here from the code that
+    applies them, not copies of them."""
     import inspect
     import re
 
@@ -1362,6 +1363,9 @@ def test_help_texts_name_the_defaults_the_library_uses(capsys):
         return " ".join(capsys.readouterr().out.split())
 
     render = help_of("render")
+    from wrt.render import AOV_NAMES
+
+    assert f"subfolder STEM/ ({', '.join(AOV_NAMES)})" in render  # the files --aov-dir writes: every Image.aovs key
     depths = re.search(r"--max-depth MAX_DEPTH bounces per path; default (.*?) --", render).group(1)
     assert dict((name, int(depth)) for depth, name in re.findall(r"(\d+) \((\w+)\)", depths)) == DEFAULT_MAX_DEPTH
     built = inspect.signature(build_bvh_device).parameters

@@ -386,9 +386,10 @@ def _add_render(sub) -> None:
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
+    from .render import AOV_NAMES
+
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
-                   "its subfolder STEM/ (depth, z, normal, geometric_normal, albedo, prim, instance, material, cost, "
-                   "coverage)", type=_non_empty)
+                   f"its subfolder STEM/ ({', '.join(AOV_NAMES)})", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
@@ -412,8 +413,6 @@ def _add_render(sub) -> None:
                    help=f"PNG only: scale the image by 2^EXPOSURE (in stops, from -{MAX_EXPOSURE:g} to "
                    f"{MAX_EXPOSURE:g}) before sRGB; not the {' and '.join(DATA_INTEGRATORS)} integrators' images, "
                    "which are data stored as they are")
-    from .render import AOV_NAMES
-
     p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a PNG preview of "
                    "this AOV beside the image as OUTPUT.NAME.png (repeatable): normals as 0.5 (n + 1), depth as grey "
                    "levels, ids as random colours, cost as heat maps of nodes visited and triangles tested")
