@@ -58,10 +58,11 @@ channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`),
 ``color4`` nodes the
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
 whichever file channels they hold, as MaterialX transforms the output), ``g22_rec709`` and kin decoded by their
-transfer function (:data:`COLOR_SPACES`; other primaries noted, not converted), ``lin_rec709``/``raw`` and other
-linear spaces kept, none kept too (MaterialX's default working space is ``none``, no colour management, and Storm
-reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as MaterialX colour-manages
-colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
+transfer function (:data:`COLOR_SPACES`, USD's canonical names such as ``srgb_rec709_scene`` as MaterialX remaps
+them; other primaries noted, not converted), ``lin_rec709``/``raw`` and other linear spaces kept (USD's ``data``,
+``identity`` and ``unknown`` too), none kept too (MaterialX's default working space is ``none``, no colour
+management, and Storm reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as
+MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
 and ``cubic``: bilinear), ``place2d`` nodes and vector2 math of constants before its ``texcoord``
 (:meth:`_Graph._texcoord`),
@@ -181,7 +182,19 @@ COLOR_SPACES = {"srgb_texture": ("sRGB", False), "lin_rec709": ("raw", False), "
                 "rec709_display": ("gamma 2.4", False),
                 "acescg": ("raw", True), "lin_ap1": ("raw", True), "g22_ap1": ("gamma 2.2", True),
                 "g18_ap1": ("gamma 1.8", True), "adobergb": (f"gamma {563 / 256}", True),
-                "lin_adobergb": ("raw", True), "srgb_displayp3": ("sRGB", True), "lin_displayp3": ("raw", True)}
+                "lin_adobergb": ("raw", True), "srgb_displayp3": ("sRGB", True), "lin_displayp3": ("raw", True),
+                # USD's canonical (Color Interop Forum) names, GfColorSpaceNames, as MaterialX 1.39's default colour
+                # management system remaps them to its own (DefaultColorManagementSystem's COLOR_SPACE_REMAP:
+                # srgb_rec709_scene is srgb_texture, g24_rec709_scene rec709_display, ...). It has no transform for
+                # the others (srgb_ap1_scene, lin_ap0_scene, lin_rec2020_scene, ...): read as stored, named.
+                "srgb_rec709_scene": ("sRGB", False), "lin_rec709_scene": ("raw", False),
+                "g22_rec709_scene": ("gamma 2.2", False), "g18_rec709_scene": ("gamma 1.8", False),
+                "g24_rec709_scene": ("gamma 2.4", False), "lin_ap1_scene": ("raw", True),
+                "g22_ap1_scene": ("gamma 2.2", True), "srgb_p3d65_scene": ("sRGB", True),
+                "lin_p3d65_scene": ("raw", True), "lin_adobergb_scene": ("raw", True),
+                "g22_adobergb_scene": (f"gamma {563 / 256}", True),
+                # USD's names of no colour transform (Gf.ColorSpace's data spaces): the samples are read as stored.
+                "data": ("raw", False), "identity": ("raw", False), "unknown": ("raw", False)}
 
 
 def read_materialx_surface(reader, shader, path: str) -> Material:

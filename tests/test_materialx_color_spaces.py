@@ -1,0 +1,123 @@
+"""USD's canonical colour space names (``GfColorSpaceNames``: ``srgb_rec709_scene``, ``lin_ap1_scene``, ``data``,
+...) on MaterialX image files and constant colours, read as MaterialX 1.39's default colour management system reads
+them: its ``COLOR_SPACE_REMAP`` maps the Color Interop Forum names to its own (``srgb_rec709_scene`` to
+``srgb_texture``, ``g22_ap1_scene`` to ``g22_ap1``, ...), whose transforms decode by the transfer function; a name it
+has no transform for is read as stored. The expected values are computed in float64 from the transfer function USD
+itself declares for the name (``Gf.ColorSpace``'s gamma and linear bias), and the primaries that need a note from
+``Gf.ColorSpace``'s primaries."""
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdShade
+from test_materials import add_quad, bind, materialx_preview_stage, new_stage
+from test_materialx import base_color_image, load, mtlx_material, write_png
+from test_texture_files import write_exr
+
+# The canonical names MaterialX 1.39's DefaultColorManagementSystem remaps to one of its colour transforms.
+MATERIALX_DECODES = ("srgb_rec709_scene", "lin_rec709_scene", "g22_rec709_scene", "g18_rec709_scene",
+                     "g24_rec709_scene", "lin_ap1_scene", "g22_ap1_scene", "srgb_p3d65_scene", "lin_p3d65_scene",
+                     "lin_adobergb_scene", "g22_adobergb_scene")
+# Canonical names MaterialX has no transform for: read as stored, named.
+MATERIALX_UNKNOWN = ("srgb_ap1_scene", "lin_ap0_scene", "lin_rec2020_scene", "lin_ciexyzd65_scene")
+# USD's names of no colour transform (Gf.ColorSpace(name).IsData()): read as stored without a word.
+DATA_NAMES = ("data", "raw", "identity", "unknown")
+
+
+def usd_decoded(name: str, x: np.ndarray) -> np.ndarray:
+    """``x`` decoded to linear by the transfer function USD declares for colour space ``name``, in float64:
+    ``((x + a) / (1 + a))^g`` above the breakpoint, ``x / slope`` below it (``a`` the linear bias, ``g`` the gamma;
+    a bias of 0 is a pure power)."""
+    space = Gf.ColorSpace(name)
+    gamma, bias = float(space.GetGamma()), float(space.GetLinearBias())
+    x = np.asarray(x, np.float64)
+    if bias == 0.0:
+        return np.maximum(x, 0.0) ** gamma
+    breakpoint_, slope = space.GetTransferFunctionParams()
+    return np.where(x > breakpoint_, ((x + bias) / (1.0 + bias)) ** gamma, x / slope)
+
+
+def other_primaries(name: str) -> bool:
+    """Whether colour space ``name``'s primaries or white point differ from linear Rec.709's (Gf's)."""
+    mine = Gf.ColorSpace(name).GetPrimariesAndWhitePoint()
+    rec709 = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709).GetPrimariesAndWhitePoint()
+    return not all(Gf.IsClose(a, b, 1e-6) for a, b in zip(mine, rec709))
+
+
+def test_the_names_are_usds_own():
+    """Every name these tests use is one ``Gf.ColorSpace`` knows, and the data names are its data spaces."""
+    for name in MATERIALX_DECODES + MATERIALX_UNKNOWN + DATA_NAMES:
+        assert Gf.ColorSpace.IsValid(name), name
+    assert all(Gf.ColorSpace(name).IsData() for name in DATA_NAMES)
+
+
+def colour_image_stage(tmp_path, image_path, space, node):
+    """A quad whose MaterialX surface's diffuse comes from ``image_path`` with ``file`` in colour space ``space``,
+    through an ``ND_image_color3`` under a standard_surface or an ``ND_UsdUVTexture`` under MaterialX's
+    UsdPreviewSurface (``node``)."""
+    if node == "ND_UsdUVTexture":
+        path = materialx_preview_stage(tmp_path, image_path, None, "uv")
+        stage = Usd.Stage.Open(path)
+        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().SetColorSpace(space)
+    else:
+        stage, path = new_stage(tmp_path)
+        material, _ = mtlx_material(stage, "/Looks/Colour")
+        base_color_image(stage, "/Looks/Colour", image_path).GetInput("file").GetAttr().SetColorSpace(space)
+        bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    return path
+
+
+@pytest.mark.parametrize("node", ["ND_image_color3", "ND_UsdUVTexture"])
+@pytest.mark.parametrize("kind", ["png", "exr"])
+@pytest.mark.parametrize("space", MATERIALX_DECODES + MATERIALX_UNKNOWN + DATA_NAMES)
+def test_a_colour_image_in_a_usd_colour_space_is_decoded_as_materialx_decodes_it(tmp_path, space, kind, node):
+    """A colour image whose ``file`` carries a USD canonical colour space reads its samples through that space's
+    transfer function where MaterialX 1.39 has a transform for it (``srgb_rec709_scene`` as ``srgb_texture``,
+    ``g22_rec709_scene`` as ``g22_rec709``, ...; a space of other primaries named, no gamut conversion), as stored
+    and named where it has none (``srgb_ap1_scene``, ``lin_ap0_scene``, ...), and as stored without a word for USD's
+    data spaces (``data``, ``raw``, ``identity``, ``unknown``). Every one but ``raw`` was read as stored and named as
+    an unknown colour space: an ``srgb_rec709_scene`` texel of 102 read 0.4 for MaterialX's 0.133."""
+    if kind == "png":
+        samples = np.array([51, 102, 153])
+        image = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
+        stored = samples / 255.0
+    else:
+        stored = np.array([0.2, 0.5, 0.9])
+        image = write_exr(tmp_path / "colour.exr", {c: np.full((2, 2), v, np.float32) for c, v in zip("RGB", stored)})
+    scene, messages = load(colour_image_stage(tmp_path, image, space, node))
+    if space in MATERIALX_DECODES:
+        expected = usd_decoded(space, stored)
+        named = other_primaries(space)
+    else:
+        expected, named = stored, space in MATERIALX_UNKNOWN
+    if named:
+        assert any(repr(space) in m for m in messages), messages
+    else:
+        assert not messages, messages
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    np.testing.assert_allclose(texels, np.broadcast_to(expected, texels.shape), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("space", ["srgb_rec709_scene", "g22_ap1_scene", "g24_rec709_scene", "data", "unknown"])
+def test_a_constant_colour_in_a_usd_colour_space_is_decoded_as_materialx_decodes_it(tmp_path, space):
+    """A standard_surface ``base_color`` constant in a USD canonical colour space is decoded by that space's
+    transfer function as MaterialX transforms a value bound to a colour input (``srgb_rec709_scene`` (0.2, 0.5,
+    0.8) is sRGB's decode of each; ``g22_ap1_scene`` named for its primaries), and a data space keeps it without a
+    word. It was kept as authored and named as an unknown colour space."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    base_color = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
+    base_color.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    base_color.GetAttr().SetColorSpace(space)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    value = np.array([0.2, 0.5, 0.8])
+    decodes = space in MATERIALX_DECODES
+    if decodes and other_primaries(space):
+        assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages
+    else:
+        assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, usd_decoded(space, value) if decodes else value, rtol=1e-5)
