@@ -121,3 +121,76 @@ def test_a_constant_colour_in_a_usd_colour_space_is_decoded_as_materialx_decodes
         assert not messages, messages
     (mat,) = scene.materials
     np.testing.assert_allclose(mat.diffuse_color, usd_decoded(space, value) if decodes else value, rtol=1e-5)
+
+
+def srgb64(x) -> np.ndarray:
+    """MaterialX's ``srgb_texture`` decode (``mx_srgb_texture_to_lin_rec709``) in float64."""
+    x = np.asarray(x, np.float64)
+    return np.where(x > 0.04045, ((x + 0.055) / 1.055) ** 2.4, x / 12.92)
+
+
+@pytest.mark.parametrize("type_name", ["color4f", "float4"])
+def test_usd_uv_texture_fallback_scale_and_bias_are_decoded_as_colour4_inputs(tmp_path, type_name):
+    """MaterialX's ``ND_UsdUVTexture`` declares ``fallback``, ``scale`` and ``bias`` ``color4``, and MaterialX
+    transforms a value bound to an input of a colour type from its ``colorSpace`` (the port's type is the nodedef's,
+    whatever the USD attribute's): a fallback (0.2, 0.4, 0.6, 1) in ``srgb_texture`` is sRGB's decode of the colour,
+    alpha kept, a scale (0.5, 0.25, 1, 1) in ``g22_rec709`` ``x^2.2``, a bias (0.1, 0.1, 0.1, 0) in
+    ``srgb_rec709_scene`` decoded too. They were read as authored."""
+    png = write_png(tmp_path / "colour.png", np.full((2, 2, 3), 128))
+    path = materialx_preview_stage(tmp_path, png, None, "uvcs")
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Mx/Image")
+    tex.GetPrim().RemoveProperty("inputs:fallback")
+    values = {"fallback": ((0.2, 0.4, 0.6, 1.0), "srgb_texture", srgb64),
+              "scale": ((0.5, 0.25, 1.0, 1.0), "g22_rec709", lambda x: np.asarray(x, np.float64) ** 2.2),
+              "bias": ((0.1, 0.1, 0.1, 0.0), "srgb_rec709_scene", srgb64)}
+    for name, (value, space, _) in values.items():
+        inp = tex.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name[0].upper() + type_name[1:]))
+        inp.Set(Gf.Vec4f(*value))
+        inp.GetAttr().SetColorSpace(space)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    texture = scene.materials[0].textures["diffuseColor"]
+    for name, (value, _, decode) in values.items():
+        expected = np.append(decode(value[:3]), value[3])
+        np.testing.assert_allclose(getattr(texture, name), expected, rtol=1e-5, atol=1e-7, err_msg=name)
+
+
+@pytest.mark.parametrize("type_name, value", [("Float3", (0.2, 0.5, 0.8)), ("Float", 0.5)])
+def test_a_colour_input_authored_as_float3_or_float_is_decoded_by_its_colour_space(tmp_path, type_name, value):
+    """A standard_surface ``base_color`` (``color3`` in MaterialX's nodedef) authored as ``float3`` or as one
+    ``float`` with a ``colorSpace`` is decoded as MaterialX decodes it, the port's type being the nodedef's: (0.2,
+    0.5, 0.8) in ``srgb_texture`` is sRGB's decode of each, 0.5 that of 0.5 in each channel. A ``float`` input
+    (``specular_roughness``) with one is not a colour and keeps its value. Only a ``color3f`` was decoded."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    base_color = shader.CreateInput("base_color", getattr(Sdf.ValueTypeNames, type_name))
+    base_color.Set(Gf.Vec3f(*value) if type_name == "Float3" else value)
+    base_color.GetAttr().SetColorSpace("srgb_texture")
+    roughness = shader.CreateInput("specular_roughness", Sdf.ValueTypeNames.Float)
+    roughness.Set(0.5)
+    roughness.GetAttr().SetColorSpace("srgb_texture")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, srgb64(np.broadcast_to(value, 3)), rtol=1e-5)
+    assert mat.roughness == pytest.approx(0.5)
+
+
+def test_a_colour_image_default_authored_as_float3_is_decoded_by_its_colour_space(tmp_path):
+    """The ``default`` of an ``ND_image_color3`` (``color3`` in the nodedef) authored as ``float3`` in
+    ``srgb_texture`` is decoded where the file is missing, as a ``color3f`` one is. It was kept as authored."""
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Colour", base=1.0)
+    image = base_color_image(stage, "/Looks/Colour", str(tmp_path / "missing.png"))
+    default = image.CreateInput("default", Sdf.ValueTypeNames.Float3)
+    default.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    default.GetAttr().SetColorSpace("srgb_texture")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, _ = load(path)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, srgb64([0.2, 0.5, 0.8]), rtol=1e-5)

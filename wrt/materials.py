@@ -1386,14 +1386,14 @@ class MaterialReader:
                       "read as rgb", tex.GetPrim(), detail=output)
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
-        fallback, scale, bias = (self._texture_vector(tex, name, default, material_path)
+        materialx = (tex.GetShaderId() or "") != "UsdUVTexture"
+        fallback, scale, bias = (self._texture_vector(tex, name, default, material_path, materialx)
                                  for name, default in (("fallback", TEXTURE_FALLBACK), ("scale", (1.0, 1.0, 1.0, 1.0)),
                                                        ("bias", (0.0, 0.0, 0.0, 0.0))))
         with np.errstate(over="ignore", invalid="ignore"):  # a value past float32 is refused by _set_constant
             value = fallback * scale + bias
         fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
 
-        materialx = (tex.GetShaderId() or "") != "UsdUVTexture"
         # MaterialX's textures are raw where nothing says otherwise, as Storm hands them over (its default working
         # colour space is none); an 8-bit colour file was decoded as sRGB (UsdUVTexture's auto).
         color_space = str(self._constant(tex, "sourceColorSpace") or ("raw" if materialx else "auto"))
@@ -1444,14 +1444,31 @@ class MaterialReader:
             fallback_value,
         )
 
-    def _texture_vector(self, tex, name: str, default: tuple, material_path: str) -> np.ndarray:
+    def _texture_vector(self, tex, name: str, default: tuple, material_path: str,
+                        materialx: bool = False) -> np.ndarray:
         """UsdUVTexture ``tex``'s ``scale``, ``bias`` or ``fallback`` (``name``) as its four RGBA float32 numbers
         (:func:`four_components`): ``default`` (the schema's) when unauthored, or when it is not 1, 3 or 4 finite
         numbers (:meth:`_finite_numbers`). An infinite scale made the albedo infinite and a NaN bias black, without a
-        word; a float2 was stretched to four numbers; a string stopped the load with "cannot read this prim"."""
+        word; a float2 was stretched to four numbers; a string stopped the load with "cannot read this prim".
+        MaterialX's ``ND_UsdUVTexture`` (``materialx``) declares the three ``color4``, so one authored with a
+        ``colorSpace`` is decoded from it (alpha kept), as MaterialX transforms a value bound to a colour input;
+        they were read as authored."""
         v = self._finite_numbers(tex, name, (1, 3, 4), "a UsdUVTexture scale, bias or fallback is not 1, 3 or 4 "
                                  "finite numbers", material_path)
-        return four_components(v, default)
+        value = four_components(v, default)
+        if materialx and v is not None:
+            from .materialx import decoded_color  # that module imports this one
+
+            decoded, note = decoded_color(tex.GetInput(name), value.astype(np.float64), f"{tex.GetPath()}'s {name}",
+                                          color=True)
+            if note is not None:
+                self.skip(f"material {material_path}: {note}", tex.GetPrim())
+            if decoded is None:
+                self.skip(f"material {material_path}: a UsdUVTexture {name} decoded from its colour space is past "
+                          "float32's range; its default is used", tex.GetPrim())
+                return four_components(None, default)
+            value = decoded.astype(np.float32)
+        return value
 
     def _finite_numbers(self, node, name: str, sizes: tuple, problem: str, material_path: str) -> np.ndarray | None:
         """Input ``name`` of shader ``node`` as float64 numbers; None when it is unauthored, and, with a warning

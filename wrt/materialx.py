@@ -269,7 +269,9 @@ class _Graph:
             if value is None:
                 self.notes.append(f"{name} is not a finite number of its type; its default is used")
                 return default, None
-            decoded = self._decoded(self.shader.GetInput(name), value, f"{name}'s")
+            # The models' colour inputs (base_color, opacity, ...) are those of three numbers, all color3 in the
+            # nodedefs.
+            decoded = self._decoded(self.shader.GetInput(name), value, f"{name}'s", color=default.size == 3)
             if decoded is None:
                 self.notes.append(f"{name} decoded from its colour space is past float32's range; its default is used")
                 return default, None
@@ -302,12 +304,12 @@ class _Graph:
             return constant, None
         return value, folded.source
 
-    def _decoded(self, inp, value: np.ndarray, what: str) -> np.ndarray | None:
+    def _decoded(self, inp, value: np.ndarray, what: str, color: bool | None = None) -> np.ndarray | None:
         """:func:`decoded_color` of ``value``, its note (a colour space of other primaries, or unknown) kept. A
         base_color of 0.5 in ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes
         float32's range (1e20 in ``srgb_texture``), for the caller to use its default: an emission_color so, times
         the emission weight 0, was NaN, and the stage failed to load."""
-        decoded, note = decoded_color(inp, value, what)
+        decoded, note = decoded_color(inp, value, what, color)
         if note is not None:
             self.notes.append(note)
         return decoded
@@ -490,7 +492,8 @@ class _Graph:
         size = TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)]
         default = _array(reader._constant(node, "default"), size)
         if default is not None:  # in its colorSpace, if any: the specification's example default is in lin_rec709
-            default = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default")
+            default = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default",
+                                    color=node_id.endswith(("_color3", "_color4")))
             if default is None:
                 self.notes.append(f"{node.GetPath()}'s default decoded from its colour space is past float32's range; "
                                   "MaterialX's default is used")
@@ -718,13 +721,19 @@ class _Graph:
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
 
-def decoded_color(inp, value: np.ndarray, what: str) -> tuple[np.ndarray | None, str | None]:
+def decoded_color(inp, value: np.ndarray, what: str,
+                  color: bool | None = None) -> tuple[np.ndarray | None, str | None]:
     """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
     node's; 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface
     input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's ShaderGraph
     transforms a value bound to a node input of a colour type; as it is for other inputs and where none is authored.
-    ``decoded`` is None where the decode passes float32's range."""
-    if value.size not in (3, 4) or not inp or inp.GetTypeName().role != "Color":
+    ``color`` says whether the node's definition types the input ``color3`` or ``color4``: MaterialX decides by the
+    nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is decoded (it was kept);
+    None where the caller does not know, the attribute's colour role deciding. ``decoded`` is None where the decode
+    passes float32's range."""
+    if color is None:
+        color = bool(inp) and inp.GetTypeName().role == "Color"
+    if value.size not in (3, 4) or not inp or not color:
         return value, None
     space, note = file_color_space(inp, what)
     decode = decode_curve(space or "raw")
