@@ -9,7 +9,7 @@ itself declares for the name (``Gf.ColorSpace``'s gamma and linear bias), and th
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdShade
-from test_materials import add_quad, bind, materialx_preview_stage, new_stage
+from test_materials import add_quad, bind, materialx_preview_stage, new_stage, textured_stage
 from test_materialx import base_color_image, load, mtlx_material, write_png
 from test_texture_files import write_exr
 
@@ -194,3 +194,55 @@ def test_a_colour_image_default_authored_as_float3_is_decoded_by_its_colour_spac
     scene, _ = load(path)
     (mat,) = scene.materials
     np.testing.assert_allclose(mat.diffuse_color, srgb64([0.2, 0.5, 0.8]), rtol=1e-5)
+
+
+@pytest.mark.parametrize("inherited", ["srgb_rec709_scene", "g22_ap1_scene", "lin_rec709_scene", "data"])
+def test_a_colour_space_inherited_through_usd_colour_space_api_is_named_not_read(tmp_path, inherited):
+    """A colour space applied with ``UsdColorSpaceAPI`` on an ancestor of the material, which USD's resolution
+    (``UsdColorSpaceAPI::ComputeColorSpaceName``) gives an image file and a constant colour without a ``colorSpace``
+    of their own, is not read, as Storm does not read it (UsdImaging passes an attribute's own ``colorSpace``
+    alone): the file reads as stored and the emission_color as authored. One that would change what is read
+    (``srgb_rec709_scene``, ``g22_ap1_scene``) is named for each; a linear Rec.709 or data one is not. It was left
+    out without a word."""
+    png = write_png(tmp_path / "colour.png", np.tile([51, 102, 153], (2, 2, 1)))
+    stage, path = new_stage(tmp_path)
+    looks = stage.DefinePrim("/Looks", "Scope")
+    Usd.ColorSpaceAPI.Apply(looks).CreateColorSpaceNameAttr(inherited)
+    material, shader = mtlx_material(stage, "/Looks/Colour", base=1.0, emission=1.0)
+    file_attr = base_color_image(stage, "/Looks/Colour", png).GetInput("file").GetAttr()
+    glow = shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f)
+    glow.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    for attr in (file_attr, glow.GetAttr()):  # USD's own resolution gives both the ancestor's colour space
+        assert not attr.HasColorSpace()
+        assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == inherited
+    scene, messages = load(path)
+    named = [m for m in messages if repr(inherited) in m and "UsdColorSpaceAPI" in m]
+    if inherited in ("lin_rec709_scene", "data"):
+        assert not messages, messages
+    else:
+        assert len(named) == 1 and named[0].count(repr(inherited)) == 2, messages  # the file's and the colour's
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    np.testing.assert_allclose(texels, np.broadcast_to([0.2, 0.4, 0.6], texels.shape), atol=1e-6)
+    np.testing.assert_allclose(mat.emissive_color, [0.2, 0.5, 0.8], rtol=1e-6)
+
+
+def test_a_usd_uv_textures_inherited_colour_space_is_named_and_its_source_color_space_decides(tmp_path):
+    """A (glslfx) UsdUVTexture under a prim whose ``UsdColorSpaceAPI`` says ``srgb_rec709_scene`` is decoded by its
+    ``sourceColorSpace`` alone (``raw``: 128/255), as Storm decodes it, and the inherited colour space it leaves
+    out is named, as an authored one is. It was left out without a word."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), 128))
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    stage.Save()
+    file_attr = UsdShade.Shader.Get(stage, "/Looks/Tex/Image").GetInput("file").GetAttr()
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(file_attr, None) == "srgb_rec709_scene"
+    scene, messages = load(path)
+    (note,) = [m for m in messages if "UsdColorSpaceAPI" in m]
+    assert "srgb_rec709_scene" in note and "sourceColorSpace raw" in note, note
+    (mat,) = scene.materials
+    texels = np.asarray(scene.textures[mat.textures["diffuseColor"].image][..., :3], np.float64)
+    np.testing.assert_allclose(texels, 128 / 255, rtol=1e-6)

@@ -1630,6 +1630,13 @@ class MaterialReader:
                           f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
                           tex.GetPrim(), detail=name)
                 return
+        from .materialx import inherited_color_space  # that module imports this one
+
+        inherited = inherited_color_space(file_input)
+        if inherited:  # from UsdColorSpaceAPI on an ancestor: not read either
+            self.skip(f"material {material_path}: a UsdUVTexture file's colour space inherited through "
+                      "UsdColorSpaceAPI is not read (Storm reads sourceColorSpace alone); the file is decoded as "
+                      f"sourceColorSpace {color_space}", tex.GetPrim(), detail=inherited)
 
     def file_images(self, shader, color_space: str, material_path: str, name: str = "file", layout: str = "preview"):
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX

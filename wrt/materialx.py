@@ -761,7 +761,27 @@ def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str
         space, other_primaries = COLOR_SPACES[name]
         return space, (f"{what} colour space {name!r} is decoded by its transfer function, its primaries taken for "
                        "Rec.709's (no gamut conversion)" if other_primaries else None)
-    return None, None
+    inherited = inherited_color_space(file_input)
+    return None, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm reads an "
+                  "attribute's own colorSpace alone); it is read as without one" if inherited else None)
+
+
+def inherited_color_space(inp) -> str | None:
+    """The colour space USD's resolution (``UsdColorSpaceAPI::ComputeColorSpaceName``) gives input ``inp`` (which
+    has no ``colorSpace`` of its own) from ``UsdColorSpaceAPI`` on its prim or an ancestor, for a note: Storm does
+    not read it (UsdImaging hands Hydra an attribute's own ``colorSpace`` alone, and the usd-wg MaterialX colour
+    space assets draw wrong in Storm where UsdColorSpaceAPI carries them), so neither does wrt. None where there is
+    none, or it is one that reads as stored (linear Rec.709, USD's data spaces). It was left out without a word."""
+    from pxr import Usd
+
+    api = getattr(Usd, "ColorSpaceAPI", None)  # USD 25.05 and later
+    if api is None or not inp:
+        return None
+    try:
+        name = str(api.ComputeColorSpaceName(inp.GetAttr(), None) or "")
+    except TypeError:  # a USD whose binding takes other arguments: nothing to name
+        return None
+    return name if name and COLOR_SPACES.get(name) != ("raw", False) else None
 
 
 def _affine(linear=np.eye(2), shift=(0.0, 0.0)) -> np.ndarray:
