@@ -246,3 +246,35 @@ def test_a_usd_uv_textures_inherited_colour_space_is_named_and_its_source_color_
     (mat,) = scene.materials
     texels = np.asarray(scene.textures[mat.textures["diffuseColor"].image][..., :3], np.float64)
     np.testing.assert_allclose(texels, 128 / 255, rtol=1e-6)
+
+
+@pytest.mark.parametrize("node, type_name, decoded", [("ND_constant_color3", "Float3", True),
+                                                      ("ND_constant_vector3", "Color3f", False)])
+def test_a_nodes_constant_is_decoded_by_the_type_its_definition_gives_it(tmp_path, node, type_name, decoded):
+    """A value bound to a node of the graph is decoded from its ``colorSpace`` when the node's definition types the
+    input a colour, whatever the USD attribute's type, as MaterialX's ShaderGraph decides by the nodedef's port: an
+    ``ND_constant_color3``'s ``value`` authored ``float3`` in ``srgb_texture`` is decoded, an
+    ``ND_constant_vector3``'s authored ``color3f`` (converted to the colour) is not. The USD type decided: the first
+    was kept, the second decoded."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    paint = UsdShade.Shader.Define(stage, "/Looks/Paint/Paint")
+    paint.CreateIdAttr(node)
+    value = paint.CreateInput("value", getattr(Sdf.ValueTypeNames, type_name))
+    value.Set(Gf.Vec3f(0.2, 0.5, 0.8))
+    value.GetAttr().SetColorSpace("srgb_texture")
+    source = paint
+    if node == "ND_constant_vector3":
+        paint.CreateOutput("out", Sdf.ValueTypeNames.Float3)
+        source = UsdShade.Shader.Define(stage, "/Looks/Paint/Convert")
+        source.CreateIdAttr("ND_convert_vector3_color3")
+        source.CreateInput("in", Sdf.ValueTypeNames.Float3).ConnectToSource(paint.ConnectableAPI(), "out")
+    source.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(source.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    value = np.array([0.2, 0.5, 0.8])
+    np.testing.assert_allclose(mat.diffuse_color, srgb64(value) if decoded else value, rtol=1e-5)

@@ -120,8 +120,11 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
         from .materialx import decoded_color  # that module imports this one
 
         # In its colorSpace, as MaterialX transforms a colour value bound to any node's input: a constant node's
-        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.)
-        decoded, _ = decoded_color(node.GetInput(name), value, name)
+        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.) The
+        # node's definition types the input, as MaterialX's port: a convert's input is of its first type, the
+        # inputs of three or four numbers of any other node of its type (a float3 value of a constant_color3 is a
+        # colour, a color3f one of a constant_vector3 is not; the USD type decided).
+        decoded, _ = decoded_color(node.GetInput(name), value, name, color=names[0] in ("color3", "color4"))
         if decoded is None:
             raise Unfoldable(node, f"{name} decoded from its colour space is past float32's range")
         return Folded(decoded)
