@@ -304,7 +304,7 @@ class _Graph:
             return constant, None
         return value, folded.source
 
-    def _decoded(self, inp, value: np.ndarray, what: str, color: bool | None = None) -> np.ndarray | None:
+    def _decoded(self, inp, value: np.ndarray, what: str, color: bool) -> np.ndarray | None:
         """:func:`decoded_color` of ``value``, its note (a colour space of other primaries, or unknown) kept. A
         base_color of 0.5 in ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes
         float32's range (1e20 in ``srgb_texture``), for the caller to use its default: an emission_color so, times
@@ -721,18 +721,14 @@ class _Graph:
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
 
-def decoded_color(inp, value: np.ndarray, what: str,
-                  color: bool | None = None) -> tuple[np.ndarray | None, str | None]:
+def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:
     """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
     node's; 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface
     input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's ShaderGraph
     transforms a value bound to a node input of a colour type; as it is for other inputs and where none is authored.
     ``color`` says whether the node's definition types the input ``color3`` or ``color4``: MaterialX decides by the
-    nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is decoded (it was kept);
-    None where the caller does not know, the attribute's colour role deciding. ``decoded`` is None where the decode
-    passes float32's range."""
-    if color is None:
-        color = bool(inp) and inp.GetTypeName().role == "Color"
+    nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is decoded (it was
+    kept). ``decoded`` is None where the decode passes float32's range."""
     if value.size not in (3, 4) or not inp or not color:
         return value, None
     space, note = file_color_space(inp, what)
