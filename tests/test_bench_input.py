@@ -732,3 +732,37 @@ def test_an_empty_dask_address_starts_a_local_cluster_as_render_s_does(tmp_path,
     assert main(argv) == 1
     assert asked == [None]
     assert "wrt: error: no cluster in this test" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--accels", "warp:sah,warp:lbvh", "--devices", "cpu"], "arguments --accels and --devices: accelerator "
+     "'warp:lbvh' with devices cpu: wp.Mesh has no lbvh builder on the CPU (Warp builds its sah tree there, which "
+     "warp:sah measures); add a CUDA device, or measure warp:sah"),
+    (["--accels", "embree", "--devices", "cuda:0"], "arguments --accels and --devices: accelerator 'embree' with "
+     "devices cuda:0: Embree runs on the CPU only; add the cpu device"),
+    (["gpu", "--devices", "cpu"], "argument --devices, with gpu.json's accels[1]: accelerator 'warp:lbvh' with devices "
+     "cpu: wp.Mesh has no lbvh builder on the CPU"),
+])
+def test_an_accelerator_that_no_device_of_the_run_builds_is_refused_naming_both_options(tmp_path, monkeypatch, capsys,
+                                                                                      options, message):
+    """--accels warp:lbvh --devices cpu loaded every scene and made its rays, then failed each warp:lbvh row, while
+    wrt render --accel warp --builder lbvh on the CPU says so at once; Embree on a CUDA device likewise."""
+    loaded = []
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: loaded.append(name))
+    argv = ["bench", "--scenes", "sphere:200", "--rays", "primary", "--n-rays", "100", "-q", "-o",
+            str(tmp_path / "out"), *options]
+    assert main(argv) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and err[0].startswith(f"wrt: error: {message}"), err
+    assert loaded == [] and not (tmp_path / "out").exists()
+    with pytest.raises(GridError, match="accelerator 'warp:lbvh' with devices cpu: wp.Mesh has no lbvh builder"):
+        small_grid(accels=["warp:sah"], devices=["cpu"], scaling={"sizes": [1000], "accels": ["warp:lbvh"]})
+
+
+def test_rows_an_accelerator_cannot_build_on_one_device_of_a_run_are_left_out_with_a_warning(tmp_path):
+    """warp:lbvh in a cpu,cuda:0 run: its cpu rows failed (the run exited 1) after the scene had loaded."""
+    grid = small_grid(accels=["warp:sah", "warp:lbvh"], devices=["cpu", "cuda:0"])
+    with pytest.warns(UserWarning, match="warp:lbvh has no rows on cpu: wp.Mesh has no lbvh builder on the CPU"):
+        rows = run_grid(grid, tmp_path, progress=False)
+    on_cpu = [(r["accel"], "error" in r) for r in rows if r["device"] == "cpu"]
+    assert on_cpu == [("warp:sah", False)]

@@ -134,7 +134,7 @@ class Grid:
         try:
             return cls(**data).validated()
         except GridError as e:  # it named the value only ('unknown ray kind ...'), not where it sits in the file
-            if e.field in overrides:  # not the file's: the caller names the option that gave it
+            if e.field in overrides or e.also in overrides:  # not the file's alone: the caller names the option
                 raise
             raise ValueError(f"{path.name}: {e.where()}") from None
         except ValueError as e:
@@ -236,11 +236,41 @@ class Grid:
             if both:
                 raise GridError("scaling", f"scaling size {both[0].split(':')[1]} is also the scene {both[0]!r}; drop "
                                 "one of them (a sweep row and a scene row of one name cannot be told apart)")
+        _check_devices_build(accels, self.devices, "accels")
+        if scaling is not None and "accels" in scaling:
+            _check_devices_build(self.scaling["accels"], self.devices, "scaling.accels")
         sweep = scaling and scaling.get("sizes") and scaling.get("accels", accels)
         if not self.devices or not (self.scenes and self.rays and accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
             raise GridError(empty[0], f"the grid measures nothing: {', '.join(empty)} empty")
         return threads, accels, scaling
+
+
+# Accelerators that devices of one kind cannot build: (that kind, why, what to do). Their rows on such a device
+# failed after the scene had loaded and its rays were made, or, for warp:lbvh, would time the sah tree that Warp
+# builds instead under lbvh's name.
+DEVICE_LIMITS = {
+    "warp:lbvh": ("cpu", "wp.Mesh has no lbvh builder on the CPU (Warp builds its sah tree there, which warp:sah "
+                  "measures)", "add a CUDA device, or measure warp:sah"),
+    "embree": ("cuda", "Embree runs on the CPU only", "add the cpu device"),
+}
+
+
+def cannot_build(spec: str, device_name: str) -> str | None:
+    """Why accelerator ``spec`` (canonical, :func:`check_accel_spec`) has no row on the device named
+    ``device_name`` (``cpu``, ``cuda``, ``cuda:N``), or None where it has one."""
+    kind, why, _ = DEVICE_LIMITS.get(spec, (None, None, None))
+    return why if kind is not None and device_name.partition(":")[0] == kind else None
+
+
+def _check_devices_build(accels: list, devices: list, field: str) -> None:
+    """Raises GridError for an accelerator of ``accels`` that no device of ``devices`` builds (``warp:lbvh`` with the
+    cpu alone): refused before any scene loads, naming the accelerator and the devices."""
+    for i, spec in enumerate(accels):
+        spec = check_accel_spec(spec)
+        if devices and all(cannot_build(spec, name) for name in devices):
+            raise GridError(field, f"accelerator {spec!r} with devices {', '.join(devices)}: "
+                            f"{cannot_build(spec, devices[0])}; {DEVICE_LIMITS[spec][2]}", i, also="devices")
 
 
 def check_device_name(name: str, index: int | None = None) -> None:
@@ -256,10 +286,11 @@ class GridError(ValueError):
     """A bad field of a :class:`Grid`: ``field`` names it, so that ``wrt bench`` can name the option that set it, and
     ``index`` the entry of a list field (or of ``scaling``'s) that is bad, so that a suite's error names its key."""
 
-    def __init__(self, field: str, message: str, index: int | None = None):
+    def __init__(self, field: str, message: str, index: int | None = None, also: str | None = None):
         super().__init__(message)
         self.field = field  # the Grid field: "scenes", "accels", ..., or "scaling.accels" for a key of scaling
         self.index = index  # the bad entry of a list, or None
+        self.also = also  # the other field of a bad pair ("devices" for an accelerator none of them builds), or None
 
     def where(self) -> str:
         """The message led by the key it is about, as a suite file spells it: ``accels[1]: accelerator ...``
@@ -698,7 +729,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
     rows = [dict(base, accel=spec, threads=threads)
-            for spec in ordered
+            for spec in ordered if not cannot_build(spec, str(device))  # said once by run_grid
             for threads in (thread_counts if device.is_cpu and spec != "embree" else [1])]  # embreex: one thread
     pending = [row for row in rows if not skip(row)]
     if REFERENCE in accels and pending and pending[0]["accel"] != REFERENCE:
@@ -1045,6 +1076,7 @@ def run_grid(
 
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
+    _warn_rows_not_built(grid)
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
@@ -1124,6 +1156,19 @@ def run_grid(
     if out is not None:
         write_summary(rows, out)
     return Rows(rows, resumed=len(resumed))
+
+
+def _warn_rows_not_built(grid: Grid) -> None:
+    """Warns once per accelerator and device that it cannot build (warp:lbvh on the cpu of a cpu,cuda:0 grid): its
+    rows there are left out, where they were failed rows (after the scene had loaded) that made the run exit 1."""
+    import warnings
+
+    accels = dict.fromkeys([*grid.accels, *(grid.scaling or {}).get("accels", [])])
+    for spec in accels:
+        for name in grid.devices:
+            why = cannot_build(spec, name)
+            if why:
+                warnings.warn(f"{spec} has no rows on {name}: {why}", stacklevel=3)
 
 
 def _resolve_devices(names: list[str]) -> tuple[list, dict]:

@@ -1308,8 +1308,14 @@ def _run_bench(args) -> int:
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
-        if e.field not in typed:  # from the suite file (a device found missing only now): name file and key
+        fields = [name for name in (e.field, e.also) if name]
+        if not any(name in typed for name in fields):  # from the suite file (a device found missing only now)
             raise ValueError(f"{suite_path(args.suite).name}: {e.where()}") from None
+        if e.also:  # a pair that cannot go together (--accels warp:lbvh with --devices cpu): both are named
+            options = [f"--{name.replace('_', '-')}" for name in fields if name in typed]
+            key = e.where().split(":")[0] if e.field not in typed else e.also
+            suite = "" if len(options) == 2 else f", with {suite_path(args.suite).name}'s {key}"
+            raise ValueError(f"argument{'s' * (len(options) == 2)} {' and '.join(options)}{suite}: {e}") from None
         message = str(e).removeprefix(f"{e.field} ")  # 'threads must be ...' reads 'argument --threads: must be ...'
         raise ValueError(f"argument --{e.field.replace('_', '-')}: {message}") from None
     failed = [r for r in rows if "error" in r]
