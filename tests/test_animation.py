@@ -1002,7 +1002,7 @@ def test_cli_frames_and_resume(animated, tmp_path):
 @pytest.mark.parametrize(
     "output, devices, message",
     [
-        ("f_#.jpg", "cpu", "cannot write f_1.jpg: supported image formats"),
+        ("f_#.jpg", "cpu", "f_1.jpg: supported image formats"),  # the path as given, named
         ("{scene}/f_#.png", "cpu", "is a file, not a directory"),
         ("f_#.png", ",", "--devices ',' names no device"),
     ],

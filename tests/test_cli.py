@@ -931,7 +931,9 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     (["render", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone; give a name before it, "
                                      "e.g. {dir}/image.png"),  # was 'supported image formats are .png, ...'
     (["render", "--frames", "1:2", "-o", "{dir}/.EXR"], "cannot write .EXR: the file name is an extension alone"),
-    (["render", "-o", "{dir}/x.png "], "cannot write 'x.png ': supported image formats are .png, .exr, .npy"),
+    (["render", "-o", "{dir}/x.png "], "cannot write '{dir}/x.png ': supported image formats are .png, .exr, .npy"),
+    # A file with no image extension is named by the path given: 'cannot write null' for /dev/null named no folder.
+    (["render", "-o", "{dir}/renders/null"], "cannot write {dir}/renders/null: supported image formats are .png"),
     (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
     # A folder not yet made: 'cannot write views: previews are written as .png', its / dropped; one that exists said
     # 'it is a directory'.
@@ -1387,3 +1389,19 @@ def test_ao_radius_help_says_what_the_default_measures(capsys):
     scene = wrt.Scene.from_triangles(corners, np.array([[0, 1, 2]], np.int32))
     renderer = wrt.Renderer(scene, integrator="ao", width=4, height=4, device="cpu")
     assert renderer.ao_radius == pytest.approx(0.1 * np.sqrt(3.0**2 + 4.0**2 + 12.0**2))
+
+
+@pytest.mark.parametrize("output", ["/dev/null", "{dir}/pipe.png"])
+def test_an_output_that_is_a_device_or_a_pipe_is_refused_naming_it(tmp_path, capsys, output):
+    """-o /dev/null said 'cannot write null: supported image formats are ...', naming neither the path nor what is
+    wrong; a pipe named x.png would have been replaced by a regular file (wrt writes beside it, then renames)."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")  # refused before it is read
+    output = output.replace("{dir}", str(tmp_path))
+    if output.endswith("pipe.png"):
+        os.mkfifo(output)
+    kind = "a device" if output == "/dev/null" else "a pipe or socket"
+    assert main(["render", str(tmp_path / "a.usda"), "-o", output, "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert errors == [f"wrt: error: cannot write {output}: it is {kind}, not an image file (the image is written "
+                      "beside it and renamed over it); give a file name ending .png, .exr or .npy"], errors
+    assert Path(output).exists() and not Path(output).is_file()

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import did_you_mean, flag
+from .errors import did_you_mean, flag, not_a_file
 
 IMAGE_FORMATS = (".png", ".exr", ".npy")  # extensions Image.save writes
 # The sRGB chunk (rendering intent 0, perceptual) and the gAMA and cHRM values the PNG specification (11.3.3.5)
@@ -279,11 +279,15 @@ def check_image_path(path) -> Path:
         raise ValueError(f"image path {str(path)!r} is empty; give a file name such as image.png")
     if Path(path).is_dir():  # before the extension: a folder was refused as 'supported image formats are ...'
         raise IsADirectoryError(f"cannot write {path}: it is a directory")
-    path = check_not_extension_alone(path)
+    if os.path.exists(path) and not os.path.isfile(path):  # -o /dev/null said 'cannot write null: ... formats'
+        raise ValueError(f"cannot write {path}: it is {not_a_file(path)}, not an image file (the image is written "
+                         f"beside it and renamed over it); give a file name ending {', '.join(IMAGE_FORMATS[:-1])} or "
+                         f"{IMAGE_FORMATS[-1]}")
+    given, path = str(path), check_not_extension_alone(path)
     suffix = path.suffix.lower()
-    if suffix not in IMAGE_FORMATS:
-        name = path.name if path.name == path.name.strip() else repr(path.name)  # 'x.png ': a space typed after it
-        raise ValueError(f"cannot write {name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
+    if suffix not in IMAGE_FORMATS:  # the path as given: the name alone ('null') did not say which file
+        shown = given if given == given.strip() else repr(given)  # 'x.png ': a space typed after it
+        raise ValueError(f"cannot write {shown}: supported image formats are {', '.join(IMAGE_FORMATS)}")
     if suffix == ".exr" and importlib.util.find_spec("OpenEXR") is None:
         raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)")
     return path
