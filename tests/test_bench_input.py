@@ -766,3 +766,20 @@ def test_rows_an_accelerator_cannot_build_on_one_device_of_a_run_are_left_out_wi
         rows = run_grid(grid, tmp_path, progress=False)
     on_cpu = [(r["accel"], "error" in r) for r in rows if r["device"] == "cpu"]
     assert on_cpu == [("warp:sah", False)]
+
+
+def test_a_ray_count_past_the_host_memory_names_the_option_typed(tmp_path, monkeypatch, capsys):
+    """--n-rays 1e12 said 'n_rays 1000000000000 needs about ...', the Python name, where every other bad option of
+    wrt bench is named as typed; the Python API keeps its MemoryError naming n_rays."""
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)
+    loaded = []
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: loaded.append(name))
+    argv = ["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "-q", "-o", str(tmp_path / "out")]
+    assert main([*argv, "--n-rays", "1e12"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    expected_bytes = 10**12 * bench_module.RAY_BYTES / 2**40  # TiB, as the message rounds them
+    assert err == [f"wrt: error: argument --n-rays: 1,000,000,000,000 rays need about {expected_bytes:.1f} TiB of "
+                   "host memory, 1.0 GiB is available"], err
+    assert loaded == [] and not (tmp_path / "out").exists()
+    with pytest.raises(MemoryError, match="^n_rays 1000000000000 needs about"):
+        small_grid(n_rays=10**12)

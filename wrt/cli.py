@@ -1318,6 +1318,12 @@ def _run_bench(args) -> int:
             raise ValueError(f"argument{'s' * (len(options) == 2)} {' and '.join(options)}{suite}: {e}") from None
         message = str(e).removeprefix(f"{e.field} ")  # 'threads must be ...' reads 'argument --threads: must be ...'
         raise ValueError(f"argument --{e.field.replace('_', '-')}: {message}") from None
+    except MemoryError as e:  # the grid's ray buffers past the host memory, named 'n_rays N' as in Python
+        python_name = f"n_rays {typed.get('n_rays')} needs "
+        if "n_rays" not in typed or not str(e).startswith(python_name):
+            raise
+        raise MemoryError(f"argument --n-rays: {typed['n_rays']:,} rays need {str(e).removeprefix(python_name)}"
+                          ) from None
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
     summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed; results in "
