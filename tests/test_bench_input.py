@@ -783,3 +783,21 @@ def test_a_ray_count_past_the_host_memory_names_the_option_typed(tmp_path, monke
     assert loaded == [] and not (tmp_path / "out").exists()
     with pytest.raises(MemoryError, match="^n_rays 1000000000000 needs about"):
         small_grid(n_rays=10**12)
+
+
+def test_a_misspelt_scene_file_is_an_error_row_naming_the_file_meant(tmp_path, capsys):
+    """A scene path with a typo ('goood.usda' beside good.usda) was an error row 'file not found' at its turn in the
+    batch, naming no file meant, where warp:NAME, asset:ID and a misspelt kind get a did-you-mean; the batch goes on."""
+    good = tmp_path / "good.usda"
+    good.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    '[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    (tmp_path / "notes.txt").write_text("not a scene")  # only USD files are offered
+    rows = run_grid(small_grid(scenes=[str(tmp_path / "goood.usda"), str(good), str(tmp_path / "note.usda")],
+                               n_rays=200, repeats=1), tmp_path / "out", progress=False)
+    errors = {Path(r["scene"]).name: r["error"] for r in rows if "error" in r}
+    assert errors == {"goood.usda": f"SceneError: {tmp_path / 'goood.usda'}: file not found (did you mean "
+                                    "'good.usda'?)",
+                      "note.usda": f"SceneError: {tmp_path / 'note.usda'}: file not found"}
+    assert [Path(r["scene"]).name for r in rows if "mrays" in r] == ["good.usda"]
+    assert main(["render", str(tmp_path / "goood.usda"), "-o", str(tmp_path / "x.png"), "-q"]) == 2
+    assert f"{tmp_path / 'goood.usda'}: file not found (did you mean 'good.usda'?)" in capsys.readouterr().err

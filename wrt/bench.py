@@ -61,6 +61,7 @@ from .trace import (
     resolve_device,
     usable_cores,
 )
+from .usd_stage import USD_SUFFIXES  # scene files, which a suite name is not
 from .wording import counted
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
@@ -300,9 +301,6 @@ class GridError(ValueError):
         for prefix in (f"{self.field.replace('.', ' ')} ", f"{self.field} "):
             message = message.removeprefix(prefix)
         return f"{key}: {message}"
-
-
-USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # scene files, which a suite name is not
 
 
 def suite_path(path) -> Path:

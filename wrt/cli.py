@@ -942,7 +942,7 @@ def _run_products(args, paths: list, progress) -> int:
 def _run_frames(args, paths: list, progress) -> int:
     from .animation import parse_frames, pending_frames, render_frames
     from .errors import SceneError
-    from .usd_stage import refuse_non_file
+    from .usd_stage import missing_file, refuse_non_file
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
@@ -953,7 +953,7 @@ def _run_frames(args, paths: list, progress) -> int:
         raise ValueError(f"{', '.join(unsupported)} cannot be combined with --frames")
     # One line before any frame, in load_usd's words: a folder or a pipe failed at every frame's load, each a row.
     if not paths[0].exists():
-        raise SceneError("file not found", path=str(paths[0]))
+        raise SceneError(missing_file(paths[0]), path=str(paths[0]))
     refuse_non_file(str(paths[0]))
     frames = parse_frames(args.frames)
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images

@@ -8,10 +8,11 @@ import math
 import os
 import re
 import warnings
+from pathlib import Path
 
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdSkel
 
-from .errors import SceneError, TimeRangeWarning, user_stacklevel
+from .errors import SceneError, TimeRangeWarning, did_you_mean, user_stacklevel
 from .scene import MIN_METERS_PER_UNIT
 
 # The composition errors a warning names in full; USD's own printed lines report the others.
@@ -292,6 +293,21 @@ def stage_up_axis(stage: Usd.Stage, source: str) -> str:
     return "Y"
 
 
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # the scene files USD opens
+
+
+def missing_file(source) -> str:
+    """``file not found``, with the USD file beside it meant by a misspelt ``source`` (``goood.usda`` beside
+    good.usda): compared by stem, as every candidate shares the suffix that made an unrelated name look close."""
+    path = Path(os.fsdecode(source))
+    try:
+        files = [p for p in path.parent.iterdir() if p.suffix.lower() in USD_SUFFIXES and p.is_file()]
+    except OSError:  # no such folder, or one that cannot be listed: nothing to offer
+        files = []
+    near = [p.name for p in files if did_you_mean(path.stem, [p.stem])]
+    return f"file not found{did_you_mean(path.name, near) if near else ''}"
+
+
 def refuse_non_file(source: str) -> None:
     """Raises SceneError naming ``source`` where it exists and is no file: USD reads a named pipe or a terminal until
     a writer closes it (a render that waits forever), and answers a folder with 'Cannot determine file format'.
@@ -322,7 +338,7 @@ def open_stage(source: str) -> Usd.Stage:
             stage = Usd.Stage.Open(source)
     except Tf.ErrorException as e:
         if not os.path.exists(source):
-            raise SceneError("file not found", path=source) from None
+            raise SceneError(missing_file(source), path=source) from None
         raise SceneError(f"USD cannot open this file ({tf_message(e)})", path=source) from None
     if stage is None:
         raise SceneError("USD cannot open this file", path=source)
