@@ -740,8 +740,8 @@ def test_an_empty_dask_address_starts_a_local_cluster_as_render_s_does(tmp_path,
      "warp:sah measures); add a CUDA device, or measure warp:sah"),
     (["--accels", "embree", "--devices", "cuda:0"], "arguments --accels and --devices: accelerator 'embree' with "
      "devices cuda:0: Embree runs on the CPU only; add the cpu device"),
-    (["gpu", "--devices", "cpu"], "argument --devices, with gpu.json's accels[1]: accelerator 'warp:lbvh' with devices "
-     "cpu: wp.Mesh has no lbvh builder on the CPU"),
+    (["--accels", "warp:lbvh", "{suite}"], "argument --accels, with suite.json's devices: "
+     "accelerator 'warp:lbvh' with devices cpu: wp.Mesh has no lbvh builder on the CPU"),
 ])
 def test_an_accelerator_that_no_device_of_the_run_builds_is_refused_naming_both_options(tmp_path, monkeypatch, capsys,
                                                                                       options, message):
@@ -749,8 +749,9 @@ def test_an_accelerator_that_no_device_of_the_run_builds_is_refused_naming_both_
     wrt render --accel warp --builder lbvh on the CPU says so at once; Embree on a CUDA device likewise."""
     loaded = []
     monkeypatch.setattr(bench_module, "resolve_scene", lambda name: loaded.append(name))
+    suite = write_suite(tmp_path, devices=["cpu"])
     argv = ["bench", "--scenes", "sphere:200", "--rays", "primary", "--n-rays", "100", "-q", "-o",
-            str(tmp_path / "out"), *options]
+            str(tmp_path / "out"), *[str(suite) if o == "{suite}" else o for o in options]]
     assert main(argv) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert len(err) == 1 and err[0].startswith(f"wrt: error: {message}"), err
@@ -801,3 +802,23 @@ def test_a_misspelt_scene_file_is_an_error_row_naming_the_file_meant(tmp_path, c
     assert [Path(r["scene"]).name for r in rows if "mrays" in r] == ["good.usda"]
     assert main(["render", str(tmp_path / "goood.usda"), "-o", str(tmp_path / "x.png"), "-q"]) == 2
     assert f"{tmp_path / 'goood.usda'}: file not found (did you mean 'good.usda'?)" in capsys.readouterr().err
+
+
+def test_a_suite_run_on_devices_that_cannot_build_one_of_its_accelerators_leaves_it_out_with_a_warning(tmp_path,
+                                                                                                      capsys):
+    """wrt bench gpu --devices cpu failed each of the gpu suite's warp:lbvh rows, and wrt bench --devices cuda:0 each
+    of the quick suite's embree rows; the suite's other accelerators are measured, as before."""
+    suite = write_suite(tmp_path, accels=["warp:sah", "warp:lbvh"], devices=["cuda:0"],
+                        scaling={"sizes": [300], "accels": ["warp:lbvh", "wrt:sah"]})
+    argv = ["bench", str(suite), "--devices", "cpu", "--scenes", "sphere:200", "--rays", "primary", "--n-rays", "200",
+            "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    assert main(argv) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if "left out" in line]
+    assert said == [
+        "wrt: warning: suite.json's accelerator warp:lbvh left out on devices cpu: wp.Mesh has no lbvh builder on the "
+        "CPU (Warp builds its sah tree there, which warp:sah measures)",
+        "wrt: warning: suite.json's scaling accelerator warp:lbvh left out on devices cpu: wp.Mesh has no lbvh builder "
+        "on the CPU (Warp builds its sah tree there, which warp:sah measures)"]
+    rows = [json.loads(line) for line in (tmp_path / "out" / "rows.jsonl").read_text().splitlines()]
+    assert sorted((r["scene"], r["accel"]) for r in rows) == [("sphere:200", "warp:sah"), ("sphere:300", "wrt:sah")]
+    assert not any("error" in r for r in rows)

@@ -128,6 +128,8 @@ class Grid:
         # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
         # --devices replaced them all.
         data = {**data, **overrides}
+        if "devices" in overrides and "accels" not in overrides:  # the suite on other devices: what they build of it
+            data = _drop_unbuilt(data, path.name)
         missing = [name for name in required if name not in data]
         if missing:
             raise ValueError(f"{path.name}: missing suite keys {missing}")
@@ -272,6 +274,38 @@ def _check_devices_build(accels: list, devices: list, field: str) -> None:
         if devices and all(cannot_build(spec, name) for name in devices):
             raise GridError(field, f"accelerator {spec!r} with devices {', '.join(devices)}: "
                             f"{cannot_build(spec, devices[0])}; {DEVICE_LIMITS[spec][2]}", i, also="devices")
+
+
+def _drop_unbuilt(data: dict, suite: str) -> dict:
+    """``data`` (a suite's fields, its devices given in their place) without the suite's accelerators that none of
+    those devices builds, each named in a warning: wrt bench gpu --devices cpu measures the gpu suite's other
+    accelerators on the CPU, as it did, not its warp:lbvh rows, which failed one by one."""
+    import warnings
+
+    devices = data.get("devices")
+    if not isinstance(devices, list) or not devices or not all(isinstance(d, str) for d in devices):
+        return data  # refused as it is by the checks
+
+    def kept(accels, key):
+        if not isinstance(accels, list):
+            return accels
+        left = []
+        for spec in accels:
+            try:
+                reasons = {cannot_build(check_accel_spec(spec), name) for name in devices}
+            except (TypeError, ValueError, AttributeError):  # refused by the checks, naming its key
+                reasons = {None}
+            why = None if None in reasons else reasons.pop()  # why, where no device builds it
+            if why:
+                warnings.warn(f"{suite}'s {key} {spec} left out on devices {', '.join(devices)}: {why}", stacklevel=4)
+            else:
+                left.append(spec)
+        return left
+
+    data = dict(data, accels=kept(data.get("accels"), "accelerator"))
+    if isinstance(data.get("scaling"), dict) and "accels" in data["scaling"]:
+        data["scaling"] = dict(data["scaling"], accels=kept(data["scaling"]["accels"], "scaling accelerator"))
+    return data
 
 
 def check_device_name(name: str, index: int | None = None) -> None:
