@@ -6,6 +6,7 @@ import math
 import os
 import re
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -802,6 +803,25 @@ def test_a_misspelt_scene_file_is_an_error_row_naming_the_file_meant(tmp_path, c
     assert [Path(r["scene"]).name for r in rows if "mrays" in r] == ["good.usda"]
     assert main(["render", str(tmp_path / "goood.usda"), "-o", str(tmp_path / "x.png"), "-q"]) == 2
     assert f"{tmp_path / 'goood.usda'}: file not found (did you mean 'good.usda'?)" in capsys.readouterr().err
+
+
+def test_a_run_into_a_folder_of_another_suite_s_rows_says_which_it_drops(tmp_path):
+    """wrt bench --quick after wrt bench cpu (both -o bench-out by default) replaced the cpu suite's rows with its own
+    without a word; rows this run measures again are replaced silently, as before."""
+    out = tmp_path / "bench-out"
+    run_grid(small_grid(scenes=["sphere:200", "sphere:300"], n_rays=200, repeats=1), out, progress=False)
+    other = small_grid(scenes=["sphere:300", "sphere:400"], n_rays=200, repeats=1)
+    with pytest.warns(UserWarning) as said:
+        run_grid(other, out, progress=False)
+    dropped = [str(w.message) for w in said if "earlier run" in str(w.message)]
+    assert dropped == [f"{out}: 1 row of an earlier run measured what this run does not (sphere:200 / wrt:sah / cpu / "
+                       "primary); it is dropped when this run writes its first row (resume keeps it: wrt bench "
+                       "--resume)"], dropped
+    assert {r["scene"] for r in map(json.loads, (out / "rows.jsonl").read_text().splitlines())} == {
+        "sphere:300", "sphere:400"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the same grid again: its rows are measured again, nothing is lost
+        run_grid(other, out, progress=False)
 
 
 def test_a_suite_run_on_devices_that_cannot_build_one_of_its_accelerators_leaves_it_out_with_a_warning(tmp_path,

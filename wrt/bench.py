@@ -1096,6 +1096,8 @@ def run_grid(
     begun = False  # whether out/ holds this run's results yet
 
     grid = grid.validated()
+    if jsonl is not None and not resume and jsonl.is_file():
+        _warn_rows_dropped(jsonl, grid)
     if resumed:  # an earlier run's rows of a scene spelt otherwise now (sphere:1e3 for sphere:1000) are this run's
         rows = _as_grid_scenes(rows, grid.scenes)
         resumed = {row_key(r): r for r in rows}
@@ -1188,6 +1190,52 @@ def run_grid(
     if out is not None:
         write_summary(rows, out)
     return Rows(rows, resumed=len(resumed))
+
+
+def _warn_rows_dropped(jsonl: Path, grid: Grid) -> None:
+    """Warns, naming a few, about the measured rows in ``jsonl`` (an earlier run's) that ``grid`` does not measure
+    again, which a run without ``resume`` drops: wrt bench --quick after wrt bench cpu, both into bench-out, replaced
+    the cpu suite's rows without a word."""
+    import warnings
+
+    earlier = []
+    for line in jsonl.read_text(encoding="utf-8", errors="replace").splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:  # cut short, or no row: nothing measured to lose
+            continue
+        named = isinstance(row, dict) and all(isinstance(row.get(k), str) for k in ROW_KEY_FIELDS[:4])
+        if named and "error" not in row:
+            earlier.append(row)
+    dropped = [row for row in _canonical_rows(earlier) if not _in_grid(row, grid)]
+    if dropped:
+        named = "; ".join(" / ".join(row[k] for k in ROW_KEY_FIELDS[:4]) for row in dropped[:3])
+        more = f" and {len(dropped) - 3} more" if len(dropped) > 3 else ""
+        they, them = ("it is", "it") if len(dropped) == 1 else ("they are", "them")
+        warnings.warn(f"{jsonl.parent}: {counted(len(dropped), 'row')} of an earlier run measured what this run does "
+                      f"not ({named}{more}); {they} dropped when this run writes its first row (resume keeps {them}: "
+                      "wrt bench --resume)", stacklevel=3)
+
+
+def _in_grid(row: dict, grid: Grid) -> bool:
+    """Whether ``grid`` measures the row's scene (or sweep size), accelerator, device and ray kind."""
+    scaling = grid.scaling or {}
+    if row.get("sweep"):
+        sizes = {f"sphere:{int(float(n))}" for n in scaling.get("sizes", [])}
+        return (row["scene"] in sizes and row["accel"] in scaling.get("accels", grid.accels)
+                and row["rays"] == scaling.get("rays", "incoherent") and row["device"] in _device_names(grid))
+    try:
+        scene = _scene_key(row["scene"])
+    except (ValueError, OSError):  # a name no longer read: not this grid's
+        return False
+    return (scene in {_scene_key(name) for name in grid.scenes} and row["accel"] in grid.accels
+            and row["rays"] in grid.rays and row["device"] in _device_names(grid))
+
+
+def _device_names(grid: Grid) -> set:
+    """The names rows give the grid's devices: as listed, and ``cuda`` as ``cuda:0`` (``str(wp.get_device("cuda"))``
+    names the current CUDA device, cuda:0 unless set otherwise)."""
+    return set(grid.devices) | {"cuda:0" for name in grid.devices if name == "cuda"}
 
 
 def _warn_rows_not_built(grid: Grid) -> None:
