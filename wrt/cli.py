@@ -24,6 +24,7 @@ from .wording import counted, counted_of
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
 EXIT_BROKEN_PIPE = 128 + 13  # exit status when stdout's reader is gone, as a shell reports a process SIGPIPE ended
+EXIT_INTERRUPTED = 128 + 2  # exit status after Ctrl-C, as a shell reports a process SIGINT ended
 
 
 def default_scene_path() -> Path:
@@ -1293,6 +1294,19 @@ def _add_bench(sub) -> None:
     p.set_defaults(run=_run_bench)
 
 
+def _how_to_resume(args, out: Path) -> str:
+    """For the lines after Ctrl-C: where the rows measured so far are, and a line with the command that goes on from
+    them (the one run, with ``--resume``), to copy; nothing when there are no rows."""
+    import shlex
+
+    if not (out / "rows.jsonl").is_file():
+        return ""
+    table = f" (table: {out / 'table.md'})" if (out / "table.md").is_file() else ""
+    command = ["wrt", *args.command_line] + ([] if args.resume else ["--resume"])
+    return (f"; the rows measured so far are in {out / 'rows.jsonl'}{table}\n"
+            f"wrt: to go on from them: {shlex.join(command)}")
+
+
 def _run_bench(args) -> int:
     from .bench import REFERENCE, Grid, GridError, run_grid, suite_path
 
@@ -1307,6 +1321,9 @@ def _run_bench(args) -> int:
         if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
+    except KeyboardInterrupt:  # 'wrt: interrupted' alone did not say where the rows were, nor how to go on
+        print(f"wrt: interrupted{_how_to_resume(args, out)}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
         fields = [name for name in (e.field, e.also) if name]
         if not any(name in typed for name in fields):  # from the suite file (a device found missing only now)
@@ -1398,6 +1415,7 @@ def _kernel_cache_hint(error: Exception, cache_dir: str | None) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Runs the ``wrt`` command line; returns the exit status."""
     args = build_parser().parse_args(argv)
+    args.command_line = list(sys.argv[1:] if argv is None else argv)  # as typed: wrt bench's Ctrl-C line repeats it
     import warp as wp
 
     from .distributed import DaskUnavailable
@@ -1433,7 +1451,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("wrt: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":
