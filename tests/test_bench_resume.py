@@ -42,3 +42,24 @@ def test_ctrl_c_names_the_rows_measured_and_the_command_that_resumes_them(tmp_pa
     assert main(words[1:]) == 0
     assert "wrt: 1 row measured, 1 resumed, 0 failed" in capsys.readouterr().err
     assert [row["accel"] for row in read_rows(out)] == ["warp:sah", "wrt:sah"]
+
+
+def test_resume_does_not_count_rows_outside_its_grid_as_its_own(tmp_path, capsys):
+    """--resume kept an earlier run's rows of scenes this run does not measure (right: rows.jsonl keeps them) but
+    counted them as this run's 'resumed' rows and put them in its table unmarked; a run whose every row failed then
+    exited 1 (some rows measured) where it exits 2 (none were)."""
+    assert main(["bench", "--scenes", "sphere:100", *TINY, "-o", str(tmp_path)]) == 0
+    earlier = read_rows(tmp_path)
+    capsys.readouterr()
+    assert main(["bench", "--scenes", "sphere:200", *TINY, "-o", str(tmp_path), "--resume"]) == 0
+    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    assert len(summary) == 1 and summary[0].startswith("wrt: 2 rows measured, 0 resumed, 0 failed"), summary
+    assert "2 rows of an earlier run" in summary[0], summary
+    assert read_rows(tmp_path)[:2] == earlier  # kept in rows.jsonl, as documented
+    table = (tmp_path / "table.md").read_text().splitlines()
+    kept = [line for line in table if line.startswith("| sphere:100 ")]
+    new = [line for line in table if line.startswith("| sphere:200 ")]
+    assert len(kept) == 2 and len(new) == 2, table
+    assert all("earlier run" in line for line in kept) and not any("earlier run" in line for line in new), table
+
+    assert main(["bench", "--scenes", str(tmp_path / "no.usda"), *TINY, "-o", str(tmp_path), "--resume"]) == 2

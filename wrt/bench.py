@@ -1045,11 +1045,13 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) ->
 
 class Rows(list):
     """The rows of a run, as a list; ``resumed``: how many of them ``resume`` kept from the earlier run, unmeasured
-    (they come first)."""
+    (they come first), of this run's grid; ``earlier``: how many more it kept that this grid does not measure (other
+    scenes, accelerators, devices, ray kinds or thread counts), which are no part of this run's count."""
 
-    def __init__(self, rows=(), resumed: int = 0):
+    def __init__(self, rows=(), resumed: int = 0, earlier: int = 0):
         super().__init__(rows)
         self.resumed = resumed
+        self.earlier = earlier
 
 
 def run_grid(
@@ -1111,6 +1113,9 @@ def run_grid(
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
     _warn_rows_not_built(grid)
+    # Rows of the earlier run this grid does not measure: kept in rows.jsonl (that is what --resume is for), but
+    # neither counted as this run's resumed rows nor shown in its table as if it had measured them.
+    outside = {key for key, row in resumed.items() if not _in_grid(row, grid)}
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
@@ -1184,12 +1189,12 @@ def run_grid(
             bar.close()
     except KeyboardInterrupt:  # rows.jsonl has every finished row; the table and plots show them too
         if out is not None and begun:
-            write_summary(rows, out)
+            write_summary(rows, out, outside)
         raise
     begin()
     if out is not None:
-        write_summary(rows, out)
-    return Rows(rows, resumed=len(resumed))
+        write_summary(rows, out, outside)
+    return Rows(rows, resumed=len(resumed) - len(outside), earlier=len(outside))
 
 
 def _warn_rows_dropped(jsonl: Path, grid: Grid) -> None:
@@ -1218,7 +1223,8 @@ def _warn_rows_dropped(jsonl: Path, grid: Grid) -> None:
 
 
 def _in_grid(row: dict, grid: Grid) -> bool:
-    """Whether ``grid`` measures the row's scene (or sweep size), accelerator, device and ray kind."""
+    """Whether ``grid`` (validated) measures the row's scene (or sweep size), accelerator, device, ray kind and, for
+    a CPU row, thread count."""
     scaling = grid.scaling or {}
     if row.get("sweep"):
         sizes = {f"sphere:{int(float(n))}" for n in scaling.get("sizes", [])}
@@ -1228,8 +1234,10 @@ def _in_grid(row: dict, grid: Grid) -> bool:
         scene = _scene_key(row["scene"])
     except (ValueError, OSError):  # a name no longer read: not this grid's
         return False
+    # A CPU row of a thread count the grid does not ask for (threads 4 after 1,all on 2 cores) is not its row either.
+    threads = not str(row["device"]).startswith("cpu") or row["accel"] == "embree" or row.get("threads") in grid.threads
     return (scene in {_scene_key(name) for name in grid.scenes} and row["accel"] in grid.accels
-            and row["rays"] in grid.rays and row["device"] in _device_names(grid))
+            and row["rays"] in grid.rays and row["device"] in _device_names(grid) and threads)
 
 
 def _device_names(grid: Grid) -> set:
@@ -1272,10 +1280,11 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
     return devices, unavailable
 
 
-def write_summary(rows: list[dict], out: Path) -> None:
+def write_summary(rows: list[dict], out: Path, earlier=()) -> None:
     """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots of an earlier run that they have no
-    rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning."""
-    table = markdown_table(rows)
+    rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning.
+    ``earlier``: the row keys of rows an earlier run measured that this run's grid does not, marked in the table."""
+    table = markdown_table(rows, earlier)
     write_atomically(out / "table.md", lambda target: target.write_text(table))
     try:
         written = plot(rows, out)
@@ -1305,10 +1314,11 @@ def _ratio(row, rows, accel) -> float | None:
     return None
 
 
-def markdown_table(rows: list[dict]) -> str:
+def markdown_table(rows: list[dict], earlier=()) -> str:
     """The rows as a markdown table with ratios to ``warp:sah`` and to Embree, plus the hardware. An agreement below
     edge ties is marked with the number of rays that differ; a row with no ``warp:sah`` answer to check is marked
-    ``unchecked``."""
+    ``unchecked``; a row whose key is in ``earlier`` (kept by ``resume``, outside this run's grid) ``(earlier run)``
+    after its scene."""
     head = ("| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % "
             "| x warp:sah | x embree | SAH |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
@@ -1316,7 +1326,12 @@ def markdown_table(rows: list[dict]) -> str:
     fmt = lambda x, spec: "" if x is None else format(x, spec) if math.isfinite(x) else "n/a"  # noqa: E731
     notes = set()
     for r in rows:
-        start = f"| {cell(r['scene'])} | {cell(r.get('triangles'))} | {r['device']} | {r['rays']} | {r['accel']} | "
+        scene = cell(r["scene"])
+        if earlier and row_key(r) in earlier:
+            scene += " (earlier run)"
+            notes.add("- (earlier run): a row of an earlier run in this folder that wrt bench --resume kept; this "
+                      "run's grid does not measure it")
+        start = f"| {scene} | {cell(r.get('triangles'))} | {r['device']} | {r['rays']} | {r['accel']} | "
         if "error" in r:
             lines.append(f"{start}{cell(r.get('threads'))} | error: {cell(r['error'])} | | | | | | |")
             continue

@@ -1342,9 +1342,11 @@ def _run_bench(args) -> int:
         raise MemoryError(f"argument --n-rays: {typed['n_rays']:,} rays need {str(e).removeprefix(python_name)}"
                           ) from None
     failed = [r for r in rows if "error" in r]
-    measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
-    summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed; results in "
-               f"{os.path.join(args.out, '')}")  # one separator after the folder, given with one or not
+    measured = len(rows) - len(failed) - rows.resumed - rows.earlier  # resumed rows: measured by the earlier run
+    # Rows of the earlier run outside this grid are kept, but are no part of this run's count.
+    earlier = f", {counted(rows.earlier, 'row')} of an earlier run kept (not in this grid)" if rows.earlier else ""
+    summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed{earlier}; "
+               f"results in {os.path.join(args.out, '')}")  # one separator after the folder, given with one or not
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
@@ -1357,7 +1359,7 @@ def _run_bench(args) -> int:
     if unchecked:
         print(f"wrt: warning: {counted(len(unchecked), 'row')} not checked against {REFERENCE} (it failed or was not "
               "run in their group)", file=sys.stderr)
-    if failed and len(failed) == len(rows):  # none measured: bad input, as a render batch none of whose scenes rendered
+    if failed and len(failed) == len(rows) - rows.earlier:  # none measured: bad input, as a render batch none of whose scenes rendered
         return EXIT_BAD_INPUT
     # --strict: a script sees the disagreement in the status (it was a warning line only, status 0).
     return 1 if failed or (args.strict and disagreeing) else 0
