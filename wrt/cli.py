@@ -1359,7 +1359,8 @@ def _run_bench(args) -> int:
     if unchecked:
         print(f"wrt: warning: {counted(len(unchecked), 'row')} not checked against {REFERENCE} (it failed or was not "
               "run in their group)", file=sys.stderr)
-    if failed and len(failed) == len(rows) - rows.earlier:  # none measured: bad input, as a render batch none of whose scenes rendered
+    # None of this run's rows measured: bad input, as a render batch none of whose scenes rendered.
+    if failed and len(failed) == len(rows) - rows.earlier:
         return EXIT_BAD_INPUT
     # --strict: a script sees the disagreement in the status (it was a warning line only, status 0).
     return 1 if failed or (args.strict and disagreeing) else 0
