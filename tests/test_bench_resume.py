@@ -3,8 +3,10 @@ files named at the start rather than when the run reaches them."""
 
 import json
 import shlex
+import warnings
 
 import wrt.bench as bench_module
+from wrt.bench import Grid, run_grid
 from wrt.cli import main
 
 TINY = ["--accels", "warp:sah,wrt:sah", "--devices", "cpu", "--rays", "primary", "--n-rays", "100", "--repeats", "1",
@@ -63,3 +65,33 @@ def test_resume_does_not_count_rows_outside_its_grid_as_its_own(tmp_path, capsys
     assert all("earlier run" in line for line in kept) and not any("earlier run" in line for line in new), table
 
     assert main(["bench", "--scenes", str(tmp_path / "no.usda"), *TINY, "-o", str(tmp_path), "--resume"]) == 2
+
+
+def test_scene_files_that_cannot_load_are_named_before_the_first_scene_loads(tmp_path, monkeypatch):
+    """A misspelt scene path was reported only when the batch reached it, maybe an hour in. Now every scene file that
+    is missing, no file or not USD by its extension is named in one warning at the start; each still becomes an error
+    row, as does a file that breaks only when loaded, and the other scenes are measured."""
+    missing, obj, folder, broken = (tmp_path / name for name in ("missing.usda", "scene.obj", "dir.usda", "bad.usda"))
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    folder.mkdir()
+    broken.write_text("#usda 1.0\ndef Mesh (\n")  # a USD file by its name, broken inside: found only when loaded
+    scenes = ["sphere:100", str(missing), str(obj), str(folder), str(broken), "warp:nosuch.usd"]
+    original, loads = bench_module.resolve_scene, []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+
+        def recording(name):  # the warnings raised before this scene loaded
+            loads.append([str(w.message) for w in caught])
+            return original(name)
+
+        monkeypatch.setattr(bench_module, "resolve_scene", recording)
+        grid = Grid(scenes=scenes, accels=["warp:sah"], devices=["cpu"], rays=["primary"], n_rays=100, repeats=1)
+        rows = run_grid(grid, tmp_path / "out", progress=False)
+    named = [message for message in loads[0] if str(missing) in message]
+    assert len(named) == 1, loads[0]
+    for bad in (missing, obj, folder, "warp:nosuch.usd"):
+        assert str(bad) in named[0], named[0]
+    assert str(broken) not in named[0] and "sphere:100" not in named[0]
+    failed = {row["scene"] for row in rows if "error" in row}
+    assert failed == set(scenes[1:]), rows
+    assert [row["scene"] for row in rows if "mrays" in row] == ["sphere:100"]

@@ -61,7 +61,7 @@ from .trace import (
     resolve_device,
     usable_cores,
 )
-from .usd_stage import USD_SUFFIXES  # scene files, which a suite name is not
+from .usd_stage import USD_SUFFIXES, missing_file  # scene files, which a suite name is not
 from .wording import counted
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
@@ -526,6 +526,47 @@ def resolve_scene(name: str) -> Scene:
         raise SceneError(f"no such file, and {kind!r} is no scene kind{did_you_mean(kind, SCENE_KINDS)}; scenes are "
                          "USD paths, warp:NAME, asset:ID or sphere:N", path=name)
     return load_usd(name)
+
+
+def scene_file_problem(name: str) -> str | None:
+    """What keeps the file of scene ``name`` from loading, found without loading it: missing, no file, unreadable or
+    not USD by its extension. None for ``sphere:N`` and for a file that may load (one broken inside fails only when
+    :func:`resolve_scene` loads it)."""
+    if name.startswith("sphere:"):
+        return None
+    try:
+        if name.startswith("warp:"):
+            import warp.examples
+
+            path = Path(warp.examples.get_asset_directory()) / name.split(":", 1)[1]
+        elif name.startswith("asset:"):
+            path = asset_path(name.split(":", 1)[1])
+        else:
+            path = Path(name)
+    except (ValueError, OSError) as e:  # an unknown asset id, or no shared asset folder
+        return str(e)
+    if not path.exists():
+        return missing_file(path)
+    if not path.is_file():
+        return f"{'a directory' if path.is_dir() else 'a pipe or device'}, not a USD file"
+    if not os.access(path, os.R_OK):
+        return "not readable (permission denied)"
+    if path.suffix.lower() not in USD_SUFFIXES:
+        return f"not a USD file by its extension: USD reads {', '.join(USD_SUFFIXES)}"
+    return None
+
+
+def _warn_scene_files(grid: Grid) -> None:
+    """Warns at the start, naming each, about the grid's scenes whose files cannot load (:func:`scene_file_problem`):
+    a misspelt path was found only when the run reached its scene, maybe an hour in. A warning, not a refusal: the
+    other scenes are still measured, and each of these becomes an error row, as before."""
+    problems = [f"{name} ({why})" for name in grid.scenes if (why := scene_file_problem(name))]
+    if problems:
+        import warnings
+
+        they = "it is reached" if len(problems) == 1 else "each is reached"
+        warnings.warn(f"{counted(len(problems), 'scene')} will be an error row when {they}: {'; '.join(problems)}",
+                      stacklevel=3)
 
 
 def _scene_key(name: str) -> str:
@@ -1113,6 +1154,8 @@ def run_grid(
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
     _warn_rows_not_built(grid)
+    if not isinstance(dask, str):  # a remote scheduler's workers read the scene files, not this machine
+        _warn_scene_files(grid)
     # Rows of the earlier run this grid does not measure: kept in rows.jsonl (that is what --resume is for), but
     # neither counted as this run's resumed rows nor shown in its table as if it had measured them.
     outside = {key for key, row in resumed.items() if not _in_grid(row, grid)}
