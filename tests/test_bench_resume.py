@@ -5,6 +5,8 @@ import json
 import shlex
 import warnings
 
+import pytest
+
 import wrt.bench as bench_module
 from wrt.bench import Grid, run_grid
 from wrt.cli import main
@@ -95,3 +97,23 @@ def test_scene_files_that_cannot_load_are_named_before_the_first_scene_loads(tmp
     failed = {row["scene"] for row in rows if "error" in row}
     assert failed == set(scenes[1:]), rows
     assert [row["scene"] for row in rows if "mrays" in row] == ["sphere:100"]
+
+
+def test_ctrl_c_before_the_first_row_offers_no_resume_of_an_earlier_runs_rows(tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the first scene loaded, in a run with another --n-rays, named the earlier run's rows as 'the rows
+    measured so far' and offered a --resume that refuses them (they were measured over other ray counts)."""
+    assert main(["bench", "--scenes", "sphere:100", *TINY, "-o", str(tmp_path)]) == 0
+    capsys.readouterr()
+
+    def interrupted(name):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench_module, "resolve_scene", interrupted)
+    args = ["bench", "--scenes", "sphere:100", *TINY, "--n-rays", "200", "-o", str(tmp_path)]
+    assert main(args) == 130
+    err = capsys.readouterr().err
+    assert "wrt: interrupted" in err and "--resume" not in err, err
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="other settings"):  # what the --resume it offered would have met
+        run_grid(Grid(scenes=["sphere:100"], accels=["warp:sah"], rays=["primary"], n_rays=200, repeats=1), tmp_path,
+                 resume=True, progress=False)

@@ -1294,12 +1294,24 @@ def _add_bench(sub) -> None:
     p.set_defaults(run=_run_bench)
 
 
-def _how_to_resume(args, out: Path) -> str:
+def _file_state(path: Path) -> tuple | None:
+    """What tells a file rewritten or appended to from the one that was there: its inode, size and time."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_ino, stat.st_size, stat.st_mtime_ns
+
+
+def _how_to_resume(args, out: Path, rows_before: tuple | None) -> str:
     """For the lines after Ctrl-C: where the rows measured so far are, and a line with the command that goes on from
-    them (the one run, with ``--resume``), to copy; nothing when there are no rows."""
+    them (the one run, with ``--resume``), to copy. Nothing when there are no rows, or when ``OUT/rows.jsonl`` is
+    still as it was before the run (``rows_before``, :func:`_file_state`) and the run did not resume it: those are
+    an earlier run's rows, maybe of other ray counts, which --resume would refuse."""
     import shlex
 
-    if not (out / "rows.jsonl").is_file():
+    rows_file = out / "rows.jsonl"
+    if not rows_file.is_file() or (not args.resume and _file_state(rows_file) == rows_before):
         return ""
     table = f" (table: {out / 'table.md'})" if (out / "table.md").is_file() else ""
     command = ["wrt", *args.command_line] + ([] if args.resume else ["--resume"])
@@ -1320,9 +1332,10 @@ def _run_bench(args) -> int:
         grid = Grid.from_suite(args.suite, overrides=typed).validated()  # a bad field: a one-line error naming it
         if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
+        rows_before = _file_state(out / "rows.jsonl")
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     except KeyboardInterrupt:  # 'wrt: interrupted' alone did not say where the rows were, nor how to go on
-        print(f"wrt: interrupted{_how_to_resume(args, out)}", file=sys.stderr)
+        print(f"wrt: interrupted{_how_to_resume(args, out, rows_before)}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
         fields = [name for name in (e.field, e.also) if name]
