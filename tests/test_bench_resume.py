@@ -117,3 +117,16 @@ def test_ctrl_c_before_the_first_row_offers_no_resume_of_an_earlier_runs_rows(tm
     with pytest.raises(ValueError, match="other settings"):  # what the --resume it offered would have met
         run_grid(Grid(scenes=["sphere:100"], accels=["warp:sah"], rays=["primary"], n_rays=200, repeats=1), tmp_path,
                  resume=True, progress=False)
+
+
+def test_resume_with_other_thread_counts_counts_the_earlier_rows_apart(tmp_path):
+    """CPU rows of a thread count this run does not ask for are no rows of its grid: threads 1 rows resumed under
+    --threads 2 were counted as this run's resumed rows, and a run without --resume dropped them without a warning."""
+    grid = dict(scenes=["sphere:100"], accels=["warp:sah", "wrt:sah"], devices=["cpu"], rays=["primary"], n_rays=100,
+                repeats=1)
+    run_grid(Grid(**grid, threads=[1]), tmp_path, progress=False)
+    rows = run_grid(Grid(**grid, threads=[2]), tmp_path, resume=True, progress=False)
+    assert (rows.resumed, rows.earlier) == (0, 2)
+    assert sorted(r["threads"] for r in rows) == [1, 1, 2, 2]
+    with pytest.warns(UserWarning, match="2 rows of an earlier run measured what this run does not"):
+        run_grid(Grid(**grid, threads=[1]), tmp_path, progress=False)  # the threads 2 rows, dropped
