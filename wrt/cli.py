@@ -1327,12 +1327,12 @@ def _run_bench(args) -> int:
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     typed = {k: v for k, v in overrides.items() if v is not None}
     out = Path(args.out)
+    rows_before = _file_state(out / "rows.jsonl")  # set before a Ctrl-C can come: the message reads it
     try:
         # The options replace the suite's values before they are checked: a value overridden is never used.
         grid = Grid.from_suite(args.suite, overrides=typed).validated()  # a bad field: a one-line error naming it
         if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
-        rows_before = _file_state(out / "rows.jsonl")
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     except KeyboardInterrupt:  # 'wrt: interrupted' alone did not say where the rows were, nor how to go on
         print(f"wrt: interrupted{_how_to_resume(args, out, rows_before)}", file=sys.stderr)
