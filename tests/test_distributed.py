@@ -198,8 +198,8 @@ def comparable(rows):
 
 
 def test_bench_dask_writes_the_serial_rows_and_resumes(tmp_path, monkeypatch):
-    # warp:lbvh fails at build on the CPU: error rows from the accelerator as well as from the scene.
-    grid = dict(scenes=["sphere:2000", "no/such/scene.usda"], accels=["warp:sah", "wrt:sah", "warp:lbvh"],
+    # The missing scene gives error rows beside the measured ones.
+    grid = dict(scenes=["sphere:2000", "no/such/scene.usda"], accels=["warp:sah", "wrt:sah"],
                 rays=["primary", "shadow"], n_rays=3000, repeats=2)
     serial = run_grid(Grid(**grid), tmp_path / "serial", progress=False)
     assert any("error" in r for r in serial) and any("mrays" in r for r in serial)
