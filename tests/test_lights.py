@@ -590,9 +590,10 @@ def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_
 
 
 def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
-    """An emissive analytic sphere lights nothing under whitted (only world-space emissive triangles are sampled as
-    lights): the render says so instead of silently showing a dark plane. A stage's emissive gprim is drawn as its
-    tessellation (tests/test_emissive_gprims.py), so this is a scene built in Python; tessellated, it is sampled."""
+    """An emissive analytic shape that is not sampled (a sphere scaled into an ellipsoid: glowing spheres are,
+    tests/test_glowing_spheres.py) lights nothing under whitted: the render says so instead of silently showing a
+    dark plane. A stage's emissive gprim is drawn as its tessellation (tests/test_emissive_gprims.py), so this is a
+    scene built in Python; tessellated, it is sampled."""
     path = tmp_path / "scene.usda"
     path.write_text(
         '#usda 1.0\ndef Material "E"\n{\n    token outputs:surface.connect = </E/PS.outputs:surface>\n'
@@ -611,6 +612,12 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
     (plane,) = [m for m in loaded.meshes if m.path == "/Plane"]
     to_world = np.diag([0.5, 0.5, 0.5, 1.0])  # radius 0.5 at (0, 0, 2), column vectors
     to_world[2, 3] = 2.0
+    sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a sphere is sampled
+        wrt.render(wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials), width=8, height=8)
+    to_world = to_world.copy()
+    to_world[0, 0] = 0.8
     sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
     scene = wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials)
     with pytest.warns(UserWarning, match="1 emissive analytic primitive"):

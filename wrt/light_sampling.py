@@ -64,6 +64,9 @@ LIGHT_TRIANGLE = wp.constant(7)
 LIGHT_ELLIPSOID = wp.constant(8)  # a SphereLight scaled unevenly or sheared
 LIGHT_ELLIPTIC_TUBE = wp.constant(9)  # a CylinderLight scaled unevenly across its axis or sheared
 LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, radiance holds I_s (wrt.lights)
+# A glowing analytic sphere (wrt.glowing_spheres): entries from first_glowing_sphere on, after the triangles, sampled
+# as a sphere light is, with its material's emission.
+LIGHT_GLOWING_SPHERE = wp.constant(11)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -120,6 +123,12 @@ class DeviceLights:
     count: int  # number of lights
     radiance_scale: float  # power of two every emitted radiance is held times (wrt.radiance_scale; unread here)
     num_analytic: int  # number of UsdLux lights but mesh lights (they come first; then emissive and mesh triangles)
+    # Glowing analytic spheres (LIGHT_GLOWING_SPHERE), the entries [first_glowing_sphere, count): prims holds the
+    # shape's geometry id, instances its instance (-1: a world shape), params and radiance an emissive triangle's.
+    first_glowing_sphere: int
+    glowing_spheres: wp.array[wp.vec4]  # (count - first_glowing_sphere, or 1) world centre and radius
+    instance_glowing_spheres: wp.array[wp.int32]  # (N,) each instance's first glowing sphere entry, -1: none
+    first_shape_id: int  # the geometry id of the first analytic shape (Scene.num_geometry_triangles)
     dome: int  # index of the dome light, -1 without one
     dome_to_local: wp.mat33  # world direction -> dome frame
     dome_textured: int  # 1 when the dome has a texture (a lat-long image in texels, described by texture[dome])
@@ -235,6 +244,8 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
 def light_kind(lights: DeviceLights, k: int):
     """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles (``kinds`` holds the
     analytic lights' alone)."""
+    if k >= lights.first_glowing_sphere:
+        return LIGHT_GLOWING_SPHERE
     if k >= lights.num_analytic:
         return LIGHT_TRIANGLE
     return lights.kinds[k]
@@ -345,9 +356,16 @@ def lit_bsdf(lights: DeviceLights, k: int, f_diffuse: wp.vec3, f_specular: wp.ve
 def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
     """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside. Lengths
     are scaled by :func:`light_scales` (their squares over- or underflowed in scenes 1e20 or 1e-22 across)."""
-    down, _ = light_scales(lights, k)
-    r = lights.params[k][0] * down
-    d2 = wp.length_sq((lights.position[k] - p) * down)
+    return cone_of_sphere(lights.position[k], lights.params[k][0], p)
+
+
+@wp.func
+def cone_of_sphere(c: wp.vec3, radius: float, p: wp.vec3):
+    """``(cos_max, 1 - cos_max)`` of the cone the sphere of centre ``c`` subtends at ``p`` (see
+    :func:`sphere_cone`), its lengths taken times the power of two that brings ``radius`` into [1, 2)."""
+    down, _ = power_scales(radius)
+    r = radius * down
+    d2 = wp.length_sq((c - p) * down)
     if d2 <= r * r:
         return 2.0, 0.0
     sin2 = r * r / d2
@@ -526,13 +544,16 @@ def triangle_weights(a: wp.vec3, b: wp.vec3, c: wp.vec3, q: wp.vec3, down: float
 
 
 @wp.func
-def hit_emitter(lights: DeviceLights, slot: int, instance: int):
-    """The light entry of an emitter triangle a ray hit in ``instance`` (-1: world geometry), or -1: ``slot`` is its
-    ``DeviceSurfaces.emitters``, the entry itself for world geometry, its place among its prototype's emitters for
-    prototype geometry (each sampled instance's entries start at ``instance_emitters``)."""
+def hit_emitter(lights: DeviceLights, slot: int, prim: int, instance: int):
+    """The light entry of an emitter triangle or glowing sphere ``prim`` a ray hit in ``instance`` (-1: world
+    geometry), or -1: ``slot`` is its ``DeviceSurfaces.emitters``, the entry itself for world geometry, its place among
+    its prototype's emitter triangles, or glowing spheres, for prototype geometry (each sampled instance's entries
+    start at ``instance_emitters``, its spheres' at ``instance_glowing_spheres``)."""
     if slot < 0 or instance < 0:
         return slot
     first = lights.instance_emitters[instance]
+    if prim >= lights.first_shape_id:
+        first = lights.instance_glowing_spheres[instance]
     if first < 0:
         return -1
     return first + slot
@@ -559,6 +580,17 @@ def triangle_light_pdf(
         return 1.0 / omega
     scaled = dist * down
     return scaled * scaled / (cos_l * 0.5 * area2)
+
+
+@wp.func
+def glowing_sphere_pdf(lights: DeviceLights, k: int, p: wp.vec3):
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing sphere ``k`` from ``p``: uniform in the cone
+    it subtends (0 inside it)."""
+    row = lights.glowing_spheres[k - lights.first_glowing_sphere]
+    cos_max, one_minus = cone_of_sphere(wp.vec3(row[0], row[1], row[2]), row[3], p)
+    if cos_max > 1.0 or one_minus <= 0.0:
+        return 0.0
+    return 1.0 / (2.0 * PI * one_minus)
 
 
 @wp.func
@@ -754,6 +786,24 @@ def sample_light(
         out.dist = t
         out.pdf = 1.0 / (2.0 * PI * one_minus)
         out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
+        return out
+    if kind == LIGHT_GLOWING_SPHERE:
+        row = lights.glowing_spheres[k - lights.first_glowing_sphere]
+        gc = wp.vec3(row[0], row[1], row[2])
+        g_cos, g_one_minus = cone_of_sphere(gc, row[3], p)
+        if g_cos > 1.0 or g_one_minus <= 0.0:
+            return out  # inside the sphere: sampled from outside only (a hit inside takes MIS weight 1)
+        g_down, g_up = power_scales(row[3])
+        g_axis = wp.normalize((gc - p) * g_down)
+        out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, g_one_minus), g_axis))
+        t = intersect_sphere(gc * g_down, row[3] * g_down, p * g_down, out.wi) * g_up
+        if t == wp.inf:
+            t = wp.dot(gc - p, out.wi)  # grazing: rounding missed the sphere by a hair
+        out.dist = t
+        out.pdf = 1.0 / (2.0 * PI * g_one_minus)
+        prim = lights.prims[k]
+        # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
+        out.value = triangle_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) * (2.0 * PI * g_one_minus)
         return out
     if kind == LIGHT_ELLIPSOID:
         ell_down, ell_up = light_scales(lights, k)

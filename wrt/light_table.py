@@ -16,6 +16,7 @@ import warp as wp
 from .dome_irradiance import device_coefficients, irradiance_coefficients
 from .errors import SceneError, user_stacklevel
 from .floats import FLOAT32_MAX
+from .glowing_spheres import GlowingSpheres, glowing_spheres
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -160,6 +161,8 @@ class UnsampledEmitters:
     triangles: int = 0
     cap: int = 0
     sources: list = dataclasses.field(default_factory=list)
+    shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: tubes, ...)
+    spheres_past_cap: int = 0  # glowing spheres of instances past the cap (once per instance)
 
     MAX_NAMED: ClassVar[int] = 4  # sources named in :meth:`describe`; the rest are counted
 
@@ -167,14 +170,19 @@ class UnsampledEmitters:
         """``"6 emissive triangle(s) of 3 instance(s) past the first 2 instanced emitters sampled (/B: 2 of 1
         instance, /PI: 4 of 2 instances)"``; "" when there are none."""
         if self.triangles == 0:
-            return ""
+            return "" if not self.spheres_past_cap else self._spheres_text()
         instances = sum(n for _, n, _ in self.sources)
         named = [f"{path}: {tris:,} of {n:,} instance{'s' if n > 1 else ''}"
                  for path, n, tris in self.sources[: self.MAX_NAMED]]
         if len(self.sources) > self.MAX_NAMED:
             named.append(f"and {len(self.sources) - self.MAX_NAMED:,} more sources")
-        return (f"{self.triangles:,} emissive triangle(s) of {instances:,} instance(s) past the first {self.cap:,} "
+        text = (f"{self.triangles:,} emissive triangle(s) of {instances:,} instance(s) past the first {self.cap:,} "
                 f"instanced emitters sampled ({', '.join(named)})")
+        return text + (f" and {self._spheres_text()}" if self.spheres_past_cap else "")
+
+    def _spheres_text(self) -> str:
+        return (f"{self.spheres_past_cap:,} glowing sphere(s) of instances past the first {self.cap:,} instanced "
+                "emitters sampled")
 
 
 def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
@@ -238,6 +246,24 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
     )
     return _with_instances(scene, world, owner, crosses, tri_materials, sided, emission, glow, mesh_lights,
                            MAX_INSTANCED_EMITTERS if cap is None else cap)
+
+
+def _with_spheres(tris: EmitterTriangles, spheres: GlowingSpheres) -> EmitterTriangles:
+    """``tris`` followed by the rows of ``spheres``: their radiance is their material's emission (factor 1, params
+    ``(1, 0, 0, 0)``, as an emissive triangle's), their owner none; ``unsampled`` counts the glowing shapes left out
+    (:attr:`UnsampledEmitters.shapes`, :attr:`UnsampledEmitters.spheres_past_cap`)."""
+    s = len(spheres.ids)
+    unsampled = dataclasses.replace(tris.unsampled, shapes=spheres.left_out, spheres_past_cap=spheres.past_cap)
+    return dataclasses.replace(
+        tris,
+        ids=np.concatenate([tris.ids, spheres.ids]).astype(np.int32),
+        power=np.concatenate([tris.power, spheres.power]),
+        radiance=np.concatenate([tris.radiance, np.ones((s, 3), np.float32)]),
+        params=np.concatenate([tris.params, np.tile(np.float32([1, 0, 0, 0]), (s, 1))]),
+        owner=np.concatenate([tris.owner, np.full(s, -1, np.int32)]),
+        instances=np.concatenate([tris.instances, spheres.instances]).astype(np.int32),
+        unsampled=unsampled,
+    )
 
 
 def _unsampled(instances, counts: np.ndarray, sampled: np.ndarray, cap: int) -> UnsampledEmitters:
@@ -486,6 +512,11 @@ def build_lights(lights: list, scene, material_emission: list, device,
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
     _drop_unbounded(tris, mesh_lights)
+    # Glowing analytic spheres after them (wrt.glowing_spheres), within what the cap leaves of instanced entries.
+    first_sphere = num_analytic + len(tris.ids)
+    lum = np.asarray(material_emission, np.float64).reshape(-1, 3) @ LUMINANCE
+    spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())))
+    tris = _with_spheres(tris, spheres)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
@@ -569,6 +600,15 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.emitter_cdf = wp.array(_emitter_cdf(pmf[num_analytic:n]).astype(np.float32), dtype=float, device=device)
     d.count = n
     d.num_analytic = num_analytic
+    d.first_glowing_sphere = first_sphere
+    d.glowing_spheres = wp.array((spheres.spheres if len(spheres.ids) else np.zeros((1, 4))).astype(np.float32),
+                                 dtype=wp.vec4, device=device)
+    # Each instance's first sphere entry (4 bytes an instance), only where some instance has one: read only for the
+    # slot of a prototype sphere (light_sampling.hit_emitter), which none has without them.
+    first = np.where(spheres.instance_first >= 0, spheres.instance_first + first_sphere, -1)
+    first = first if (spheres.instances >= 0).any() else np.full(1, -1)
+    d.instance_glowing_spheres = wp.array(first.astype(np.int32), dtype=wp.int32, device=device)
+    d.first_shape_id = scene.num_geometry_triangles
     d.dome = dome_index
     d.dome_to_local = wp.mat33(*dome_rot.astype(np.float32).reshape(-1))
     d.dome_textured = 1 if (dome is not None and dome.texture is not None) else 0

@@ -866,11 +866,12 @@ class Renderer:
 
     def _warn_unsampled(self, unsampled, shapes: int) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
-        triangles of instances past the cap on sampled instanced emitters (``unsampled``:
+        triangles and glowing spheres of instances past the cap on sampled instanced emitters (``unsampled``:
         :class:`wrt.light_table.UnsampledEmitters`), under every integrator that samples lights, and under whitted
-        ``shapes`` emissive analytic shapes (of scenes built in Python, spheres and tubes of Points and curves; a
-        stage's emissive gprims are drawn as triangles, wrt.usd), which path finds by the rays that hit them."""
-        parts = [unsampled.describe()] if unsampled.triangles else []
+        ``shapes`` emissive analytic shapes that are not sampled (tubes of curves, other kinds of shapes built in
+        Python, unevenly scaled spheres: wrt.glowing_spheres; a stage's emissive gprims are drawn as triangles,
+        wrt.usd), which path finds by the rays that hit them."""
+        parts = [unsampled.describe()] if unsampled.triangles or unsampled.spheres_past_cap else []
         if self.integrator == "whitted" and shapes:
             parts.append(f"{int(shapes)} emissive analytic primitive(s)")
         if not parts or self.integrator not in LIGHT_SAMPLING_INTEGRATORS:
@@ -909,20 +910,24 @@ class Renderer:
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
         self.materials = scaled_materials(mats, self._radiance_scale, dev)
-        shapes = glows[geometry_materials[scene.num_geometry_triangles :]].sum() if emissive_used else 0
-        self._warn_unsampled(unsampled, shapes)
+        self._warn_unsampled(unsampled, unsampled.shapes)
         self._headlight = 0 if default else -1
         self._point_headlight()
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
         kinds = self.device_lights.kinds.numpy()
         prims = self.device_lights.prims.numpy()
         first, count = self.device_lights.num_analytic, self.device_lights.count
-        # A world triangle's entry, a prototype triangle's place among its prototype's emitters, which each sampled
-        # instance's entries follow (light_sampling.hit_emitter).
+        spheres = self.device_lights.first_glowing_sphere
+        # A world triangle's (or glowing sphere's) entry, a prototype triangle's (sphere's) place among its
+        # prototype's emitters (spheres), which each sampled instance's entries follow (light_sampling.hit_emitter).
         entries = np.arange(first, count, dtype=np.int32)
         instances = self.device_lights.instances.numpy()[first:count]
         drawn = instances >= 0
-        entries[drawn] -= self.device_lights.instance_emitters.numpy()[instances[drawn]]
+        triangle = np.arange(first, count) < spheres
+        for rows, starts in ((drawn & triangle, self.device_lights.instance_emitters),
+                             (drawn & ~triangle, self.device_lights.instance_glowing_spheres)):
+            if rows.any():
+                entries[rows] -= starts.numpy()[instances[rows]]
         emitters[prims[first:count]] = entries
         no_response = no_response_triangles(self.device_lights, prims)
         if len(no_response):  # they take the last device material (wrt.materials.no_response_material)

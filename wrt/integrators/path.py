@@ -24,9 +24,12 @@ from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin, stable_length
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
+    LIGHT_GLOWING_SPHERE,
     DeviceLights,
     LightSample,
+    glowing_sphere_pdf,
     hit_emitter,
+    light_kind,
     lit_bsdf,
     sample_light_in_view,
     shadow_direction,
@@ -193,13 +196,17 @@ def shade_path_kernel(
     # Emission (a mesh light's as light sampling sees it, to rays a surface scattered), weighted against light
     # sampling of this triangle.
     if h.front == 1 or surf.double_sided[prim] == 1:
-        e = hit_emitter(lights, surf.emitters[prim], hit_instance[i])
+        e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
         emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, share, g_prev)
         if luminance(emitted) > 0.0:
             w = float(1.0)
             if e >= 0 and pdf_b > 0.0:
-                pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i], o,
-                                                           d, t_hit)
+                pdf_l = float(0.0)
+                if light_kind(lights, e) == LIGHT_GLOWING_SPHERE:
+                    pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
+                else:
+                    pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
+                                                               o, d, t_hit)
                 w = mis_weight(lights, e, pdf_b, pdf_l)
             L += wp.cw_mul(T, emitted) * w
     if bounce >= max_depth:

@@ -225,7 +225,7 @@ def shade_whitted_kernel(
         alive[i] = 0
         return
     if h.front == 1 or surf.double_sided[prim] == 1:
-        e = hit_emitter(lights, surf.emitters[prim], hit_instance[i])
+        e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
         emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, wp.vec3(0.0), g_prev)
         L += wp.cw_mul(T, emitted)
     if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
