@@ -100,13 +100,13 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
             if len(take) or others:
                 local = np.stack([np.asarray(shapes[k].to_world, np.float64) for k in take]) if len(take) else None
                 per_proto[p] = (first + take, local, others)
-        protos = scene.instances.prototype
+        by_prototype = scene.instances.rows_of_prototypes(len(ranges)) if per_proto else []
         visible = scene.instance_inverses()[1]
         counts = np.zeros(n, np.int64)
         usable = np.zeros(n, bool)
         to_world = scene.instances.to_world
         for p, (p_ids, local, others) in per_proto.items():
-            rows = np.flatnonzero((protos == p) & visible)
+            rows = by_prototype[p][visible[by_prototype[p]]]
             left_out += others * len(rows)
             if local is None or not len(rows):
                 continue
@@ -121,7 +121,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
         start = sum(len(i) for i in ids)
         instance_first[sampled] = (ends - counts)[sampled] + start
         for p, (p_ids, local, _) in per_proto.items():
-            rows = np.flatnonzero(sampled & (protos == p))
+            rows = by_prototype[p][sampled[by_prototype[p]]]
             if local is None or not len(rows):
                 continue
             m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, spheres, 4, 4)
