@@ -157,3 +157,13 @@ def test_an_unevenly_scaled_glowing_sphere_stays_unsampled_and_named():
     rendered, messages = render_floor(scene, "whitted", spp=4)
     assert [m for m in messages if "1 emissive analytic primitive" in m], messages
     assert rendered.max() == 0.0
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_camera_sees_a_sampled_glowing_sphere_once(integrator):
+    """A camera looking straight at the sampled sphere sees its radiance L, not 2 L: the entry of the light table
+    adds no second emission to the surface's own (no analytic light is met along the ray besides the shape)."""
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere_shape((0.0, 0.0, 1.0), 0.3)], materials=materials())
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 1), up=(0, 1, 0), height=0.2)
+    img = wrt.render(scene, camera=cam, width=2, height=2, spp=4, seed=3, integrator=integrator, max_depth=1)
+    np.testing.assert_allclose(img.rgb, RADIANCE, rtol=1e-5)
