@@ -63,6 +63,14 @@ def closed_form(spheres, sub=32):
     return total.reshape(RES, sub, RES, sub).mean(axis=(1, 3))
 
 
+def no_glowing_spheres(scene, glow, cap):
+    """A stand-in for :func:`wrt.glowing_spheres.glowing_spheres` that samples none: path then finds glowing spheres
+    only by the rays that hit them, as before they were lights."""
+    empty = np.zeros(0, np.int32)
+    nowhere = np.full(len(scene.instances), -1, np.int32)
+    return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), nowhere, empty)
+
+
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
 def test_a_glowing_shape_sphere_lights_the_floor_as_the_closed_form(integrator):
     """A ``wrt.Shape`` sphere of radius r glowing with L at height h: the floor shows L r^2 cos / d^2 under both
@@ -85,12 +93,7 @@ def test_path_agrees_with_and_without_sampling_the_glowing_sphere(monkeypatch):
     scene = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere_shape(centre, r)], materials=materials())
     sampled, _ = render_floor(scene, "path", spp=512)
 
-    def none(scene, glow, cap):
-        empty = np.zeros(0, np.int32)
-        return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), np.full(len(scene.instances), -1, np.int32),
-                              empty)
-
-    monkeypatch.setattr(light_table, "glowing_spheres", none)
+    monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
     hit_only, _ = render_floor(scene, "path", spp=1024)
     expected = closed_form([(centre, r)])
     assert abs(sampled.mean() / hit_only.mean() - 1) < 0.03, (sampled.mean(), hit_only.mean())
@@ -167,3 +170,34 @@ def test_a_camera_sees_a_sampled_glowing_sphere_once(integrator):
     cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 1), up=(0, 1, 0), height=0.2)
     img = wrt.render(scene, camera=cam, width=2, height=2, spp=4, seed=3, integrator=integrator, max_depth=1)
     np.testing.assert_allclose(img.rgb, RADIANCE, rtol=1e-5)
+
+
+def test_a_glowing_curve_under_path_agrees_with_and_without_its_joint_spheres_sampled(tmp_path, monkeypatch):
+    """A glowing linear curve is tubes joined by spheres: the spheres are sampled, half hidden in the tubes (shadow
+    rays to their hidden half stop at a tube), the tubes not. Path converges to the same floor as path finding the
+    whole curve by the rays that hit it: MIS stays unbiased where a sampled emitter is partly covered by an unsampled
+    one. Whitted lights with the joints alone and names the tubes."""
+    path = tmp_path / "wire.usda"
+    path.write_text(
+        '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
+        'def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
+        '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+        f"        color3f inputs:emissiveColor = ({RADIANCE}, {RADIANCE}, {RADIANCE})\n"
+        "        color3f inputs:diffuseColor = (0, 0, 0)\n        token outputs:surface\n    }\n}\n"
+        'def Mesh "Floor"\n{\n    point3f[] points = [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)]\n'
+        "    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n"
+        "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n"
+        'def BasisCurves "Wire" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
+        '    uniform token type = "linear"\n    int[] curveVertexCounts = [4]\n'
+        "    point3f[] points = [(-0.6, 0, 1), (-0.2, 0.1, 0.9), (0.2, -0.1, 1.0), (0.6, 0, 1.1)]\n"
+        '    float[] widths = [0.3] (\n        interpolation = "constant"\n    )\n'
+        "    rel material:binding = </Glow>\n}\n")
+    scene = wrt.load_usd(str(path))
+    assert sorted({s.kind for p in scene.prototypes for s in p.shapes}) == ["cylinder", "sphere"]
+    _, messages = render_floor(scene, "whitted", spp=1)
+    assert [m for m in messages if "3 emissive analytic primitive" in m], messages
+    sampled, _ = render_floor(scene, "path", spp=2048)  # the tubes are found by hits alone: noisy
+
+    monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
+    hit_only, _ = render_floor(scene, "path", spp=4096)
+    assert abs(sampled.mean() / hit_only.mean() - 1) < 0.03, (sampled.mean(), hit_only.mean())
