@@ -201,3 +201,18 @@ def test_a_glowing_curve_under_path_agrees_with_and_without_its_joint_spheres_sa
     monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
     hit_only, _ = render_floor(scene, "path", spp=4096)
     assert abs(sampled.mean() / hit_only.mean() - 1) < 0.03, (sampled.mean(), hit_only.mean())
+
+
+def test_a_kept_renderer_follows_a_glowing_sphere_that_moved():
+    """A simulation step: the glowing sphere of a kept Renderer moves (its Shape replaced); the light table is built
+    again with the scene, so whitted lights the floor from the sphere's new place, not the old."""
+    old, new, r = (-0.3, 0.0, 1.0), (0.3, 0.2, 0.8), 0.2
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere_shape(old, r)], materials=materials())
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.05), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
+    renderer = wrt.Renderer(scene, camera=cam, width=RES, height=RES, integrator="whitted")
+    before = renderer.render(spp=256, seed=3).rgb.mean(axis=-1)
+    scene.shapes[0] = sphere_shape(new, r)
+    after = renderer.render(spp=256, seed=3).rgb.mean(axis=-1)
+    for rendered, centre in ((before, old), (after, new)):
+        expected = closed_form([(centre, r)])
+        assert np.abs(rendered / expected - 1).max() < 0.06, rendered / expected
