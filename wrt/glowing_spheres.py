@@ -60,7 +60,7 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, int]:
     """``(indices, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be sampled:
     spheres that emit outwards; and how many other glowing shapes there are."""
-    glowing = [k for k, m in enumerate(materials) if glow[m] > 0.0]
+    glowing = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
     take = [k for k in glowing if shapes[k].kind == "sphere" and (shapes[k].params[3] >= 0.0 or shapes[k].double_sided)]
     return np.asarray(take, np.int64), len(glowing) - len(take)
 
