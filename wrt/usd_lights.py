@@ -31,6 +31,7 @@ from .usd_xforms import affine_part
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32 (1.2e-38)
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
+POLE_AXES = ("scene", "Y", "Z")  # DomeLight_1's allowedTokens for poleAxis
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")
 
@@ -620,7 +621,10 @@ def _read_dome(prim, m, color, time, up_axis, skip, get, textures):
 
     rotation = m.copy()
     if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
-        pole = str(get(prim.GetAttribute("poleAxis"), "scene"))
+        pole = str(get(UsdLux.DomeLight_1(prim).GetPoleAxisAttr(), "scene"))
+        if pole not in POLE_AXES:  # UsdImaging's _GetDomeOffset turns the dome for scene and Z only: the rest is Y
+            skip(f"DomeLight_1 poleAxis values other than {', '.join(POLE_AXES)} were read as Y (no turn), as Hydra "
+                 "reads them", prim, f"poleAxis = {pole!r}")
         if pole == "Z" or (pole == "scene" and up_axis == "Z"):
             to_z = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], np.float64)  # +Y -> +Z
             rotation = m @ to_z
