@@ -409,7 +409,7 @@ def reference_input_reader(prim, time):
         value = value_at(attr, time) if attr else None
         return default if value is None else value
 
-    return get, legacy, []
+    return get, legacy, [], []
 
 
 def test_plain_lights_are_the_lights_the_reference_reader_reads(tmp_path, monkeypatch):

@@ -242,7 +242,8 @@ def read_shaping(prim, get, skip, profiles: dict | None = None) -> Shaping | Non
     # of reading a plain light.
     names = set(prim.GetAuthoredPropertyNames()).intersection(
         f"{prefix}shaping:{name}" for name in SHAPING_INPUTS for prefix in ("inputs:", ""))
-    authored = any(prim.GetAttribute(n).HasAuthoredValue() for n in names)
+    authored = any(prim.GetAttribute(n).HasAuthoredValue() or prim.GetAttribute(n).HasAuthoredConnections()
+                   for n in names)  # a connected input (a light rig's) counts: get reads its source
     if not (prim.HasAPI(UsdLux.ShapingAPI) or authored):
         return None
     api = UsdLux.ShapingAPI(prim)

@@ -50,13 +50,16 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
         textures: a :class:`LightTextures` kept over one load: each texture file is read once, and the lights that
             name it share its image; None: read here.
     """
-    get, legacy, mistyped = input_reader(prim, time)
+    get, legacy, mistyped, unevaluated = input_reader(prim, time)
     if to_world is None:
         to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
     result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures() if textures is None else textures)
     if legacy:
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
+    if unevaluated:
+        skip("light inputs connected to a shading network (a shader's output) are read as authored on the light, as "
+             "Storm reads them: wrt evaluates no light shaders", prim, ", ".join(unevaluated))
     if mistyped:
         skip("light inputs authored with another type than the schema's were read as USD's typed readers read them "
              "(a weaker opinion of the schema's type, else the schema's fallback)", prim, ", ".join(mistyped))
@@ -64,16 +67,18 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
 
 
 def input_reader(prim, time):
-    """``(get, legacy, mistyped)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time`` (``default``
-    where it has no value), ``legacy`` lists the names it read without their ``inputs:`` prefix, for one warning,
-    and ``mistyped`` the inputs it read authored with another type than the schema's (``double inputs:radius =
-    3``), which it reads as USD's typed readers do (:func:`wrt.usd_values.schema_typed_value`: a SphereLight of
-    radius 0.5 to its extent and to Hydra, of radius 3 to wrt before); bool switches are :func:`flag`'s."""
+    """``(get, legacy, mistyped, unevaluated)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time``
+    (``default`` where it has no value), ``legacy`` lists the names it read without their ``inputs:`` prefix, for one
+    warning, and ``mistyped`` the inputs it read authored with another type than the schema's (``double
+    inputs:radius = 3``), which it reads as USD's typed readers do (:func:`wrt.usd_values.schema_typed_value`: a
+    SphereLight of radius 0.5 to its extent and to Hydra, of radius 3 to wrt before); bool switches are
+    :func:`flag`'s. An input connected to another prim (a light rig's NodeGraph) is read from the input its
+    connections lead to (:func:`connected_source`); ``unevaluated`` names those connected to a shader's output."""
     from pxr import Sdf
 
     from .usd_values import read_time, schema_typed_value
 
-    legacy, mistyped = [], []
+    legacy, mistyped, unevaluated = [], [], []
     # Names with scene description: an old name with an authored value is one of them (a schema's fallback is none).
     authored = set(prim.GetAuthoredPropertyNames())
 
@@ -83,6 +88,8 @@ def input_reader(prim, time):
         # schema's fallbacks (intensity 1, white, radius 0.5) without a word. The old name counts when the
         # prefixed one is not authored, as Omniverse's renderers still read it.
         name = attr.GetName() if attr is not None else ""
+        if name in authored and attr.HasAuthoredConnections():  # a connection, not the light's own value, counts
+            attr = connected_source(attr, unevaluated)
         has_value = bool(attr) and attr.HasAuthoredValue()
         if name.startswith(INPUTS_PREFIX) and not has_value:
             # An old name with no scene description has no authored value (most lights): not asked for.
@@ -106,7 +113,26 @@ def input_reader(prim, time):
             value = prim.GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
         return default if value is None else value
 
-    return get, legacy, mistyped
+    return get, legacy, mistyped, unevaluated
+
+
+def connected_source(attr, unevaluated: list):
+    """The attribute whose value light input ``attr`` (of authored connections) takes: the first input with a value
+    that its connections lead to (``UsdShade.Input.GetValueProducingAttributes``: a light rig's NodeGraph input), as
+    Hydra 2's UsdImaging reads a light's parameters; ``attr`` itself where they lead to none, or to a shader's output
+    only (a shading network, which wrt does not evaluate: named in ``unevaluated``, as Storm reads it). Such a light
+    was read as authored on itself: a rig's intensity of 5 lit as the light's own fallback of 1."""
+    from pxr import UsdShade
+
+    sources = UsdShade.Input(attr).GetValueProducingAttributes()
+    for source in sources:
+        if UsdShade.Utils.GetType(source.GetName()) == UsdShade.AttributeType.Input:
+            return source
+    if sources:
+        words = f"{attr.GetName()} <- {sources[0].GetPath()}"
+        if words not in unevaluated:
+            unevaluated.append(words)
+    return attr
 
 
 def sphere_inputs(prim, time) -> tuple[float, bool]:
