@@ -508,6 +508,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
         def read(proxy: Usd.Prim):
             if self._visible(proxy):
+                self._name_unrendered_purpose(proxy)
                 light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip,
                                    textures=self.light_textures)
                 if light is not None:
@@ -516,9 +517,19 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         def place(proxy: Usd.Prim):
             m = self._to_space(proxy, ctx) if self._visible(proxy, ctx.stop) else None
             if m is not None:
+                self._name_unrendered_purpose(proxy)
                 ctx.content.placed_lights.append((proxy, m.T))
 
         self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights", place)
+
+    def _name_unrendered_purpose(self, light: Usd.Prim):
+        """Names UsdLux ``light`` when its computed purpose is one the render does not draw (guide, proxy): it still
+        lights, as Hydra's renderers light it (they give lights no purpose; OpenUSD issue 3059), though UsdGeom says
+        such a prim is not rendered: a guide lamp lit the image without a word."""
+        purpose = self.computed_purposes.purpose(light)
+        if purpose not in self.purposes:
+            self._skip("UsdLux lights of a purpose the render does not draw light the scene all the same, as Hydra's "
+                       "renderers light them (UsdGeom would leave such a prim out)", light, f"purpose = {purpose}")
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when
