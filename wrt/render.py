@@ -19,6 +19,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
+from . import emitter_resampling
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
 from .far_views import shown_set, warn_scene_too_far, warn_shapes_too_far
@@ -1446,14 +1447,15 @@ class Renderer:
         shadows = w.shadow_rays(per) if groups else None
         threads = resolve_threads(None, self.device)
         common = [self.device_scene, self.surfaces, self.materials, self.device_lights, self._whitted_group_array]
+        candidates = emitter_resampling.EMITTER_CANDIDATES  # read at each render, so a test can compare with 1
         for start in range(0, groups, per):
             count = min(per, groups - start)
             batch = shadows.head(count * w.n)
 
             def light(a: int, b: int, start=start, count=count, batch=batch):
                 wp.launch(whitted_lights_kernel, b - a, device=self.device,
-                          inputs=[*common, start, count, a, w.origins, w.directions, *hit, w.throughput, w.alive,
-                                  w.views],
+                          inputs=[*common, start, count, candidates, a, w.origins, w.directions, *hit, w.throughput,
+                                  w.alive, w.views],
                           outputs=[w.rng, batch.origins, batch.dirs, batch.t_maxs, batch.lights, batch.contribution])
 
             def add(a: int, b: int, count=count, batch=batch):

@@ -35,6 +35,7 @@ from ..bsdf import (
     unreflected,
 )
 from ..dome_irradiance import sh_irradiance
+from ..emitter_resampling import resample_emitter
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
@@ -44,7 +45,6 @@ from ..light_sampling import (
     dome_radiance,
     hit_emitter,
     lit_bsdf,
-    pick_in_group,
     sample_light,
     sample_light_in_view,
     shadow_fades,
@@ -253,6 +253,7 @@ def whitted_lights_kernel(
     groups: wp.array[wp.vec2i],
     first_group: int,
     num_groups: int,
+    emitter_candidates: int,
     offset: int,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -273,9 +274,10 @@ def whitted_lights_kernel(
     contribution: wp.array[wp.vec3],
 ):
     """Direct light of path ``offset + tid`` from light groups ``[first_group, first_group + num_groups)`` of
-    ``groups`` (each ``(first, count)``: lights ``[first, first + count)``, one of them picked by power when
-    ``count > 1``), in group order: each one's contribution if unoccluded and the shadow ray that decides it, at
-    ``j * n + i`` for the ``j``-th group of path ``i`` (``n`` paths); none from a light not linked to the surface.
+    ``groups`` (each ``(first, count)``: lights ``[first, first + count)``; when ``count > 1`` the emissive
+    triangles, one of them kept of ``emitter_candidates`` drawn by power: :mod:`wrt.emitter_resampling`), in group
+    order: each one's contribution if unoccluded and the shadow ray that decides it, at ``j * n + i`` for the
+    ``j``-th group of path ``i`` (``n`` paths); none from a light not linked to the surface.
     The random numbers are drawn group after group, as one launch per group drew them."""
     i = wp.tid() + offset
     n = origins.shape[0]
@@ -300,7 +302,11 @@ def whitted_lights_kernel(
         u_pick, state = rand01(state)
         u1, state = rand01(state)
         u2, state = rand01(state)
-        k, p_pick = pick_in_group(lights, first, count, u_pick)
+        k = first
+        p_pick = float(1.0)
+        if count > 1:  # the emissive triangles: one kept of candidates drawn by power (wrt.emitter_resampling)
+            k, p_pick, state = resample_emitter(lights, scene, surf.double_sided, first, count, emitter_candidates,
+                                                group, h.p, h.ns, state)
         ls = sample_light_in_view(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
