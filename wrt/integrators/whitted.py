@@ -1,10 +1,11 @@
 """Whitted-style recursive ray tracing (Whitted 1980), as wavefront kernels.
 
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
-point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
-the dome light as an unoccluded term: the dome's irradiance over pi (:mod:`wrt.dome_irradiance`) at the shading
-normal times the directional albedo of the BSDF's diffuse lobe, and what its rough specular and clearcoat lobes (with
-multiple scattering, as the path tracer's BSDF has them) reflect of it: a constant dome's radiance times their albedo,
+point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light, of
+which each sample reaches the one it keeps of several drawn by power: :mod:`wrt.emitter_resampling`); the dome
+light as an unoccluded term: the dome's irradiance over pi (:mod:`wrt.dome_irradiance`) at the shading normal times
+the directional albedo of the BSDF's diffuse lobe, and what its rough specular and clearcoat lobes (with multiple
+scattering, as the path tracer's BSDF has them) reflect of it: a constant dome's radiance times their albedo,
 a textured dome's estimated from one dome and one BSDF direction per sample (:func:`glossy_dome`); what ``path``
 converges to for an unoccluded surface (use ``path`` for occluded sky light).
 Then one continuation ray: the mirror direction for the smooth lobes (roughness below ``DELTA_ROUGHNESS``: a
