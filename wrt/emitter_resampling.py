@@ -12,6 +12,9 @@ which leans towards the triangles that light the point. The kept triangle's sele
 triangle that can light the point has a positive ``w`` (only triangles that face away, lie below the horizon or are
 not light-linked to the surface get 0, and they send the point nothing). Textures and radiance enter through the
 pmf (their power), not the weight, which reads no texture: a texel black at a triangle's centre cannot zero it.
+The weight is not divided by the triangle's area (the pmf's power holds it), which would make it a length to the
+-2, out of float32's range in scenes scaled far from 1; so among triangles of very different sizes the large keep
+the power pick's lean towards them. Nor does it read the BSDF: a glossy highlight of the emitter gains less.
 """
 
 import warp as wp
