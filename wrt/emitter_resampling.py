@@ -21,7 +21,14 @@ import warp as wp
 
 from .geometry import stable_length
 from .light_links import lit_by
-from .light_sampling import DeviceLights, emitter_triangle, pick_in_group
+from .light_sampling import (
+    LIGHT_GLOWING_SPHERE,
+    DeviceLights,
+    cone_of_sphere,
+    emitter_triangle,
+    light_kind,
+    pick_in_group,
+)
 from .sampling import rand01
 from .scene import DeviceScene
 from .spherical_triangle import seen_solid_angle, unit_towards
@@ -31,6 +38,8 @@ from .spherical_triangle import seen_solid_angle, unit_towards
 # the floor's noise at 4 spp was 0.74 of the plain pick's with 2, 0.52 with 4, 0.37 with 8, 0.29 with 16 and 0.22
 # with 32: past 8 each doubling of the work buys less.
 EMITTER_CANDIDATES = 8
+# The least receiver cosine a glowing sphere is weighed with (seen_sphere).
+SPHERE_COSINE_FLOOR = wp.constant(2.0**-20)
 
 
 @wp.func
@@ -40,7 +49,10 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
     radiance: the solid angle it subtends (:func:`wrt.light_sampling.sample_light`'s, the area form for a triangle
     too small for float32's arctangent) times the largest cosine at ``p`` of its corners and its centre. Zero only
     where it sends ``p`` nothing: ``p`` behind a single-sided triangle, or every corner below ``p``'s horizon (the
-    triangle lies in the half-space they span, where the BSDF reflects nothing)."""
+    triangle lies in the half-space they span, where the BSDF reflects nothing). A glowing sphere of the group
+    (wrt.glowing_spheres, after the triangles) is weighed by :func:`seen_sphere`."""
+    if light_kind(lights, k) == LIGHT_GLOWING_SPHERE:
+        return seen_sphere(lights, k, p, n)
     prim = lights.prims[k]
     a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
     area2 = stable_length(cr)  # twice the area, times down^2
@@ -63,6 +75,26 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
         if dist > 0.0:
             omega = 0.5 * area2 * cos_l / (dist * dist)
     return omega * cos_r
+
+
+@wp.func
+def seen_sphere(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
+    """:func:`seen_emitter` of glowing sphere ``k``: the solid angle of the cone it subtends at ``p`` times the
+    largest cosine at ``p`` over that cone (1 where the normal points into it), kept above 2^-20 so that a sphere
+    half below the horizon, which rounding could put wholly below it, keeps a chance; 0 inside the sphere, where
+    ``sample_light`` draws nothing. Read as a triangle, a sphere's row took its shape id for a triangle's."""
+    row = lights.glowing_spheres[k - lights.first_glowing_sphere]
+    c = wp.vec3(row[0], row[1], row[2])
+    cos_max, one_minus = cone_of_sphere(c, row[3], p)
+    if cos_max > 1.0 or one_minus <= 0.0:
+        return 0.0
+    cos_a = wp.dot(n, unit_towards(p, c))
+    cos_r = float(1.0)
+    if cos_a < cos_max:  # the cone's nearest direction to n: cos(a - theta_max)
+        sin_a = wp.sqrt(wp.max(0.0, 1.0 - cos_a * cos_a))
+        sin_max = wp.sqrt(wp.max(0.0, one_minus * (1.0 + cos_max)))
+        cos_r = cos_a * cos_max + sin_a * sin_max
+    return 2.0 * wp.pi * one_minus * wp.max(cos_r, SPHERE_COSINE_FLOOR)
 
 
 @wp.func

@@ -242,8 +242,8 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
 
 @wp.func
 def light_kind(lights: DeviceLights, k: int):
-    """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles (``kinds`` holds the
-    analytic lights' alone)."""
+    """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles, then glowing spheres
+    (``kinds`` holds the analytic lights' alone)."""
     if k >= lights.first_glowing_sphere:
         return LIGHT_GLOWING_SPHERE
     if k >= lights.num_analytic:
