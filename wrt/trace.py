@@ -29,6 +29,7 @@ from .bvh.compact import device_compact_bvh
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
+from .bvh.warp_mesh import WARP_BUILDERS
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean, user_stacklevel
 from .instancing import unplaceable
@@ -46,7 +47,6 @@ wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the trave
 
 ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
 MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threads
-WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 # Pre-split levels of the SAH trees that accelerators build (``bvh/presplit.py``): the same hits, and on an H200 a
 # 2M-triangle UV sphere's primary rays traced 1.52x faster (its poles' slivers), other ray kinds 0.96-1.04x

@@ -14,9 +14,9 @@ from ..strict_json import strict_json
 from ..wording import counted
 from .build import Builder, build_bvh, build_bvh_device, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
+from .warp_mesh import WARP_BUILDERS
 
 WARP_PREFIX = "warp:"  # builder names of the form "warp:<bvh_constructor>" read wp.Mesh's tree
-WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
 
 
 def parse_builders(text) -> list[str]:

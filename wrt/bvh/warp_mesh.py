@@ -21,6 +21,8 @@ import warp as wp
 
 from .layout import FlatBvh
 
+WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
+
 
 class _ArrayT(ctypes.Structure):
     """``wp::array_t<T>`` (``warp/native/array.h``)."""
