@@ -6,28 +6,11 @@ exact in ``Renderer.dropped_samples`` at every frame."""
 import warnings
 
 import numpy as np
-from shading_helpers import quad
+from test_warning_lines import _blinding_scene, _overexposed_scene
 
 import wrt
 
 FRAMES = 5
-
-
-def _blinding_scene() -> tuple:
-    """A dome of 1e38 over a texture of 1e38 over a quad: path samples past float32's range are left out."""
-    scene = wrt.Scene(meshes=[quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), name="/quad")])
-    scene.lights = [wrt.DomeLight(color=np.full(3, 1e38, np.float32), texture=np.full((2, 4, 3), 1e38, np.float32))]
-    return scene, wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
-
-
-def _overexposed_scene() -> tuple:
-    """A dome of 1e38 over a grey plane through a camera exposure of 2^10: every pixel passes float32's range."""
-    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)
-    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
-    cam.exposure_scale = 2.0**10
-    return wrt.Scene(meshes=[plane], lights=[wrt.DomeLight(color=np.full(3, 1e38, np.float32))]), cam
-
-
 OPTIONS = {"width": 8, "height": 8, "device": "cpu", "integrator": "path"}
 
 

@@ -104,6 +104,19 @@ def test_path_agrees_with_and_without_sampling_the_glowing_sphere(monkeypatch):
 SPARKS = [((-0.6, 0.1, 1.0), 0.12), ((0.0, -0.1, 0.9), 0.2), ((0.7, 0.2, 1.1), 0.15)]
 
 
+# A Z-up stage's material /Glow, glowing with RADIANCE, and a white floor 40 across at z = 0.
+GLOW_AND_FLOOR = (
+    '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
+    'def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
+    '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+    f"        color3f inputs:emissiveColor = ({RADIANCE}, {RADIANCE}, {RADIANCE})\n"
+    "        color3f inputs:diffuseColor = (0, 0, 0)\n        token outputs:surface\n    }\n}\n"
+    'def Mesh "Floor"\n{\n    point3f[] points = [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)]\n'
+    "    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n"
+    "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n"
+)
+
+
 def points_stage(tmp_path):
     """A Z-up stage: the white floor and a Points prim of the SPARKS (widths twice their radii) bound to a material
     glowing with RADIANCE."""
@@ -111,14 +124,7 @@ def points_stage(tmp_path):
     widths = ", ".join(str(2 * r) for _, r in SPARKS)
     path = tmp_path / "sparks.usda"
     path.write_text(
-        '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
-        'def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
-        '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
-        f"        color3f inputs:emissiveColor = ({RADIANCE}, {RADIANCE}, {RADIANCE})\n"
-        "        color3f inputs:diffuseColor = (0, 0, 0)\n        token outputs:surface\n    }\n}\n"
-        'def Mesh "Floor"\n{\n    point3f[] points = [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)]\n'
-        "    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n"
-        "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n"
+        GLOW_AND_FLOOR +
         'def Points "Sparks" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
         f"    point3f[] points = [{points}]\n    float[] widths = [{widths}]\n"
         "    rel material:binding = </Glow>\n}\n")
@@ -179,14 +185,7 @@ def test_a_glowing_curve_under_path_agrees_with_and_without_its_joint_spheres_sa
     one. Whitted lights with the joints alone and names the tubes."""
     path = tmp_path / "wire.usda"
     path.write_text(
-        '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
-        'def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
-        '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
-        f"        color3f inputs:emissiveColor = ({RADIANCE}, {RADIANCE}, {RADIANCE})\n"
-        "        color3f inputs:diffuseColor = (0, 0, 0)\n        token outputs:surface\n    }\n}\n"
-        'def Mesh "Floor"\n{\n    point3f[] points = [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)]\n'
-        "    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n"
-        "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n"
+        GLOW_AND_FLOOR +
         'def BasisCurves "Wire" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
         '    uniform token type = "linear"\n    int[] curveVertexCounts = [4]\n'
         "    point3f[] points = [(-0.6, 0, 1), (-0.2, 0.1, 0.9), (0.2, -0.1, 1.0), (0.6, 0, 1.1)]\n"
