@@ -1122,7 +1122,8 @@ def _add_preview(sub) -> None:
         default=0,
         metavar="N",
         help=f"draw N camera rays (at most {MAX_RAYS:,}) from the eye to their hits; misses end at the frustum's "
-        "far end (the far clipping plane, or the scene's deepest corner where that is nearer)",
+        "far end (the far clipping plane, or the scene's deepest corner where that is nearer) or where a camera "
+        "clipping plane cuts them",
     )
     p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
     p.add_argument("--width", type=positive_int, help="image width in pixels (frustum aspect, --image); default: the "

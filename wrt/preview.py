@@ -16,10 +16,13 @@ and raises :class:`PreviewUnavailable` with the packages to install when neither
 What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conventions):
 
 - The frustum runs from the eye to a *display far plane*: the camera's far clipping plane, pulled in to the
-  deepest corner of the scene's bounding box (far planes are often 1e6 units away). Rays that miss end there.
+  deepest corner of the scene's bounding box (far planes are often 1e6 units away). Rays that miss end there, or
+  where a camera clipping plane (``clippingPlanes``) cuts them first.
 - The *near plane* rectangle is the near clipping plane, where camera rays start (none where it is at the eye).
+  Rays are drawn from the eye, or from that plane where it lies behind an orthographic camera.
 - The *image plane* rectangle sits at 80 % of the depth of the nearest sample hit (or of the scene's nearest
-  corner), where the ``image=True`` quad is drawn.
+  corner), where the ``image=True`` quad is drawn; behind an orthographic camera, at 120 % of that negative depth,
+  so in front of the hit there too.
 - BVH boxes are either the *cut at depth K* (every node at depth ``K`` plus the leaves above it, so every
   triangle reference lies in exactly one shown box) or all leaves. A triangle has one reference, or, where the
   ``sah`` builder pre-split it, several, each for the piece of it inside its leaf's box: no shown box need hold the
@@ -577,6 +580,12 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
         ``origins`` ``(n, 3)``, unit ``directions`` ``(n, 3)`` (float32, world space), ``t`` ``(n,)`` float32
         hit distance (``inf`` on a miss).
     """
+    return _sample_ray_ranges(scene, cam, width, height, n, builder, device)[:3]
+
+
+def _sample_ray_ranges(scene: Scene, cam: Camera, width: int, height: int, n: int, builder, device):
+    """:func:`sample_rays`' ``origins, directions, t`` and each ray's traced range ``t_mins, t_maxs`` ``(n,)``
+    float32: the clipping range along it, narrowed by the camera's clipping planes."""
     gw = max(1, round(math.sqrt(n * width / height)))
     gh = max(1, math.ceil(n / gw))
     device = resolve_device(device)
@@ -597,7 +606,7 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
     scratch = CullScratch(total, device, renderer.nothing_to_cull, renderer.no_holes)
     intersect_visible(renderer.accel, renderer.surfaces, renderer.materials, renderer.device_scene, out, hits, scratch)
     pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
-    return out[0].numpy()[pick], out[1].numpy()[pick], hits.t.numpy()[pick]
+    return tuple(a.numpy()[pick] for a in (out[0], out[1], hits.t, out[2], out[3]))
 
 
 def preview(
@@ -712,10 +721,14 @@ def preview(
     # Trace the sample rays before drawing the frustum: their hits place the image plane.
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     eye, forward = camera_frame(cam, width, height)
-    ray_data = sample_rays(scene, cam, width, height, rays, builder, device) if rays else None
+    ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
     far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
-    _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=min(0.01 * diagonal, 0.2 * image_depth))
+    # A perspective frustum narrows to its apex at the eye: a dot larger than a fifth of the image plane's depth
+    # would hide it. An orthographic one does not, and its image plane may lie at or behind the eye (a near plane
+    # behind it), where that cap made the radius negative and the dot vanished.
+    eye_radius = 0.01 * diagonal if cam.projection == "orthographic" else min(0.01 * diagonal, 0.2 * image_depth)
+    _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=eye_radius)
     if show_lights and scene.lights:
         glyphs, light_note = light_glyphs(scene.lights, lower, upper)
         if glyphs is not None:
@@ -942,16 +955,24 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[
     return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}", capped
 
 
-def _add_rays(pv, plotter, origins, directions, t, depth_rates, far: float) -> str:
-    """Draws rays from their origin to their hit (with a dot) or, on a miss, to the display far plane, ``far`` deep
-    (``depth_rates``: the :func:`view_depths` of the directions)."""
-    origins, directions, t = (np.asarray(a, np.float64) for a in (origins, directions, t))
+def _add_rays(pv, plotter, origins, directions, t, t_mins, t_maxs, depth_rates, far: float) -> str:
+    """Draws rays from their origin (or from their start ``t_mins`` where that lies behind it: an orthographic
+    camera's near plane behind the camera) to their hit (with a dot) or, on a miss, to the end of their traced range
+    ``t_maxs`` (a clipping plane that cuts them), at most the display far plane, ``far`` deep (``depth_rates``: the
+    :func:`view_depths` of the directions)."""
+    origins, directions, t, t_mins, t_maxs = (np.asarray(a, np.float64) for a in (origins, directions, t, t_mins,
+                                                                                   t_maxs))
     hit = np.isfinite(t)
     # Camera rays advance in depth (Camera.to_struct keeps their directions finite), however slowly: a clamp of the
     # rate to 1e-6 stopped the corner rays of a lens wider than 179.9998 degrees near the eye, off the far rectangle.
     with np.errstate(divide="ignore"):
-        t_end = np.where(hit, t, np.where(depth_rates > 0.0, far / depth_rates, 0.0))
+        t_far = np.where(depth_rates > 0.0, far / depth_rates, 0.0)
+    # The stretch the renderer traces: a miss drawn on to the far plane past a clipping plane ran through surfaces
+    # the render does not see, and a hit behind the camera's plane was drawn from that plane back to it.
+    t_start = np.minimum(t_mins, 0.0)
+    t_end = np.maximum(np.where(hit, t, np.minimum(t_maxs, t_far)), t_start)
     ends = origins + t_end[:, None] * directions
+    origins = origins + t_start[:, None] * directions
     for mask, color, label in ((hit, HIT_COLOR, "rays_hit"), (~hit, MISS_COLOR, "rays_miss")):
         k = int(mask.sum())
         if k:
@@ -1002,7 +1023,7 @@ def _display_depths(cam: Camera, width: int, height: int, lower, upper, ray_data
     display_far = min(far, deepest)
     nearest = None
     if ray_data is not None:
-        origins, directions, t = ray_data
+        origins, directions, t = ray_data[:3]
         hit = np.isfinite(t)
         if hit.any():
             ends = origins[hit] + t[hit, None] * directions[hit]
@@ -1011,5 +1032,7 @@ def _display_depths(cam: Camera, width: int, height: int, lower, upper, ray_data
         nearest = float(depths.min())
     if nearest is None or nearest <= near:
         nearest = 0.3 * display_far
-    image_depth = min(max(IMAGE_PLANE_FRACTION * nearest, near), display_far)
+    # In front of the nearest hit, a fraction of its depth from the eye; behind an orthographic camera (a negative
+    # near plane) that fraction of a negative depth lay past the hit, inside what the image pictures.
+    image_depth = min(max(nearest - (1.0 - IMAGE_PLANE_FRACTION) * abs(nearest), near), display_far)
     return display_far, image_depth
