@@ -56,6 +56,11 @@ def scene_path(assets, name):
     return warp_assets("bunny.usd") if name == "bunny" else assets(name)
 
 
+def summary_text(plotter) -> str:
+    """The preview's summary text, its lines unwrapped (a line wrapped to the window goes on indented by two)."""
+    return plotter.actors["summary"].GetText(2).replace("\n  ", " ")
+
+
 def read_png(path) -> np.ndarray:
     with PilImage.open(path) as png:
         return np.asarray(png.convert("RGB")).astype(np.int32)
@@ -732,7 +737,7 @@ def test_summary_says_when_the_boxes_are_the_top_level_tree(bunny):
     for scene, words in ((bunny, "BVH (sah) "), (with_ball, "TLAS (sah) ")):
         plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48))
         try:
-            summary = plotter.actors["summary"].GetText(2).splitlines()
+            summary = summary_text(plotter).splitlines()
             assert any(line.startswith(words) for line in summary), summary
         finally:
             plotter.close()
@@ -753,7 +758,7 @@ def test_summary_of_the_top_level_tree_counts_its_entries_and_leaves_as_they_are
     assert leaves < entries  # the case at hand: a leaf of two
     plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48))
     try:
-        line = next(x for x in plotter.actors["summary"].GetText(2).splitlines() if x.startswith("TLAS"))
+        line = next(x for x in summary_text(plotter).splitlines() if x.startswith("TLAS"))
         drawn = plotter.actors["bvh"].mapper.dataset.n_cells // 12
     finally:
         plotter.close()
@@ -1384,7 +1389,7 @@ def test_a_bvh_depth_past_the_trees_depth_says_it_draws_the_leaves(tmp_path, cap
             warnings.simplefilter("always")
             plotter = wrt.preview(scene, bvh_depth=depth, window_size=(32, 24))
         try:
-            text = plotter.actors["summary"].GetText(2)
+            text = summary_text(plotter)
         finally:
             plotter.close()
         said = [str(w.message) for w in caught if "deepest leaf" in str(w.message)]
@@ -1488,7 +1493,7 @@ def test_lights_are_drawn_with_their_world_space_shapes():
     plotter = wrt.preview(scene, window_size=(32, 24))
     try:
         mesh = plotter.actors["lights"].mapper.dataset
-        text = plotter.actors["summary"].GetText(2)
+        text = summary_text(plotter)
     finally:
         plotter.close()
 
@@ -1537,7 +1542,7 @@ def test_lights_are_drawn_with_their_world_space_shapes():
     plotter = wrt.preview(scene, window_size=(32, 24), show_lights=False)
     try:
         assert "lights" not in plotter.actors
-        assert "7 lights" not in plotter.actors["summary"].GetText(2)
+        assert "7 lights" not in summary_text(plotter)
     finally:
         plotter.close()
 

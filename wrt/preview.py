@@ -45,6 +45,7 @@ import math
 import os
 import subprocess
 import sys
+import textwrap
 import warnings
 from pathlib import Path
 
@@ -78,6 +79,8 @@ MAX_RAYS = 1_000_000  # most sample rays: each is a drawn line (3e5 take 2 s to 
 BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
 MAX_WINDOW = 16384  # largest window side, pixels: OpenGL's usual framebuffer limit (Mesa's); beyond it VTK draws
 # nothing or aborts allocating the picture
+TEXT_PIXELS_PER_CHARACTER = 3  # summary lines are wrapped to the window's width over this many pixels a character
+MIN_TEXT_COLUMNS = 20  # ... and to no fewer characters a line
 IMAGE_PLANE_FRACTION = 0.8  # image plane depth, as a fraction of the nearest sample hit's depth
 GREY = 0.5  # linear albedo shown for meshes without displayColor (the renderer's default)
 BACKGROUND = "white"
@@ -769,7 +772,13 @@ def preview(
     plotter.reset_camera()
     plotter.title = title
     if show_text:
-        plotter.add_text("\n".join(lines), position="upper_left", font_size=9, color="black", name="summary")
+        # VTK's corner text shrinks to fit the window and, where a line is too wide even at its smallest font (about
+        # 2.2 pixels a character), draws nothing at all: a 180-character TLAS line took the whole text out of a
+        # 320-pixel-wide window. Lines are wrapped to fit with room to spare.
+        chars = max(MIN_TEXT_COLUMNS, window_size[0] // TEXT_PIXELS_PER_CHARACTER)
+        wrapped = (textwrap.fill(line, chars, subsequent_indent="  ", break_on_hyphens=False) for line in lines)
+        text = "\n".join(wrapped)
+        plotter.add_text(text, position="upper_left", font_size=9, color="black", name="summary")
     return plotter
 
 
