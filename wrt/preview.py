@@ -55,6 +55,7 @@ import warp as wp
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .errors import did_you_mean, flag
+from .far_views import shown_across_renderers
 from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
@@ -602,8 +603,11 @@ def _sample_ray_ranges(scene: Scene, cam: Camera, width: int, height: int, n: in
     # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes. Its
     # film is the ray grid: none of its pixels are drawn, and one of width x height was refused above the renderer's
     # pixel limit (a 10000x10000 film for 48 rays), where the film is only an aspect here.
-    with warnings.catch_warnings():  # its 'nothing to render ...; the image is ...' spoke of an image never made
+    # Its 'nothing to render ...' and 'camera sees nothing ...', each ending 'the image is background only', spoke of
+    # an image never made (the preview's image=True render says them of its own).
+    with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*nothing to render", category=UserWarning)
+        warnings.filterwarnings("ignore", message=".* sees nothing: ", category=UserWarning)
         renderer = Renderer(scene, camera=cam, width=gw, height=gh, device=device, builder=builder,
                             integrator="depth")
     scratch = CullScratch(total, device, renderer.nothing_to_cull, renderer.no_holes)
@@ -724,7 +728,12 @@ def preview(
     # Trace the sample rays before drawing the frustum: their hits place the image plane.
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     eye, forward = camera_frame(cam, width, height)
-    ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
+    # The image first, then the rays, whose renderer shares the warnings said (the far-view ones, a camera that sees
+    # nothing): each was said by both, and the image's words are those of the image it makes.
+    with shown_across_renderers(set()):
+        picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder) if image \
+            else None
+        ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
     far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
     # A perspective frustum narrows to its apex at the eye: a dot larger than a fifth of the image plane's depth
@@ -754,7 +763,6 @@ def preview(
     if ray_data is not None:
         lines.append(_add_rays(pv, plotter, *ray_data, view_depths(cam, width, height, ray_data[1]), far))
     if image:
-        picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder)
         quad = pv.PolyData(frustum_corners(cam, width, height, image_depth), faces=[4, 0, 1, 2, 3])
         quad.active_texture_coordinates = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # row 0 on top
         plotter.add_mesh(quad, texture=pv.Texture(to_srgb8(picture.rgb)), lighting=False, name="image")
