@@ -78,3 +78,21 @@ def test_image_plane_and_eye_of_an_orthographic_camera_seeing_behind_it():
     radius = 0.5 * (eye.bounds[1] - eye.bounds[0])
     assert radius > 0.0
     np.testing.assert_allclose(eye.center, 0.0, atol=1e-6 + radius * 1e-3)
+
+
+@pytest.mark.parametrize("size", [1.0, 1e-4, 1e-7, 1e-9])
+def test_the_eye_dot_keeps_its_size_in_proportion_to_a_tiny_scene(size):
+    """The eye dot is a hundredth of the scene's diagonal, seen by the camera that frames it: the diagonal was
+    floored at 1e-6, so below that size the dot grew against the scene, to a quarter of it at 1e-9, a ball over the
+    frustum's apex. Oracle: the diagonal of the two triangles' box, from their points in float64."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.5]]) * size
+    scene = wrt.Scene(meshes=[wrt.Mesh("/m", points.astype(np.float32), np.array([[0, 1, 2], [1, 3, 2]]), [0, 1])])
+    plotter = wrt.preview(scene, window_size=(32, 24), show_text=False)
+    try:
+        eye = plotter.actors["eye"].mapper.dataset
+    finally:
+        plotter.close()
+    corners = points.astype(np.float32).astype(np.float64)
+    diagonal = np.linalg.norm(corners.max(axis=0) - corners.min(axis=0))
+    radius = 0.5 * (eye.bounds[1] - eye.bounds[0])
+    np.testing.assert_allclose(radius / diagonal, 0.01, rtol=0.02)

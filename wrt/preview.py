@@ -735,7 +735,7 @@ def preview(
             else None
         ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
     far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
-    diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
+    diagonal = _scene_diagonal(lower, upper)
     # A perspective frustum narrows to its apex at the eye: a dot larger than a fifth of the image plane's depth
     # would hide it. An orthographic one does not, and its image plane may lie at or behind the eye (a near plane
     # behind it), where that cap made the radius negative and the dot vanished.
@@ -1029,13 +1029,21 @@ def clipping_depths(cam: Camera) -> tuple[float, float]:
     return near, far
 
 
+def _scene_diagonal(lower, upper) -> float:
+    """The length of the scene box's diagonal, which sizes the eye dot, the view and the frustum of a camera facing
+    away; 1e-6 for a box of no size (a point). A floor of 1e-6 under every box grew the eye dot against a scene
+    smaller than that: to a quarter of one 1e-9 across, a ball over the frustum's apex."""
+    diagonal = float(np.linalg.norm(np.asarray(upper, np.float64) - np.asarray(lower, np.float64)))
+    return diagonal if diagonal > 0.0 else 1e-6
+
+
 def _display_depths(cam: Camera, width: int, height: int, lower, upper, ray_data) -> tuple[float, float]:
     """Depths (:func:`view_depths`) of the display far plane and of the image plane."""
     eye, _ = camera_frame(cam, width, height)
     near, far = clipping_depths(cam)
     corners = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
     depths = view_depths(cam, width, height, corners - eye)
-    diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
+    diagonal = _scene_diagonal(lower, upper)
     deepest = float(depths.max()) if depths.max() > near else near + diagonal  # scene behind the camera
     display_far = min(far, deepest)
     nearest = None
