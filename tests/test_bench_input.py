@@ -842,3 +842,32 @@ def test_a_suite_run_on_devices_that_cannot_build_one_of_its_accelerators_leaves
     rows = [json.loads(line) for line in (tmp_path / "out" / "rows.jsonl").read_text().splitlines()]
     assert sorted((r["scene"], r["accel"]) for r in rows) == [("sphere:200", "warp:sah"), ("sphere:300", "wrt:sah")]
     assert not any("error" in r for r in rows)
+
+
+def test_a_suite_on_other_devices_with_accels_given_leaves_out_only_its_scaling_accelerators_they_cannot_build(
+        tmp_path, capsys):
+    """--accels replaces the suite's accelerators, not its scaling sweep's: wrt bench gpu --devices cpu --accels
+    wrt:sah was refused for the gpu suite's scaling warp:lbvh, which the same run without --accels left out."""
+    suite = write_suite(tmp_path, accels=["warp:lbvh"], devices=["cuda:0"],
+                        scaling={"sizes": [300], "accels": ["warp:lbvh", "wrt:sah"]})
+    argv = ["bench", str(suite), "--devices", "cpu", "--accels", "wrt:sah", "--scenes", "sphere:200", "--rays",
+            "primary", "--n-rays", "200", "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    assert main(argv) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if "left out" in line]
+    assert len(said) == 1 and "scaling accelerator warp:lbvh left out on devices cpu" in said[0]
+    rows = [json.loads(line) for line in (tmp_path / "out" / "rows.jsonl").read_text().splitlines()]
+    assert sorted((r["scene"], r["accel"]) for r in rows) == [("sphere:200", "wrt:sah"), ("sphere:300", "wrt:sah")]
+
+
+def test_a_row_without_a_thread_count_in_the_output_folder_is_no_row_of_an_earlier_run(tmp_path):
+    """A rows.jsonl line naming scene, accelerator, device and rays but no threads (not a row wrt wrote) stopped a
+    run into that folder with KeyError: 'threads' while it looked for earlier rows the run would drop."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "rows.jsonl").write_text(json.dumps({"scene": "sphere:100", "accel": "wrt:sah", "device": "cpu",
+                                                "rays": "shadow", "mrays": 1.0}) + "\n")
+    argv = ["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+            "--n-rays", "200", "--repeats", "1", "-q", "-o", str(out)]
+    assert main(argv) == 0
+    rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
+    assert [(r["scene"], r["accel"], "mrays" in r) for r in rows] == [("sphere:200", "wrt:sah", True)]

@@ -130,3 +130,33 @@ def test_resume_with_other_thread_counts_counts_the_earlier_rows_apart(tmp_path)
     assert sorted(r["threads"] for r in rows) == [1, 1, 2, 2]
     with pytest.warns(UserWarning, match="2 rows of an earlier run measured what this run does not"):
         run_grid(Grid(**grid, threads=[1]), tmp_path, progress=False)  # the threads 2 rows, dropped
+
+
+def test_resume_with_other_thread_counts_counts_earlier_sweep_rows_apart(tmp_path):
+    """A CPU scaling sweep runs at each thread count: its rows of a thread count this run does not ask for are no
+    rows of its grid either (they were counted as resumed, as scene rows were before)."""
+    grid = dict(scenes=["sphere:100"], accels=["wrt:sah"], devices=["cpu"], rays=["primary"], n_rays=100,
+                repeats=1, scaling={"sizes": [200], "accels": ["wrt:sah"]})
+    first = run_grid(Grid(**grid, threads=[1]), tmp_path, progress=False)
+    assert sum(1 for r in first if r.get("sweep")) == 1
+    rows = run_grid(Grid(**grid, threads=[2]), tmp_path, resume=True, progress=False)
+    assert (rows.resumed, rows.earlier) == (0, 2)
+
+
+def test_resume_of_a_scene_that_now_fails_keeps_the_earlier_rows_outside_its_grid(tmp_path):
+    """A group that now fails drops the resumed rows it would have measured again, but not the earlier run's rows of
+    accelerators this run does not measure: they were dropped from rows.jsonl while the summary said they were kept
+    ('0 rows measured, -1 resumed, 1 failed, 1 row of an earlier run kept')."""
+    scene = tmp_path / "s.usda"
+    scene.write_text('#usda 1.0\ndef Mesh "T"\n{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n'
+                     "    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n}\n")
+    out = tmp_path / "out"
+    common = ["--scenes", str(scene), "--devices", "cpu", "--rays", "primary", "--n-rays", "100", "--repeats", "1",
+              "-q", "-o", str(out)]
+    assert main(["bench", "--accels", "wrt:sah,warp:sah", *common]) == 0
+    scene.write_text("not a usd file")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["bench", "--accels", "warp:sah", "--resume", *common]) == 2  # its one group failed
+    rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
+    assert sorted((r["accel"], "error" in r) for r in rows) == [("*", True), ("wrt:sah", False)]

@@ -128,8 +128,8 @@ class Grid:
         # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
         # --devices replaced them all.
         data = {**data, **overrides}
-        if "devices" in overrides and "accels" not in overrides:  # the suite on other devices: what they build of it
-            data = _drop_unbuilt(data, path.name)
+        if "devices" in overrides:  # the suite on other devices: what they build of what it gives
+            data = _drop_unbuilt(data, path.name, accels="accels" not in overrides)
         missing = [name for name in required if name not in data]
         if missing:
             raise ValueError(f"{path.name}: missing suite keys {missing}")
@@ -276,10 +276,12 @@ def _check_devices_build(accels: list, devices: list, field: str) -> None:
                             f"{cannot_build(spec, devices[0])}; {DEVICE_LIMITS[spec][2]}", i, also="devices")
 
 
-def _drop_unbuilt(data: dict, suite: str) -> dict:
+def _drop_unbuilt(data: dict, suite: str, accels: bool = True) -> dict:
     """``data`` (a suite's fields, its devices given in their place) without the suite's accelerators that none of
     those devices builds, each named in a warning: wrt bench gpu --devices cpu measures the gpu suite's other
-    accelerators on the CPU, as it did, not its warp:lbvh rows, which failed one by one."""
+    accelerators on the CPU, as it did, not its warp:lbvh rows, which failed one by one. ``accels`` False: the
+    accelerators were given in the suite's place (--accels), so only its scaling sweep's are the suite's to drop
+    (--accels wrt:sah with --devices cpu refused the gpu suite's scaling warp:lbvh)."""
     import warnings
 
     devices = data.get("devices")
@@ -302,7 +304,8 @@ def _drop_unbuilt(data: dict, suite: str) -> dict:
                 left.append(spec)
         return left
 
-    data = dict(data, accels=kept(data.get("accels"), "accelerator"))
+    if accels:
+        data = dict(data, accels=kept(data.get("accels"), "accelerator"))
     if isinstance(data.get("scaling"), dict) and "accels" in data["scaling"]:
         data["scaling"] = dict(data["scaling"], accels=kept(data["scaling"]["accels"], "scaling accelerator"))
     return data
@@ -1063,13 +1066,16 @@ def _row_from_json(row: dict) -> dict:
     return dict(row, **{k: math.nan for k in MEASURED_FLOATS if k in row and row[k] is None})
 
 
-def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) -> bool:
+def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set, outside: set) -> bool:
     """Drops from ``rows`` (and ``resumed``, row key -> row) the resumed rows that the new ``row`` measures again:
     the one of its key, measured on other inputs, hardware or versions, or every row of its group when the whole
-    group now fails. Warns once per group; returns whether a row was dropped."""
+    group now fails, but for the rows of keys in ``outside`` (of the earlier run, outside this grid: not measured
+    again, they stay, as the summary says; a failing scene dropped them). Warns once per group; returns whether a
+    row was dropped."""
     group = (row["scene"], row["device"], row["rays"])
     stale = [key for key in resumed if key == row_key(row) or (
-        row["accel"] == "*" and (resumed[key]["scene"], resumed[key]["device"], resumed[key]["rays"]) == group)]
+        row["accel"] == "*" and key not in outside
+        and (resumed[key]["scene"], resumed[key]["device"], resumed[key]["rays"]) == group)]
     if not stale:
         return False
     if group not in warned:
@@ -1184,7 +1190,7 @@ def run_grid(
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
         begin()
         row.update(info.get(row["device"], {}))
-        if replaces and _replace_resumed(row, resumed, rows, warned) and jsonl is not None:
+        if replaces and _replace_resumed(row, resumed, rows, warned, outside) and jsonl is not None:
             _write_rows(jsonl, rows)
         rows.append(row)
         if jsonl is not None:
@@ -1252,7 +1258,8 @@ def _warn_rows_dropped(jsonl: Path, grid: Grid) -> None:
             row = json.loads(line)
         except json.JSONDecodeError:  # cut short, or no row: nothing measured to lose
             continue
-        named = isinstance(row, dict) and all(isinstance(row.get(k), str) for k in ROW_KEY_FIELDS[:4])
+        named = (isinstance(row, dict) and all(isinstance(row.get(k), str) for k in ROW_KEY_FIELDS[:4])
+                 and all(k in row for k in ROW_KEY_FIELDS))  # a row without threads is no row wrt wrote
         if named and "error" not in row:
             earlier.append(row)
     dropped = [row for row in _canonical_rows(earlier) if not _in_grid(row, grid)]
@@ -1269,16 +1276,17 @@ def _in_grid(row: dict, grid: Grid) -> bool:
     """Whether ``grid`` (validated) measures the row's scene (or sweep size), accelerator, device, ray kind and, for
     a CPU row, thread count."""
     scaling = grid.scaling or {}
+    # A CPU row of a thread count the grid does not ask for (threads 4 after 1,all on 2 cores) is not its row either,
+    # a sweep's (run at each thread count) as a scene's.
+    threads = not str(row["device"]).startswith("cpu") or row["accel"] == "embree" or row.get("threads") in grid.threads
     if row.get("sweep"):
         sizes = {f"sphere:{int(float(n))}" for n in scaling.get("sizes", [])}
-        return (row["scene"] in sizes and row["accel"] in scaling.get("accels", grid.accels)
+        return (row["scene"] in sizes and row["accel"] in scaling.get("accels", grid.accels) and threads
                 and row["rays"] == scaling.get("rays", "incoherent") and row["device"] in _device_names(grid))
     try:
         scene = _scene_key(row["scene"])
     except (ValueError, OSError):  # a name no longer read: not this grid's
         return False
-    # A CPU row of a thread count the grid does not ask for (threads 4 after 1,all on 2 cores) is not its row either.
-    threads = not str(row["device"]).startswith("cpu") or row["accel"] == "embree" or row.get("threads") in grid.threads
     return (scene in {_scene_key(name) for name in grid.scenes} and row["accel"] in grid.accels
             and row["rays"] in grid.rays and row["device"] in _device_names(grid) and threads)
 
