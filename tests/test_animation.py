@@ -971,10 +971,15 @@ def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(a
     assert len(frames) == len(written)
     rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
     assert {r["frame"] for r in rows if r["status"] == "ok"} == frames
-    # Cut short: a frame in each worker, one queued for the next free one (ProcessPoolExecutor marks it running), and
-    # one per worker sent back but not yet written.
+    # Cut short: a frame in each worker, those in the pool's call queue for the next free one (ProcessPoolExecutor
+    # marks the workers + EXTRA_QUEUED_CALLS there running), and one per worker sent back but not yet written. (A
+    # bound of 2 + 1 + 2 failed once under load with 6: the queue holds 3.)
+    from concurrent.futures.process import EXTRA_QUEUED_CALLS
+
+    workers = 2
+    most = workers + (workers + EXTRA_QUEUED_CALLS) + workers
     cut = [r["frame"] for r in rows if r["status"] == "interrupted"]
-    assert 1 <= len(cut) <= 5 and not frames & set(cut) and len(rows) == len(frames) + len(cut), rows
+    assert 1 <= len(cut) <= most and not frames & set(cut) and len(rows) == len(frames) + len(cut), rows
 
 
 def test_cli_frames_and_resume(animated, tmp_path):

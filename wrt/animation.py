@@ -474,8 +474,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         except BaseException as e:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
             # rendered every queued frame first and threw the images away.
-            # Handed to a worker (ProcessPoolExecutor marks one more, queued for the next free worker, running too) or
-            # sent back: those not written were cut short.
+            # Handed to a worker (ProcessPoolExecutor marks those in its call queue for the next free workers, up to
+            # the workers + 1, running too) or sent back: those not written were cut short.
             started = [futures[f] for f in futures if f.running() or f.done()]
             _stop_pool(pool)
             if isinstance(e, KeyboardInterrupt):
