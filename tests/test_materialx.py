@@ -623,6 +623,29 @@ TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x
              "acescg": (lambda x: x, True), "lin_ap1": (lambda x: x, True), "lin_adobergb": (lambda x: x, True)}
 
 
+def colour_image_stage(tmp_path, image_path, space, node):
+    """A quad whose MaterialX surface's diffuse comes from ``image_path`` with ``file`` in colour space ``space``,
+    through an ``ND_image_color3`` under a standard_surface or an ``ND_UsdUVTexture`` under MaterialX's
+    UsdPreviewSurface (``node``); ``node`` ``interface input``: the ``ND_image_color3``'s file connected to a Material
+    input that holds the file and the colour space."""
+    if node == "ND_UsdUVTexture":
+        path = materialx_preview_stage(tmp_path, image_path, None, "uv")
+        stage = Usd.Stage.Open(path)
+        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().SetColorSpace(space)
+    else:
+        stage, path = new_stage(tmp_path)
+        material, _ = mtlx_material(stage, "/Looks/Colour")
+        file_input = base_color_image(stage, "/Looks/Colour", image_path).GetInput("file")
+        if node == "interface input":
+            file_input.ConnectToSource(material.CreateInput("file", Sdf.ValueTypeNames.Asset).GetAttr().GetPath())
+            file_input = material.GetInput("file")
+            file_input.Set(Sdf.AssetPath(image_path))
+        file_input.GetAttr().SetColorSpace(space)
+        bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    return path
+
+
 @pytest.mark.parametrize("space, mode", [(space, "RGB") for space in TRANSFERS] + [
     ("g22_rec709", "LA"), ("g22_rec709", "ND_UsdUVTexture"), ("g22_rec709", "interface input"),
     ("srgb_displayp3", "interface input")])
@@ -636,22 +659,8 @@ def test_a_colour_image_is_decoded_by_its_colour_spaces_transfer_function(tmp_pa
     the same space as ``lin_rec709``, was named."""
     samples = np.array([51, 204]) if mode == "LA" else np.array([51, 102, 153])
     png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
-    if mode == "ND_UsdUVTexture":
-        path = materialx_preview_stage(tmp_path, png, None, "uv")
-        stage = Usd.Stage.Open(path)
-        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().SetColorSpace(space)
-    else:
-        stage, path = new_stage(tmp_path)
-        material, _ = mtlx_material(stage, "/Looks/Colour")
-        file_input = base_color_image(stage, "/Looks/Colour", png).GetInput("file")
-        if mode == "interface input":  # the file's colour space on the Material input it connects to
-            file_input.ConnectToSource(material.CreateInput("file", Sdf.ValueTypeNames.Asset).GetAttr().GetPath())
-            file_input = material.GetInput("file")
-            file_input.Set(Sdf.AssetPath(png))
-        file_input.GetAttr().SetColorSpace(space)
-        bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    scene, messages = load(path)
+    node = mode if mode in ("ND_UsdUVTexture", "interface input") else "ND_image_color3"
+    scene, messages = load(colour_image_stage(tmp_path, png, space, node))
     decode, other_primaries = TRANSFERS[space]
     if other_primaries:
         assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdShade
 from test_materials import add_quad, bind, materialx_preview_stage, new_stage, textured_stage
-from test_materialx import base_color_image, load, mtlx_material, write_png
+from test_materialx import base_color_image, colour_image_stage, load, mtlx_material, write_png
 from test_texture_files import write_exr
 
 # The canonical names MaterialX 1.39's DefaultColorManagementSystem remaps to one of its colour transforms.
@@ -48,23 +48,6 @@ def test_the_names_are_usds_own():
     for name in MATERIALX_DECODES + MATERIALX_UNKNOWN + DATA_NAMES:
         assert Gf.ColorSpace.IsValid(name), name
     assert all(Gf.ColorSpace(name).IsData() for name in DATA_NAMES)
-
-
-def colour_image_stage(tmp_path, image_path, space, node):
-    """A quad whose MaterialX surface's diffuse comes from ``image_path`` with ``file`` in colour space ``space``,
-    through an ``ND_image_color3`` under a standard_surface or an ``ND_UsdUVTexture`` under MaterialX's
-    UsdPreviewSurface (``node``)."""
-    if node == "ND_UsdUVTexture":
-        path = materialx_preview_stage(tmp_path, image_path, None, "uv")
-        stage = Usd.Stage.Open(path)
-        UsdShade.Shader.Get(stage, "/Looks/Mx/Image").GetInput("file").GetAttr().SetColorSpace(space)
-    else:
-        stage, path = new_stage(tmp_path)
-        material, _ = mtlx_material(stage, "/Looks/Colour")
-        base_color_image(stage, "/Looks/Colour", image_path).GetInput("file").GetAttr().SetColorSpace(space)
-        bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    return path
 
 
 @pytest.mark.parametrize("node", ["ND_image_color3", "ND_UsdUVTexture"])
