@@ -865,16 +865,16 @@ class Renderer:
         self._drop_sums("a camera changed")  # the sums are of the old view
         self._warn_clipped_away()
 
-    def _warn_unsampled(self, unsampled, shapes: int) -> None:
+    def _warn_unsampled(self, unsampled) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
         triangles and glowing spheres of instances past the cap on sampled instanced emitters (``unsampled``:
         :class:`wrt.light_table.UnsampledEmitters`), under every integrator that samples lights, and under whitted
-        ``shapes`` emissive analytic shapes that are not sampled (tubes of curves, other kinds of shapes built in
+        its ``shapes``, emissive analytic shapes that are not sampled (tubes of curves, other kinds of shapes built in
         Python, unevenly scaled spheres: wrt.glowing_spheres; a stage's emissive gprims are drawn as triangles,
         wrt.usd), which path finds by the rays that hit them."""
-        parts = [unsampled.describe()] if unsampled.triangles or unsampled.spheres_past_cap else []
-        if self.integrator == "whitted" and shapes:
-            parts.append(f"{int(shapes)} emissive analytic primitive(s)")
+        parts = [text for text in [unsampled.describe()] if text]
+        if self.integrator == "whitted" and unsampled.shapes:
+            parts.append(f"{int(unsampled.shapes)} emissive analytic primitive(s)")
         if not parts or self.integrator not in LIGHT_SAMPLING_INTEGRATORS:
             return
         if self.integrator == "whitted":
@@ -911,7 +911,7 @@ class Renderer:
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
         self.materials = scaled_materials(mats, self._radiance_scale, dev)
-        self._warn_unsampled(unsampled, unsampled.shapes)
+        self._warn_unsampled(unsampled)
         self._headlight = 0 if default else -1
         self._point_headlight()
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
