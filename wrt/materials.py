@@ -23,7 +23,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``, or a constant; unconnected and unauthored:
   the mesh's ``st``, a ``UsdTransform2d``'s ``in`` Sdr's (0, 0)), ``wrapS``/``wrapT`` (``useMetadata``, the
   fallback, is ``black``: no wrap metadata is read from image files), ``scale``, ``bias``,
-  ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
+  ``fallback`` and ``sourceColorSpace``. A constant colour input with a ``colorSpace`` is decoded to linear from it
+  (:meth:`MaterialReader._decoded_color`). ``diffuseColor`` may also come from a mesh's colour primvar through a
   ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
   (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the per-corner colours of the faces bound to that
   material where it reads ``displayColor`` otherwise (:meth:`MaterialReader.color_primvars`), and a mesh without it
@@ -1284,7 +1285,14 @@ class MaterialReader:
         if found is None:
             return
         if found[0] == "value":
-            self._set_constant(mat, name, field, is_color, found[1], shader.GetPrim())
+            value = found[1]
+            # In its colorSpace (USD's source colour space of a colour attribute): a diffuseColor of 0.5 in
+            # srgb_rec709_scene was read as 0.5 for 0.214. (The inputs of *Color are color3f in Sdr's definition.)
+            if is_color and (rgb := _rgb(value)) is not None:
+                value = self._decoded_color(shader, name, rgb, mat.path)
+                if value is None:  # past float32's range: the default stays, named
+                    return
+            self._set_constant(mat, name, field, is_color, value, shader.GetPrim())
             return
         source, output = found[1], found[2]
         source_id = source.GetShaderId() or ""
@@ -1457,18 +1465,41 @@ class MaterialReader:
                                  "finite numbers", material_path)
         value = four_components(v, default)
         if materialx and v is not None:
-            from .materialx import decoded_color  # that module imports this one
-
-            decoded, note = decoded_color(tex.GetInput(name), value.astype(np.float64), f"{tex.GetPath()}'s {name}",
-                                          color=True)
-            if note is not None:
-                self.skip(f"material {material_path}: {note}", tex.GetPrim())
-            if decoded is None:
-                self.skip(f"material {material_path}: a UsdUVTexture {name} decoded from its colour space is past "
-                          "float32's range; its default is used", tex.GetPrim())
-                return four_components(None, default)
-            value = decoded.astype(np.float32)
+            decoded = self._decoded_color(tex, name, value.astype(np.float64), material_path)
+            return four_components(None, default) if decoded is None else decoded.astype(np.float32)
+        if v is not None:
+            self._note_unread_color_space(tex, name, material_path)
         return value
+
+    def _decoded_color(self, node, name: str, value: np.ndarray, material_path: str) -> np.ndarray | None:
+        """Colour constant ``value`` (float64, 3 or 4 numbers, alpha kept) of input ``name`` of shader ``node``
+        decoded from its ``colorSpace`` (:func:`wrt.materialx.decoded_color`, as MaterialX's constants), its note (a
+        colour space of other primaries, unknown, or inherited and not read) given; None, named in a warning, where
+        the decode passes float32's range (1e20 in sRGB), for the caller to keep its default."""
+        from .materialx import decoded_color  # that module imports this one
+
+        what = f"{node.GetPath()}'s {name}"
+        decoded, note = decoded_color(node.GetInput(name), value, what, color=True)
+        if note is not None:
+            self.skip(f"material {material_path}: {note}", node.GetPrim())
+        if decoded is None:
+            self.skip(f"material {material_path}: {what} decoded from its colour space is past float32's range; its "
+                      "default is used", node.GetPrim())
+        return decoded
+
+    def _note_unread_color_space(self, tex, name: str, material_path: str) -> None:
+        """Names the colour space (its own, or of the interface input it reads) that a UsdUVTexture's ``fallback``,
+        ``scale`` or ``bias`` (``name``) carries: they are ``float4`` in its Sdr definition, no colours, so their
+        numbers are read as authored (a scale or bias is applied to decoded texels). It was left out without a word.
+        A linear Rec.709 or data space, which reads alike, is not named."""
+        from .materialx import COLOR_SPACES, inherited_color_space, own_color_space  # that module imports this one
+
+        inp = tex.GetInput(name)
+        space = own_color_space(inp) or inherited_color_space(inp)
+        if space and COLOR_SPACES.get(space) != ("raw", False):
+            self.skip(f"material {material_path}: a UsdUVTexture's fallback, scale and bias are float4 in its "
+                      "definition, no colours: they are read as authored, the colour space they carry is not read",
+                      tex.GetPrim(), detail=f"{name} in {space!r}")
 
     def _finite_numbers(self, node, name: str, sizes: tuple, problem: str, material_path: str) -> np.ndarray | None:
         """Input ``name`` of shader ``node`` as float64 numbers; None when it is unauthored, and, with a warning
@@ -1622,16 +1653,15 @@ class MaterialReader:
         materialNetwork reads no colour space metadata for it), and so does wrt, so ``sourceColorSpace = raw``
         beside ``colorSpace = "srgb_rec709_scene"`` reads the file raw. Only MaterialX's image nodes (and its
         ``ND_UsdUVTexture``) take the file's colorSpace. It was left out without a word."""
-        file_input = tex.GetInput("file")
-        for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
-            name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
-            if name:
-                self.skip(f"material {material_path}: a UsdUVTexture file's colorSpace is not read (Storm reads "
-                          f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
-                          tex.GetPrim(), detail=name)
-                return
-        from .materialx import inherited_color_space  # that module imports this one
+        from .materialx import inherited_color_space, own_color_space  # that module imports this one
 
+        file_input = tex.GetInput("file")
+        name = own_color_space(file_input)
+        if name:
+            self.skip(f"material {material_path}: a UsdUVTexture file's colorSpace is not read (Storm reads "
+                      f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
+                      tex.GetPrim(), detail=name)
+            return
         inherited = inherited_color_space(file_input)
         if inherited:  # from UsdColorSpaceAPI on an ancestor: not read either
             self.skip(f"material {material_path}: a UsdUVTexture file's colour space inherited through "

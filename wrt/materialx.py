@@ -748,10 +748,8 @@ def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str
     the note to give, None but for a colour space wrt does not know (read as ``raw``) or whose primaries it does not
     convert, naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as
     stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
-    for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
-        name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
-        if not name:  # none here: the interface input's, if any
-            continue
+    name = own_color_space(file_input)
+    if name:
         if name not in COLOR_SPACES:
             return "raw", f"{what} colour space {name!r} is read as linear (no gamut conversion)"
         space, other_primaries = COLOR_SPACES[name]
@@ -760,6 +758,16 @@ def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str
     inherited = inherited_color_space(file_input)
     return None, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm reads an "
                   "attribute's own colorSpace alone); it is read as without one" if inherited else None)
+
+
+def own_color_space(inp) -> str:
+    """The ``colorSpace`` metadata of input ``inp``, else of the interface input it connects to (``""`` where
+    neither has one; an empty one is none, as hdMtlx passes it on)."""
+    for attr in [inp.GetAttr(), *inp.GetValueProducingAttributes()] if inp else []:
+        name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
+        if name:
+            return name
+    return ""
 
 
 def inherited_color_space(inp) -> str | None:

@@ -1,0 +1,117 @@
+"""``colorSpace`` on UsdPreviewSurface's colour inputs (``color3f`` in its Sdr definition: ``diffuseColor``,
+``emissiveColor``, ``specularColor``). USD's colour guides make an attribute's ``colorSpace`` the source colour
+space of its value, to be brought into the linear rendering space; wrt decodes it by the transfer function as it
+decodes MaterialX's constants (:func:`wrt.materialx.decoded_color`). UsdUVTexture's ``fallback``, ``scale`` and
+``bias`` are ``float4`` in its definition, no colours: a colour space on them is named, not read. The expected
+values come from the transfer function USD declares for the name (``Gf.ColorSpace``), in float64."""
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdShade
+from test_materials import add_quad, bind, new_stage, preview_material, textured_stage
+from test_materialx import load, write_png
+from test_materialx_color_spaces import usd_decoded
+
+COLOR = (0.2, 0.5, 0.8)
+
+
+def preview_stage(tmp_path, name: str, space: str | None = None, value=COLOR):
+    """A UsdPreviewSurface quad whose input ``name`` is ``value`` in colour space ``space``."""
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/Paint", **{name: Gf.Vec3f(*value)})
+    if space is not None:
+        shader.GetInput(name).GetAttr().SetColorSpace(space)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    return stage, path
+
+
+FIELDS = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "specularColor": "specular_color"}
+
+
+@pytest.mark.parametrize("name", list(FIELDS))
+@pytest.mark.parametrize("space", ["srgb_rec709_scene", "g22_rec709_scene", "g18_rec709_scene"])
+def test_a_preview_colour_in_a_non_linear_colour_space_is_decoded(tmp_path, name, space):
+    """(0.2, 0.5, 0.8) in ``srgb_rec709_scene`` is sRGB's decode of each channel, in ``g22_rec709_scene``
+    ``x^2.2``: the value USD's colour space declares. They were read as authored."""
+    _, path = preview_stage(tmp_path, name, space)
+    scene, messages = load(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(getattr(mat, FIELDS[name]), usd_decoded(space, COLOR), rtol=1e-5)
+
+
+@pytest.mark.parametrize("space", ["lin_rec709_scene", "data", "raw", ""])
+def test_a_preview_colour_in_a_linear_or_data_colour_space_is_kept(tmp_path, space):
+    _, path = preview_stage(tmp_path, "diffuseColor", space)
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, COLOR, rtol=1e-6)
+
+
+def test_a_preview_colour_of_other_primaries_is_decoded_and_named(tmp_path):
+    """``g22_ap1_scene``: decoded by its transfer function, its primaries named (no gamut conversion)."""
+    _, path = preview_stage(tmp_path, "diffuseColor", "g22_ap1_scene")
+    scene, messages = load(path)
+    assert any("'g22_ap1_scene'" in m and "no gamut conversion" in m and "/Looks/Paint" in m for m in messages)
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_decoded("g22_ap1_scene", COLOR), rtol=1e-5)
+
+
+def test_a_preview_colour_takes_the_colour_space_of_the_interface_input_it_reads(tmp_path):
+    """diffuseColor connected to the Material's interface input, which carries ``srgb_rec709_scene``: decoded."""
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/Paint")
+    face = material.CreateInput("paint", Sdf.ValueTypeNames.Color3f)
+    face.Set(Gf.Vec3f(*COLOR))
+    face.GetAttr().SetColorSpace("srgb_rec709_scene")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(face)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_decoded("srgb_rec709_scene", COLOR), rtol=1e-5)
+
+
+def test_a_preview_colour_space_inherited_through_usd_colour_space_api_is_named_not_read(tmp_path):
+    """As for MaterialX's constants (``test_materialx_color_spaces``): the colour space USD's resolution gives an
+    input without its own (``ComputeColorSpaceName``) is named, and the colour read as authored. It was left out
+    without a word."""
+    stage, path = preview_stage(tmp_path, "emissiveColor")
+    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    stage.Save()
+    attr = UsdShade.Shader.Get(stage, "/Looks/Paint/Surface").GetInput("emissiveColor").GetAttr()
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == "srgb_rec709_scene"
+    scene, messages = load(path)
+    assert any("'srgb_rec709_scene'" in m and "UsdColorSpaceAPI" in m for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].emissive_color, COLOR, rtol=1e-6)
+
+
+def test_a_preview_colour_past_float32_after_its_decode_keeps_its_default_with_a_warning(tmp_path):
+    """1e20 in ``srgb_rec709_scene`` decodes past float32's range: the default, named."""
+    _, path = preview_stage(tmp_path, "emissiveColor", "srgb_rec709_scene", value=(1e20, 0.0, 0.0))
+    scene, messages = load(path)
+    assert any("emissiveColor" in m and "float32" in m for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].emissive_color, 0.0)
+
+
+@pytest.mark.parametrize("name", ["fallback", "scale", "bias"])
+def test_a_usd_uv_texture_float4_input_with_a_colour_space_is_named_not_decoded(tmp_path, name):
+    """UsdUVTexture's ``fallback``, ``scale`` and ``bias`` are ``float4`` in its Sdr definition (no colours, unlike
+    MaterialX's ``ND_UsdUVTexture``'s ``color4``): one in ``srgb_rec709_scene`` keeps its value and the colour space
+    it carries is named. It was left out without a word."""
+    from pxr import Sdr
+
+    node = Sdr.Registry().GetShaderNodeByIdentifier("UsdUVTexture")
+    assert node.GetShaderInput(name).GetTypeAsSdfType().GetSdfType() == Sdf.ValueTypeNames.Float4
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), 128))
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Tex/Image")
+    value = (0.25, 0.5, 0.75, 1.0)
+    inp = tex.CreateInput(name, Sdf.ValueTypeNames.Float4)
+    inp.Set(Gf.Vec4f(*value))
+    inp.GetAttr().SetColorSpace("srgb_rec709_scene")
+    stage.Save()
+    scene, messages = load(path)
+    assert any(name in m and "'srgb_rec709_scene'" in m and "/Looks/Tex/Image" in m for m in messages), messages
+    np.testing.assert_allclose(getattr(scene.materials[0].textures["diffuseColor"], name), value, rtol=1e-6)
