@@ -27,7 +27,8 @@ node (``ND_<node>_*``)  output                                          of a tex
 Anything else, or a texture or primvar where the table has "--", cannot be folded: :class:`Unfoldable` names the
 node, and the surface input keeps its constant (with a note in the material's warning). So is a texture read as one
 channel (a float image, an ``extract``) times a colour whose channels differ: its one channel is broadcast after the
-scale, which therefore cannot tint it.
+scale, which therefore cannot tint it. So is a node whose input of one number in its definition (:func:`port_type`:
+a ``mix_color3``'s ``mix``, ``in2`` of ``multiply_color3FA``) is authored with several.
 """
 
 from __future__ import annotations
@@ -119,12 +120,16 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
             raise Unfoldable(node)
         from .materialx import decoded_color  # that module imports this one
 
+        # The node's definition types the input, as MaterialX's port (port_type), not the USD attribute nor the
+        # count of numbers: a mix's float mix authored as a color3f was decoded as a colour and mixed each channel
+        # by its own amount, a combine3's took its first number, without a word.
+        port = port_type(match.group(1), types, name)
+        if TYPE_SIZES[port] == 1 and value.size > 1:
+            raise Unfoldable(node, f"input {name}, a {port} in its definition, is authored with {value.size} numbers")
         # In its colorSpace, as MaterialX transforms a colour value bound to any node's input: a constant node's
-        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.) The
-        # node's definition types the input, as MaterialX's port: a convert's input is of its first type, the
-        # inputs of three or four numbers of any other node of its type (a float3 value of a constant_color3 is a
-        # colour, a color3f one of a constant_vector3 is not; the USD type decided).
-        decoded, _ = decoded_color(node.GetInput(name), value, name, color=names[0] in ("color3", "color4"))
+        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.) A
+        # float3 value of a constant_color3 is a colour, a color3f one of a constant_vector3 is not.
+        decoded, _ = decoded_color(node.GetInput(name), value, name, color=port in ("color3", "color4"))
         if decoded is None:
             raise Unfoldable(node, f"{name} decoded from its colour space is past float32's range")
         return Folded(decoded)
@@ -175,6 +180,26 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
     if op == "subtract" and varying is a:
         return _offset(node, varying, -constant, False, size)
     return _offset(node, varying, constant, op == "subtract", size)  # c + texture, c - texture
+
+
+def port_type(op: str, types: str, name: str) -> str:
+    """The type MaterialX's nodedef ``ND_<op>_<types>`` (stdlib_defs.mtlx) gives its input ``name``, for a node
+    :func:`fold` reads: a convert's input is of its first type; ``in2`` of the ``FA`` forms of multiply, add and
+    subtract and invert's ``amount`` a float; mix's ``mix`` of its second type (``ND_mix_color3_color3``), else a
+    float (``ND_mix_color3``); combine3's inputs floats; extract's ``index`` an integer; any other input of the
+    node's first type."""
+    names = TYPE_NAME.findall(types)
+    if op == "convert":
+        return names[0]
+    if types.endswith("FA") and name == ("amount" if op == "invert" else "in2"):
+        return "float"
+    if op == "mix" and name == "mix":
+        return names[1] if len(names) > 1 else "float"
+    if op == "combine3":
+        return "float"
+    if op == "extract" and name == "index":
+        return "integer"
+    return names[0]
 
 
 def _offset(node, varying: Folded, offset: np.ndarray, negate: bool, size: int) -> Folded:
