@@ -66,3 +66,24 @@ def test_a_colour_mix_port_is_decoded_from_its_colour_space(tmp_path):
     assert not messages, messages
     np.testing.assert_allclose(scene.materials[0].diffuse_color, expected, rtol=1e-5)
 
+
+
+def test_a_colour_port_authored_as_one_float_is_decoded_from_its_colour_space(tmp_path):
+    """``ND_multiply_color3``'s ``in2`` (color3) authored as one ``float`` 0.5 in ``srgb_texture``: MaterialX reads
+    the port's type, a colour, so it is decoded in every channel, as a surface's colour input authored so is. It was
+    kept (a single number was never decoded)."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    node = UsdShade.Shader.Define(stage, "/Looks/Paint/Node")
+    node.CreateIdAttr("ND_multiply_color3")
+    node.CreateInput("in1", C3).Set(Gf.Vec3f(0.5, 0.25, 1.0))
+    half = node.CreateInput("in2", F)
+    half.Set(0.5)
+    half.GetAttr().SetColorSpace("srgb_texture")
+    node.CreateOutput("out", C3)
+    shader.CreateInput("base_color", C3).ConnectToSource(node.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, np.array([0.5, 0.25, 1.0]) * srgb64(0.5), rtol=1e-5)

@@ -723,13 +723,14 @@ class _Graph:
 
 def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:
     """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
-    node's; 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of the interface
-    input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's ShaderGraph
-    transforms a value bound to a node input of a colour type; as it is for other inputs and where none is authored.
-    ``color`` says whether the node's definition types the input ``color3`` or ``color4``: MaterialX decides by the
-    nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is decoded (it was
-    kept). ``decoded`` is None where the decode passes float32's range."""
-    if value.size not in (3, 4) or not inp or not color:
+    node's; 1 (a grey), 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of
+    the interface input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's
+    ShaderGraph transforms a value bound to a node input of a colour type; as it is for other inputs and where none
+    is authored. ``color`` says whether the node's definition types the input ``color3`` or ``color4``: MaterialX
+    decides by the nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is
+    decoded (it was kept), and so is one number on a colour port, the grey it is (a graph node's was kept, decided
+    by its count of numbers). ``decoded`` is None where the decode passes float32's range."""
+    if value.size not in (1, 3, 4) or not inp or not color:
         return value, None
     space, note = file_color_space(inp, what)
     decode = decode_curve(space or "raw")
