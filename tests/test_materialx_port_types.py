@@ -87,3 +87,22 @@ def test_a_colour_port_authored_as_one_float_is_decoded_from_its_colour_space(tm
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_allclose(scene.materials[0].diffuse_color, np.array([0.5, 0.25, 1.0]) * srgb64(0.5), rtol=1e-5)
+
+
+def test_a_connected_colour_inputs_own_constant_is_decoded_where_its_node_is_not_read(tmp_path):
+    """A base_color of (0.5, 0.25, 1) in ``srgb_texture`` connected to a node wrt does not fold (a noise) keeps its
+    constant, decoded from its colour space as the same input unconnected reads. It was kept as authored."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    noise = UsdShade.Shader.Define(stage, "/Looks/Paint/Noise")
+    noise.CreateIdAttr("ND_noise3d_color3")
+    noise.CreateOutput("out", C3)
+    base_color = shader.CreateInput("base_color", C3)
+    base_color.Set(Gf.Vec3f(0.5, 0.25, 1.0))
+    base_color.GetAttr().SetColorSpace("srgb_texture")
+    base_color.ConnectToSource(noise.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("ND_noise3d_color3" in m and "/Looks/Paint/Noise" in m for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, srgb64([0.5, 0.25, 1.0]), rtol=1e-5)

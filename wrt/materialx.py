@@ -77,7 +77,8 @@ a note names the node and the layer.
 ``ND_geompropvalue_color3``/``vector3`` node (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where
 the mesh lacks it). Math and channel nodes between an input and these sources (``multiply``, ``add``, ``mix``,
 ``convert``, ...) are folded at load time (:mod:`wrt.materialx_fold`): into a constant, or into the texture's or
-primvar's scale. Any other node keeps the input's constant: its own authored value, else the specification's default.
+primvar's scale. Any other node keeps the input's constant: its own authored value (decoded from its ``colorSpace``), else the
+specification's default.
 Defaults are the MaterialX library's (``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0,
 ``open_pbr_surface.mtlx`` 1.1).
 """
@@ -277,8 +278,14 @@ class _Graph:
                 return default, None
             return decoded, None
         node = found[1]
-        own = _input_array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
-        constant = default if own is None else own  # the value authored beside the connection
+
+        def kept() -> np.ndarray:
+            """The value authored beside the connection, read as the input unconnected reads it: decoded from its
+            colorSpace (it was kept as authored), else the default."""
+            inp = self.shader.GetInput(name)
+            own = _input_array(value_at(inp.GetAttr(), self.reader.time), default.size)
+            own = None if own is None else self._decoded(inp, own, f"{name}'s", color=default.size == 3)
+            return default if own is None else own
 
         def leaf(source, source_id: str) -> Folded | None:
             if IMAGE_NODE.match(source_id):
@@ -294,11 +301,13 @@ class _Graph:
         except Unfoldable as e:
             node_id = e.node.GetShaderId() or "node without info:id"
             why = f"whose {e.problem}" if e.problem else "which is not supported"
+            constant = kept()
             self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), {why}; its constant "
                               f"{_format(constant)} is used")
             return constant, None
         value = _array(folded.value, default.size)
         if value is None:  # a folded value past float64's range
+            constant = kept()
             self.notes.append(f"{name} is not a finite number after its nodes; its constant {_format(constant)} is "
                               "used")
             return constant, None
