@@ -77,8 +77,8 @@ a note names the node and the layer.
 ``ND_geompropvalue_color3``/``vector3`` node (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where
 the mesh lacks it). Math and channel nodes between an input and these sources (``multiply``, ``add``, ``mix``,
 ``convert``, ...) are folded at load time (:mod:`wrt.materialx_fold`): into a constant, or into the texture's or
-primvar's scale. Any other node keeps the input's constant: its own authored value (decoded from its ``colorSpace``), else the
-specification's default.
+primvar's scale. Any other node keeps the input's constant: its own authored value (decoded from its
+``colorSpace``), else the specification's default.
 Defaults are the MaterialX library's (``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0,
 ``open_pbr_surface.mtlx`` 1.1).
 """
