@@ -106,3 +106,31 @@ def test_a_connected_colour_inputs_own_constant_is_decoded_where_its_node_is_not
     scene, messages = load(path)
     assert any("ND_noise3d_color3" in m and "/Looks/Paint/Noise" in m for m in messages), messages
     np.testing.assert_allclose(scene.materials[0].diffuse_color, srgb64([0.5, 0.25, 1.0]), rtol=1e-5)
+
+
+@pytest.mark.parametrize("reader_id, name_input, fallback_input, decoded", [
+    ("ND_geompropvalue_color3", "geomprop", "default", True),
+    ("ND_UsdPrimvarReader_color3", "varname", "fallback", True),
+    ("ND_geompropvalue_vector3", "geomprop", "default", False),
+])
+def test_a_colour_primvar_readers_fallback_is_decoded_by_its_nodes_type(tmp_path, reader_id, name_input,
+                                                                        fallback_input, decoded):
+    """base_color from a primvar reader the mesh lacks shows the reader's fallback; a ``color3`` reader's (colour in
+    its nodedef) of (0.2, 0.5, 0.8) in ``srgb_texture`` is sRGB's decode of it, a ``vector3`` reader's is kept. The
+    colour one was kept as authored."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
+    reader = UsdShade.Shader.Define(stage, "/Looks/Paint/Reader")
+    reader.CreateIdAttr(reader_id)
+    reader.CreateInput(name_input, Sdf.ValueTypeNames.String).Set("paint")
+    fallback = reader.CreateInput(fallback_input, C3 if decoded else Sdf.ValueTypeNames.Float3)
+    fallback.Set(Gf.Vec3f(*THREE))
+    fallback.GetAttr().SetColorSpace("srgb_texture")
+    reader.CreateOutput("out", C3)
+    shader.CreateInput("base_color", C3).ConnectToSource(reader.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, _ = load(path)
+    (mat,) = scene.materials
+    assert mat.color_primvar == "paint"
+    np.testing.assert_allclose(mat.diffuse_color, srgb64(THREE) if decoded else THREE, rtol=1e-5)

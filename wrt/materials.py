@@ -114,6 +114,7 @@ COLOR_PRIMVAR_READERS = {
     **{f"ND_UsdPrimvarReader_{t}{n}": ("varname", "fallback") for t in ("color", "vector") for n in (3, 4)},
     **{f"ND_geompropvalue_{t}{n}": ("geomprop", "default") for t in ("color", "vector") for n in (3, 4)},
 }
+COLOR_READER_PREFIXES = ("ND_UsdPrimvarReader_color", "ND_geompropvalue_color")  # their fallback is a colour
 TEXTURE_FALLBACK = (0.0, 0.0, 0.0, 1.0)  # UsdUVTexture's default fallback (RGBA)
 
 
@@ -1333,6 +1334,10 @@ class MaterialReader:
         name_input, fallback_input = COLOR_PRIMVAR_READERS[reader.GetShaderId()]
         varname = str(self._constant(reader, name_input) or "").strip()  # a token or a string, or an interface input's
         fallback = _rgb(self._constant(reader, fallback_input))
+        if fallback is not None and reader.GetShaderId().startswith(COLOR_READER_PREFIXES):
+            # A colour in the reader's nodedef: decoded from its colorSpace (an srgb_texture 0.5 was read as 0.5);
+            # a vector reader's (and UsdPrimvarReader_float3's, a float3 in Sdr) is data.
+            fallback = self._decoded_color(reader, fallback_input, fallback, material_path)
         fallback = np.zeros(3, np.float32) if fallback is None else fallback.astype(np.float32)
         if not varname:
             self.skip(f"material {material_path}: a primvar reader names no primvar; its fallback is the input's "
