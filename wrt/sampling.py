@@ -2,7 +2,8 @@
 
 Every function is a ``@wp.func`` and deterministic in its inputs, so a path draws the same numbers on ``cpu``
 and ``cuda``. Random numbers come from Warp's PCG generator (``wp.rand_init`` / ``wp.randf``); a path's state
-is seeded from ``(seed, pixel + sample * pixels)`` and carried between kernels in a ``uint32`` array.
+is seeded from the hashed ``(seed, sample)`` and then its pixel (``wrt.shade.path_rng``) and carried between kernels
+in a ``uint32`` array.
 
 Warps follow Pharr, Jakob and Humphreys, *Physically Based Rendering* (4th ed.), chapter A.5: cosine-weighted
 hemisphere via Shirley and Chiu's concentric disk mapping, uniform cones and spheres. The orthonormal basis is
