@@ -1079,7 +1079,6 @@ def test_light_colour_temperature_that_is_nan_is_skipped_with_a_warning(tmp_path
         (UsdLux.RectLight, "height", -2.0),
         (UsdLux.DiskLight, "radius", math.inf),
         (UsdLux.DistantLight, "angle", math.nan),
-        (UsdLux.DistantLight, "angle", -1.0),
         (UsdLux.CylinderLight, "length", math.inf),
         (UsdLux.CylinderLight, "radius", -0.5),
     ],

@@ -32,6 +32,7 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32 (1.2e-38)
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 POLE_AXES = ("scene", "Y", "Z")  # DomeLight_1's allowedTokens for poleAxis
+ANGLE_CLIP = 360.0  # a DistantLight's largest angle (UsdLux: 0 <= angle < 360), the whole sphere
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")
 
@@ -553,10 +554,10 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textur
         if not length > 0.0:
             skip("lights with a degenerate transform were skipped", prim)
             return None
-        found = sizes((d.GetAngleAttr(), "angle", 0.53))
-        if found is None:
+        angle = _distant_angle(get(d.GetAngleAttr(), 0.53), prim, skip)
+        if angle is None:
             return None
-        return DistantLight(direction=direction / length, color=color, path=path, angle=found[0], normalize=normalize)
+        return DistantLight(direction=direction / length, color=color, path=path, angle=angle, normalize=normalize)
     if prim.IsA(UsdLux.SphereLight):
         s = UsdLux.SphereLight(prim)
         found = sizes((s.GetRadiusAttr(), "radius", 0.5))
@@ -606,6 +607,27 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textur
         return _read_dome(prim, m, color, time, up_axis, skip, get, textures)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
+
+
+def _distant_angle(value, prim, skip) -> float | None:
+    """A DistantLight's ``inputs:angle`` clipped to ``[0, 360]`` degrees, or None (skipped with a warning) when it is
+    not a finite number. UsdLux's schema.usda says the angle "is assumed to be in the range 0 <= angle < 360, and
+    will be clipped to this range": a negative one is 0, a perfectly parallel (delta) light; one past 360 the whole
+    sphere. A negative angle was skipped, as a negative radius is, and its light lit nothing. Either clip is named."""
+    try:
+        angle = float(value)
+    except (TypeError, ValueError):  # authored with a wrong type
+        angle = math.nan
+    if not math.isfinite(angle):
+        skip("lights with a negative or non-finite size were skipped", prim, f"inputs:angle = {angle:g}")
+        return None
+    if 0.0 <= angle <= ANGLE_CLIP:
+        return angle
+    clipped = min(max(angle, 0.0), ANGLE_CLIP)
+    skip(f"DistantLight inputs:angle outside UsdLux's range 0 <= angle < {ANGLE_CLIP:g} was clipped to it, as the "
+         "schema says (a negative angle is 0: a perfectly parallel light)", prim,
+         f"inputs:angle = {angle:g}, read as {clipped:g}")
+    return clipped
 
 
 def _material_sync(prim, skip) -> str:
