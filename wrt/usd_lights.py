@@ -32,6 +32,7 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32 (1.2e-38)
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 POLE_AXES = ("scene", "Y", "Z")  # DomeLight_1's allowedTokens for poleAxis
+SHADER_ID = "light:shaderId"  # UsdLuxLightAPI's shader id; "<renderContext>:light:shaderId" for one renderer
 ANGLE_CLIP = 360.0  # a DistantLight's largest angle (UsdLux: 0 <= angle < 360), the whole sphere
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")
@@ -306,7 +307,9 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         skip("lights with values wrt cannot use were skipped", prim, str(e).removeprefix(f"{path}: "))
         return None
     if result is not None:
-        _read_links_and_filters(prim, light, result, skip)
+        authored = prim.GetAuthoredPropertyNames()
+        _read_links_and_filters(prim, light, result, skip, authored)
+        _warn_shader_ids(prim, skip, authored)
         result.shadows = shadows
         result.shadow_color, result.shadow_distance = shadow_color, shadow_distance
         result.shadow_falloff, result.shadow_falloff_gamma = falloff
@@ -471,13 +474,12 @@ def _multipliers(prim, light, skip, get):
     return values
 
 
-def _read_links_and_filters(prim, light, result, skip):
+def _read_links_and_filters(prim, light, result, skip, authored):
     """Gives ``result`` the light's ``collection:lightLink`` and ``collection:shadowLink`` (:mod:`wrt.light_links`);
     reports light filters, which wrt does not render (Karma and RenderMan honour them, so a stage that relies on
-    them rendered differently without a word)."""
+    them rendered differently without a word). ``authored``: the prim's authored property names."""
     # A collection with nothing authored is UsdLux's fallback, every prim (None): USD's membership query, asked for
     # both collections of every light, took a tenth of reading a plain one.
-    authored = prim.GetAuthoredPropertyNames()
     for name, api, kind in (("light_link", light.GetLightLinkCollectionAPI, "light linking"),
                             ("shadow_link", light.GetShadowLinkCollectionAPI, "shadow linking")):
         collection = api()
@@ -489,6 +491,28 @@ def _read_links_and_filters(prim, light, result, skip):
         found = prim.GetStage().GetPrimAtPath(target)
         kind = (found.GetTypeName() if found else "") or "missing prim"
         skip("light filters (light:filters) are not supported; these lights shine unfiltered", prim, str(kind))
+
+
+def _warn_shader_ids(prim, skip, authored):
+    """Names ``prim`` for each shader id it authors, ``light:shaderId`` or a render context's
+    ``<context>:light:shaderId`` (the ids ``UsdLux.LightAPI.GetShaderId`` hands a renderer), that is not the one of
+    the light wrt draws: its schema's fallback (``SphereLight`` ..., ``MeshLight`` with MeshLightAPI, ``DomeLight``
+    for DomeLight_1), its type's name, or ``MeshLight`` for a gprim. wrt runs no light shaders and renders the light
+    as its UsdLux type says: a light whose id names another shader was drawn so without a word."""
+    names = [name for name in authored if name == SHADER_ID or name.endswith(":" + SHADER_ID)]
+    if not names:
+        return
+    from pxr import UsdGeom
+
+    drawn = {"", str(prim.GetPrimDefinition().GetAttributeFallbackValue(SHADER_ID) or ""), prim.GetTypeName()}
+    if prim.IsA(UsdGeom.Gprim):
+        drawn.add("MeshLight")
+    for name in names:
+        shader_id = str(prim.GetAttribute(name).Get() or "")  # an empty one names none: the type's is drawn
+        if shader_id not in drawn:
+            skip("lights naming a shader (light:shaderId, or a render context's <context>:light:shaderId) other than "
+                 "their UsdLux type's are rendered as that type says: wrt runs no light shaders", prim,
+                 f"{name} = {shader_id}")
 
 
 def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float, tuple[float, float]]:
