@@ -41,6 +41,73 @@ def PointInstancer "Lamps"
         }
     }
 }
+def Scope "Guides"
+{
+    uniform token purpose = "guide"
+    def SphereLight "Loose"
+    {
+    }
+    def "Typeless"
+    {
+        def SphereLight "Deep"
+        {
+        }
+    }
+    def PointInstancer "Lanterns"
+    {
+        rel prototypes = </Protos/Lantern>
+        int[] protoIndices = [0]
+        point3f[] positions = [(0, 0, 0)]
+    }
+}
+def PointInstancer "Stands"
+{
+    rel prototypes = [</Protos/Stage>, </Protos/Lantern>]
+    int[] protoIndices = [0, 1]
+    point3f[] positions = [(0, 0, 0), (2, 0, 0)]
+}
+def Scope "Protos"
+{
+    token visibility = "invisible"
+    def SphereLight "Lantern"
+    {
+    }
+    def SphereLight "Stage"
+    {
+        uniform token purpose = "render"
+    }
+}
+def Xform "Kit"
+{
+    def SphereLight "Lamp"
+    {
+    }
+    def PointInstancer "Bulbs"
+    {
+        rel prototypes = </Kit/Bulbs/P/Bulb>
+        int[] protoIndices = [0]
+        point3f[] positions = [(0, 0, 0)]
+        def Scope "P"
+        {
+            def SphereLight "Bulb"
+            {
+            }
+        }
+    }
+}
+def Xform "GuideKit" (
+    instanceable = true
+    references = </Kit>
+)
+{
+    uniform token purpose = "guide"
+}
+def Xform "PlainKit" (
+    instanceable = true
+    references = </Kit>
+)
+{
+}
 def Scope "Render"
 {
     def RenderSettings "S"
@@ -51,31 +118,80 @@ def Scope "Render"
 """
 
 
-def load(tmp_path, included):
+def load(tmp_path, included, monkeypatch):
+    """``(stage, scene, warning lines about purpose, every light those lines name with its detail)``."""
     path = tmp_path / "lights.usda"
     path.write_text(STAGE.replace("INCLUDED", ", ".join(f'"{p}"' for p in included)))
+    recorded = []
+    record = wrt.usd_problems.ProblemReport._skip_path
+
+    def spy(self, reason, shown, detail=None):  # the warning lists three names: the records hold them all
+        if "purpose the render does not draw" in reason:
+            recorded.append((shown, detail))
+        return record(self, reason, shown, detail)
+
+    monkeypatch.setattr(wrt.usd_problems.ProblemReport, "_skip_path", spy)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = wrt.load_usd(path)
     named = [str(w.message) for w in caught if "purpose the render does not draw" in str(w.message)]
-    return path, scene, named
+    return Usd.Stage.Open(str(path)), scene, named, sorted(set(recorded))
 
 
-def test_lights_of_a_purpose_not_drawn_still_light_and_are_named(tmp_path):
-    path, scene, named = load(tmp_path, ["render"])
-    stage = Usd.Stage.Open(str(path))
-    drawn = ("default", "render")
-    hidden = sorted(str(p.GetPath()) for p in stage.Traverse()
-                    if p.GetTypeName().endswith("Light") and UsdGeom.Imageable(p).ComputePurpose() not in drawn)
-    assert hidden == ["/Guide", "/Lamps/Protos/Bulb", "/Proxies/Panel"]
+def is_light(p) -> bool:
+    return p.GetTypeName().endswith("Light")
+
+
+def undrawn_lights(stage, drawn) -> list:
+    """``(name, "purpose = ...")`` of every light whose purpose is not ``drawn``, from USD alone. A light walked in
+    place (instance proxies too, hidden ones left out) has ``ComputePurpose``'s. A light in a PointInstancer's
+    prototype, named ``path[k]`` per instance ``k``, has the purpose ``ComputePurposeInfo`` finds authored on it or
+    its ancestors (``isInheritable``), else the instancer's ``ComputePurpose``: an instance inherits the instancer's
+    purpose, as UsdImaging gives it (``instanceInheritablePurpose``)."""
+    found = []
+    it = iter(Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))
+    for p in it:
+        if p.IsA(UsdGeom.PointInstancer):
+            it.PruneChildren()
+            instancer = UsdGeom.PointInstancer(p)
+            indices = list(instancer.GetProtoIndicesAttr().Get())
+            for target_index, target in enumerate(instancer.GetPrototypesRel().GetTargets()):
+                for light in Usd.PrimRange(stage.GetPrimAtPath(target), Usd.TraverseInstanceProxies()):
+                    if not is_light(light):
+                        continue
+                    info = UsdGeom.Imageable(light).ComputePurposeInfo()
+                    purpose = info.purpose if info.isInheritable else UsdGeom.Imageable(p).ComputePurpose()
+                    if purpose not in drawn:
+                        found += [(f"{light.GetPath()}[{k}]", f"purpose = {purpose}")
+                                  for k, index in enumerate(indices) if index == target_index]
+        elif is_light(p) and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible:
+            purpose = UsdGeom.Imageable(p).ComputePurpose()
+            if purpose not in drawn:
+                found.append((str(p.GetPath()), f"purpose = {purpose}"))
+    return sorted(found)
+
+
+def test_lights_of_a_purpose_not_drawn_still_light_and_are_named(tmp_path, monkeypatch):
+    """Each light whose purpose is guide or proxy is named, and no other: a purpose inherited from an Xform, a
+    typeless prim or a Scope, through a native instance (an instance proxy; the PointInstancer in a guide instance's
+    prototype too: its instances were not named, USD's ComputePurpose of the prototype's prim inside the prototype
+    saying default) and from a PointInstancer whose prototype lies outside it (not named either)."""
+    stage, scene, named, recorded = load(tmp_path, ["render"], monkeypatch)
+    expected = undrawn_lights(stage, ("default", "render"))
+    assert [name for name, _ in expected] == sorted(
+        ["/Guide", "/Proxies/Panel", "/Lamps/Protos/Bulb[0]", "/Lamps/Protos/Bulb[1]", "/Guides/Loose",
+         "/Guides/Typeless/Deep", "/Protos/Lantern[0]", "/GuideKit/Lamp", "/GuideKit/Bulbs/P/Bulb[0]"])
+    assert recorded == expected
     # Every light lights, as before: purpose hides none.
-    assert sorted(light.path for light in scene.lights) == ["/Guide", "/Lamps/Protos/Bulb[0]", "/Lamps/Protos/Bulb[1]",
-                                                           "/Plain", "/Proxies/Panel"]
+    assert sorted(light.path for light in scene.lights) == sorted(
+        ["/Plain", "/Guide", "/Proxies/Panel", "/Lamps/Protos/Bulb[0]", "/Lamps/Protos/Bulb[1]", "/Guides/Loose",
+         "/Guides/Typeless/Deep", "/Protos/Lantern[0]", "/Protos/Stage[0]", "/Protos/Lantern[1]", "/Kit/Lamp",
+         "/Kit/Bulbs/P/Bulb[0]", "/GuideKit/Lamp", "/GuideKit/Bulbs/P/Bulb[0]", "/PlainKit/Lamp",
+         "/PlainKit/Bulbs/P/Bulb[0]"])
     (line,) = named
-    assert sorted(line.rsplit("): ", 1)[1].split(", ")) == hidden, line
-    assert re.search(r"purpose = guide: 2.*purpose = proxy: 1", line), line
+    assert re.search(r": 9 prim\(s\) \(purpose = guide: 8, purpose = proxy: 1\)", line), line
 
 
-def test_lights_of_a_purpose_the_render_settings_include_are_not_named(tmp_path):
-    _, scene, named = load(tmp_path, ["render", "guide", "proxy"])
-    assert len(scene.lights) == 5 and not named
+def test_lights_of_a_purpose_the_render_settings_include_are_not_named(tmp_path, monkeypatch):
+    _, scene, named, recorded = load(tmp_path, ["render", "guide", "proxy"], monkeypatch)
+    assert len(scene.lights) == 16 and not named and not recorded

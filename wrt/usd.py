@@ -117,7 +117,7 @@ from .usd_cameras import CameraReading
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, named, place_instances
 from .usd_draw_modes import stand_in_draw_mode
 from .usd_gprims import GprimReading
-from .usd_lights import LightTextures, read_light, warn_glowless_mesh_light
+from .usd_lights import UNRENDERED_PURPOSE, LightTextures, read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
 from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
@@ -517,19 +517,21 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         def place(proxy: Usd.Prim):
             m = self._to_space(proxy, ctx) if self._visible(proxy, ctx.stop) else None
             if m is not None:
-                self._name_unrendered_purpose(proxy)
-                ctx.content.placed_lights.append((proxy, m.T))
+                # Its purpose as the prototype's geometry takes it (named per instance once placed): its own or its
+                # ancestors' in the prototype, else the instancer's or the native instance's (ctx.outer_purpose). USD's
+                # ComputePurpose of the prim here says default under a guide instancer or a guide native instance.
+                ctx.content.placed_lights.append((proxy, m.T, self._purpose(proxy, ctx)))
 
         self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights", place)
 
     def _name_unrendered_purpose(self, light: Usd.Prim):
         """Names UsdLux ``light`` when its computed purpose is one the render does not draw (guide, proxy): it still
         lights, as Hydra's renderers light it (they give lights no purpose; OpenUSD issue 3059), though UsdGeom says
-        such a prim is not rendered: a guide lamp lit the image without a word."""
+        such a prim is not rendered: a guide lamp lit the image without a word. A light placed by a PointInstancer is
+        named per instance, by the purpose its prototype's geometry takes (:meth:`_read_placed_lights`)."""
         purpose = self.computed_purposes.purpose(light)
         if purpose not in self.purposes:
-            self._skip("UsdLux lights of a purpose the render does not draw light the scene all the same, as Hydra's "
-                       "renderers light them (UsdGeom would leave such a prim out)", light, f"purpose = {purpose}")
+            self._skip(UNRENDERED_PURPOSE, light, f"purpose = {purpose}")
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when

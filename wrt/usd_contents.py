@@ -67,9 +67,10 @@ class Content:
         self.uv_misses: list[tuple] = []
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise
-        # (light prim, (4, 4) column-vector transform to this space) of the UsdLux lights of a PointInstancer's
-        # prototype (those of native instances in it at their instance-proxy paths): one light per instance placed.
-        self.placed_lights: list[tuple[Usd.Prim, np.ndarray]] = []
+        # (light prim, (4, 4) column-vector transform to this space, purpose) of the UsdLux lights of a PointInstancer's
+        # prototype (those of native instances in it at their instance-proxy paths): one light per instance placed;
+        # the purpose is the one the prototype's geometry there takes (Visibility._purpose).
+        self.placed_lights: list[tuple[Usd.Prim, np.ndarray, str]] = []
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
         # (is a sphere, width axis (wrt.tubes.width_axis)) of the spheres or tube segments of a Points or curves prim:
         # instances of them stay round under any transform placed above (wrt.tubes.place_round).

@@ -33,6 +33,10 @@ FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32 (
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 POLE_AXES = ("scene", "Y", "Z")  # DomeLight_1's allowedTokens for poleAxis
 SHADER_ID = "light:shaderId"  # UsdLuxLightAPI's shader id; "<renderContext>:light:shaderId" for one renderer
+# UsdLux lights of a purpose not drawn (guide, proxy) light all the same, as Hydra's renderers light them (they give
+# lights no purpose; OpenUSD issue 3059), though UsdGeom says such a prim is not rendered: named in a warning.
+UNRENDERED_PURPOSE = ("UsdLux lights of a purpose the render does not draw light the scene all the same, as Hydra's "
+                      "renderers light them (UsdGeom would leave such a prim out)")
 ANGLE_CLIP = 360.0  # a DistantLight's largest angle (UsdLux: 0 <= angle < 360), the whole sphere
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")

@@ -11,7 +11,7 @@ from .instancing import group_rows
 from .light_links import part_path
 from .usd_contents import Content, Context, instance_looks, placed_indices, placements
 from .usd_instancer_primvars import InstancerPrimvarReading
-from .usd_lights import read_light, sphere_inputs
+from .usd_lights import UNRENDERED_PURPOSE, read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
 from .usd_problems import authored_type
 from .usd_values import held_value, spun_rotations, value_at
@@ -150,10 +150,13 @@ class PointInstancerReading(InstancerPrimvarReading):
             return  # walking every placement (64,000 nested instances: a second) to find no light
         found, sources = [], {}  # (world-level source, indices at each level, light); source -> stage order
         for placement in placements(world, self.contents):
-            for prim, to_space in placement.content.placed_lights:
+            for prim, to_space, purpose in placement.content.placed_lights:
                 path = part_path(str(prim.GetPath()), placement.content.path, placement.root)
                 indices = [placed_indices(placement.levels, row) for row in range(len(placement.to_world))]
                 names = [path + "".join(f"[{k}]" for k in found_at if k >= 0) for found_at in indices]
+                if purpose not in self.purposes:  # each instance named, as the world's lights are (wrt.usd)
+                    for name in names:
+                        self._skip_path(UNRENDERED_PURPOSE, name, f"purpose = {purpose}")
 
                 def read(to_world, skip, prim=prim):
                     return read_light(prim, self.xforms, self.time, self.scene.up_axis, skip, to_world=to_world,
