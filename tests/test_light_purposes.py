@@ -6,7 +6,7 @@ a warning, since UsdGeom says such a prim is not rendered. Which lights those ar
 import re
 import warnings
 
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, UsdLux
 
 import wrt
 
@@ -195,3 +195,65 @@ def test_lights_of_a_purpose_not_drawn_still_light_and_are_named(tmp_path, monke
 def test_lights_of_a_purpose_the_render_settings_include_are_not_named(tmp_path, monkeypatch):
     _, scene, named, recorded = load(tmp_path, ["render", "guide", "proxy"], monkeypatch)
     assert len(scene.lights) == 16 and not named and not recorded
+
+
+MESH_LIGHTS = """#usda 1.0
+def DistantLight "Sun"
+{
+}
+def Mesh "Lit" (
+    prepend apiSchemas = ["MeshLightAPI"]
+)
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]
+}
+def Xform "Guides"
+{
+    uniform token purpose = "guide"
+    def Mesh "Panel" (
+        prepend apiSchemas = ["MeshLightAPI"]
+    )
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+    }
+}
+def Sphere "Orb" (
+    prepend apiSchemas = ["LightAPI"]
+)
+{
+    uniform token purpose = "proxy"
+}
+def Sphere "Hidden" (
+    prepend apiSchemas = ["LightAPI"]
+)
+{
+    uniform token purpose = "guide"
+    token visibility = "invisible"
+}
+"""
+
+
+def test_mesh_lights_of_a_purpose_not_drawn_are_named_as_giving_no_light(tmp_path):
+    """A mesh light (MeshLightAPI, or LightAPI on a gprim) of guide or proxy purpose gives no light, its geometry not
+    drawn, where the other lights of that purpose light: it went dark without a word beside a sun. Named are exactly
+    the visible mesh lights whose ``ComputePurpose`` is not drawn."""
+    path = tmp_path / "mesh_lights.usda"
+    path.write_text(MESH_LIGHTS)
+    stage = Usd.Stage.Open(str(path))
+    expected = sorted(str(p.GetPath()) for p in stage.Traverse()
+                      if p.IsA(UsdGeom.Gprim) and p.HasAPI(UsdLux.LightAPI)
+                      and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible
+                      and UsdGeom.Imageable(p).ComputePurpose() not in ("default", "render"))
+    assert expected == ["/Guides/Panel", "/Orb"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    lines = [str(w.message) for w in caught if "mesh lights of a purpose the render does not draw" in str(w.message)]
+    assert len(lines) == 1, [str(w.message) for w in caught]
+    assert sorted(lines[0].rsplit("): ", 1)[1].split(", ")) == expected, lines[0]
+    assert "(purpose = guide: 1, purpose = proxy: 1)" in lines[0], lines[0]
+    assert sorted(light.path for light in scene.lights) == ["/Lit", "/Sun"]

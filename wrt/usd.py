@@ -453,6 +453,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         elif prim.IsA(UsdGeom.Gprim):
             if self._rendered(prim, ctx):
                 self._read_geometry(prim, ctx)
+            elif _is_mesh_light(prim) and self._visible(prim, ctx.stop):
+                self._name_undrawn_mesh_light(prim, ctx)
         elif prim.IsA(UsdProc.GenerativeProcedural):
             # Hydra's procedural plugins (hdGp) make its geometry in usdview and Karma; wrt has none to run.
             if self._rendered(prim, ctx):
@@ -532,6 +534,15 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         purpose = self.computed_purposes.purpose(light)
         if purpose not in self.purposes:
             self._skip(UNRENDERED_PURPOSE, light, f"purpose = {purpose}")
+
+    def _name_undrawn_mesh_light(self, prim: Usd.Prim, ctx: Context):
+        """Names visible mesh light ``prim`` (MeshLightAPI, or LightAPI on a gprim) when its purpose is one the render
+        does not draw: its geometry is left out, so it gives no light, where the other UsdLux lights of that purpose
+        light all the same (:meth:`_name_unrendered_purpose`); a guide light panel went dark without a word."""
+        purpose = self._purpose(prim, ctx)
+        if purpose not in self.purposes:
+            self._skip("mesh lights of a purpose the render does not draw give no light (their geometry is not "
+                       "drawn), unlike the other UsdLux lights of that purpose", prim, f"purpose = {purpose}")
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when
