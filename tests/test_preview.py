@@ -593,7 +593,7 @@ def test_to_pyvista_blocks_own_their_arrays(tmp_path):
 
 def test_preview_draws_points_as_spheres_and_says_when_shapes_are_left_out(tmp_path, monkeypatch):
     """A Points prim is drawn as its spheres (instances of a unit sphere); past the shape budget the title says how
-    many of them are shown (they were cut to the budget without a word)."""
+    many of them are shown (they were cut to the budget without a word), spread over the row: the two at its ends."""
     path = tmp_path / "points.usda"
     path.write_text('#usda 1.0\ndef Points "P"\n{\n    point3f[] points = [(0, 0, 0), (2, 0, 0), (4, 0, 0)]\n'
                     '    float[] widths = [1] (interpolation = "constant")\n}\n')
@@ -603,7 +603,7 @@ def test_preview_draws_points_as_spheres_and_says_when_shapes_are_left_out(tmp_p
     try:
         assert "showing 2 of 3 analytic shapes" in plotter.title
         mesh = plotter.actors["shapes"].mapper.dataset
-        np.testing.assert_allclose(mesh.bounds, [-0.5, 2.5, -0.5, 0.5, -0.5, 0.5], atol=1e-6)
+        np.testing.assert_allclose(mesh.bounds, [-0.5, 4.5, -0.5, 0.5, -0.5, 0.5], atol=1e-6)
     finally:
         plotter.close()
 
@@ -1555,7 +1555,7 @@ def test_light_summary_counts_what_is_not_drawn_and_what_is_left_out():
 
     balls = [SphereLight(np.array([float(k), 0.0, 0.0]), 0.25, np.ones(3)) for k in range(5)]
     mesh, note = light_glyphs([MeshLight("/M", np.ones(3))] + balls, np.zeros(3), np.ones(3), max_lights=3)
-    assert sorted(set(mesh.cell_data["light"])) == [1, 2, 3]  # indices in the list given
+    assert sorted(set(mesh.cell_data["light"])) == [1, 3, 5]  # indices in the list given: the row's ends and middle
     assert note == "6 lights: 3 drawn, 2 left out, 1 mesh light drawn as its mesh", note
     assert light_glyphs([MeshLight("/M", np.ones(3))], np.zeros(3), np.ones(3)) == (
         None, "1 light: 1 mesh light drawn as its mesh")

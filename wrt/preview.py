@@ -36,11 +36,14 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
 - Scenes above ``max_triangles`` are simplified for display by vertex clustering (Rossignac and Borrel,
   "Multi-resolution 3D approximations for rendering complex scenes", 1993); analytic shapes (at most
   ``SHAPE_BUDGET``) get coarser circles, down to ``MIN_SHAPE_SEGMENTS`` segments, to stay within it too. The window
-  title says so.
+  title says so. Shapes past ``SHAPE_BUDGET`` and instances past ``EXPAND_FACTOR`` times the budget are cut to an
+  even subset spread over the scene (:mod:`wrt.preview_subsets`), not to the first ones, and the title says how
+  many of how many are drawn.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import subprocess
@@ -60,6 +63,7 @@ from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
 from .preview_lights import light_glyphs
+from .preview_subsets import even_rows, rows_within, spread_rows
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
@@ -67,7 +71,7 @@ from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_
 from .wording import counted
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
-EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only the instances within the budget
+EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only instances within the budget, spread
 INSTANCE_BLOCK_BUDGET = 10_000  # most instance blocks to_pyvista makes: each costs about a millisecond of pyvista
 # bookkeeping, so the 2M one-triangle instances the triangle budget lets in took over half an hour
 SHAPE_SEGMENTS = 24  # analytic shapes are drawn tessellated with this many segments per circle
@@ -276,8 +280,6 @@ def _instances_within(scene: Scene, max_triangles: int) -> int:
 
 def _first_instances(scene: Scene, n: int) -> Scene:
     """``scene`` with only its first ``n`` instances (for drawing)."""
-    import dataclasses
-
     return dataclasses.replace(scene, instances=scene.instances.take(slice(0, n)))
 
 
@@ -524,7 +526,7 @@ def bvh_boxes(bvh: FlatBvh, nodes, color: str = "depth", max_boxes: int = BOX_BU
         values = depths[nodes].astype(np.float64)
         name = "depth"
     if total > max_boxes:
-        pick = np.round(np.linspace(0, total - 1, max_boxes)).astype(np.int64)
+        pick = even_rows(total, max_boxes)
         nodes, values = nodes[pick], values[pick]
     # Corner c of a box has coordinate bits (x, y, z) = (c & 1, c & 2, c & 4); edges join corners one bit apart.
     # Each coordinate is the tree's own bound (lo + bit * (hi - lo) rounded hi off by an ulp in float32).
@@ -808,10 +810,13 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     """
     note = ""
     if len(scene.instances) and scene.stats()["rendered_triangles"] > EXPAND_FACTOR * max_triangles:
-        # Too many to flatten for display: the instances that fit in the budget.
-        shown = _instances_within(scene, max_triangles)
-        note = f"showing {shown:,} of {len(scene.instances):,} instances"
-        scene = _first_instances(scene, shown)
+        # Too many to flatten for display: those that fit in the budget, spread over the scene (the first ones filled
+        # one corner of a PointInstancer written row by row).
+        offsets = scene.instance_offsets()
+        rows = rows_within(scene.instances.to_world[:, :3, 3], np.diff(offsets), int(offsets[0]), max_triangles)
+        note = f"showing {len(rows):,} of {len(scene.instances):,} instances"
+        note += ", spread evenly" if 0 < len(rows) < len(scene.instances) else ""
+        scene = dataclasses.replace(scene, instances=scene.instances.take(rows))
     points, indices = world_triangles(scene)
     sided = _expand_rows(scene, scene.triangle_double_sided().astype(np.uint8))
     attributes = np.column_stack([triangle_colors(scene), sided])
@@ -825,8 +830,9 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     if shapes is not None:
         _add_sided(pv, plotter, shapes.points, shapes.regular_faces, shapes.cell_data["color"],
                    shapes.cell_data["double_sided"], "shapes")
-        total = scene.stats()["rendered_shapes"]  # a Points prim of a million spheres was cut to the budget unsaid
-        cut = f"showing {SHAPE_BUDGET:,} of {total:,} analytic shapes" if total > SHAPE_BUDGET else ""
+        # A Points prim of a million spheres was cut to the budget unsaid.
+        drawn, total = int(shapes.field_data["shapes_drawn"][0]), int(shapes.field_data["shapes_total"][0])
+        cut = f"showing {drawn:,} of {total:,} analytic shapes, spread evenly" if drawn < total else ""
         segments = int(shapes.field_data["segments"][0])
         if segments < SHAPE_SEGMENTS:
             cut = f"{cut or 'analytic shapes'} with {segments} segments per circle"
@@ -849,25 +855,49 @@ def _add_sided(pv, plotter, points, indices, colors, double_sided, label: str) -
 def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET,
                  max_triangles: int | None = None):
     """The scene's analytic shapes (non-instanced, then each instance's) tessellated for display as one
-    ``pyvista.PolyData``, or None without shapes; at most ``max_shapes`` are drawn, with ``segments`` per circle, or
+    ``pyvista.PolyData``, or None without shapes; at most ``max_shapes`` are drawn (above that, an even subset spread
+    over the scene: :func:`wrt.preview_subsets.spread_rows` of their centres), with ``segments`` per circle, or
     fewer (down to ``MIN_SHAPE_SEGMENTS``) where that makes more than ``max_triangles`` triangles. Cell arrays:
     ``"color"`` uint8 sRGB (see :func:`display_colors`) and ``"double_sided"`` uint8, the shape's ``doubleSided``;
-    ``field_data["segments"]`` holds the segments used."""
+    ``field_data["segments"]`` holds the segments used, ``field_data["shapes_drawn"]`` and ``["shapes_total"]`` how
+    many of how many shapes are drawn."""
     from .primitives import tessellate
 
     none = np.full(3, np.nan, np.float32)
-    placed = [(s, np.eye(4), none) for s in getattr(scene, "shapes", [])]  # (shape, to_world, instance colour)
+    own_shapes = list(getattr(scene, "shapes", []))
     instances = getattr(scene, "instances", ())
     tints = getattr(instances, "colors", ())
-    with_shapes = np.array([len(getattr(p, "shapes", [])) > 0 for p in scene.prototypes] or [False])
-    for i in np.flatnonzero(with_shapes[instances.prototype]) if len(instances) else []:  # not a step per instance
-        tint = tints[i] if len(tints) else none
-        placed += [(s, instances.to_world[i], tint) for s in scene.prototypes[instances.prototype[i]].shapes]
-        if len(placed) >= max_shapes:
-            break
-    if not placed:
+    prototypes = getattr(scene, "prototypes", [])
+    # Every (instance, shape of its prototype) pair, in instance order, as index arrays: no Python step per instance.
+    per_prototype = np.array([len(getattr(p, "shapes", [])) for p in prototypes] or [0], np.int64)
+    owners = np.flatnonzero(per_prototype[instances.prototype] > 0) if len(instances) else np.zeros(0, np.int64)
+    counts = per_prototype[instances.prototype[owners]] if len(owners) else np.zeros(0, np.int64)
+    pair_instance = np.repeat(owners, counts)
+    pair_shape = np.arange(len(pair_instance)) - np.repeat(np.cumsum(counts) - counts, counts)
+    total = len(own_shapes) + len(pair_instance)
+    if not total:
         return None
-    placed = placed[:max_shapes]
+    picked = np.arange(total)
+    if total > max_shapes:
+        # The first max_shapes filled one corner of a Points prim written row by row: an even subset over the scene.
+        centres = [np.array([s.to_world[:3, 3] for s in own_shapes]).reshape(-1, 3)]
+        if len(pair_instance):
+            local = [np.array([s.to_world[:3, 3] for s in getattr(p, "shapes", [])]).reshape(-1, 3)
+                     for p in prototypes]
+            offsets = np.concatenate([[0], np.cumsum(per_prototype)])[:len(prototypes)]
+            table = np.concatenate(local).astype(np.float64)
+            where = table[offsets[instances.prototype[pair_instance]] + pair_shape]
+            m = instances.to_world[pair_instance]
+            centres.append(np.einsum("nij,nj->ni", m[:, :3, :3], where) + m[:, :3, 3])
+        picked = spread_rows(np.concatenate(centres), max_shapes)
+    placed = []  # (shape, to_world, instance colour)
+    for r in picked:
+        if r < len(own_shapes):
+            placed.append((own_shapes[r], np.eye(4), none))
+        else:
+            i, j = pair_instance[r - len(own_shapes)], pair_shape[r - len(own_shapes)]
+            tint = tints[i] if len(tints) else none
+            placed.append((prototypes[instances.prototype[i]].shapes[j], instances.to_world[i], tint))
     own = np.array([none if s.color is None else s.color for s, _, _ in placed], np.float32)
     ids = np.array([getattr(s, "material_id", -1) for s, _, _ in placed], np.int64)
     colors = to_srgb8(display_colors(own, ids, np.array([t for _, _, t in placed]), scene.materials or []))
@@ -911,6 +941,8 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     mesh.cell_data["color"] = colors[cells]
     mesh.cell_data["double_sided"] = np.array([s.double_sided for s, _, _ in placed], np.uint8)[cells]
     mesh.field_data["segments"] = [segments]
+    mesh.field_data["shapes_drawn"] = [len(placed)]
+    mesh.field_data["shapes_total"] = [total]
     return mesh
 
 

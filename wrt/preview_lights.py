@@ -20,6 +20,7 @@ import numpy as np
 
 from .light_table import _emitting_normal
 from .lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight, light_axes, round_tube
+from .preview_subsets import even_rows
 from .scene import DistantLight
 from .tubes import perpendicular_frames
 from .wording import counted
@@ -95,16 +96,17 @@ def _outline(light, focus, diagonal: float, segments: int) -> list[tuple[np.ndar
 def light_glyphs(lights, lower, upper, segments: int = LIGHT_SEGMENTS, max_lights: int = LIGHT_BUDGET):
     """The outlines of ``lights`` (``Scene.lights``) as one ``pyvista.PolyData`` of lines, or None where none is
     drawn, and a note for the summary (``""`` without lights). Cell array ``"light"``: the index in ``lights`` of the
-    light each line draws. The first ``max_lights`` lights that are drawn (domes and mesh lights are not) are; the
-    note counts the others. ``lower``, ``upper``: the scene's bounds, which size the glyphs of point and distant
-    lights and place the latter's arrows."""
+    light each line draws. At most ``max_lights`` of the lights that are drawn (domes and mesh lights are not) are,
+    an even stride through them (the first ones were the lamps of one corner of a big grid of them); the note counts
+    the others. ``lower``, ``upper``: the scene's bounds, which size the glyphs of point and distant lights and place
+    the latter's arrows."""
     lower, upper = np.asarray(lower, np.float64), np.asarray(upper, np.float64)
     focus = 0.5 * (lower + upper)
     diagonal = float(np.linalg.norm(upper - lower))
     diagonal = diagonal if diagonal > 0.0 else 1.0
     points, cells, owners, base = [], [], [], 0
     drawable = [k for k, light in enumerate(lights) if not isinstance(light, (DomeLight, MeshLight))]
-    for k in drawable[:max_lights]:
+    for k in np.asarray(drawable, np.int64)[even_rows(len(drawable), max_lights)]:
         light = lights[k]
         for line, closed in _outline(light, focus, diagonal, segments):
             ids = base + np.arange(len(line))
