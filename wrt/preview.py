@@ -82,6 +82,10 @@ CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the tr
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
 MAX_RAYS = 1_000_000  # most sample rays: each is a drawn line (3e5 take 2 s to draw; 1e8 would need GBs)
 BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
+BAR_WIDTH = 0.6  # colour bar length, a fraction of the window's width (pyvista's default)
+BAR_FONT_SIZES = (18, 16, 14, 12, 10)  # colour bar label sizes tried, pixels (18 is pyvista's default)
+BAR_CHARACTER_EM = 0.6  # width of a label character in ems: Arial's digits and 'e' are 0.556, '.' and '-' less
+BAR_LABEL_GAP = 0.25  # least space between two colour bar labels, a fraction of a label's width
 MAX_WINDOW = 16384  # largest window side, pixels: OpenGL's usual framebuffer limit (Mesa's); beyond it VTK draws
 # nothing or aborts allocating the picture
 TEXT_PIXELS_PER_CHARACTER = 3  # summary lines are wrapped to the window's width over this many pixels a character
@@ -752,7 +756,7 @@ def preview(
     lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
     if bvh_depth is not None or bvh_leaves:
         accel = get_accelerator(scene, "wrt", builder, device)
-        summary, capped = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes)
+        summary, capped = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes, window_size[0])
         if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
             title += f", {capped}"
         if hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
@@ -970,9 +974,10 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     plotter.add_mesh(dot, color=FRUSTUM_COLOR, name="eye")
 
 
-def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[str, str]:
-    """Draws the BVH cut at ``depth`` (every leaf when ``None``); returns a summary for the text and a note for the
-    title when only a subset of the boxes is drawn (else ``""``)."""
+def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_width: int = 1280) -> tuple[str, str]:
+    """Draws the BVH cut at ``depth`` (every leaf when ``None``), its colour bar fitted to a window ``window_width``
+    pixels wide; returns a summary for the text and a note for the title when only a subset of the boxes is drawn
+    (else ``""``)."""
     from matplotlib.colors import LinearSegmentedColormap
 
     nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
@@ -985,12 +990,17 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[
         if color == "depth":
             levels = int(high - low) + 1
             clim = [low, high] if levels > 1 else [low - 0.5, low + 0.5]
-            bar = {"title": "BVH node depth", "fmt": "%.0f", "n_labels": levels if levels <= 8 else 5}
+            # Fewer labels only where they still fall on whole depths: (levels - 1) steps split evenly.
+            # One level draws no bar (show_scalar_bar below), and is given two labels all the same.
+            counts = [k for k in range(min(levels, 8), 1, -1) if (levels - 1) % (k - 1) == 0] if levels <= 8 \
+                else [5, 3, 2]
+            counts = counts or [2]
+            bar = fit_scalar_bar("BVH node depth", ["%.0f"], clim, counts, window_width)
             cmap = LinearSegmentedColormap.from_list("wrt_depth", DEPTH_COLORS)
             style = {"cmap": cmap, "n_colors": levels, "show_scalar_bar": levels > 1}
         else:
             clim = [low, high] if high > low else [0.5 * low, 2.0 * low]
-            bar = {"title": "SAH cost share", "fmt": "%.1e"}
+            bar = fit_scalar_bar("SAH cost share", ["%.1e", "%.0e"], clim, [5, 4, 3, 2], window_width)
             style = {"cmap": LinearSegmentedColormap.from_list("wrt_sah", SAH_COLORS), "log_scale": clim[0] > 0}
         plotter.add_mesh(boxes, scalars=scalars, clim=clim, line_width=2, scalar_bar_args=bar, name="bvh", **style)
     levels = int(bvh.depths().max(initial=0))
@@ -1002,6 +1012,26 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[
     count = counted(len(nodes), "box", "boxes") if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
     capped = f"showing {shown:,} of {len(nodes):,} BVH boxes" if shown < len(nodes) else ""
     return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}", capped
+
+
+def fit_scalar_bar(title: str, formats: list[str], clim, counts: list[int], window_width: int) -> dict:
+    """``scalar_bar_args`` for a horizontal colour bar, centred, whose labels fit a window ``window_width`` pixels
+    wide: neither overlapping each other nor running past the window's sides. pyvista's bar, five ``%.1e`` labels at
+    18 pixels on 60 % of the width from 35 %, ran them together below about 640 pixels and off the right side below
+    500. Tried in order: the earlier of ``formats``, at least three labels, the larger font (``BAR_FONT_SIZES``),
+    more of ``counts`` labels; where none fits (a thumbnail), the last of these."""
+    left = 0.5 * (1.0 - BAR_WIDTH)  # the end labels stick out half their width on either side
+    bar_pixels, margin = BAR_WIDTH * window_width, left * window_width
+
+    def fits(fmt: str, font: int, n: int) -> bool:
+        label = max(len(fmt % v) for v in clim) * font * BAR_CHARACTER_EM
+        return label * (1.0 + BAR_LABEL_GAP) <= bar_pixels / (n - 1) and label / 2 + 2 <= margin
+
+    candidates = sorted(((f, font, n) for f in formats for font in BAR_FONT_SIZES for n in counts),
+                        key=lambda c: (formats.index(c[0]), c[2] < 3, -c[1], -c[2]))
+    fmt, font, n = next((c for c in candidates if fits(*c)), candidates[-1])
+    return {"title": title, "fmt": fmt, "n_labels": n, "label_font_size": font, "title_font_size": font,
+            "width": BAR_WIDTH, "position_x": left}
 
 
 def _add_rays(pv, plotter, origins, directions, t, t_mins, t_maxs, depth_rates, far: float) -> str:
