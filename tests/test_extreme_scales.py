@@ -461,6 +461,38 @@ def test_a_camera_too_far_from_the_scene_for_float32_depths_is_named_in_a_warnin
             assert len(said) == 1 and "float32" in said[0], said
 
 
+def scene_too_far_warnings(card_at, eye, focal_length: float) -> list[str]:
+    """The far-view warnings of a 2x2 card centred at ``card_at`` (in z = ``card_at[2]``), seen down -z from ``eye``
+    through a square film 20 wide at ``focal_length``."""
+    corners = np.float64([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]) + card_at
+    card = wrt.Mesh("/card", corners.astype(np.float32), [[0, 1, 2], [0, 2, 3]], [0, 0], double_sided=True)
+    to_world = np.eye(4)
+    to_world[:3, 3] = eye
+    cam = wrt.Camera(to_world=to_world, focal_length=focal_length, horizontal_aperture=20.0, vertical_aperture=20.0,
+                     clipping_range=(1.0, 1e9), path="/Cam")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.Renderer(wrt.Scene(meshes=[card]), camera=cam, width=8, height=8, device="cpu", integrator="normals")
+    return [str(w.message) for w in caught if "float32 resolves distances" in str(w.message)]
+
+
+def test_the_scene_too_far_warning_says_whether_the_camera_or_the_scene_is_far():
+    """float32 loses depth order where the eye is far from the origin or the hit far from the eye. A card 1e7 from
+    the origin seen from 5 units (its film 2 units wide there) was warned of as '/Cam is so far from the scene (5
+    units ...)': the camera blamed for the scene's place. The warning now says the scene lies far from the origin
+    there, and still says the camera is far from a card at the origin seen from 1e8 (the distances are numpy's)."""
+    card_at, eye = np.array([1e7, 0.0, 0.0]), np.array([1e7, 0.0, 5.0])
+    said = scene_too_far_warnings(card_at, eye, 50.0)
+    assert len(said) == 1, said
+    assert f"the scene lies so far from the world origin ({np.linalg.norm(card_at):.3g} units" in said[0], said
+    assert f"/Cam {np.linalg.norm(eye - card_at):.3g} units from it" in said[0] and "is so far from" not in said[0]
+    eye = np.array([0.0, 0.0, 1e8])
+    said = scene_too_far_warnings(np.zeros(3), eye, 1e9)
+    assert len(said) == 1, said
+    assert f"/Cam is so far from the scene ({np.linalg.norm(eye):.3g} units" in said[0], said
+    assert "world origin" not in said[0], said
+
+
 def test_an_animated_far_camera_is_warned_of_once_per_renderer():
     """A camera flying at 1e8 from a unit sphere (its view 0.2 units wide there), given anew by ``set_cameras`` each
     frame: each far-view warning (the scene too far for float32 depths, the shape too far for its hit points) is

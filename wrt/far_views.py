@@ -3,12 +3,14 @@
 Rays are traced in float32, which resolves a distance along a ray only to about ``2^-23`` of the ray's reach (the
 eye's distance from the origin plus the hit's from the eye). A camera 1e8 from a scene four units across, through a
 lens that frames it, resolves depths to 8 units: a card 0.5 in front of a floor was drawn behind it, and a small
-light vanished (:func:`warn_scene_too_far`). An analytic shape's hit is found and shaded in its own space, but
-from a ray whose float32 origin and ``t`` carry that error (``wrt.shade.shape_frame`` sums the point relative to the
-shape, so the shape's own distance from the origin adds none): where it is a good share of the shape's size its
-normal is wrong and a single-sided shape's hits are culled as back faces, so a unit sphere seen from 1e8 vanished
-(:func:`warn_shapes_too_far`). Either matters only where what is lost covers a pixel or more, which, from that far,
-takes a very long lens: a usual camera sees such a scene as a dot, correctly. Both went without a word before.
+light vanished (:func:`warn_scene_too_far`); so, through the eye's own distance from the origin, does a camera
+beside a scene 1e7 from the origin, and there the warning names the scene's place, not the camera, as the cause. An
+analytic shape's hit is found and shaded in its own space, but from a ray whose float32 origin and ``t`` carry that
+error (``wrt.shade.shape_frame`` sums the point relative to the shape, so the shape's own distance from the origin
+adds none): where it is a good share of the shape's size its normal is wrong and a single-sided shape's hits are
+culled as back faces, so a unit sphere seen from 1e8 vanished (:func:`warn_shapes_too_far`). Either matters only
+where what is lost covers a pixel or more, which, from that far, takes a very long lens: a usual camera sees such a
+scene as a dot, correctly. Both went without a word before.
 
 A Renderer says each warning once (``shown``), not once per camera upload, which an animated far camera given by
 ``set_cameras`` makes every frame (its distance in the words changing with it): the scene's once for each camera, and
@@ -78,7 +80,9 @@ def hit_error(cam: Camera, points: np.ndarray) -> np.ndarray:
 def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set, name: str) -> None:
     """Warns naming ``cam`` (as ``name``) where its rays resolve distances at the scene to worse than
     :data:`ERROR_SHARE` of the scene's size while the scene covers a pixel or more (see the module docstring); not
-    where ``shown`` holds the warning of a camera of that name already (each one given is added to it)."""
+    where ``shown`` holds the warning of a camera of that name already (each one given is added to it). The warning
+    says what is far: the camera from the scene, or (the camera nearer it than the origin is) the scene from the
+    world origin."""
     key = ("scene too far", name)
     if key in shown:
         return
@@ -92,11 +96,21 @@ def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set, 
     if lost:
         shown.add(key)
         distance = float(np.linalg.norm(centre[0] - cam.to_world[:3, 3]))
-        warnings.warn(f"{scene.source or 'scene'}: {name} is so far from the scene ({distance:.3g} units; it "
-                      f"is {diagonal:.3g} across) that float32 resolves distances along its rays only to about "
-                      f"{error:.2g} units: surfaces nearer each other than that are drawn in the wrong order, and "
-                      "small lights and shapes vanish (move the camera nearer, with a wider lens)",
-                      stacklevel=user_stacklevel())
+        offset = float(np.linalg.norm(centre[0]))  # the scene's distance from the world origin
+        source = scene.source or "scene"
+        lost_words = (f"float32 resolves distances along its rays only to about {error:.2g} units: surfaces nearer "
+                      "each other than that are drawn in the wrong order, and small lights and shapes vanish")
+        # The error grows with the eye's distance from the origin plus the hit's from the eye: with the camera beside
+        # a scene far from the origin the first term is the scene's place, which the warning blamed on the camera.
+        if distance >= offset:
+            message = (f"{source}: {name} is so far from the scene ({distance:.3g} units; it is {diagonal:.3g} "
+                       f"across) that {lost_words} (move the camera nearer, with a wider lens)")
+        else:
+            message = (f"{source}: the scene lies so far from the world origin ({offset:.3g} units; it is "
+                       f"{diagonal:.3g} across, {name} {distance:.3g} units from it) that, seen by {name}, "
+                       f"{lost_words} (move the scene and camera nearer the origin, e.g. by a transform on the "
+                       "stage's root)")
+        warnings.warn(message, stacklevel=user_stacklevel())
 
 
 def _smallest_scale(linear: np.ndarray) -> np.ndarray:
