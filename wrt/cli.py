@@ -1086,6 +1086,11 @@ def _window_size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def _instance_choice(text: str) -> int | str:
+    """``--bvh-instance``: an instance index (digits), else an instance path."""
+    return int(text) if text.strip().isdigit() else _non_empty(text)
+
+
 def _add_preview(sub) -> None:
     from .bvh.build import Builder
     from .preview import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
@@ -1116,6 +1121,10 @@ def _add_preview(sub) -> None:
     )
     bvh.add_argument("--bvh-leaves", action="store_true", help="draw every BVH leaf")
     p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")
+    p.add_argument("--bvh-instance", type=_instance_choice, metavar="I", help="with --bvh-depth or --bvh-leaves, "
+                   "draw the boxes of this instance's own BVH (its prototype's BLAS, placed by the instance's "
+                   "transform) instead of the top-level BVH's: its index, or its path (/Instancer[3] for a "
+                   "PointInstancer's)")
     p.add_argument(
         "--rays",
         type=int_at_least(0, f"an integer from 0 to {MAX_RAYS:,}", MAX_RAYS),  # checked before the scene loads
@@ -1187,6 +1196,9 @@ def _run_preview(args) -> int:
     from .trace import resolve_threads
 
     resolve_threads(None, resolve_device_option(args.device))  # before the load, as the output; $WRT_THREADS too
+    if args.bvh_instance is not None and args.bvh_depth is None and not args.bvh_leaves:  # before the load
+        raise ValueError(f"--bvh-instance {args.bvh_instance} draws an instance's BVH boxes: give --bvh-depth K or "
+                         "--bvh-leaves too")
     if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)
@@ -1218,6 +1230,7 @@ def _run_preview(args) -> int:
             window_size=args.window,
             max_triangles=args.max_triangles,
             off_screen=output is not None,
+            bvh_instance=args.bvh_instance,
         )
     except PreviewUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)

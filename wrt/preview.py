@@ -62,6 +62,7 @@ from .far_views import shown_across_renderers
 from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
+from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
 from .render import Renderer, render, resolve_view
@@ -641,6 +642,7 @@ def preview(
     off_screen: bool | None = None,
     show_text: bool = True,
     show_lights: bool = True,
+    bvh_instance: int | str | None = None,
 ):
     """A ``pyvista.Plotter`` showing the scene, the camera frustum with its near clipping plane, the scene's lights
     and, on request, BVH boxes, rays and the image.
@@ -671,6 +673,9 @@ def preview(
             ``False`` (a window) without a display raises :class:`PreviewUnavailable`.
         show_text: write a summary in the top-left corner of the view.
         show_lights: draw the outlines of the scene's lights (see :mod:`wrt.preview_lights`).
+        bvh_instance: with ``bvh_depth`` or ``bvh_leaves``, draw the boxes of this instance's own BVH (its
+            prototype's BLAS, placed by its transform; :mod:`wrt.preview_blas`) instead of the TLAS: its index in
+            ``scene.instances`` or its path (``/instancer[index]`` for a PointInstancer's).
 
     Raises:
         PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
@@ -691,6 +696,9 @@ def preview(
                                  "with .screenshot('preview.png'), as wrt preview does, or run under xvfb-run")
     if bvh_depth is not None and bvh_leaves:
         raise ValueError("give bvh_depth or bvh_leaves, not both")
+    if bvh_instance is not None and bvh_depth is None and not bvh_leaves:
+        raise ValueError(f"bvh_instance={bvh_instance!r} draws an instance's BVH boxes: give bvh_depth or bvh_leaves "
+                         "too")
     if bvh_depth is not None and (
         isinstance(bvh_depth, bool) or not isinstance(bvh_depth, (int, np.integer)) or bvh_depth < 0
     ):
@@ -710,6 +718,7 @@ def preview(
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
     device = resolve_device(device)
     scene = _as_scene(scene)
+    instance = None if bvh_instance is None else instance_row(scene, bvh_instance)  # refused before any work
     stats = scene.stats()
     if not stats["rendered_triangles"] and not stats.get("rendered_shapes", 0):  # an empty view, else unexplained
         alone = "the camera and the lights" if scene.lights and show_lights else "the camera"
@@ -756,10 +765,15 @@ def preview(
     lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
     if bvh_depth is not None or bvh_leaves:
         accel = get_accelerator(scene, "wrt", builder, device)
-        summary, capped = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes, window_size[0])
+        bvh, to_world = (accel.bvh, None) if instance is None else instance_blas(accel, scene, instance)
+        summary, capped = _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes, window_size[0], to_world)
         if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
             title += f", {capped}"
-        if hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
+        if instance is not None:
+            prototype = scene.prototypes[scene.instances.prototype[instance]].path
+            lines.append(f"BLAS ({builder}) of instance {scene.instances.path(instance)} (prototype {prototype}, "
+                         f"placed by the instance's transform) {summary}")
+        elif hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
             # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than drawn.
             entries = counted(accel.num_entries, "entry", "entries")
             lines.append(f"TLAS ({builder}) {summary} ({entries}: an instance or shape each, one for the other "
@@ -974,15 +988,19 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     plotter.add_mesh(dot, color=FRUSTUM_COLOR, name="eye")
 
 
-def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_width: int = 1280) -> tuple[str, str]:
+def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_width: int = 1280,
+             to_world=None) -> tuple[str, str]:
     """Draws the BVH cut at ``depth`` (every leaf when ``None``), its colour bar fitted to a window ``window_width``
-    pixels wide; returns a summary for the text and a note for the title when only a subset of the boxes is drawn
-    (else ``""``)."""
+    pixels wide, its boxes' corners moved by ``to_world`` (``(4, 4)``, from the tree's space: an instance's BLAS);
+    returns a summary for the text and a note for the title when only a subset of the boxes is drawn (else ``""``)."""
     from matplotlib.colors import LinearSegmentedColormap
 
     nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
     boxes = bvh_boxes(bvh, nodes, color, max_boxes)
     shown = boxes.n_cells // 12
+    if to_world is not None and shown:  # float64, as an instance's triangles are drawn (world_triangles)
+        m = np.asarray(to_world, np.float64)
+        boxes.points = np.asarray(boxes.points, np.float64) @ m[:3, :3].T + m[:3, 3]
     if shown:
         scalars = "sah_share" if color == "sah" else "depth"
         values = boxes.cell_data[scalars]

@@ -1,0 +1,83 @@
+"""``bvh_instance``: the preview draws one instance's own BVH (its prototype's BLAS) placed in the world by the
+instance's transform; before, only the top level of a scene with instances could be drawn. The oracle: the BLAS
+node boxes of the accelerator the renderer traces, their eight corners moved by the instance matrix in float64
+numpy."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+pv = pytest.importorskip("pyvista")
+pv.OFF_SCREEN = True
+
+import wrt  # noqa: E402
+from wrt.cli import main  # noqa: E402
+from wrt.instancing import Instances, Prototype  # noqa: E402
+from wrt.scene import Mesh  # noqa: E402
+from wrt.trace import get_accelerator  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def instanced():
+    """Three instances (turned, stretched, one mirrored, moved far apart) of a prototype of 60 random triangles."""
+    rng = np.random.default_rng(123)
+    points = rng.uniform(-1.0, 1.0, (180, 3)).astype(np.float32)
+    prototype = Prototype("/P", [Mesh("/P/soup", points, np.arange(180).reshape(60, 3), np.arange(60))])
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    for k in range(3):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        to_world[k, :3, :3] = q @ np.diag(rng.uniform(0.5, 3.0, 3))
+        to_world[k, :3, 3] = rng.uniform(-50.0, 50.0, 3)
+    to_world[1, :3, 0] *= -1.0  # mirrored
+    return wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms(np.zeros(3, int), to_world))
+
+
+def sorted_corners(boxes: np.ndarray) -> np.ndarray:
+    """``(B, 8, 3)`` corners with each box's eight in lexicographic order (the drawing's corner order is its own)."""
+    order = np.lexsort(boxes.transpose(2, 0, 1)[::-1], axis=-1)
+    return np.take_along_axis(boxes, order[..., None], axis=1)
+
+
+@pytest.mark.parametrize("which", [1, "/instances[1]"], ids=["index", "path"])
+@pytest.mark.parametrize("depth", [None, 2], ids=["leaves", "depth2"])
+def test_an_instances_blas_boxes_are_its_prototypes_tree_moved_by_its_transform(instanced, which, depth):
+    blas = get_accelerator(instanced, "wrt", "sah", "cpu").blas[0]  # the one prototype's (no world-space meshes)
+    levels = blas.depths()
+    leaf = blas.prim_count > 0
+    nodes = np.flatnonzero(leaf) if depth is None else np.flatnonzero((levels == depth) | (leaf & (levels < depth)))
+    lowers, uppers = blas.lowers[nodes].astype(np.float64), blas.uppers[nodes].astype(np.float64)
+    local = np.array([[np.where(bits, uppers[k], lowers[k]) for bits in itertools.product([0, 1], repeat=3)]
+                      for k in range(len(nodes))])
+    m = instanced.instances.to_world[1]
+    expected = np.einsum("ij,bcj->bci", m[:3, :3], local) + m[:3, 3]
+    options = {"bvh_leaves": True} if depth is None else {"bvh_depth": depth}
+    plotter = wrt.preview(instanced, bvh_instance=which, window_size=(64, 48), show_lights=False, **options)
+    try:
+        drawn = np.asarray(plotter.actors["bvh"].mapper.dataset.points, np.float64).reshape(-1, 8, 3)
+        assert len(drawn) == len(nodes)
+        np.testing.assert_allclose(sorted_corners(drawn), sorted_corners(expected), rtol=1e-12, atol=1e-12)
+        text = plotter.actors["summary"].GetText(2).replace("\n  ", " ")  # upper left; wrapped lines unwrapped
+        assert "BLAS (sah) of instance /instances[1] (prototype /P" in text, text
+    finally:
+        plotter.close()
+
+
+def test_bad_bvh_instances_are_refused_naming_the_choice(instanced):
+    for which, needle in ((3, "the scene has 3 instances, 0 to 2"), ("/instances[7]", "names no instance"),
+                          (True, "an instance index or path")):
+        with pytest.raises(ValueError, match=needle):
+            wrt.preview(instanced, bvh_leaves=True, bvh_instance=which, window_size=(32, 24))
+    with pytest.raises(ValueError, match="give bvh_depth or bvh_leaves too"):
+        wrt.preview(instanced, bvh_instance=0, window_size=(32, 24))
+    lone = wrt.Scene(meshes=[Mesh("/T", np.eye(3, dtype=np.float32), np.int32([[0, 1, 2]]), [0])])
+    with pytest.raises(ValueError, match="has no instances"):
+        wrt.preview(lone, bvh_leaves=True, bvh_instance=0, window_size=(32, 24))
+
+
+def test_cli_bvh_instance_needs_a_bvh_option(tmp_path, capsys, monkeypatch):
+    """Refused before the scene loads (the bundled room), in the CLI's own option names."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["preview", "--bvh-instance", "0", "-o", "x.png", "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "--bvh-instance 0 draws an instance's BVH boxes: give --bvh-depth K" in errors[0]

@@ -1,0 +1,69 @@
+"""One instance's own BVH for :func:`wrt.preview`: the boxes of the bottom-level BVH (BLAS) it is traced in, placed in
+the world by its transform.
+
+A scene with instances is traced through a two-level BVH (:mod:`wrt.tlas`), whose top level the preview draws by
+default: a box per instance or two, nothing of the trees inside them. Here the BLAS of the chosen instance's
+prototype (built once in prototype space, or scaled by ``2^k`` for an instance of :func:`wrt.tlas.instance_exponents`
+``k``) has its nodes' corners moved by ``to_world @ diag(2^-k)``: the boxes are then the parallelepipeds the
+instance's rays meet, seen in the world.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .bvh import FlatBvh
+from .errors import did_you_mean
+from .tlas import blas_parts, instance_exponents
+
+SUGGESTION_LIMIT = 10_000  # most instance paths searched for a close one to name in the error (difflib is quadratic)
+
+
+def instance_row(scene, instance) -> int:
+    """The row of ``scene.instances`` that ``instance`` names: its index (an int), or its path
+    (:meth:`wrt.instancing.Instances.path`, ``/instancer[index]`` for a PointInstancer's).
+
+    Raises:
+        ValueError: no such instance, or the scene has none.
+    """
+    instances = scene.instances
+    if not len(instances):
+        raise ValueError(f"bvh_instance={instance!r}: {scene.source or 'the scene'} has no instances; its BVH is "
+                         "drawn with bvh_depth or bvh_leaves alone")
+    if isinstance(instance, (int, np.integer)) and not isinstance(instance, bool):
+        if not 0 <= instance < len(instances):
+            raise ValueError(f"bvh_instance={instance}: the scene has {len(instances):,} instances, 0 to "
+                             f"{len(instances) - 1:,}")
+        return int(instance)
+    if isinstance(instance, str):
+        paths = [instances.path(i) for i in range(len(instances))]
+        if instance in paths:
+            return paths.index(instance)
+        hint = did_you_mean(instance, paths) if len(paths) <= SUGGESTION_LIMIT else ""
+        raise ValueError(f"bvh_instance={instance!r} names no instance{hint}; give an "
+                         f"index 0 to {len(instances) - 1:,} or a path such as {paths[0]!r}")
+    raise ValueError(f"bvh_instance must be an instance index or path, got {instance!r}")
+
+
+def instance_blas(accel, scene, row: int) -> tuple[FlatBvh, np.ndarray]:
+    """The BLAS that instance ``row`` is traced in (a host tree of ``accel.blas``, an
+    :class:`wrt.tlas.InstancedAccelerator` built for ``scene``) and ``(4, 4)`` float64 from its space to the world.
+
+    Raises:
+        ValueError: the instance has no BLAS: its prototype holds no triangles (analytic shapes are TLAS entries of
+            their own), or its transform cannot be inverted (it is left out of the trace).
+    """
+    instances = scene.instances
+    prototype = int(instances.prototype[row])
+    name = f"instance {row} ({instances.path(row)}) of prototype {scene.prototypes[prototype].path}"
+    if not scene.instance_inverses()[1][row]:
+        raise ValueError(f"{name} has a transform that cannot be inverted: it is left out of the trace, and has no "
+                         "BLAS")
+    exponent = int(instance_exponents(scene)[row])
+    # accel.blas holds one tree per blas_parts entry, in that order: part p + 1 is prototype p at exponent k.
+    for b, (part, _, _, k) in enumerate(blas_parts(scene)):
+        if part == prototype + 1 and k == exponent:
+            to_world = np.asarray(instances.to_world[row], np.float64) @ np.diag([2.0**-exponent] * 3 + [1.0])
+            return accel.blas[b], to_world
+    raise ValueError(f"{name} has no BLAS: its prototype holds no triangles (analytic shapes are TLAS entries of "
+                     "their own, drawn by the TLAS boxes)")
