@@ -77,7 +77,8 @@ INSTANCE_BLOCK_BUDGET = 10_000  # most instance blocks to_pyvista makes: each co
 # bookkeeping, so the 2M one-triangle instances the triangle budget lets in took over half an hour
 SHAPE_SEGMENTS = 24  # analytic shapes are drawn tessellated with this many segments per circle
 MIN_SHAPE_SEGMENTS = 6  # coarsest circles of analytic shapes, drawn so to keep within the triangle budget
-SHAPE_BUDGET = 20_000  # most analytic shapes drawn
+SHAPE_BUDGET = 20_000  # most analytic shapes drawn; more are cut to a subset spread over the scene
+CENTRE_CHUNK = 1 << 16  # instanced shapes whose centres are found at once, when choosing that subset
 MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
@@ -904,9 +905,12 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
                      for p in prototypes]
             offsets = np.concatenate([[0], np.cumsum(per_prototype)])[:len(prototypes)]
             table = np.concatenate(local).astype(np.float64)
-            where = table[offsets[instances.prototype[pair_instance]] + pair_shape]
-            m = instances.to_world[pair_instance]
-            centres.append(np.einsum("nij,nj->ni", m[:, :3, :3], where) + m[:, :3, 3])
+            # In chunks: the (N, 4, 4) copies of a million instances' matrices at once took 128 MB.
+            for a in range(0, len(pair_instance), CENTRE_CHUNK):
+                owner, shape = pair_instance[a : a + CENTRE_CHUNK], pair_shape[a : a + CENTRE_CHUNK]
+                m = instances.to_world[owner]
+                where = table[offsets[instances.prototype[owner]] + shape]
+                centres.append(np.einsum("nij,nj->ni", m[:, :3, :3], where) + m[:, :3, 3])
         picked = spread_rows(np.concatenate(centres), max_shapes)
     placed = []  # (shape, to_world, instance colour)
     for r in picked:
