@@ -256,3 +256,35 @@ def test_a_loop_that_resumes_with_a_new_seed_each_frame_is_told_once_that_it_sta
         warnings.simplefilter("ignore")
         fresh = wrt.Renderer(scene, camera=cam, **options).render(spp=2, seed=FRAMES - 1)
     np.testing.assert_array_equal(image.rgb, fresh.rgb)
+
+
+def test_a_loop_of_wrt_render_calls_warns_once_per_scene(tmp_path):
+    """wrt.render() makes a Renderer per call, and a Renderer says each warning once: a loop calling it per frame (a
+    new seed, or the stage loaded at each frame's time) gave the dropped-sample warning at every frame, its count new
+    each time. Said once per scene now (a stage by its file); another scene, or another stage file, is warned of
+    again. Oracle that every call dropped samples: a Renderer of the same call, warnings ignored."""
+    from PIL import Image as PilImage
+
+    PilImage.fromarray(np.full((2, 4), 1e38, np.float32), mode="F").save(tmp_path / "sky.tif")
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(BLINDING_USDA)
+    python_scenes = [_blinding_scene() for _ in range(2)]
+    loops = [([scene] * FRAMES, {"camera": cam}) for scene, cam in python_scenes]  # one scene, then another
+    times = np.linspace(1, 4, FRAMES)  # a stage loaded at each frame's time, then another stage file
+    loops += [([wrt.load_usd(tmp_path / name, time=t) for t in times], {"camera": "/Cam"}) for name in ("a.usda",
+                                                                                                       "b.usda")]
+    for scenes, view in loops:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for k, scene in enumerate(scenes):
+                fresh = wrt.Renderer(scene, **view, **OPTIONS)
+                fresh.render(spp=2, seed=k)
+                assert fresh.dropped_samples > 0
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for k, scene in enumerate(scenes):
+                wrt.render(scene, spp=2, seed=k, **view, **OPTIONS)
+        said = _said(caught, "were not finite")
+        assert len(said) == 1, said
+        assert said[0].startswith(f"{scenes[0].source}: " if scenes[0].source else "scene: "), said
+

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import os
 import warnings
+import weakref
 
 import numpy as np
 
@@ -55,6 +57,31 @@ def shown_set() -> set:
     one."""
     shared = _SHARED_SHOWN.get()
     return set() if shared is None else shared
+
+
+# wrt.render's warnings said, per scene (shown_for_scene): by stage file and its modification time, or by the id of a
+# scene made in Python (dropped with the scene).
+_SCENES_SHOWN: dict = {}
+
+
+def shown_for_scene(scene) -> set:
+    """The warnings said once that the Renderer of a :func:`wrt.render` call of ``scene`` shares with every other
+    call's: the set that :func:`shown_across_renderers` shares where one is, else the scene's own for the process. A
+    loop calling ``wrt.render`` per frame (a new seed, an edited scene, the stage loaded at each frame's time) made a
+    Renderer per call, each saying its warnings again, their counts new at every frame. A stage is keyed by its file
+    and the file's modification time (a file edited since is warned of again); a scene made in Python by itself."""
+    shared = _SHARED_SHOWN.get()
+    if shared is not None:
+        return shared
+    from .render_log import mtime_ns
+
+    if scene.source:
+        return _SCENES_SHOWN.setdefault((os.path.abspath(scene.source), mtime_ns(scene.source)), set())
+    key = ("scene", id(scene))
+    if key not in _SCENES_SHOWN:
+        _SCENES_SHOWN[key] = set()
+        weakref.finalize(scene, _SCENES_SHOWN.pop, key, None)  # its id may be another scene's once it is gone
+    return _SCENES_SHOWN[key]
 
 
 def _pixel_footprints(cam: Camera, width: int, height: int, centres: np.ndarray, sizes: np.ndarray) -> tuple:

@@ -22,7 +22,13 @@ import warp as wp
 from . import emitter_resampling
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
-from .far_views import shown_set, warn_scene_too_far, warn_shapes_too_far
+from .far_views import (
+    shown_across_renderers,
+    shown_for_scene,
+    shown_set,
+    warn_scene_too_far,
+    warn_shapes_too_far,
+)
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -1684,6 +1690,10 @@ def render(
     """Renders ``scene`` and returns an :class:`Image`: linear radiance ``rgb`` plus AOVs (shown as a picture in
     Jupyter). A :class:`Renderer` keeps the BVH and buffers for repeated renders of one view.
 
+    Each warning a Renderer says once (dropped samples, clamped pixels, a camera that sees nothing or is too far) is
+    said once per scene over every call (:func:`wrt.far_views.shown_for_scene`): a stage by its file, as loaded at
+    any time, until the file is edited; a scene made in Python by itself.
+
     Args:
         scene: a :class:`Scene` (``wrt.load_usd(path)`` or built in Python).
         camera: a :class:`Camera` (``Camera.look_at(eye, target)``), a camera prim path, or ``None``: the stage's
@@ -1709,16 +1719,8 @@ def render(
         TypeError: ``scene`` is not a :class:`Scene`, or ``camera`` none of the kinds above.
         SceneError: the scene cannot be drawn (a NaN vertex, an instance of a missing prototype), naming the prim.
     """
-    renderer = Renderer(
-        scene,
-        camera=camera,
-        width=width,
-        height=height,
-        device=device,
-        builder=builder,
-        accel=accel,
-        integrator=integrator,
-        max_depth=max_depth,
-        ao_radius=ao_radius,
-    )
+    check_scene(scene)  # before its warnings are looked up: a TypeError naming what was given
+    with shown_across_renderers(shown_for_scene(scene)):  # each warning once over a loop of calls, not per call
+        renderer = Renderer(scene, camera=camera, width=width, height=height, device=device, builder=builder,
+                            accel=accel, integrator=integrator, max_depth=max_depth, ao_radius=ao_radius)
     return renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)
