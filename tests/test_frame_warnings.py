@@ -288,3 +288,43 @@ def test_a_loop_of_wrt_render_calls_warns_once_per_scene(tmp_path):
         assert len(said) == 1, said
         assert said[0].startswith(f"{scenes[0].source}: " if scenes[0].source else "scene: "), said
 
+
+def test_the_frames_of_two_worker_processes_warn_of_dropped_samples_once(tmp_path, monkeypatch):
+    """A frame run over several devices (wrt render --devices, --dask) keeps a FrameRenderer per worker process, each
+    saying the dropped-sample warning once, in words of its own frame (its count); the parent said each worker's by
+    its words, so N workers gave it N times. It says it once now, by the key the Renderers say it once by. First two
+    workers' tasks run here as a worker runs them (a FrameRenderer each), then a run on two CPU worker processes."""
+    import os
+
+    from PIL import Image as PilImage
+
+    from wrt import animation
+
+    PilImage.fromarray(np.full((2, 4), 1e38, np.float32), mode="F").save(tmp_path / "sky.tif")
+    path = tmp_path / "blinding.usda"
+    path.write_text(BLINDING_USDA)
+    options = {"camera": "/Cam", "width": 6, "height": 6, "integrator": "path"}
+    jobs = [(float(frame), tmp_path / f"f_{frame}.npy") for frame in (1, 2, 3, 4)]
+    results = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for frame, file in jobs[:2]:  # frame 1 on one worker, frame 2 on another
+            monkeypatch.setattr(animation, "_WORKER_RENDERERS", {})
+            job = animation._task(os.fspath(path), frame, file, 2, 0, 0.0, options)
+            results.append(animation.render_frame_task(job))
+    sent = [[message for message, _, _ in result["warnings"] if "were not finite" in message] for result in results]
+    assert [len(each) for each in sent] == [1, 1], sent  # each worker said it
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        write = animation._frame_writer(jobs, rows := [])
+        for result in results:
+            write(result)
+    assert len(_said(caught, "were not finite")) == 1
+    assert [row["frame"] for row in rows] == [1.0, 2.0] and all(file.is_file() for _, file in jobs[:2])
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = animation.render_frames(path, jobs, devices=["cpu", "cpu"], spp=2, **options)
+    assert sorted(row["frame"] for row in rows) == [1.0, 2.0, 3.0, 4.0]
+    assert all(row["dropped_samples"] > 0 for row in rows), rows
+    assert len(_said(caught, "were not finite")) == 1

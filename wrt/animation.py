@@ -564,15 +564,21 @@ def _frame_writer(jobs, rows: list):
     """``write(result)`` for results of :func:`render_frame_task`: writes the encoded image to its frame's file
     (from ``jobs``) and appends the frame's log row, with ``output``, to ``rows``."""
     files = {float(frame): Path(file) for frame, file in jobs}
+    said = set()  # the warnings shown: by what a Renderer says each once by (its key), else by their words
 
     def write(result: dict) -> None:
         row = result["row"]
         file = files[row["frame"]]
         try:
-            for message, category in result.get("warnings", ()):
+            for message, category, key in result.get("warnings", ()):
                 # Shown here once, however many workers and frames raised it, in its own class: all came back as
-                # UserWarning, which the caller's filters of another class (ignore, error) then missed.
-                warnings.warn(message, warning_class(category), stacklevel=2)
+                # UserWarning, which the caller's filters of another class (ignore, error) then missed. By its key
+                # where it has one: each worker's Renderers say it once, in words of their own frame (a count, a
+                # distance), so N workers showed it N times.
+                as_said = ("key", key) if key is not None else ("words", message, category)
+                if as_said not in said:
+                    warnings.warn(message, warning_class(category), stacklevel=2)
+                    said.add(as_said)  # after: one the caller's filters make an error fails each frame that gives it
         except Warning as e:  # the caller's filters make it an error: the frame failed, as in a serial run
             rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
             return
@@ -620,9 +626,10 @@ def render_frame_task(job: dict) -> dict:
 
     Returns:
         ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode),
-        "warnings": ``(message, "module:ClassName")`` of each warning the frame raised}``: the client shows them
-        in its own words, once, each in its own class (:func:`warning_class`), where each worker printed them to its
-        own log in Python's format, glued to the client's progress bar.
+        "warnings": ``(message, "module:ClassName", key)`` of each warning the frame raised, ``key`` what the
+        Renderer says it once by (:func:`wrt.errors.warn_keyed`) or None}``: the client shows each once over all its
+        workers, in its own class (:func:`warning_class`), where each worker printed them to its own log in Python's
+        format, glued to the client's progress bar.
     """
     import tempfile
 
@@ -646,7 +653,8 @@ def render_frame_task(job: dict) -> dict:
         written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
         data = Path(written).read_bytes()
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
-    named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}") for w in raised)
+    named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}",
+              getattr(w.message, "said_once_key", None)) for w in raised)
     return {"data": data, "row": row, "warnings": list(dict.fromkeys(named))}
 
 

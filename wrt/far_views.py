@@ -25,13 +25,12 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
-import warnings
 import weakref
 
 import numpy as np
 
 from .camera import APERTURE_UNIT, Camera
-from .errors import user_stacklevel
+from .errors import warn_keyed
 
 FLOAT32_STEP = 2.0**-23  # float32's spacing relative to the magnitude (machine epsilon)
 ERROR_SHARE = 0.125  # hit-point error, as a share of the shape's size, past which its normal is visibly wrong
@@ -137,7 +136,7 @@ def warn_scene_too_far(scene, cam: Camera, width: int, height: int, shown: set, 
                        f"{diagonal:.3g} across, {name} {distance:.3g} units from it) that, seen by {name}, "
                        f"{lost_words} (move the scene and camera nearer the origin, e.g. by a transform on the "
                        "stage's root)")
-        warnings.warn(message, stacklevel=user_stacklevel())
+        warn_keyed(message, key)
 
 
 def _smallest_scale(linear: np.ndarray) -> np.ndarray:
@@ -198,8 +197,9 @@ def warn_shapes_too_far(scene, cam: Camera, width: int, height: int, shown: set,
     if lost.any():
         unique, first = np.unique(ids[lost], return_index=True)
         paths = list(dict.fromkeys(geometry[j].path for j in unique[np.argsort(first)]))  # in the order found
-        shown.update(("shape too far", name, path) for path in paths)
+        keys = tuple(("shape too far", name, path) for path in paths)
+        shown.update(keys)
         worst = float(np.max(error[lost]))
         scene._warn_prims(f"{name} sees analytic shapes from so far for their size that float32 places its "
                           f"hit points on them only to within about {worst:.2g} units: their normals are wrong and "
-                          "single-sided ones vanish (move the camera nearer, or make them meshes)", paths)
+                          "single-sided ones vanish (move the camera nearer, or make them meshes)", paths, key=keys)

@@ -21,7 +21,7 @@ import warp as wp
 
 from . import emitter_resampling
 from .camera import APERTURE_UNIT, CAMERA_FIELDS, FLOAT32_MAX, Camera, DeviceCamera, frame_scene
-from .errors import SceneError, did_you_mean, flag, user_stacklevel
+from .errors import SceneError, did_you_mean, flag, user_stacklevel, warn_keyed
 from .far_views import (
     shown_across_renderers,
     shown_for_scene,
@@ -215,9 +215,9 @@ def warn_clipped_away(scene: Scene, cameras: list, shown: set | None = None) -> 
         nearest, farthest = cam.depth_extent(lower, upper)
         if farthest < near or nearest > far:
             shown.add(key)
-            warnings.warn(f"{scene.source or 'scene'}: {name} sees nothing: its clipping range ({near:g}, {far:g}) "
-                          f"holds no part of the scene, which lies from {nearest:g} to {farthest:g} along its view; "
-                          "the image is background only", stacklevel=user_stacklevel())
+            warn_keyed(f"{scene.source or 'scene'}: {name} sees nothing: its clipping range ({near:g}, {far:g}) "
+                       f"holds no part of the scene, which lies from {nearest:g} to {farthest:g} along its view; the "
+                       "image is background only", key)
 
 
 def few_paths(paths, shown: int = 6) -> str:
@@ -1523,7 +1523,7 @@ class Renderer:
         own counts, so Python's filter, which shows a message once, let a loop of frames repeat them at every frame."""
         if key in self._said_once:
             return
-        warnings.warn(message, stacklevel=user_stacklevel())
+        warn_keyed(message, key)
         self._said_once.add(key)  # after: a warning that a filter makes an error raises again at the next image
 
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, rows: IdRows):

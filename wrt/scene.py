@@ -888,16 +888,21 @@ class Scene:
             self._warn_prims("coordinates past 8.5e37 (a quarter of float32's range), where rays can miss triangles "
                              "(the triangle test's differences overflow float32); scale the scene down", paths)
 
-    def _warn_prims(self, what: str, paths: list, count: int | None = None) -> None:
+    def _warn_prims(self, what: str, paths: list, count: int | None = None, key=None) -> None:
         """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's
-        warnings (:mod:`wrt.usd_problems`); ``count``: how many there are, where ``paths`` holds the first few."""
+        warnings (:mod:`wrt.usd_problems`); ``count``: how many there are, where ``paths`` holds the first few;
+        ``key``: what a Renderer says it once by (:func:`wrt.errors.warn_keyed`), if anything."""
         import warnings
 
-        from .errors import user_stacklevel
+        from .errors import user_stacklevel, warn_keyed
 
         count = len(paths) if count is None else count
         shown = ", ".join(paths[:3]) + (", ..." if count > 3 else "")
-        warnings.warn(f"{self.source or 'scene'}: {what}: {count} prim(s): {shown}", stacklevel=user_stacklevel())
+        message = f"{self.source or 'scene'}: {what}: {count} prim(s): {shown}"
+        if key is not None:
+            warn_keyed(message, key)
+        else:
+            warnings.warn(message, stacklevel=user_stacklevel())
 
     def _check_axis_and_units(self) -> None:
         """Takes ``up_axis`` ``"y"`` or ``"z"`` as ``"Y"`` or ``"Z"`` and refuses anything else with a ``ValueError``:
