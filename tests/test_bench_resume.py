@@ -2,9 +2,11 @@
 files named at the start rather than when the run reaches them."""
 
 import json
+import re
 import shlex
 import warnings
 
+import numpy as np
 import pytest
 
 import wrt.bench as bench_module
@@ -160,3 +162,86 @@ def test_resume_of_a_scene_that_now_fails_keeps_the_earlier_rows_outside_its_gri
         assert main(["bench", "--accels", "warp:sah", "--resume", *common]) == 2  # its one group failed
     rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
     assert sorted((r["accel"], "error" in r) for r in rows) == [("*", True), ("wrt:sah", False)]
+
+
+def _recorded_plots(monkeypatch) -> dict:
+    """The figures that wrt bench's plots are drawn on, by file name, as they are saved."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    figures, save = {}, bench_module._save_plot
+
+    def record(fig, path):
+        figures[path.name] = fig
+        save(fig, path)
+
+    monkeypatch.setattr(bench_module, "_save_plot", record)
+    return figures
+
+
+def _hollow(artist) -> bool:
+    """Whether a bar (a patch) or a scatter point (a collection) is drawn without a fill."""
+    face = artist.get_facecolor()
+    face = np.asarray(face, float).reshape(-1, 4)
+    return len(face) == 0 or bool((face[:, 3] == 0).all())
+
+
+def test_an_earlier_runs_rows_are_marked_in_the_plots_and_counted_apart_by_the_agreement_warnings(
+        tmp_path, monkeypatch, capsys):
+    """--resume keeps an earlier run's rows of scenes this run does not measure, and the table marks them '(earlier
+    run)'; the plots drew them as this run's, and the agreement warnings counted them with this run's ('2 rows not
+    checked'). Their bars and points are hollow now, with a legend entry, and the warnings say which rows are the
+    earlier run's. Oracle: which scene each run measured (sphere:100 the earlier, sphere:200 this one)."""
+    figures = _recorded_plots(monkeypatch)
+    common = [*TINY[2:], "-o", str(tmp_path)]  # no warp:sah: every row is unchecked
+    assert main(["bench", "--scenes", "sphere:100", "--accels", "wrt:sah,wrt:median", *common]) == 0
+    rows = read_rows(tmp_path)
+    for row in rows:  # the earlier run's wrt:median answered 3 rays otherwise than warp:sah
+        if row["accel"] == "wrt:median":
+            row.update(agreement=1 - 3 / row["n_rays"], disagreements=3)
+    (tmp_path / "rows.jsonl").write_text("".join(json.dumps(row) + "\n" for row in rows))
+    capsys.readouterr()
+    assert main(["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", *common, "--resume"]) == 0
+    err = capsys.readouterr().err
+    unchecked = [line for line in err.splitlines() if "not checked against" in line]
+    assert unchecked == ["wrt: warning: 2 rows not checked against warp:sah (it failed or was not run in their group); "
+                         "1 of them is a row of an earlier run (kept by --resume; not in this grid)"], err
+    differ = [line for line in err.splitlines() if "answered otherwise" in line]
+    assert len(differ) == 1 and differ[0].startswith("wrt: warning: sphere:100 / wrt:median / cpu / primary: 3 of")
+    assert differ[0].endswith("; a row of an earlier run (kept by --resume; not in this grid)"), differ
+
+    ax = figures["mrays.png"].axes[0]
+    groups = [label.get_text().split("\n")[0] for label in ax.get_xticklabels()]
+    drawn = {(container.get_label(), groups[k]): _hollow(bar)
+             for container in ax.containers for k, bar in enumerate(container) if bar.get_height() > 0}
+    assert drawn == {("wrt:median x1", "sphere:100"): True, ("wrt:sah x1", "sphere:100"): True,
+                     ("wrt:sah x1", "sphere:200"): False}
+    legend = {text.get_text(): _hollow(handle) for text, handle in zip(ax.get_legend().get_texts(),
+                                                                       ax.get_legend().legend_handles)}
+    assert legend == {"wrt:median x1": False, "wrt:sah x1": False, bench_module.EARLIER_LABEL: True}
+
+    ax = figures["build_vs_quality.png"].axes[0]
+    points = {text.get_text(): _hollow(point) for text, point in zip(ax.texts, ax.collections, strict=True)}
+    assert points == {"wrt:sah sphere:100 (earlier run)": True, "wrt:median sphere:100 (earlier run)": True,
+                      "wrt:sah sphere:200": False}
+    assert bench_module.EARLIER_LABEL in [text.get_text() for text in ax.get_legend().get_texts()]
+
+
+def test_an_earlier_runs_scaling_sweep_is_a_line_of_its_own(tmp_path, monkeypatch):
+    """A sweep resumed at another thread count (the earlier run's rows kept, outside this grid) was drawn in one line
+    with this run's, whose points are those of the line's fewest threads: the plot showed the earlier run's sweep as
+    this run's. Each is a line of its own now, the earlier one dashed with hollow points and named so."""
+    figures = _recorded_plots(monkeypatch)
+    grid = dict(scenes=["sphere:100"], accels=["wrt:sah"], devices=["cpu"], rays=["primary"], n_rays=100,
+                repeats=1, scaling={"sizes": [200], "accels": ["wrt:sah"]})
+    run_grid(Grid(**grid, threads=[1]), tmp_path, progress=False)
+    rows = run_grid(Grid(**grid, threads=[2]), tmp_path, resume=True, progress=False)
+    sweep = {r["threads"]: r for r in rows if r.get("sweep")}
+    assert sorted(sweep) == [1, 2]
+    build_axes = figures["scaling.png"].axes[0]
+    lines = {re.split(r" (no )?slope", line.get_label())[0]: line for line in build_axes.get_lines()}
+    assert sorted(lines) == ["wrt:sah", "wrt:sah x1 (earlier run)"], list(lines)
+    assert list(lines["wrt:sah"].get_ydata()) == [sweep[2]["build_ms"]]
+    assert list(lines["wrt:sah x1 (earlier run)"].get_ydata()) == [sweep[1]["build_ms"]]
+    assert lines["wrt:sah x1 (earlier run)"].get_markerfacecolor() == "none"
+    assert lines["wrt:sah"].get_markerfacecolor() != "none"

@@ -1093,12 +1093,14 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set, ou
 class Rows(list):
     """The rows of a run, as a list; ``resumed``: how many of them ``resume`` kept from the earlier run, unmeasured
     (they come first), of this run's grid; ``earlier``: how many more it kept that this grid does not measure (other
-    scenes, accelerators, devices, ray kinds or thread counts), which are no part of this run's count."""
+    scenes, accelerators, devices, ray kinds or thread counts), which are no part of this run's count, and
+    ``earlier_keys`` their row keys (:func:`row_key`), which the table and plots mark."""
 
-    def __init__(self, rows=(), resumed: int = 0, earlier: int = 0):
+    def __init__(self, rows=(), resumed: int = 0, earlier: int = 0, earlier_keys=frozenset()):
         super().__init__(rows)
         self.resumed = resumed
         self.earlier = earlier
+        self.earlier_keys = frozenset(earlier_keys)
 
 
 def run_grid(
@@ -1243,7 +1245,7 @@ def run_grid(
     begin()
     if out is not None:
         write_summary(rows, out, outside)
-    return Rows(rows, resumed=len(resumed) - len(outside), earlier=len(outside))
+    return Rows(rows, resumed=len(resumed) - len(outside), earlier=len(outside), earlier_keys=outside)
 
 
 def _warn_rows_dropped(jsonl: Path, grid: Grid) -> None:
@@ -1334,11 +1336,12 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
 def write_summary(rows: list[dict], out: Path, earlier=()) -> None:
     """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots of an earlier run that they have no
     rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning.
-    ``earlier``: the row keys of rows an earlier run measured that this run's grid does not, marked in the table."""
+    ``earlier``: the row keys of rows an earlier run measured that this run's grid does not, marked in the table and
+    the plots."""
     table = markdown_table(rows, earlier)
     write_atomically(out / "table.md", lambda target: target.write_text(table))
     try:
-        written = plot(rows, out)
+        written = plot(rows, out, earlier)
     except ImportError:
         import warnings
 
@@ -1490,14 +1493,29 @@ def _save_plot(fig, path: Path) -> None:
         plt.close(fig)
 
 
-def plot(rows: list[dict], out: Path) -> list[Path]:
+EARLIER_LABEL = "earlier run (kept by --resume; not in this grid)"  # the legend entry of earlier rows' hollow marks
+
+
+def _hollow(artist, colour, hatch: str | None = None) -> None:
+    """Draws ``artist`` (a bar, a scatter point) of an earlier run's row as an outline in ``colour``."""
+    artist.set_facecolor("none")
+    artist.set_edgecolor(colour)
+    if hatch:
+        artist.set_hatch(hatch)
+
+
+def plot(rows: list[dict], out: Path, earlier=()) -> list[Path]:
     """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths.
-    Rows of several devices get a bar (and a scaling line) per device."""
+    Rows of several devices get a bar (and a scaling line) per device. Rows whose key is in ``earlier`` (of an
+    earlier run, kept by ``resume``, outside this run's grid) are drawn hollow (bars, points) or dashed with hollow
+    points (scaling lines), with a legend entry saying so, as the table marks them: drawn as this run's, they read as
+    measured now."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    is_earlier = (lambda r: row_key(r) in earlier) if earlier else (lambda r: False)  # noqa: E731
     good = [r for r in rows if "error" not in r]
     paths = []
     if good:
@@ -1515,6 +1533,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(max(6, group * len(labels)), 4))
         width = 0.8 / max(len(series), 1)
         centres = np.arange(len(labels)) + 0.4 - width / 2
+        colours, marked = [], False  # each series' colour, for a legend whose bars of earlier rows are hollow
         for i, (accel, device, threads) in enumerate(series):
             found = [next((r for r in rows if (r["scene"], r["rays"]) == lab
                            and (r["accel"], r["device"], r["threads"]) == (accel, device, threads)), None)
@@ -1522,7 +1541,12 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
             failed = [r is not None and ("error" in r or not _plottable(r["mrays"])) for r in found]
             values = [0 if r is None or bad else r["mrays"] for r, bad in zip(found, failed)]
             name = f"{accel} {device}" if several else accel
-            ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{name} x{threads}")
+            bars = ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{name} x{threads}")
+            if earlier:
+                colours.append((bars.get_label(), bars.patches[0].get_facecolor()))  # before any bar is hollow
+                for k in [k for k, r in enumerate(found) if r is not None and is_earlier(r)]:
+                    _hollow(bars.patches[k], colours[-1][1], "///")
+                    marked = True
             for k in np.flatnonzero(failed):
                 ax.text(k + i * width, 0, "n/a", ha="center", va="bottom", rotation=90, fontsize=6)
         for k, (scene, kind) in enumerate(labels):
@@ -1530,7 +1554,13 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
                 ax.text(centres[k], 0, "failed", ha="center", va="bottom", rotation=90, fontsize=6)
         ax.set_xticks(centres, texts, fontsize=7)
         ax.set_ylabel("Mrays/s (median)")
-        ax.legend(fontsize=7)
+        if marked:  # a series' entry took the look of its first bar, hollow where that is an earlier row
+            from matplotlib.patches import Patch
+
+            ax.legend(handles=[Patch(facecolor=colour, label=label) for label, colour in colours]
+                      + [Patch(facecolor="none", edgecolor="0.3", hatch="///", label=EARLIER_LABEL)], fontsize=7)
+        else:
+            ax.legend(fontsize=7)
         fig.tight_layout()
         paths.append(out / "mrays.png")
         _save_plot(fig, paths[-1])
@@ -1542,14 +1572,24 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(5, 4))
         # Each row builds its tree again: one point per tree, at the median of its builds, not one per ray kind and
         # thread count, whose identical labels were printed over one another.
+        # An earlier run's builds (kept by resume, outside this grid) are a hollow point of their own.
         trees = {}
         for r in with_sah:
-            trees.setdefault((r["accel"], r["scene"], r["device"]), []).append(r)
-        several = len({device for _, _, device in trees}) > 1
-        for (accel, scene, device), builds in trees.items():
+            trees.setdefault((r["accel"], r["scene"], r["device"], is_earlier(r)), []).append(r)
+        several = len({device for _, _, device, _ in trees}) > 1
+        for (accel, scene, device, before), builds in trees.items():
             at = (statistics.median(r["build_ms"] for r in builds), statistics.median(r["sah_cost"] for r in builds))
-            ax.scatter(*at)
-            ax.annotate(f"{accel} {scene}" + (f" {device}" if several else ""), at, fontsize=6)
+            point = ax.scatter(*at)
+            if before:
+                _hollow(point, point.get_facecolor()[0])
+            ax.annotate(f"{accel} {scene}" + (f" {device}" if several else "") + (" (earlier run)" if before else ""),
+                        at, fontsize=6)
+        if any(before for *_, before in trees):
+            from matplotlib.lines import Line2D
+
+            ax.legend(handles=[Line2D([], [], marker="o", linestyle="", color="0.3", label="this run"),
+                               Line2D([], [], marker="o", linestyle="", color="0.3", markerfacecolor="none",
+                                      label=EARLIER_LABEL)], fontsize=6)
         ax.set_xlabel("build ms")
         ax.set_ylabel("SAH cost")
         ax.set_xscale("log")
@@ -1567,14 +1607,20 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
     if scaling:
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
         several = len({r["device"] for r in scaling}) > 1
-        for accel, device in sorted({(r["accel"], r["device"]) for r in scaling}):
-            line = [r for r in scaling if (r["accel"], r["device"]) == (accel, device)]
+        # An earlier run's sweep (kept by resume, outside this grid: other thread counts) is a dashed line of hollow
+        # points of its own: in one line with this run's, its fewer threads took the line's points.
+        for accel, device, before in sorted({(r["accel"], r["device"], is_earlier(r)) for r in scaling}):
+            line = [r for r in scaling if (r["accel"], r["device"], is_earlier(r)) == (accel, device, before)]
             fewest = min(r["threads"] for r in line)  # one point per size: the line's smallest thread count
             pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in line if r["threads"] == fewest)
             n, build, ns_per_ray = zip(*pts)
             name = f"{accel} {device}" if several else accel
-            a1.loglog(n, build, "o-", label=f"{name} {_slope_label(n, build)}")
-            a2.loglog(n, ns_per_ray, "o-", label=f"{name} {_slope_label(n, ns_per_ray)}")
+            if before:
+                name += f" x{fewest} (earlier run)"
+            for axes, y in ((a1, build), (a2, ns_per_ray)):
+                drawn = axes.loglog(n, y, "o--" if before else "o-", label=f"{name} {_slope_label(n, y)}")
+                if before:
+                    drawn[0].set_markerfacecolor("none")
         a1.set_xlabel("triangles"), a1.set_ylabel("build ms"), a1.legend(fontsize=7)
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()

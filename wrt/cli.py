@@ -1333,8 +1333,11 @@ def _how_to_resume(args, out: Path, rows_before: tuple | None) -> str:
             f"wrt: to go on from them: {shlex.join(command)}")
 
 
+EARLIER_ROW = "of an earlier run (kept by --resume; not in this grid)"  # of rows named in wrt bench's warnings
+
+
 def _run_bench(args) -> int:
-    from .bench import REFERENCE, Grid, GridError, run_grid, suite_path
+    from .bench import REFERENCE, Grid, GridError, row_key, run_grid, suite_path
 
     if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
@@ -1377,15 +1380,20 @@ def _run_bench(args) -> int:
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
+    # Rows of an earlier run that --resume kept outside this grid are named as such, as the table and plots mark them:
+    # counted as this run's, an old wrong answer or an unchecked row read as measured now.
+    earlier = lambda r: row_key(r) in rows.earlier_keys  # noqa: E731
     disagreeing = [r for r in rows if r.get("disagreements")]
     for r in disagreeing:  # a wrong answer, of the row or of wp.Mesh, must not pass as a speed-up
         print(f"wrt: {'error' if args.strict else 'warning'}: {r['scene']} / {r['accel']} / {r['device']} / "
               f"{r['rays']}: {r['disagreements']} of {r['n_rays']} rays answered otherwise than by {REFERENCE} (edge "
-              "ties left out)", file=sys.stderr)
+              f"ties left out){f'; a row {EARLIER_ROW}' if earlier(r) else ''}", file=sys.stderr)
     unchecked = [r for r in rows if "error" not in r and r.get("agreement") is None and r["accel"] != REFERENCE]
     if unchecked:
+        n = sum(map(earlier, unchecked))
+        of_earlier = f"; {n} of them {'is a row' if n == 1 else 'are rows'} {EARLIER_ROW}" if n else ""
         print(f"wrt: warning: {counted(len(unchecked), 'row')} not checked against {REFERENCE} (it failed or was not "
-              "run in their group)", file=sys.stderr)
+              f"run in their group){of_earlier}", file=sys.stderr)
     # None of this run's rows measured: bad input, as a render batch none of whose scenes rendered.
     if failed and len(failed) == len(rows) - rows.earlier:
         return EXIT_BAD_INPUT
