@@ -20,7 +20,7 @@ CEILING = 2.5  # height of the ceiling panel over the floor z = 0
 PANEL = 4.0  # side of the ceiling panel, centred over the origin
 
 
-def tessellated_rect(origin, u, v, cells, faces_away=None):
+def tessellated_rect(origin, u, v, cells, faces_away=None, name="/glow", material=0):
     """Single-sided rectangle ``origin + s u + t v`` (s, t in [0, 1]) as ``cells`` x ``cells`` cells of two
     triangles, its front along ``cross(u, v)``, texture coordinates ``(s, t)``; the cells where ``faces_away[i, j]``
     (i along u) wound the other way. Returns the mesh and the corners ``(C, 4, 3)`` of the cells facing front."""
@@ -38,8 +38,8 @@ def tessellated_rect(origin, u, v, cells, faces_away=None):
             uvs += [st[tri] for tri in order]
             if not faces_away[i, j]:
                 facing.append(corners)
-    mesh = wrt.Mesh("/glow", np.concatenate(points), np.array(indices, np.int32), None, double_sided=False,
-                    material_ids=np.zeros(len(indices), np.int32))
+    mesh = wrt.Mesh(name, np.concatenate(points), np.array(indices, np.int32), None, double_sided=False,
+                    material_ids=np.full(len(indices), material, np.int32))
     mesh.uvs = np.array(uvs, np.float32)
     return mesh, np.array(facing)
 
@@ -50,14 +50,19 @@ def ceiling_panel(cells):
     return tessellated_rect((half, -half, CEILING), (-PANEL, 0, 0), (0, PANEL, 0), cells)
 
 
-def render_floor(glow, centre, patch, res, spp, seed=7, materials=None, textures=None):
-    """The red channel (or all three) of an orthographic view down at a ``patch`` wide square of the floor."""
-    floor = quad((0, 0, 0), (400, 0, 0), (0, 400, 0), name="/floor", material=1)
+def render_floor(glow, centre, patch, res, spp, seed=7, materials=None, textures=None, scale=1.0):
+    """The red channel (or all three) of an orthographic view down at a ``patch`` wide square of the floor lit by
+    ``glow`` (a mesh or a list of them), every length of the scene and the camera times ``scale``."""
     mats = materials or [wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE)]
+    floor = quad((0, 0, 0), (400, 0, 0), (0, 400, 0), name="/floor", material=len(mats))
     mats = mats + [wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)]  # Lambertian: no specular
-    centre = np.asarray(centre, np.float64)
-    cam = wrt.Camera.orthographic(eye=centre + (0, 0, 1.0), target=centre, up=(0, 1, 0), height=patch)
-    img = wrt.render(wrt.Scene(meshes=[floor, glow], materials=mats, textures=textures or []), camera=cam,
+    meshes = [floor] + (glow if isinstance(glow, list) else [glow])
+    for mesh in meshes:
+        mesh.points = mesh.points * scale
+    centre = np.asarray(centre, np.float64) * scale
+    cam = wrt.Camera.orthographic(eye=centre + (0, 0, scale), target=centre, up=(0, 1, 0), height=patch * scale,
+                                  clipping_range=(0.01 * scale, 1e6 * scale))
+    img = wrt.render(wrt.Scene(meshes=meshes, materials=mats, textures=textures or []), camera=cam,
                      width=res, height=res, spp=spp, seed=seed, device="cpu", integrator="whitted", max_depth=1)
     return img.rgb.astype(np.float64)
 
@@ -130,3 +135,60 @@ def test_resampling_makes_the_floor_under_a_tessellated_panel_much_less_noisy(mo
         noise.append((rendered - expected).std() / expected.mean())
     plain, resampled = noise
     assert resampled < 0.7 * plain, noise
+
+
+# Emitters of different sizes, distances and radiances (origin, u, v, cells, radiance): a dim ceiling panel of 128
+# triangles 2.5 over the floor, a small bright quad 0.5 over it and a tilted quad to the side.
+MIXED = [((2.0, -2.0, 2.5), (-4.0, 0, 0), (0, 4.0, 0), 8, 1.0), ((0.9, 0.4, 0.5), (-0.2, 0, 0), (0, 0.2, 0), 1, 30.0),
+         ((3.0, 1.0, 0.2), (0, -1.0, 0), (-0.3, 0, 1.2), 2, 4.0)]
+MIXED_VIEW = dict(centre=(1.0, 0.0, 0.0), patch=3.0, res=24)
+
+
+def mixed_emitters():
+    """``(meshes, materials, expected)``: the :data:`MIXED` emitters and Lambert's floor radiance under them at the
+    pixels of :data:`MIXED_VIEW`."""
+    meshes, mats, expected = [], [], 0.0
+    for j, (origin, u, v, cells, radiance) in enumerate(MIXED):
+        mesh, corners = tessellated_rect(origin, u, v, cells, name=f"/glow{j}", material=j)
+        meshes.append(mesh)
+        mats.append(wrt.Material(diffuse_color=0.0, emissive_color=radiance))
+        expected = expected + lambert(MIXED_VIEW["centre"], MIXED_VIEW["patch"], MIXED_VIEW["res"], corners) * (
+            radiance / RADIANCE)
+    return meshes, mats, expected
+
+
+def render_mixed(spp, seed=7, scale=1.0):
+    meshes, mats, _ = mixed_emitters()
+    return render_floor(meshes, spp=spp, seed=seed, materials=mats, scale=scale, **MIXED_VIEW)[..., 0]
+
+
+def test_emitters_of_different_sizes_and_radiances_get_lamberts_irradiance():
+    """The floor under :data:`MIXED`: unbiased about the float64 closed form (the target's radiance and pick
+    probability cancel in the resampling weight)."""
+    assert_unbiased(render_mixed(spp=16), mixed_emitters()[2], "mixed")
+
+
+def test_the_resampling_target_weighs_radiance_not_power(monkeypatch):
+    """The pixels' spread about Lambert's formula under :data:`MIXED` at 16 samples, with the default candidates
+    against one: below half of it. Weighed by solid angle times the power pick's lean (a triangle's power, its area
+    times its radiance), a large dim triangle counted its area twice: 0.65 of it."""
+    expected = mixed_emitters()[2]
+    noise = []
+    for candidates in (1, wrt.emitter_resampling.EMITTER_CANDIDATES):
+        monkeypatch.setattr(wrt.emitter_resampling, "EMITTER_CANDIDATES", candidates)
+        noise.append(np.sqrt(np.mean((render_mixed(spp=16).ravel() - expected) ** 2)) / expected.mean())
+    plain, resampled = noise
+    assert resampled < 0.5 * plain, noise
+
+
+@pytest.mark.parametrize("scale", [2.0**-20, 2.0**20, 1e-6, 1e6])
+def test_the_floor_under_mixed_emitters_is_the_same_image_at_any_scene_scale(scale):
+    """Every length times ``scale`` (the camera's too): the same pixels, bit for bit at a power of two (which scales
+    every length exactly), within float32's rounding of the corners otherwise; the target is a radiance times a
+    solid angle, free of length."""
+    base = render_mixed(spp=4)
+    scaled = render_mixed(spp=4, scale=scale)
+    if math.log2(scale).is_integer():
+        np.testing.assert_array_equal(scaled, base)
+    else:
+        np.testing.assert_allclose(scaled, base, rtol=1e-3, atol=1e-4 * base.mean())

@@ -5,16 +5,19 @@ emissive triangle that ``whitted`` lights a shading point with.
 per sample. Drawn by power alone, most draws of a large emitter tessellated into many triangles (a glowing ceiling
 panel over a room, a glowing wall far to the side) are triangles that look small from the shading point or lie
 below its horizon, and the rare ones overhead carry the light: a noisy floor at low ``spp``. Here
-:data:`EMITTER_CANDIDATES` triangles are drawn by power and one of them is kept with probability proportional to
-:func:`seen_emitter`, its solid angle times the receiver's cosine: the target density is the power pmf times that,
-which leans towards the triangles that light the point. The kept triangle's selection probability is replaced by
-``M pmf_k w_k / sum(w)``, the RIS weight ``sum(w) / M / (pmf_k w_k)``, so the estimate stays unbiased wherever every
-triangle that can light the point has a positive ``w`` (only triangles that face away, lie below the horizon or are
-not light-linked to the surface get 0, and they send the point nothing). Textures and radiance enter through the
-pmf (their power), not the weight, which reads no texture: a texel black at a triangle's centre cannot zero it.
-The weight is not divided by the triangle's area (the pmf's power holds it), which would make it a length to the
--2, out of float32's range in scenes scaled far from 1; so among triangles of very different sizes the large keep
-the power pick's lean towards them. Nor does it read the BSDF: a glossy highlight of the emitter gains less.
+:data:`EMITTER_CANDIDATES` triangles are drawn by power and one of them is kept with probability proportional to its
+weight ``w = L seen / pmf``: ``L`` the luminance the triangle emits (``DeviceLights.params[k][3]``, over the
+brightest triangle's), ``seen`` :func:`seen_emitter`, its solid angle times the receiver's cosine, ``pmf`` the
+probability it was drawn with. The target density ``pmf w = L seen`` is the triangle's unshadowed light at the point
+(for a diffuse receiver). The kept triangle's selection probability is replaced by ``M pmf_k w_k / sum(w)``, the RIS
+weight ``sum(w) / M / (pmf_k w_k)``, so the estimate stays unbiased wherever every triangle that can light the point
+has a positive ``w`` (only triangles that face away, lie below the horizon or are not light-linked to the surface get
+0, and they send the point nothing; ``L`` is at least 2^-32). The weight reads no texture (a texel black at a
+triangle's centre cannot zero it): ``L`` is the emission its power was computed from. Every factor is free of length
+(a radiance, a solid angle, a probability), so the pick is the same at any scene scale; the power over the area, a
+length to the -2, left float32's range in scenes scaled far from 1. With the power in the target in place of ``L``, a
+large dim triangle counted its area twice (once in its power, once in its solid angle). The weight does not read
+the BSDF: a glossy highlight of the emitter gains less.
 """
 
 import warp as wp
@@ -112,8 +115,9 @@ def resample_emitter(
 ):
     """``(k, probability, state)``: one of triangle lights ``[first, first + count)`` for point ``p`` (normal
     ``n``, link group ``group``), kept from ``candidates`` drawn by power (:func:`wrt.light_sampling.pick_in_group`)
-    in proportion to :func:`seen_emitter` (weighted reservoir sampling, one number per candidate), and the
-    probability to divide its sample by, ``candidates pmf_k w_k / sum(w)`` (0: no candidate lights ``p``)."""
+    in proportion to its emitted luminance times :func:`seen_emitter` over its pick probability (the module's ``w``;
+    weighted reservoir sampling, one number per candidate), and the probability to divide its sample by,
+    ``candidates pmf_k w_k / sum(w)`` (0: no candidate lights ``p``)."""
     kept = first
     kept_pmf = float(0.0)
     kept_weight = float(0.0)
@@ -124,7 +128,7 @@ def resample_emitter(
         k, pmf = pick_in_group(lights, first, count, u_pick)
         w = float(0.0)
         if lit_by(lights.links, group, k):
-            w = seen_emitter(lights, scene, double_sided, k, p, n)
+            w = lights.params[k][3] * seen_emitter(lights, scene, double_sided, k, p, n) / pmf
         total += w
         if w > 0.0 and u_keep * total < w:
             kept = k

@@ -100,7 +100,8 @@ class DeviceLights:
     # rect, disk, cylinder: their length scale's power of two ``down`` (light_scales), area (times down^2 for rect,
     # disk, cylinder, and a sphere's its radius' power of two: in float32 range at any scene scale) | 1 - cos,
     # right-angled axes);
-    # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
+    # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's,
+    # the luminance it emits over the brightest triangle's: wrt.emitter_resampling's target reads it)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
     instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)

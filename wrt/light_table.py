@@ -580,7 +580,9 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.axis_u = arr(h.axis_u, wp.vec3)
     d.axis_v = arr(h.axis_v, wp.vec3)
     d.normal = arr(h.normal, wp.vec3)
-    d.params = arr(h.params, wp.vec4, 4, tris.params)
+    tri_params = tris.params.copy()
+    tri_params[:, 3] = _emitted_luminance(tris, material_emission, scene.triangle_materials())
+    d.params = arr(h.params, wp.vec4, 4, tri_params)
     d.prims = arr(h.prims, wp.int32, 1, tris.ids)
     d.instances = arr(np.full(num_analytic, -1), wp.int32, 1, tris.instances)
     first = np.where(tris.instance_first >= 0, tris.instance_first + num_analytic, -1)
@@ -663,6 +665,22 @@ def _scaled_radiance(h: HostLights, textured: dict, tris: EmitterTriangles, glow
         return scale, tris.radiance
     h.radiance = np.asarray(h.radiance, np.float64).reshape(-1, 3) * scale  # (a row at a time: 0.3 s for 100k lights)
     return scale, np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
+
+
+def _emitted_luminance(tris: EmitterTriangles, material_emission: list, tri_materials: np.ndarray) -> np.ndarray:
+    """``(E,)`` float32: the luminance of the radiance each row of ``tris`` emits (its power over pi, its area and its
+    sides), over the largest of them, at least 2^-32: the resampling target of :mod:`wrt.emitter_resampling` reads it
+    with a triangle's solid angle. A radiance, not a power: dimensionless, so the same at every scene scale, where
+    the power over the area is a length to the -2. The floor keeps every row's weight positive wherever it can light
+    a point (a row of no light has none to give; one of little light is only drawn more often than it is worth)."""
+    if len(tris.ids) == 0:
+        return np.zeros(0, np.float32)
+    emission = np.asarray(material_emission, np.float64).reshape(-1, 3)
+    follows = tris.params[:, :1] > 0.0  # radiance times the material's emission
+    rgb = tris.radiance.astype(np.float64) * np.where(follows, emission[tri_materials[tris.ids]], 1.0)
+    lum = np.nan_to_num(np.maximum(rgb @ LUMINANCE, 0.0), posinf=FLOAT32_MAX)
+    brightest = lum.max()
+    return np.maximum(lum / brightest if brightest > 0.0 else lum, 2.0**-32).astype(np.float32)
 
 
 def _brightest(h: HostLights, textured: dict, tri_radiance: np.ndarray, tri_glow: np.ndarray,
