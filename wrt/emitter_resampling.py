@@ -6,22 +6,25 @@ per sample. Drawn by power alone, most draws of a large emitter tessellated into
 panel over a room, a glowing wall far to the side) are triangles that look small from the shading point or lie
 below its horizon, and the rare ones overhead carry the light: a noisy floor at low ``spp``. Here
 :data:`EMITTER_CANDIDATES` triangles are drawn by power and one of them is kept with probability proportional to its
-weight ``w = L seen / pmf``: ``L`` the luminance the triangle emits (``DeviceLights.params[k][3]``, over the
-brightest triangle's), ``seen`` :func:`seen_emitter`, its solid angle times the receiver's cosine, ``pmf`` the
-probability it was drawn with. The target density ``pmf w = L seen`` is the triangle's unshadowed light at the point
-(for a diffuse receiver). The kept triangle's selection probability is replaced by ``M pmf_k w_k / sum(w)``, the RIS
-weight ``sum(w) / M / (pmf_k w_k)``, so the estimate stays unbiased wherever every triangle that can light the point
-has a positive ``w`` (only triangles that face away, lie below the horizon or are not light-linked to the surface get
-0, and they send the point nothing; ``L`` is at least 2^-32). The weight reads no texture (a texel black at a
-triangle's centre cannot zero it): ``L`` is the emission its power was computed from. Every factor is free of length
-(a radiance, a solid angle, a probability), so the pick is the same at any scene scale; the power over the area, a
-length to the -2, left float32's range in scenes scaled far from 1. With the power in the target in place of ``L``, a
-large dim triangle counted its area twice (once in its power, once in its solid angle). The weight does not read
-the BSDF: a glossy highlight of the emitter gains less.
+weight ``w = L seen b / pmf``: ``L`` the luminance the triangle emits (``DeviceLights.params[k][3]``, over the
+brightest triangle's), ``seen`` :func:`seen_emitter`, its solid angle times the receiver's cosine, ``b`` the
+luminance of the BSDF (as the light's diffuse and specular multipliers scale it) from the viewer towards the
+triangle's centre plus :func:`bsdf_floor`, ``pmf`` the probability it was drawn with. The target density
+``pmf w = L seen b`` is about the triangle's unshadowed light at the point, so a glossy receiver keeps the triangles
+its lobe reflects. The kept triangle's selection probability is replaced by ``M pmf_k w_k / sum(w)``, the RIS weight
+``sum(w) / M / (pmf_k w_k)``, so the estimate stays unbiased wherever every triangle that can light the point has a
+positive ``w`` (only triangles that face away, lie below the horizon or are not light-linked to the surface get 0,
+and they send the point nothing; ``L`` is at least 2^-32, and ``b`` keeps its floor where the BSDF turns the centre
+away but not all of the triangle). The weight reads no texture (a texel black at a triangle's centre cannot zero
+it): ``L`` is the emission its power was computed from. Every factor is free of length (a radiance, a solid angle,
+a BSDF, a probability), so the pick is the same at any scene scale; the power over the area, a length to the -2,
+left float32's range in scenes scaled far from 1. With the power in the target in place of ``L``, a large dim
+triangle counted its area twice (once in its power, once in its solid angle).
 """
 
 import warp as wp
 
+from .bsdf import LobeAlbedos, Surface, eval_bsdf_lobes, surface_albedo
 from .geometry import stable_length
 from .light_links import lit_by
 from .light_sampling import (
@@ -30,9 +33,11 @@ from .light_sampling import (
     cone_of_sphere,
     emitter_triangle,
     light_kind,
+    lit_bsdf,
     pick_in_group,
 )
-from .sampling import rand01
+from .microfacet_albedo import GgxAlbedo
+from .sampling import luminance, rand01
 from .scene import DeviceScene
 from .spherical_triangle import seen_solid_angle, unit_towards
 
@@ -43,6 +48,9 @@ from .spherical_triangle import seen_solid_angle, unit_towards
 EMITTER_CANDIDATES = 8
 # The least receiver cosine a glowing sphere is weighed with (seen_sphere).
 SPHERE_COSINE_FLOOR = wp.constant(2.0**-20)
+# The share of the surface's albedo over pi the target's BSDF factor keeps at least (bsdf_floor).
+BSDF_FLOOR = wp.constant(0.25)
+ALBEDO_LEAST = wp.constant(2.0**-20)  # of a black surface's floor
 
 
 @wp.func
@@ -52,15 +60,16 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
     radiance: the solid angle it subtends (:func:`wrt.light_sampling.sample_light`'s, the area form for a triangle
     too small for float32's arctangent) times the largest cosine at ``p`` of its corners and its centre. Zero only
     where it sends ``p`` nothing: ``p`` behind a single-sided triangle, or every corner below ``p``'s horizon (the
-    triangle lies in the half-space they span, where the BSDF reflects nothing). A glowing sphere of the group
-    (wrt.glowing_spheres, after the triangles) is weighed by :func:`seen_sphere`."""
+    triangle lies in the half-space they span, where the BSDF reflects nothing). Returned with the unit direction
+    from ``p`` to its centre. A glowing sphere of the group (wrt.glowing_spheres, after the triangles) is weighed by
+    :func:`seen_sphere`."""
     if light_kind(lights, k) == LIGHT_GLOWING_SPHERE:
         return seen_sphere(lights, k, p, n)
     prim = lights.prims[k]
     a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
     area2 = stable_length(cr)  # twice the area, times down^2
     if area2 <= 0.0:
-        return 0.0
+        return 0.0, wp.vec3(0.0)
     centre = (a + b + c) / 3.0
     uc = unit_towards(p, centre)
     cos_l = -wp.dot(uc, cr / area2)  # at the light, as sample_light takes it
@@ -69,7 +78,7 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
     cos_r = wp.max(wp.max(wp.dot(n, unit_towards(p, a)), wp.dot(n, unit_towards(p, b))),
                    wp.max(wp.dot(n, unit_towards(p, c)), wp.dot(n, uc)))
     if cos_l <= 0.0 or cos_r <= 0.0:
-        return 0.0
+        return 0.0, uc
     omega = seen_solid_angle(p, a, b, c)
     if omega == 0.0:
         # Area / distance^2 in lengths times down, as sample_light's area pdf takes them (no over- or underflow
@@ -77,7 +86,7 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
         dist = wp.length((centre - p) * down)
         if dist > 0.0:
             omega = 0.5 * area2 * cos_l / (dist * dist)
-    return omega * cos_r
+    return omega * cos_r, uc
 
 
 @wp.func
@@ -89,15 +98,25 @@ def seen_sphere(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
     row = lights.glowing_spheres[k - lights.first_glowing_sphere]
     c = wp.vec3(row[0], row[1], row[2])
     cos_max, one_minus = cone_of_sphere(c, row[3], p)
+    towards = unit_towards(p, c)
     if cos_max > 1.0 or one_minus <= 0.0:
-        return 0.0
-    cos_a = wp.dot(n, unit_towards(p, c))
+        return 0.0, towards
+    cos_a = wp.dot(n, towards)
     cos_r = float(1.0)
     if cos_a < cos_max:  # the cone's nearest direction to n: cos(a - theta_max)
         sin_a = wp.sqrt(wp.max(0.0, 1.0 - cos_a * cos_a))
         sin_max = wp.sqrt(wp.max(0.0, one_minus * (1.0 + cos_max)))
         cos_r = cos_a * cos_max + sin_a * sin_max
-    return 2.0 * wp.pi * one_minus * wp.max(cos_r, SPHERE_COSINE_FLOOR)
+    return 2.0 * wp.pi * one_minus * wp.max(cos_r, SPHERE_COSINE_FLOOR), towards
+
+
+@wp.func
+def bsdf_floor(s: Surface, lobes: LobeAlbedos):
+    """What the target adds to the BSDF's luminance towards a triangle's centre: :data:`BSDF_FLOOR` of the
+    surface's albedo over pi (its lobes' at the viewing angle), at least 2^-20; positive, so that a triangle whose
+    centre the BSDF turns away (below the horizon, off a glossy lobe) keeps a weight wherever part of it is lit."""
+    albedo = luminance(surface_albedo(s) + lobes.spec + lobes.spec_ms + wp.vec3(lobes.coat)) / wp.pi
+    return BSDF_FLOOR * wp.max(albedo, ALBEDO_LEAST)
 
 
 @wp.func
@@ -111,24 +130,34 @@ def resample_emitter(
     group: int,
     p: wp.vec3,
     n: wp.vec3,
+    receiver: Surface,
+    tables: GgxAlbedo,
+    lobes: LobeAlbedos,
+    ng: wp.vec3,
+    wo: wp.vec3,
     state: wp.uint32,
 ):
     """``(k, probability, state)``: one of triangle lights ``[first, first + count)`` for point ``p`` (normal
-    ``n``, link group ``group``), kept from ``candidates`` drawn by power (:func:`wrt.light_sampling.pick_in_group`)
-    in proportion to its emitted luminance times :func:`seen_emitter` over its pick probability (the module's ``w``;
-    weighted reservoir sampling, one number per candidate), and the probability to divide its sample by,
-    ``candidates pmf_k w_k / sum(w)`` (0: no candidate lights ``p``)."""
+    ``n``, link group ``group``; ``receiver`` its surface, seen from ``wo``, geometric normal ``ng``, ``lobes``
+    :func:`wrt.bsdf.lobe_albedos` for ``wo``), kept from ``candidates`` drawn by power
+    (:func:`wrt.light_sampling.pick_in_group`) in proportion to the module's ``w`` (weighted reservoir sampling, one
+    number per candidate), and the probability to divide its sample by, ``candidates pmf_k w_k / sum(w)`` (0: no
+    candidate lights ``p``)."""
     kept = first
     kept_pmf = float(0.0)
     kept_weight = float(0.0)
     total = float(0.0)
+    floor = bsdf_floor(receiver, lobes)
     for _c in range(candidates):
         u_pick, state = rand01(state)
         u_keep, state = rand01(state)
         k, pmf = pick_in_group(lights, first, count, u_pick)
         w = float(0.0)
         if lit_by(lights.links, group, k):
-            w = lights.params[k][3] * seen_emitter(lights, scene, double_sided, k, p, n) / pmf
+            seen, towards = seen_emitter(lights, scene, double_sided, k, p, n)
+            if seen > 0.0:
+                f_d, f_s, _ = eval_bsdf_lobes(receiver, tables, lobes, n, ng, wo, towards)
+                w = lights.params[k][3] * seen * (luminance(lit_bsdf(lights, k, f_d, f_s)) + floor) / pmf
         total += w
         if w > 0.0 and u_keep * total < w:
             kept = k

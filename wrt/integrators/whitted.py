@@ -307,7 +307,7 @@ def whitted_lights_kernel(
         p_pick = float(1.0)
         if count > 1:  # the emissive triangles: one kept of candidates drawn by power (wrt.emitter_resampling)
             k, p_pick, state = resample_emitter(lights, scene, surf.double_sided, first, count, emitter_candidates,
-                                                group, h.p, h.ns, state)
+                                                group, h.p, h.ns, s, mats.ggx_albedo, lobes, h.ng, wo, state)
         ls = sample_light_in_view(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
