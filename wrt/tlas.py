@@ -24,8 +24,9 @@ the TLAS leaf, with no BLAS.
 
 Hits report the geometry id of the triangle or shape (:meth:`wrt.Scene.geometry` row, so prototype triangles appear
 once; shapes after the triangles) and the instance (-1 for world-space geometry). Shape hits carry the
-pseudo-barycentrics of :func:`wrt.primitives.shape_uv` (1/3 each on curved surfaces). Exact ties between entries go
-to the one visited first.
+pseudo-barycentrics of :func:`wrt.primitives.shape_uv` (1/3 each on curved surfaces). Exact ties between the
+triangles of two entries go to the smaller instance (world-space geometry first), as the rows of
+``Scene.triangles()`` order them; ties with an analytic shape go to the entry visited first.
 
 An instance scaled past ``2^100`` (or below ``2^-100``) is traced in a copy of its prototype's BLAS scaled by the power
 of two that undoes its scale (:func:`instance_exponents`): moved into its own space, a ray's direction is as long as
@@ -259,17 +260,26 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                     if b >= 0:
                         blas = tlas.blases[b]
                         o, d, t0 = entry_ray(tlas, instance, blas, origin, direction)
+                        # An exact tie with the best hit goes to the smaller instance (world geometry, -1, first),
+                        # as the rows of Scene.triangles() and the flattened layouts order them: given to the entry
+                        # visited first, coincident copies won by tree and ray. Such an entry is searched up to
+                        # best_t inclusive (one float further), or, moved to t0, up to where t0 + t passes best_t.
+                        ties = best_prim >= 0 and instance < best_instance
                         hi = best_t
+                        if ties:
+                            hi = next_up(best_t)
                         if t0 != 0.0:
                             # Above every t with t0 + t < best_t; the check below drops a hit that rounds to best_t
                             # or past it (any other hit in this BLAS is farther), cheaper than the exact limit.
                             hi = next_up(best_t - t0)
+                            if ties:
+                                hi = shifted_limit(next_up(best_t), t0)
                         t, u, v, prim, n, k = bvh_intersect(blas, o, d, shifted_limit(t_min, t0), hi)
                         nodes += n
                         tests += k
                         if t0 != 0.0:
                             t = t0 + t
-                        if prim >= 0 and t < best_t:
+                        if prim >= 0 and (t < best_t or (ties and t == best_t)):
                             best_t = t
                             best_u = u
                             best_v = v
