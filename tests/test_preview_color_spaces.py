@@ -115,3 +115,25 @@ def test_a_usd_uv_texture_float4_input_with_a_colour_space_is_named_not_decoded(
     scene, messages = load(path)
     assert any(name in m and "'srgb_rec709_scene'" in m and "/Looks/Tex/Image" in m for m in messages), messages
     np.testing.assert_allclose(getattr(scene.materials[0].textures["diffuseColor"], name), value, rtol=1e-6)
+
+
+@pytest.mark.parametrize("space", [None, "srgb_rec709_scene"])
+def test_a_preview_colour_authored_as_a_string_keeps_its_default_with_a_warning(tmp_path, space):
+    """A ``string`` diffuseColor of "0.7" is no colour (USD's typed reader gives none): it keeps Sdr's default with
+    a warning, as before colour constants were decoded. Decoding read it through numpy as the grey 0.7, without a
+    word. The default is the one UsdPreviewSurface's Sdr definition gives."""
+    from pxr import Sdr
+
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/Paint")
+    attr = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.String).GetAttr()
+    attr.Set("0.7")
+    if space is not None:
+        attr.SetColorSpace(space)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    node = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
+    default = node.GetShaderInput("diffuseColor").GetDefaultValue()
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, tuple(default), rtol=1e-6)
+    assert any("not a finite number" in m and "diffuseColor" in m for m in messages), messages

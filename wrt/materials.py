@@ -828,7 +828,10 @@ def _where(path: str, layer) -> str:
 
 def _rgb(value) -> np.ndarray | None:
     """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one,
-    in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load)."""
+    in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load), and for a string (as
+    :meth:`MaterialReader._set_constant`: numpy read a ``string`` diffuseColor "0.7" as the grey 0.7)."""
+    if isinstance(value, str):
+        return None
     try:
         v = np.asarray(value, np.float64).reshape(-1)
     except (TypeError, ValueError):  # None, or authored with a wrong type
