@@ -3,6 +3,7 @@ its images once: the counts in the words changed from frame to frame, so Python'
 let every frame repeat the line, and a 1000-frame run gave 1000 near-identical lines on stderr. The counts stay
 exact in ``Renderer.dropped_samples`` at every frame."""
 
+import os
 import warnings
 
 import numpy as np
@@ -328,3 +329,24 @@ def test_the_frames_of_two_worker_processes_warn_of_dropped_samples_once(tmp_pat
     assert sorted(row["frame"] for row in rows) == [1.0, 2.0, 3.0, 4.0]
     assert all(row["dropped_samples"] > 0 for row in rows), rows
     assert len(_said(caught, "were not finite")) == 1
+
+
+def test_wrt_render_keeps_one_set_of_said_warnings_per_stage_file_however_often_it_is_edited(tmp_path):
+    """A stage file written anew at each frame (a pipeline exporting it, then calling wrt.render) is warned of again
+    after each edit, as before; the warnings said for its earlier versions were kept besides, one set per
+    modification time, growing with every frame though no later call could reach them. One set per file now."""
+    from PIL import Image as PilImage
+
+    from wrt import far_views
+
+    PilImage.fromarray(np.full((2, 4), 1e38, np.float32), mode="F").save(tmp_path / "sky.tif")
+    path = tmp_path / "edited.usda"
+    path.write_text(BLINDING_USDA)
+    for k in range(3):
+        os.utime(path, ns=(10**18 + k, 10**18 + k))  # written again: a new modification time
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrt.render(wrt.load_usd(path), camera="/Cam", spp=2, seed=k, **OPTIONS)
+        assert len(_said(caught, "were not finite")) == 1  # each version warned of
+    kept = [key for key in far_views._SCENES_SHOWN if os.fspath(path) in str(key)]
+    assert len(kept) == 1, kept

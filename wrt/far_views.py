@@ -58,8 +58,8 @@ def shown_set() -> set:
     return set() if shared is None else shared
 
 
-# wrt.render's warnings said, per scene (shown_for_scene): by stage file and its modification time, or by the id of a
-# scene made in Python (dropped with the scene).
+# wrt.render's warnings said, per scene (shown_for_scene): by stage file (its modification time and set: one set per
+# file, replaced when the file is edited), or by the id of a scene made in Python (dropped with the scene).
 _SCENES_SHOWN: dict = {}
 
 
@@ -75,7 +75,13 @@ def shown_for_scene(scene) -> set:
     from .render_log import mtime_ns
 
     if scene.source:
-        return _SCENES_SHOWN.setdefault((os.path.abspath(scene.source), mtime_ns(scene.source)), set())
+        # Only the file's current version: keyed by (file, time) too, each edit left the set of the one before, which
+        # no later call could reach, and a file written anew at every frame grew the dict by a set a frame.
+        path, mtime = os.path.abspath(scene.source), mtime_ns(scene.source)
+        kept = _SCENES_SHOWN.get(path)
+        if kept is None or kept[0] != mtime:
+            kept = _SCENES_SHOWN[path] = (mtime, set())
+        return kept[1]
     key = ("scene", id(scene))
     if key not in _SCENES_SHOWN:
         _SCENES_SHOWN[key] = set()
