@@ -81,3 +81,39 @@ def test_cli_bvh_instance_needs_a_bvh_option(tmp_path, capsys, monkeypatch):
     assert main(["preview", "--bvh-instance", "0", "-o", "x.png", "-q"]) == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(errors) == 1 and "--bvh-instance 0 draws an instance's BVH boxes: give --bvh-depth K" in errors[0]
+
+
+NESTED_USDA = """#usda 1.0
+def PointInstancer "Outer" {
+    point3f[] positions = [(0, 0, 0), (10, 0, 0)]
+    int[] protoIndices = [0, 0]
+    rel prototypes = </Outer/Protos/Row>
+    def Scope "Protos" {
+        def PointInstancer "Row" {
+            point3f[] positions = [(0, 0, 0), (0, 3, 0)]
+            int[] protoIndices = [0, 0]
+            rel prototypes = </Outer/Protos/Row/Protos/Tri>
+            def Scope "Protos" {
+                def Mesh "Tri" {
+                    int[] faceVertexCounts = [3]
+                    int[] faceVertexIndices = [0, 1, 2]
+                    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+                }
+            }
+        }
+    }
+}
+"""
+
+
+def test_a_path_that_names_several_instances_is_refused(tmp_path):
+    """Instances of a PointInstancer nested in another's prototype are named by the outer instance: /Outer[0] holds
+    both of its rows' triangles (the stage's two nested positions). Such a path named the first of them without a
+    word, its BLAS drawn at one of two places; it is refused, naming the instances' indices to give instead."""
+    path = tmp_path / "nested.usda"
+    path.write_text(NESTED_USDA)
+    scene = wrt.load_usd(path)
+    rows = [i for i in range(len(scene.instances)) if scene.instances.path(i) == "/Outer[0]"]
+    assert len(rows) == 2, [scene.instances.path(i) for i in range(len(scene.instances))]
+    with pytest.raises(ValueError, match=rf"names 2 instances \({rows[0]}, {rows[1]}\)"):
+        wrt.preview(scene, bvh_leaves=True, bvh_instance="/Outer[0]", window_size=(32, 24))

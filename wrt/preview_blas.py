@@ -24,7 +24,8 @@ def instance_row(scene, instance) -> int:
     (:meth:`wrt.instancing.Instances.path`, ``/instancer[index]`` for a PointInstancer's).
 
     Raises:
-        ValueError: no such instance, or the scene has none.
+        ValueError: no such instance, a path that several instances share (those of a PointInstancer nested in
+            another's prototype), or the scene has none.
     """
     instances = scene.instances
     if not len(instances):
@@ -37,8 +38,12 @@ def instance_row(scene, instance) -> int:
         return int(instance)
     if isinstance(instance, str):
         paths = [instances.path(i) for i in range(len(instances))]
-        if instance in paths:
-            return paths.index(instance)
+        rows = [i for i, path in enumerate(paths) if path == instance]
+        if len(rows) == 1:
+            return rows[0]
+        if rows:  # a nested PointInstancer's instances go by the outer instance's path: the first was taken unsaid
+            shown = ", ".join(map(str, rows[:6])) + (", ..." if len(rows) > 6 else "")
+            raise ValueError(f"bvh_instance={instance!r} names {len(rows):,} instances ({shown}): give one's index")
         hint = did_you_mean(instance, paths) if len(paths) <= SUGGESTION_LIMIT else ""
         raise ValueError(f"bvh_instance={instance!r} names no instance{hint}; give an "
                          f"index 0 to {len(instances) - 1:,} or a path such as {paths[0]!r}")
