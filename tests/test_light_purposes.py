@@ -257,3 +257,45 @@ def test_mesh_lights_of_a_purpose_not_drawn_are_named_as_giving_no_light(tmp_pat
     assert sorted(lines[0].rsplit("): ", 1)[1].split(", ")) == expected, lines[0]
     assert "(purpose = guide: 1, purpose = proxy: 1)" in lines[0], lines[0]
     assert sorted(light.path for light in scene.lights) == ["/Lit", "/Sun"]
+
+
+INSTANCEABLE_MESH_LIGHT = """#usda 1.0
+def DistantLight "Sun"
+{
+}
+class "Source"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+    def Xform "Inside"
+    {
+    }
+}
+def Mesh "Panel" (
+    prepend apiSchemas = ["MeshLightAPI"]
+    instanceable = true
+    inherits = </Source>
+)
+{
+    uniform token purpose = "guide"
+}
+"""
+
+
+def test_an_instanceable_mesh_light_of_a_purpose_not_drawn_is_named_as_giving_no_light(tmp_path):
+    """An instanceable mesh keeps its geometry on the instance prim, read apart from the other gprims: one of guide
+    purpose that is a mesh light went dark without a word, as the plain ones did. Named as they are; the oracle is
+    USD's IsInstance and ComputePurpose."""
+    path = tmp_path / "instanceable_mesh_light.usda"
+    path.write_text(INSTANCEABLE_MESH_LIGHT)
+    stage = Usd.Stage.Open(str(path))
+    panel = stage.GetPrimAtPath("/Panel")
+    assert panel.IsInstance() and UsdGeom.Imageable(panel).ComputePurpose() == "guide"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    lines = [str(w.message) for w in caught if "mesh lights of a purpose the render does not draw" in str(w.message)]
+    assert len(lines) == 1, [str(w.message) for w in caught]
+    assert lines[0].endswith("(purpose = guide: 1): /Panel"), lines[0]
+    assert [light.path for light in scene.lights] == ["/Sun"]

@@ -430,6 +430,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
                     self._read_geometry(prim, ctx)
+                elif prim.IsA(UsdGeom.Gprim) and _is_mesh_light(prim):  # as a gprim's below: dark, named
+                    self._name_undrawn_mesh_light(prim, ctx)
                 elif not prim.IsA(UsdGeom.Gprim) and (prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI)):
                     self._read_lights(prim, [Sdf.Path(".")], ctx)  # an instanceable light keeps its light likewise
             else:
