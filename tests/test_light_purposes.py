@@ -145,7 +145,8 @@ def is_light(p) -> bool:
 def undrawn_lights(stage, drawn) -> list:
     """``(name, "purpose = ...")`` of every light whose purpose is not ``drawn``, from USD alone. A light walked in
     place (instance proxies too, hidden ones left out) has ``ComputePurpose``'s. A light in a PointInstancer's
-    prototype, named ``path[k]`` per instance ``k``, has the purpose ``ComputePurposeInfo`` finds authored on it or
+    prototype, named ``path[k]`` per instance ``k`` (``path[/Instancer[k]]`` for a prototype outside the instancer,
+    which another instancer may place too), has the purpose ``ComputePurposeInfo`` finds authored on it or
     its ancestors (``isInheritable``), else the instancer's ``ComputePurpose``: an instance inherits the instancer's
     purpose, as UsdImaging gives it (``instanceInheritablePurpose``)."""
     found = []
@@ -161,8 +162,10 @@ def undrawn_lights(stage, drawn) -> list:
                         continue
                     info = UsdGeom.Imageable(light).ComputePurposeInfo()
                     purpose = info.purpose if info.isInheritable else UsdGeom.Imageable(p).ComputePurpose()
+                    beneath = light.GetPath().HasPrefix(p.GetPath())
                     if purpose not in drawn:
-                        found += [(f"{light.GetPath()}[{k}]", f"purpose = {purpose}")
+                        found += [(f"{light.GetPath()}[{k if beneath else f'{p.GetPath()}[{k}]'}]",
+                                   f"purpose = {purpose}")
                                   for k, index in enumerate(indices) if index == target_index]
         elif is_light(p) and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible:
             purpose = UsdGeom.Imageable(p).ComputePurpose()
@@ -180,12 +183,14 @@ def test_lights_of_a_purpose_not_drawn_still_light_and_are_named(tmp_path, monke
     expected = undrawn_lights(stage, ("default", "render"))
     assert [name for name, _ in expected] == sorted(
         ["/Guide", "/Proxies/Panel", "/Lamps/Protos/Bulb[0]", "/Lamps/Protos/Bulb[1]", "/Guides/Loose",
-         "/Guides/Typeless/Deep", "/Protos/Lantern[0]", "/GuideKit/Lamp", "/GuideKit/Bulbs/P/Bulb[0]"])
+         "/Guides/Typeless/Deep", "/Protos/Lantern[/Guides/Lanterns[0]]", "/GuideKit/Lamp",
+         "/GuideKit/Bulbs/P/Bulb[0]"])
     assert recorded == expected
     # Every light lights, as before: purpose hides none.
     assert sorted(light.path for light in scene.lights) == sorted(
         ["/Plain", "/Guide", "/Proxies/Panel", "/Lamps/Protos/Bulb[0]", "/Lamps/Protos/Bulb[1]", "/Guides/Loose",
-         "/Guides/Typeless/Deep", "/Protos/Lantern[0]", "/Protos/Stage[0]", "/Protos/Lantern[1]", "/Kit/Lamp",
+         "/Guides/Typeless/Deep", "/Protos/Lantern[/Guides/Lanterns[0]]", "/Protos/Stage[/Stands[0]]",
+         "/Protos/Lantern[/Stands[1]]", "/Kit/Lamp",
          "/Kit/Bulbs/P/Bulb[0]", "/GuideKit/Lamp", "/GuideKit/Bulbs/P/Bulb[0]", "/PlainKit/Lamp",
          "/PlainKit/Bulbs/P/Bulb[0]"])
     (line,) = named

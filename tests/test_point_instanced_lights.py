@@ -363,3 +363,30 @@ def test_line_lights_in_a_point_instancer_prototype_are_the_lights_usd_places_by
     image = top_down_image(instanced)
     assert image.mean() > 0.01
     np.testing.assert_allclose(image, top_down_image(by_hand), rtol=1e-4, atol=1e-6)
+
+
+def test_lights_of_one_prototype_placed_by_two_instancers_are_named_by_their_instancer(tmp_path):
+    """Two PointInstancers place one bulb prototype that lies outside both: each light's name says which instancer's
+    instance it is (both first instances were ``/Protos/Bulb[0]``, warnings and ``scene.lights`` alike), found by
+    position from USD's own ``ComputeInstanceTransformsAtTime``; a light beneath its instancer keeps ``[k]``."""
+    stage = new_stage(tmp_path / "two.usda")
+    UsdGeom.Scope.Define(stage, "/Protos").CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+    bulb(stage, "/Protos/Bulb")
+    for path, positions in (("/Left", [(-2, 0, 1), (-2, 1, 1)]), ("/Right", [(2, 0, 1)])):
+        pi = UsdGeom.PointInstancer.Define(stage, path)
+        pi.CreatePrototypesRel().SetTargets([Sdf.Path("/Protos/Bulb")])
+        pi.CreateProtoIndicesAttr([0] * len(positions))
+        pi.CreatePositionsAttr(positions)
+    stage.Save()
+    expected = {}
+    for path in ("/Left", "/Right"):
+        instancer = stage.GetPrimAtPath(path)
+        for k, (_, m) in enumerate(usd_placed_lights(stage, instancer, Gf.Matrix4d(1.0))):
+            expected[tuple(np.round(np.array(m)[3, :3], 6))] = (path, k)
+    scene, messages = load(tmp_path / "two.usda")
+    assert len(scene.lights) == len(expected) == 3, messages
+    names = [light.path for light in scene.lights]
+    assert len(set(names)) == 3, names
+    for light in scene.lights:
+        instancer, k = expected[tuple(np.round(light.position.astype(np.float64), 6))]
+        assert light.path == f"/Protos/Bulb[{instancer}[{k}]]", (light.path, instancer, k)

@@ -154,6 +154,8 @@ class Placement(NamedTuple):
     root: str  # the path the content's root is drawn at (an instance-proxy path inside native instances)
     levels: tuple  # per nesting level, outermost first, the (n_l,) instance indices there (-1: native); row
     # r of to_world is the r-th combination of them, outer major (see placed_indices)
+    makers: tuple  # per nesting level, the path of the prim that makes its instances (an instance-proxy path inside
+    # native instances): the PointInstancer an index of levels counts in
 
 
 def placements(world: Content, contents: dict):
@@ -168,12 +170,12 @@ def _placed(entries: list, contents: dict):
     # a garbage collection. Each entry carries the path its content's root is drawn at: a native instance's prim path
     # (an instance proxy path when nested), else the content's own path moved by the instance it is nested in.
     pending = [Placement(contents[key], m, source, index, _Name(source, index, key[0] == "native"), color,
-                         drawn_root(key, source, contents[key].path), (index,))
+                         drawn_root(key, source, contents[key].path), (index,), (source,))
                for key, m, source, index, color in reversed(entries)]
     while pending:
         placement = pending.pop()
         yield placement
-        content, to_world, source, index, name, color, root, levels = placement
+        content, to_world, source, index, name, color, root, levels, makers = placement
         for key, m, inner_source, inner_index, inner in reversed(content.instances):
             # Nested instances keep the world-level source and index of the instance they are part of (instance
             # order), the name of the innermost instance a user can select (:class:`_Name`), and the colour and
@@ -184,10 +186,11 @@ def _placed(entries: list, contents: dict):
             else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
                 combined = place_round(to_world, m, *nested.tube)
             inner_root = part_path(drawn_root(key, inner_source, nested.path), content.path, root)
+            maker = part_path(inner_source, content.path, root)
             pending.append(Placement(nested, combined, source, np.repeat(index, len(m)),
-                                     name.nested(key, part_path(inner_source, content.path, root), inner_index),
+                                     name.nested(key, maker, inner_index),
                                      nested_looks(color, inner, len(to_world), len(m)), inner_root,
-                                     levels + (inner_index,)))
+                                     levels + (inner_index,), makers + (maker,)))
 
 
 def placed_indices(levels: tuple, row: int) -> list[int]:
@@ -198,6 +201,15 @@ def placed_indices(levels: tuple, row: int) -> list[int]:
         row, k = divmod(row, len(level))
         found.append(int(level[k]))
     return found[::-1]
+
+
+def placed_name(path: str, found_at: list[int], makers: tuple) -> str:
+    """The name of the prototype prim at ``path`` placed at instance indices ``found_at`` (:func:`placed_indices`)
+    of the instancers ``makers`` (:attr:`Placement.makers`): ``path`` and, outermost first, ``[k]`` for each
+    PointInstancer's index, ``[/Instancer[k]]`` where ``path`` does not lie beneath that instancer (a prototype
+    outside it, which another instancer may place too: both named ``/Protos/Bulb[0]`` could not be told apart)."""
+    return path + "".join(f"[{k}]" if path.startswith(maker.rstrip("/") + "/") else f"[{maker}[{k}]]"
+                          for k, maker in zip(found_at, makers) if k >= 0)
 
 
 def place_instances(world: Content, contents: dict, scene: Scene, skip_path, stable_name=None,
@@ -232,7 +244,7 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
                 expanded[group[0]] = expand_group([world.instances[p] for p in group], contents)
             placed_rows.add_member(expanded[group[0]], member)
             continue
-        for content, to_world, source, index, name, color, root, _ in _placed([entry], contents):
+        for content, to_world, source, index, name, color, root, *_ in _placed([entry], contents):
             if content.meshes or content.shapes:
                 placed_rows.add(content, to_world, source, index, name, color, root)
     placed = placed_rows.arrays()

@@ -9,7 +9,7 @@ from pxr import Sdf, Usd, UsdGeom, Vt
 
 from .instancing import group_rows
 from .light_links import part_path
-from .usd_contents import Content, Context, instance_looks, placed_indices, placements
+from .usd_contents import Content, Context, instance_looks, placed_indices, placed_name, placements
 from .usd_instancer_primvars import InstancerPrimvarReading
 from .usd_lights import UNRENDERED_PURPOSE, read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
@@ -145,7 +145,9 @@ class PointInstancerReading(InstancerPrimvarReading):
         :func:`wrt.usd_contents.placements`), read as that light authored at its world transform (the instance's
         times its own in the prototype): sizes, normalization, shaping and links as there. Each is named by its
         path (an instance-proxy path inside native instances) and its index in each instancer, outermost first
-        (``/Lamps/Proto/Light[3]``); warnings name it so. They come in instance order, as the instances do."""
+        (``/Lamps/Proto/Light[3]``; ``/Protos/Light[/Lamps[3]]`` for an instancer it does not lie beneath,
+        :func:`wrt.usd_contents.placed_name`); warnings name it so. They come in instance order, as the instances
+        do."""
         if not any(content.placed_lights for content in self.contents.values()):
             return  # walking every placement (64,000 nested instances: a second) to find no light
         found, sources = [], {}  # (world-level source, indices at each level, light); source -> stage order
@@ -153,7 +155,7 @@ class PointInstancerReading(InstancerPrimvarReading):
             for prim, to_space, purpose in placement.content.placed_lights:
                 path = part_path(str(prim.GetPath()), placement.content.path, placement.root)
                 indices = [placed_indices(placement.levels, row) for row in range(len(placement.to_world))]
-                names = [path + "".join(f"[{k}]" for k in found_at if k >= 0) for found_at in indices]
+                names = [placed_name(path, found_at, placement.makers) for found_at in indices]
                 if purpose not in self.purposes:  # each instance named, as the world's lights are (wrt.usd)
                     for name in names:
                         self._skip_path(UNRENDERED_PURPOSE, name, f"purpose = {purpose}")
