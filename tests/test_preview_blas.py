@@ -117,3 +117,30 @@ def test_a_path_that_names_several_instances_is_refused(tmp_path):
     assert len(rows) == 2, [scene.instances.path(i) for i in range(len(scene.instances))]
     with pytest.raises(ValueError, match=rf"names 2 instances \({rows[0]}, {rows[1]}\)"):
         wrt.preview(scene, bvh_leaves=True, bvh_instance="/Outer[0]", window_size=(32, 24))
+
+
+def test_cli_bad_bvh_instances_are_refused_naming_the_flag(tmp_path, capsys, monkeypatch):
+    """Refused after the load, as the Python keyword is, but in the CLI's flag: ``--bvh-instance 5``, not
+    ``bvh_instance=5`` (an option ``wrt preview`` does not have). The instance count is USD's own."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    monkeypatch.chdir(tmp_path)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
+    UsdGeom.Cube.Define(stage, "/Protos/Box")
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    pi.CreatePrototypesRel().SetTargets([Sdf.Path("/Protos/Box")])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(0, 0, 0), (3, 0, 0)])
+    UsdGeom.Sphere.Define(stage, "/Lone")
+    stage.Save()
+    n = len(pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default()))
+    lone = Usd.Stage.CreateNew(str(tmp_path / "lone.usda"))
+    UsdGeom.Sphere.Define(lone, "/Lone")
+    lone.Save()
+    for path, which, needle in (("pi.usda", "5", f"--bvh-instance 5: the scene has {n} instances, 0 to {n - 1}"),
+                                ("pi.usda", "/PI[9]", "--bvh-instance /PI[9] names no instance"),
+                                ("lone.usda", "0", "drawn with --bvh-depth K or --bvh-leaves alone")):
+        assert main(["preview", path, "--bvh-leaves", "--bvh-instance", which, "-o", "x.png", "-q"]) == 2
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+        assert len(errors) == 1 and needle in errors[0] and "bvh_" not in errors[0], errors
+    assert not (tmp_path / "x.png").exists()

@@ -1207,6 +1207,11 @@ def _run_preview(args) -> int:
     stats = scene.stats()
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
+    instance = args.bvh_instance
+    if instance is not None:  # refused now, naming the flag: wrt.preview's errors name its keyword, bvh_instance=
+        from .preview_blas import CLI_NAMES, instance_row
+
+        instance = instance_row(scene, instance, CLI_NAMES)
     if args.image:  # the film is rendered: refused now, naming the options, not inside the preview
         from .render import resolve_view
 
@@ -1230,7 +1235,7 @@ def _run_preview(args) -> int:
             window_size=args.window,
             max_triangles=args.max_triangles,
             off_screen=output is not None,
-            bvh_instance=args.bvh_instance,
+            bvh_instance=instance,
         )
     except PreviewUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)

@@ -19,22 +19,28 @@ from .tlas import blas_parts, instance_exponents
 SUGGESTION_LIMIT = 10_000  # most instance paths searched for a close one to name in the error (difflib is quadratic)
 
 
-def instance_row(scene, instance) -> int:
+# How instance_row's messages name the options: wrt.preview's keywords, or the CLI's flags (wrt preview).
+PYTHON_NAMES = {"choice": "bvh_instance={!r}", "boxes": "bvh_depth or bvh_leaves"}
+CLI_NAMES = {"choice": "--bvh-instance {}", "boxes": "--bvh-depth K or --bvh-leaves"}
+
+
+def instance_row(scene, instance, names: dict = PYTHON_NAMES) -> int:
     """The row of ``scene.instances`` that ``instance`` names: its index (an int), or its path
-    (:meth:`wrt.instancing.Instances.path`, ``/instancer[index]`` for a PointInstancer's).
+    (:meth:`wrt.instancing.Instances.path`, ``/instancer[index]`` for a PointInstancer's). ``names``: how errors name
+    the options (:data:`PYTHON_NAMES`, or :data:`CLI_NAMES` for the command line's flags).
 
     Raises:
         ValueError: no such instance, a path that several instances share (those of a PointInstancer nested in
             another's prototype), or the scene has none.
     """
     instances = scene.instances
+    choice = names["choice"].format(instance)
     if not len(instances):
-        raise ValueError(f"bvh_instance={instance!r}: {scene.source or 'the scene'} has no instances; its BVH is "
-                         "drawn with bvh_depth or bvh_leaves alone")
+        raise ValueError(f"{choice}: {scene.source or 'the scene'} has no instances; its BVH is drawn with "
+                         f"{names['boxes']} alone")
     if isinstance(instance, (int, np.integer)) and not isinstance(instance, bool):
         if not 0 <= instance < len(instances):
-            raise ValueError(f"bvh_instance={instance}: the scene has {len(instances):,} instances, 0 to "
-                             f"{len(instances) - 1:,}")
+            raise ValueError(f"{choice}: the scene has {len(instances):,} instances, 0 to {len(instances) - 1:,}")
         return int(instance)
     if isinstance(instance, str):
         paths = [instances.path(i) for i in range(len(instances))]
@@ -43,11 +49,11 @@ def instance_row(scene, instance) -> int:
             return rows[0]
         if rows:  # a nested PointInstancer's instances go by the outer instance's path: the first was taken unsaid
             shown = ", ".join(map(str, rows[:6])) + (", ..." if len(rows) > 6 else "")
-            raise ValueError(f"bvh_instance={instance!r} names {len(rows):,} instances ({shown}): give one's index")
+            raise ValueError(f"{choice} names {len(rows):,} instances ({shown}): give one's index")
         hint = did_you_mean(instance, paths) if len(paths) <= SUGGESTION_LIMIT else ""
-        raise ValueError(f"bvh_instance={instance!r} names no instance{hint}; give an "
-                         f"index 0 to {len(instances) - 1:,} or a path such as {paths[0]!r}")
-    raise ValueError(f"bvh_instance must be an instance index or path, got {instance!r}")
+        raise ValueError(f"{choice} names no instance{hint}; give an index 0 to {len(instances) - 1:,} or a path "
+                         f"such as {paths[0]!r}")
+    raise ValueError(f"{choice}: give an instance index or path, got {type(instance).__name__}")
 
 
 def instance_blas(accel, scene, row: int) -> tuple[FlatBvh, np.ndarray]:
