@@ -125,7 +125,8 @@ def test_inputs_that_are_not_finite_numbers_keep_their_defaults(tmp_path):
         warning = next(str(w.message) for w in caught if mat.path in str(w.message))
         assert "not a finite number" in warning and "ior" in warning and "diffuseColor" in warning, warning
     assert materials[0].roughness == 0.5
-    assert "roughness" in next(str(w.message) for w in caught if "/M0" in str(w.message))
+    assert "roughness" in next(str(w.message) for w in caught if "/M0" in str(w.message) and "not a number" in
+                               str(w.message))
 
 
 def test_inputs_of_the_wrong_shape_keep_their_defaults(tmp_path):
@@ -149,9 +150,35 @@ def test_inputs_of_the_wrong_shape_keep_their_defaults(tmp_path):
     np.testing.assert_allclose(mat.diffuse_color, 0.18)  # the schema's defaults
     np.testing.assert_allclose(mat.emissive_color, 0.0)
     assert (mat.roughness, mat.clearcoat, mat.metallic) == (0.5, 0.0, 0.0)
-    warning = next(str(w.message) for w in caught if "/Looks/M" in str(w.message))
+    warning = " ".join(str(w.message) for w in caught if "/Looks/M" in str(w.message))  # one per problem
     for name in ("diffuseColor", "emissiveColor", "roughness", "clearcoat", "metallic"):
         assert name in warning, (name, warning)
+
+
+def test_an_input_of_several_numbers_is_named_by_its_count_not_as_not_finite(tmp_path):
+    """A float input authored with three numbers (a ``float3 roughness``) and a colour authored with two keep their
+    defaults, and the warning says how many numbers each holds where one (or 1, 3 or 4) is expected: it said they
+    were not finite numbers, which each of theirs is. The counts are USD's (the authored values' lengths)."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = preview_material(stage, "/Looks/M")
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.2, 0.3, 0.4))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.1, 0.1, 0.1))
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.9, 0.1))
+    bind(quad, material)
+    stage.Save()
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    assert (mat.roughness, mat.opacity) == (0.5, 1.0)  # the schema's defaults
+    np.testing.assert_allclose(mat.diffuse_color, 0.18)
+    messages = [str(w.message) for w in caught if "/Looks/M" in str(w.message)]
+    assert not [m for m in messages if "not a finite number" in m], messages
+    floats = len(shader.GetInput("roughness").Get())
+    (warning,) = [m for m in messages if f"authored with {floats} numbers where one is expected" in m]
+    assert "roughness" in warning and "opacity" in warning and "diffuseColor" not in warning, warning
+    colour = len(shader.GetInput("diffuseColor").Get())
+    (warning,) = [m for m in messages if f"authored with {colour} numbers where 1, 3 or 4 are expected" in m]
+    assert "diffuseColor" in warning, warning
 
 
 @pytest.mark.parametrize("ior", [1.0, 1.5, 2.0, 3.0])

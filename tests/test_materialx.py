@@ -1014,7 +1014,7 @@ def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, nam
     """A standard_surface input authored with another shape than its type's (a float2 or matrix for a colour, a
     colour or a string of digits for a float) keeps the specification's default, named in the material's note, as a
     UsdPreviewSurface input does (eb95f91): it was resized into a colour of its first numbers, or read as its first
-    number, without a word."""
+    number, without a word. The note says how many numbers it holds (it said "not a finite number", which they are)."""
     stage, path = new_stage(tmp_path)
     material, shader = mtlx_material(stage, "/Looks/Odd")
     shader.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).Set(value)
@@ -1024,7 +1024,12 @@ def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, nam
     (mat,) = scene.materials
     np.testing.assert_allclose(getattr(mat, field), default, rtol=1e-6)
     (warning,) = [m for m in messages if "/Looks/Odd:" in m]
-    assert f"{name} is not a finite number of its type; its default is used" in warning
+    # Named by what is wrong: a string is no number; the others hold another count of numbers than the input takes
+    # (USD's length of the authored value), which are all finite.
+    count = len(value) * (len(value[0]) if type_name.startswith("Matrix") else 1)
+    expected = "1, 3 or 4 are" if field == "diffuse_color" else "one is"
+    problem = "not a number" if type_name == "String" else f"authored with {count} numbers where {expected} expected"
+    assert f"{name} is {problem}; its default is used" in warning, warning
 
 
 def test_a_tiling_past_float32_warns_only_in_wrts_words(tmp_path):

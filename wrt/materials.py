@@ -37,7 +37,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   resolves them) as an image of its own: :attr:`TextureInput.tiles`. Missing tiles read the ``fallback``; a pattern
   without any tile is replaced by it, with one warning naming the material and the pattern.
 - An input that is not a finite number (NaN, inf, or authored with a wrong type) keeps its schema default, with one
-  warning per material naming the inputs.
+  warning per material and problem naming the inputs (one authored with another count of numbers than its type's,
+  a ``float3 roughness``, is named with that count).
 
 Device side: :class:`DeviceMaterials` holds every material (index 0 is the default material: Lambertian, albedo =
 displayColor or grey 0.5, opacity = displayOpacity or 1) and every texture; :func:`eval_surface` returns the
@@ -79,6 +80,7 @@ from .textures import (
     udim_tile,
 )
 from .usd_values import asset_in_layer, value_at
+from .wording import counted
 
 SLOTS = (  # the texturable inputs, in device slot order
     "diffuseColor",
@@ -227,6 +229,28 @@ def _finite_float32(value, sizes: tuple) -> np.ndarray | None:
     with np.errstate(over="ignore"):
         numbers = array.astype(np.float32).reshape(-1)
     return numbers if np.all(np.isfinite(numbers)) else None
+
+
+def refused_constant(value, sizes: tuple) -> str:
+    """Why a surface input's constant ``value``, which takes a count in ``sizes`` of numbers (``(1,)`` for a float,
+    ``(1, 3, 4)`` for a colour), keeps the default: ``not a number`` (a string), ``authored with 3 numbers where one
+    is expected`` (a ``float3 roughness``: it was called not a finite number, which its three are), else ``not a
+    finite number`` (NaN, inf, past float32)."""
+    if isinstance(value, str):
+        return "not a number"
+    try:
+        count = np.asarray(value, np.float64).size
+    except (TypeError, ValueError):  # None, a ragged list, a type of no numbers
+        return "not a number"
+    if count not in sizes:
+        if sizes == (1,):
+            expected = "one is"
+        elif len(sizes) == 1:
+            expected = f"{sizes[0]} are"
+        else:
+            expected = f"{', '.join(map(str, sizes[:-1]))} or {sizes[-1]} are"
+        return f"authored with {counted(count, 'number')} where {expected} expected"
+    return "not a finite number"
 
 
 @dataclasses.dataclass
@@ -1382,8 +1406,10 @@ class MaterialReader:
         # A colour is 1 (grey), 3 or 4 (rgba) numbers, anything else 1: a float2 colour was read as the grey of its
         # first number, an array of colours as its first, a matrix as its first entry, without a word.
         # Finite in float32 too, which the device reads: a double ior of 1e300 stopped the render (Material's check).
-        if v.size not in ((1, 3, 4) if is_color else (1,)) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
-            self.skip(f"material {mat.path}: an input is not a finite number; its default is used", prim, detail=name)
+        sizes = (1, 3, 4) if is_color else (1,)
+        if v.size not in sizes or not np.all(np.abs(v) <= np.finfo(np.float32).max):
+            self.skip(f"material {mat.path}: an input is {refused_constant(value, sizes)}; its default is used", prim,
+                      detail=name)
             return
         if is_color:
             setattr(mat, field, np.resize(v, 3).astype(np.float32) if v.size >= 3 else np.full(3, v[0], np.float32))

@@ -99,6 +99,7 @@ from .materials import (
     TextureInput,
     constant_st_transform,
     four_components,
+    refused_constant,
     two_finite_numbers,
 )
 from .materialx_fold import TYPE_SIZES, Folded, Unfoldable, fold
@@ -268,7 +269,8 @@ class _Graph:
         if found[0] == "value":
             value = _input_array(found[1], default.size)
             if value is None:
-                self.notes.append(f"{name} is not a finite number of its type; its default is used")
+                problem = refused_constant(found[1], _input_sizes(default.size))
+                self.notes.append(f"{name} is {problem}; its default is used")
                 return default, None
             # The models' colour inputs (base_color, opacity, ...) are those of three numbers, all color3 in the
             # nodedefs.
@@ -843,7 +845,12 @@ def _input_array(value, size: int) -> np.ndarray | None:
         count = np.asarray(value, np.float64).size
     except (TypeError, ValueError):  # None, or an unreadable type
         return None
-    return _array(value, size) if count in ((1, 3, 4) if size == 3 else (size,)) else None
+    return _array(value, size) if count in _input_sizes(size) else None
+
+
+def _input_sizes(size: int) -> tuple:
+    """The counts of numbers a surface input of ``size`` numbers takes: a colour (3) is 1, 3 or 4."""
+    return (1, 3, 4) if size == 3 else (size,)
 
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
