@@ -181,6 +181,35 @@ def test_an_input_of_several_numbers_is_named_by_its_count_not_as_not_finite(tmp
     assert "diffuseColor" in warning, warning
 
 
+def test_an_input_connected_to_an_unsupported_shader_keeps_the_schema_default_and_says_so(tmp_path):
+    """An input connected to a shader wrt does not know keeps UsdPreviewSurface's default (Sdr's), not the value
+    authored beside the connection, as Storm draws it: UsdImaging hands Hydra no value for an input whose
+    value-producing attribute is an output (``GetValueProducingAttributes``, checked here), and Storm's fallback for an
+    unrecognized node is the Sdr default. The warning said "its constant value is used", which was never read."""
+    from pxr import Sdr
+
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/M", roughness=0.9, diffuseColor=Gf.Vec3f(1.0, 0.0, 0.0))
+    noise = UsdShade.Shader.Define(stage, "/Looks/M/Noise")
+    noise.CreateIdAttr("MyNoise")
+    shader.GetInput("roughness").ConnectToSource(noise.CreateOutput("out", Sdf.ValueTypeNames.Float))
+    shader.GetInput("diffuseColor").ConnectToSource(noise.CreateOutput("rgb", Sdf.ValueTypeNames.Color3f))
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    for name in ("roughness", "diffuseColor"):  # USD's own answer: the value comes from the noise's output
+        (attr,) = shader.GetInput(name).GetValueProducingAttributes()
+        assert attr.GetPrim().GetPath() == noise.GetPath() and attr.GetName().startswith("outputs:")
+    definition = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    assert mat.roughness == pytest.approx(definition.GetShaderInput("roughness").GetDefaultValue())
+    np.testing.assert_allclose(mat.diffuse_color, definition.GetShaderInput("diffuseColor").GetDefaultValue(),
+                               rtol=1e-6)
+    messages = [str(w.message) for w in caught if "unsupported shader (MyNoise)" in str(w.message)]
+    assert len(messages) == 2 and all("its default is used" in m and "constant value" not in m for m in messages), \
+        messages
+
+
 @pytest.mark.parametrize("ior", [1.0, 1.5, 2.0, 3.0])
 def test_the_clearcoat_reflects_the_fresnel_reflectance_of_ior(tmp_path, ior):
     """The specification's ``ior`` is the index "including the clearcoat", whose F0 is ``((1 - ior) / (1 + ior))^2``

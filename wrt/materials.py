@@ -1347,9 +1347,11 @@ class MaterialReader:
                 source.GetPrim(),
             )
         else:
+            # The schema's default, as Storm draws it: UsdImaging passes a connected input no value (its value-producing
+            # attribute is the output), and Storm's fallback for an unrecognized upstream node is then the Sdr default.
             self.skip(
                 f"material {mat.path}: {name} is connected to an unsupported shader ({source_id or 'no info:id'}); "
-                "its constant value is used",
+                "its default is used, as Storm draws it (a value authored beside the connection is not read)",
                 source.GetPrim(),
             )
 
