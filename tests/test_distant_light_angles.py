@@ -47,25 +47,34 @@ def clip_warning(angle, clipped):
                      f"(inputs:angle = {angle:g}, read as {clipped:g}: 1): /Sun") + "$"
 
 
-@pytest.mark.parametrize("angle", [-5.0, -1e-3])
+@pytest.mark.parametrize("angle", [-5.0, -1e-3, -math.inf])
 def test_negative_angle_is_a_parallel_light(tmp_path, angle):
     """A negative angle was skipped as a negative radius is (the stage fell back to the default headlight); clipped
     to 0 it is a delta light whose intensity is the illuminance at normal incidence: the white floor shows
-    ``E cos(tilt) / pi``."""
+    ``E cos(tilt) / pi``. So is ``-inf``, below the range as any negative angle (it was skipped as not finite)."""
     path = sun_over_floor(tmp_path, angle, intensity=2.0)
     with pytest.warns(UserWarning, match=clip_warning(angle, 0.0)):
         rgb = floor_radiance(path, spp=1)
     np.testing.assert_allclose(rgb, 2.0 * math.cos(math.radians(TILT)) / math.pi, rtol=1e-5)
 
 
-def test_angle_past_360_is_the_whole_sphere(tmp_path):
+@pytest.mark.parametrize("angle", [400.0, math.inf])
+def test_angle_past_360_is_the_whole_sphere(tmp_path, angle):
     """Past 360 degrees the angle is clipped to the whole sphere: an unnormalized light's intensity is the radiance
     of a sky all round, and the floor's upper hemisphere of it gives ``E = pi L`` whatever the tilt (white floor:
-    radiance ``L``)."""
-    path = sun_over_floor(tmp_path, 400.0, intensity=0.75)
-    with pytest.warns(UserWarning, match=clip_warning(400.0, 360.0)):
+    radiance ``L``). So is ``inf``, past the range as 400 is (it was skipped as not finite, lighting nothing)."""
+    path = sun_over_floor(tmp_path, angle, intensity=0.75)
+    with pytest.warns(UserWarning, match=clip_warning(angle, 360.0)):
         rgb = floor_radiance(path, spp=256)
     assert abs(float(rgb.mean()) / 0.75 - 1.0) < 0.03, rgb.mean()
+
+
+def test_a_nan_angle_is_skipped_naming_it(tmp_path):
+    """NaN is in no range to clip to: the light is skipped, named with its angle, and lights nothing."""
+    path = sun_over_floor(tmp_path, math.nan, intensity=1.0)
+    with pytest.warns(UserWarning, match=r"non-finite size were skipped: 1 prim\(s\) \(inputs:angle = nan: 1\): /Sun"):
+        scene = wrt.load_usd(path)
+    assert not [light for light in scene.lights if light.path == "/Sun"]
 
 
 def test_angles_in_range_are_read_as_authored(tmp_path, recwarn):

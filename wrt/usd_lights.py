@@ -639,14 +639,15 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textur
 
 def _distant_angle(value, prim, skip) -> float | None:
     """A DistantLight's ``inputs:angle`` clipped to ``[0, 360]`` degrees, or None (skipped with a warning) when it is
-    not a finite number. UsdLux's schema.usda says the angle "is assumed to be in the range 0 <= angle < 360, and
-    will be clipped to this range": a negative one is 0, a perfectly parallel (delta) light; one past 360 the whole
-    sphere. A negative angle was skipped, as a negative radius is, and its light lit nothing. Either clip is named."""
+    not a number (NaN, or authored with a wrong type). UsdLux's schema.usda says the angle "is assumed to be in the
+    range 0 <= angle < 360, and will be clipped to this range": a negative one (``-inf`` too) is 0, a perfectly
+    parallel (delta) light; one past 360 (``inf`` too) the whole sphere. A negative angle was skipped, as a negative
+    radius is, and its light lit nothing; so was an infinite one. Either clip is named."""
     try:
         angle = float(value)
     except (TypeError, ValueError):  # authored with a wrong type
         angle = math.nan
-    if not math.isfinite(angle):
+    if math.isnan(angle):  # in no range to clip to
         skip("lights with a negative or non-finite size were skipped", prim, f"inputs:angle = {angle:g}")
         return None
     if 0.0 <= angle <= ANGLE_CLIP:
