@@ -2,6 +2,8 @@
 left as it is), through every command that loads a stage and into frame worker processes; bad selections are errors
 naming the file, the prim and the choices that exist."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -183,3 +185,20 @@ def Xform "Inst" (
         wrt.load_usd(stage, variants={"/Inst/Body": {"look": "b"}})
     kinds = [shape.kind for shape in wrt.load_usd(stage, variants={"/Proto/Body": {"look": "b"}}).prototypes[0].shapes]
     assert kinds == ["sphere"]  # selected where the instance brings it from
+
+
+def test_an_authored_selection_of_no_variant_is_named(stage):
+    """A file whose selection names no variant of its set (a typo, a variant renamed upstream) composes none of the
+    set's variants, as USD does, with no composition error: wrt drew the car without its body and said at most
+    'nothing to render', naming neither the prim nor the selection. Now a warning names both and the variants."""
+    stage.write_text(STAGE.replace('string shape = "box"', 'string shape = "Box"'))
+    from pxr import Usd
+    assert not Usd.Stage.Open(str(stage)).GetPrimAtPath("/World/Car/Body")  # USD's oracle: nothing composed
+    with pytest.warns(UserWarning, match=r"car.usda: variant selections that name no variant of their set: USD "
+                                         r"composes none of the set's variants: 1 prim\(s\) \(shape = 'Box', its "
+                                         r"variants: ball, box: 1\): /World/Car") as caught:
+        scene = wrt.load_usd(stage)
+    assert scene.shapes == [] and len(caught) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a valid selection, or one made by load_usd, warns about nothing
+        wrt.load_usd(stage, variants={"/World/Car": {"shape": "ball"}})

@@ -142,7 +142,7 @@ from .usd_stage import (
 from .usd_surfaces import SurfaceReader
 from .usd_tubes import TubeReader
 from .usd_values import value_at
-from .usd_variants import apply_variants
+from .usd_variants import UNKNOWN_SELECTION, apply_variants, unknown_selections
 from .usd_visibility import Visibility
 from .usd_xforms import xform_cache
 
@@ -415,6 +415,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if draw_mode is not None:
             self._skip("models whose model:drawMode asks for a stand-in (cards, bounds or origin) were drawn as full "
                        "geometry (wrt draws no stand-ins)", prim, f"model:drawMode = {draw_mode}")
+        for selection in unknown_selections(prim):
+            self._skip(UNKNOWN_SELECTION, prim, selection)
         if prim.IsInstance() and not prim.IsA(UsdGeom.PointInstancer):
             if prim.IsA(UsdGeom.Camera):
                 # An instanceable camera keeps its camera (its attributes are on the instance prim, not in the

@@ -10,6 +10,9 @@ from __future__ import annotations
 from .errors import SceneError, did_you_mean
 
 MAX_LISTED = 12  # prims with variant sets named in an error about a prim that has none
+# A file's own selection of a variant its set lacks (a typo, a variant renamed upstream) composes none of the set's
+# variants, and USD reports no composition error: the prims the set held are simply missing.
+UNKNOWN_SELECTION = "variant selections that name no variant of their set: USD composes none of the set's variants"
 
 
 def parse_variant(text: str) -> tuple[str, str, str]:
@@ -75,6 +78,21 @@ def apply_variants(stage, source: str, variants) -> None:
                     raise SceneError(f"variant set {name!r} has no variant {variant!r}{meant}; its variants: "
                                      f"{', '.join(choices)}", path=source, prim=path)
                 sets.GetVariantSet(name).SetVariantSelection(variant)
+
+
+def unknown_selections(prim) -> list[str]:
+    """``SET = 'SELECTION', its variants: ...`` for each variant set of ``prim`` whose composed selection names none
+    of the set's variants (:data:`UNKNOWN_SELECTION`); empty for a prim without variant sets."""
+    if not prim.HasVariantSets():
+        return []
+    index = prim.GetPrimIndex()
+    found = []
+    for name in prim.GetVariantSets().GetNames():
+        selection = index.GetSelectionAppliedForVariantSet(name)  # an expression's value, not its text
+        choices = prim.GetVariantSet(name).GetVariantNames()
+        if selection and selection not in choices:
+            found.append(f"{name} = {selection!r}, its variants: {', '.join(choices) or 'none'}")
+    return found
 
 
 def _prims_with_variants(stage) -> list[tuple[str, list[str]]]:
