@@ -1248,6 +1248,21 @@ def test_composition_errors_warn_and_the_rest_still_loads(tmp_path, layer_meta, 
     assert [m.path for m in scene.meshes] == ["/World/Kept"]
 
 
+def test_a_reference_to_a_file_usd_cannot_parse_is_named_on_one_line(tmp_path):
+    """USD ends its parse error with a newline before the full stop: the warning broke there, its next error (or
+    nothing) on a line of its own, as if it were a second message."""
+    write_usda(tmp_path, 'def Xform "A"\n{\n    def Sphere "S" { double radius = 0.3 }\n}\n', name="broken.usda")
+    body = 'def Xform "World"\n{\n    def Xform "Arc" (references = @./broken.usda@</A>)\n    {\n    }\n' + \
+        mesh_usda("Kept") + "}\n"
+    path = write_usda(tmp_path, body)
+    with pytest.warns(UserWarning, match="1 composition error") as record:
+        scene = load_usd(path)
+    message = next(str(w.message) for w in record if "composition error" in str(w.message))
+    assert "\n" not in message and message.endswith("in </A/S>"), repr(message)
+    assert "/World/Arc: Could not open asset" in message and "broken.usda" in message, message
+    assert [m.path for m in scene.meshes] == ["/World/Kept"]
+
+
 def test_a_composition_error_is_reported_once_naming_the_prim_and_the_asset(tmp_path):
     """USD printed its own line ("Warning: in _ReportErrors at line ... of stage.cpp -- ...") straight to stderr and
     wrt warned again: the same error twice. USD's report of what wrt reports is held back; any other USD diagnostic

@@ -82,12 +82,13 @@ def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     stages are common and the rest still renders. Each error is named by the stage prim it is found at, as USD names
     it. ``trap``: the :func:`trap_usd_diagnostics` the stage was opened in, whose held copies of USD's printed
     report of these errors are dropped (the same error was printed twice)."""
-    # Sorted: USD's order varies.
-    errors = sorted((str(e.rootSite.path), str(e).strip().rstrip(".")) for e in stage.GetCompositionErrors())
+    # Sorted: USD's order varies. A parse error of the file an arc brings in ends in a newline and a full stop.
+    errors = sorted((str(e.rootSite.path), str(e).strip().rstrip(".").rstrip()) for e in stage.GetCompositionErrors())
     if not errors:
         return
     named = errors[:MAX_NAMED_COMPOSITION_ERRORS]
-    shown = "; ".join(f"{prim}: {text}" for prim, text in named)
+    # On one line: the texts keep their newlines only to match USD's printed report of them below.
+    shown = "; ".join(f"{prim}: {' '.join(text.split())}" for prim, text in named)
     if len(errors) > len(named):
         shown += f"; and {len(errors) - len(named)} more, as USD prints them"
     warnings.warn(
