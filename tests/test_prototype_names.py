@@ -28,7 +28,8 @@ def _instance(name: str, of: str, x: float = 0.0, y: float = 0.0, indent: str = 
 
 
 # Three prototypes: Rock, Bush (which holds two Leaf instances: nested instancing) and Leaf, whose blade is bound to
-# a material inside the prototype. The world names them out of path order (Zrock before Bush...).
+# a material inside the prototype. The world names them out of path order (Zrock before Bush...). The trunk lies 1
+# below the blades it holds: in their plane, an exact tie goes to the smaller instance, the bush's own trunk.
 STAGE = f"""#usda 1.0
 class Xform "Leaf"
 {{
@@ -66,6 +67,8 @@ class Xform "Bush"
 {{
     def Mesh "Trunk"
     {{{TRIANGLE.format(s=3)}
+        double3 xformOp:translate = (0, 0, -1)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
     }}
 {_instance("L1", "Leaf", y=1)}{_instance("L2", "Leaf", y=2)}}}
 def Xform "World"
