@@ -771,7 +771,8 @@ def test_every_option_that_takes_a_value_says_its_default():
 
     from wrt.cli import build_parser
 
-    off_when_absent = {"--variant", "--frames", "--dask", "--aov-dir", "--products", "--aov", "--bvh-depth", "--output"}
+    off_when_absent = {"--variant", "--frames", "--dask", "--aov-dir", "--products", "--aov", "--bvh-depth",
+                      "--bvh-instance", "--output"}
     commands = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
     silent = []
     for name, command in commands.items():
