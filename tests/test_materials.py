@@ -181,6 +181,31 @@ def test_an_input_of_several_numbers_is_named_by_its_count_not_as_not_finite(tmp
     assert "diffuseColor" in warning, warning
 
 
+@pytest.mark.parametrize("name, type_name, value", [
+    ("diffuseColor", "StringArray", ["0.7"]),  # was the grey 0.7
+    ("diffuseColor", "TokenArray", ["0.7", "0.1", "0.2"]),  # was the colour (0.7, 0.1, 0.2)
+    ("emissiveColor", "StringArray", ["0.7"]),  # decoded through _rgb, then read by _set_constant
+    ("roughness", "StringArray", ["0.3"]),  # was 0.3
+])
+def test_an_input_authored_as_an_array_of_strings_keeps_the_schema_default(tmp_path, name, type_name, value):
+    """A ``string[]`` or ``token[]`` of digits is no number, as a ``string`` is not: numpy read ``["0.7"]`` as 0.7,
+    so such an input became a grey or a roughness without a word. It keeps Sdr's default, named as not a number."""
+    from pxr import Sdr
+
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/M")
+    shader.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).Set(value)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    default = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface").GetShaderInput(name).GetDefaultValue()
+    field = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "roughness": "roughness"}[name]
+    np.testing.assert_allclose(np.ravel(getattr(mat, field)), np.ravel(default), rtol=1e-6)
+    messages = [str(w.message) for w in caught if "/Looks/M" in str(w.message)]
+    assert any("is not a number; its default is used" in m and name in m for m in messages), messages
+
+
 def test_an_input_connected_to_an_unsupported_shader_keeps_the_schema_default_and_says_so(tmp_path):
     """An input connected to a shader wrt does not know keeps UsdPreviewSurface's default (Sdr's), not the value
     authored beside the connection, as Storm draws it: UsdImaging hands Hydra no value for an input whose

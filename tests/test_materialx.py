@@ -1009,6 +1009,8 @@ def test_a_displacement_shader_that_moves_nothing_is_not_named(tmp_path, inputs)
     ("base_color", "Matrix3d", Gf.Matrix3d(0.1), "diffuse_color", 0.8),  # was its first three entries
     ("specular_roughness", "Float3", Gf.Vec3f(0.9, 0.0, 0.0), "roughness", 0.2),  # was 0.9
     ("specular_roughness", "String", "0.9", "roughness", 0.2),  # a string of digits was read as 0.9
+    ("specular_roughness", "StringArray", ["0.9"], "roughness", 0.2),  # a string[] of digits was read as 0.9
+    ("base_color", "TokenArray", ["0.1", "0.9", "0.1"], "diffuse_color", 0.8),  # was (0.1, 0.9, 0.1)
 ])
 def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, name, type_name, value, field, default):
     """A standard_surface input authored with another shape than its type's (a float2 or matrix for a colour, a
@@ -1028,7 +1030,8 @@ def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, nam
     # (USD's length of the authored value), which are all finite.
     count = len(value) * (len(value[0]) if type_name.startswith("Matrix") else 1)
     expected = "1, 3 or 4 are" if field == "diffuse_color" else "one is"
-    problem = "not a number" if type_name == "String" else f"authored with {count} numbers where {expected} expected"
+    text = type_name.startswith(("String", "Token"))
+    problem = "not a number" if text else f"authored with {count} numbers where {expected} expected"
     assert f"{name} is {problem}; its default is used" in warning, warning
 
 

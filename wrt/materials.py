@@ -231,17 +231,26 @@ def _finite_float32(value, sizes: tuple) -> np.ndarray | None:
     return numbers if np.all(np.isfinite(numbers)) else None
 
 
+def constant_numbers(value) -> np.ndarray | None:
+    """A constant input's ``value`` as flattened float64 numbers; None where it holds none: None, a ragged list, a
+    string and an array of strings (a ``string[]`` or ``token[]``, which numpy reads as numbers: ``["0.7"]`` as
+    0.7)."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):  # a ragged list
+        return None
+    return array.astype(np.float64).reshape(-1) if array.dtype.kind in "biuf" else None
+
+
 def refused_constant(value, sizes: tuple) -> str:
     """Why a surface input's constant ``value``, which takes a count in ``sizes`` of numbers (``(1,)`` for a float,
     ``(1, 3, 4)`` for a colour), keeps the default: ``not a number`` (a string), ``authored with 3 numbers where one
     is expected`` (a ``float3 roughness``: it was called not a finite number, which its three are), else ``not a
     finite number`` (NaN, inf, past float32)."""
-    if isinstance(value, str):
+    numbers = constant_numbers(value)
+    if numbers is None:  # a string (or strings), None, a ragged list, a type of no numbers
         return "not a number"
-    try:
-        count = np.asarray(value, np.float64).size
-    except (TypeError, ValueError):  # None, a ragged list, a type of no numbers
-        return "not a number"
+    count = numbers.size
     if count not in sizes:
         if sizes == (1,):
             expected = "one is"
@@ -853,14 +862,10 @@ def _where(path: str, layer) -> str:
 def _rgb(value) -> np.ndarray | None:
     """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one,
     in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load), and for a string (as
-    :meth:`MaterialReader._set_constant`: numpy read a ``string`` diffuseColor "0.7" as the grey 0.7)."""
-    if isinstance(value, str):
-        return None
-    try:
-        v = np.asarray(value, np.float64).reshape(-1)
-    except (TypeError, ValueError):  # None, or authored with a wrong type
-        return None
-    if v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
+    :meth:`MaterialReader._set_constant`: numpy read a ``string`` diffuseColor "0.7" as the grey 0.7, and a
+    ``string[]`` likewise)."""
+    v = constant_numbers(value)
+    if v is None or v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
         return None
     return np.resize(v, 3) if v.size > 1 else np.full(3, v[0])
 
@@ -1400,11 +1405,9 @@ class MaterialReader:
         """Sets ``mat.field`` from input ``name``'s ``value``, authored on ``prim``; a value that is empty or not
         finite (or of a wrong type) keeps the field's default, with a warning: NaN would reach every pixel the material
         covers."""
-        try:
-            # A string of digits is no number: numpy would read "0.7" as 0.7.
-            v = np.empty(0) if isinstance(value, str) else np.asarray(value, np.float64).reshape(-1)
-        except (TypeError, ValueError):  # authored with a wrong type, e.g. a string
-            v = np.empty(0)
+        # A string of digits is no number, nor is a string[] of them: numpy would read "0.7" as 0.7.
+        v = constant_numbers(value)
+        v = np.empty(0) if v is None else v
         # A colour is 1 (grey), 3 or 4 (rgba) numbers, anything else 1: a float2 colour was read as the grey of its
         # first number, an array of colours as its first, a matrix as its first entry, without a word.
         # Finite in float32 too, which the device reads: a double ior of 1e300 stopped the render (Material's check).

@@ -97,6 +97,7 @@ from .materials import (
     Material,
     PrimvarInput,
     TextureInput,
+    constant_numbers,
     constant_st_transform,
     four_components,
     refused_constant,
@@ -839,13 +840,8 @@ def _input_array(value, size: int) -> np.ndarray | None:
     (a colour, ``size`` 3, is 1, 3 or 4 numbers, a float one) or is a string, as for UsdPreviewSurface's inputs: a
     float2 colour was resized to ``(a, b, a)``, a matrix read as its first entries, a colour or a string of digits
     given for a float as its first number, without a word."""
-    if isinstance(value, str):
-        return None
-    try:
-        count = np.asarray(value, np.float64).size
-    except (TypeError, ValueError):  # None, or an unreadable type
-        return None
-    return _array(value, size) if count in _input_sizes(size) else None
+    numbers = constant_numbers(value)  # None for a string, or a string[] numpy would read as numbers
+    return _array(numbers, size) if numbers is not None and numbers.size in _input_sizes(size) else None
 
 
 def _input_sizes(size: int) -> tuple:
