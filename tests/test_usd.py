@@ -1263,6 +1263,24 @@ def test_a_reference_to_a_file_usd_cannot_parse_is_named_on_one_line(tmp_path):
     assert [m.path for m in scene.meshes] == ["/World/Kept"]
 
 
+def test_a_composition_error_at_no_prim_is_named_without_an_empty_prim(tmp_path):
+    """A variant selection whose expression names an undefined variable is a composition error USD finds at no site
+    (its ``rootSite.path`` is empty; its text names the prim): the warning read "...missing from the scene: : Error
+    evaluating expression", an empty prim and a stray colon before the text."""
+    from pxr import Usd
+
+    body = 'def Xform "Car" (\n    variants = {\n        string shape = "`${NOPE}`"\n    }\n' \
+        '    prepend variantSets = "shape"\n)\n{\n    variantSet "shape" = {\n        "box" {\n' \
+        '            def Sphere "Body" {}\n        }\n    }\n}\n' + mesh_usda("Kept")
+    path = write_usda(tmp_path, body)
+    (error,) = Usd.Stage.Open(path).GetCompositionErrors()  # USD's own: found at no prim
+    assert str(error.rootSite.path) == ""
+    with pytest.warns(UserWarning, match="1 composition error") as record:
+        load_usd(path)
+    message = next(str(w.message) for w in record if "composition error" in str(w.message))
+    assert "missing from the scene: Error evaluating expression" in message and ": :" not in message, message
+
+
 def test_a_composition_error_is_reported_once_naming_the_prim_and_the_asset(tmp_path):
     """USD printed its own line ("Warning: in _ReportErrors at line ... of stage.cpp -- ...") straight to stderr and
     wrt warned again: the same error twice. USD's report of what wrt reports is held back; any other USD diagnostic

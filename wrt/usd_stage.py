@@ -87,8 +87,9 @@ def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     if not errors:
         return
     named = errors[:MAX_NAMED_COMPOSITION_ERRORS]
-    # On one line: the texts keep their newlines only to match USD's printed report of them below.
-    shown = "; ".join(f"{prim}: {' '.join(text.split())}" for prim, text in named)
+    # On one line: the texts keep their newlines only to match USD's printed report of them below. An error found at
+    # no site (a variant expression's undefined variable: its text names the prim) has no prim to put before it.
+    shown = "; ".join(f"{prim}: {' '.join(text.split())}" if prim else ' '.join(text.split()) for prim, text in named)
     if len(errors) > len(named):
         shown += f"; and {len(errors) - len(named)} more, as USD prints them"
     warnings.warn(
