@@ -1190,6 +1190,24 @@ def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
     np.testing.assert_allclose(albedo(scene, 2), [[[1, 0, 0], [0, 0, 1]]] * 2, atol=1e-3)
 
 
+def test_a_place2d_input_authored_as_strings_keeps_its_default_with_a_note(tmp_path):
+    """A ``place2d`` ``offset`` authored as a ``string[]`` of digits (``["0.5", "0"]``) is no numbers: it keeps its
+    default, (0, 0), named in the material's note, and the image is read unplaced (texel 0 then texel 1). numpy read
+    the strings as the offset (0.5, 0), shifting the image by half of it without a word."""
+    png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
+    stage, path = new_stage(tmp_path, "strings.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Text")[0])
+    place = UsdShade.Shader.Define(stage, "/Looks/Text/Place")
+    place.CreateIdAttr("ND_place2d_vector2")
+    place.CreateInput("offset", Sdf.ValueTypeNames.StringArray).Set(["0.5", "0"])
+    closest_image(stage, "/Looks/Text", png, place)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Text/Place: offset is not 2 finite number(s); its default is used" in m for m in messages), \
+        messages
+    np.testing.assert_allclose(albedo(scene, 2), [[[1, 0, 0], [0, 0, 1]]] * 2, atol=1e-3)
+
+
 def rotate2d_oracle(v, degrees):
     """MaterialX's ``rotate2d`` (mx_rotate_vector2): ``(x cos a + y sin a, -x sin a + y cos a)``."""
     a = np.radians(degrees)

@@ -840,7 +840,7 @@ def _input_array(value, size: int) -> np.ndarray | None:
     (a colour, ``size`` 3, is 1, 3 or 4 numbers, a float one) or is a string, as for UsdPreviewSurface's inputs: a
     float2 colour was resized to ``(a, b, a)``, a matrix read as its first entries, a colour or a string of digits
     given for a float as its first number, without a word."""
-    numbers = constant_numbers(value)  # None for a string, or a string[] numpy would read as numbers
+    numbers = constant_numbers(value)
     return _array(numbers, size) if numbers is not None and numbers.size in _input_sizes(size) else None
 
 
@@ -851,12 +851,10 @@ def _input_sizes(size: int) -> tuple:
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
     """A constant as a float64 array finite in float32 (``size`` 3 broadcasts one number); None when it is not one
-    (a ``double`` of 1e300 passed as finite and stopped the load, a float32 material field being infinite)."""
-    try:
-        v = np.asarray(value, np.float64).reshape(-1)
-    except (TypeError, ValueError):  # None, a string, ...
-        return None
-    if v.size == 0 or not np.all(np.abs(v) <= np.finfo(np.float32).max):
+    (a ``double`` of 1e300 passed as finite and stopped the load, a float32 material field being infinite), nor
+    for a string or a ``string[]``, which numpy reads as numbers (``["0.5", "0"]`` as an offset of (0.5, 0))."""
+    v = constant_numbers(value)
+    if v is None or v.size == 0 or not np.all(np.abs(v) <= np.finfo(np.float32).max):
         return None
     if size is not None and v.size != size:
         v = np.full(size, v[0]) if v.size == 1 else np.resize(v, size)
