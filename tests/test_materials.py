@@ -1310,23 +1310,32 @@ def test_transform2d_scales_and_translates_st(tmp_path):
     np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
 
 
-@pytest.mark.parametrize("case", ["constant st", "reader fallback", "transform overflow"])
+@pytest.mark.parametrize("case", ["constant st", "reader fallback", "transform overflow", "constant st strings",
+                                  "reader fallback strings"])
 def test_texture_coordinates_past_float32_do_not_stop_the_load(tmp_path, case):
     """A constant ``st`` or a primvar reader's ``fallback`` authored as a double2 beyond float32's range is not two
     finite numbers (the st primvar, or (0, 0), is read, with a warning), and a UsdTransform2d of a constant ``in``
     whose finite inputs map it past float32's range gives the texture's fallback (black), with a warning: each
     stopped the load with
-    "transform must be a (3, 3) matrix of finite numbers" or "st_fallback must be 2 finite numbers"."""
+    "transform must be a (3, 3) matrix of finite numbers" or "st_fallback must be 2 finite numbers". A ``string[]``
+    of digits (``["0.5", "0"]``) is no two numbers either: numpy read it as (0.5, 0), without a word."""
     png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
     path = textured_stage(tmp_path, png, color_space="raw", transform={"rotation": 0.0})
     stage = Usd.Stage.Open(path)
     tex, xf, reader = (UsdShade.Shader.Get(stage, f"/Looks/Tex/{name}") for name in ("Image", "Xf", "St"))
-    if case == "constant st":
+    strings = case.endswith(" strings")
+    if case.startswith("constant st"):
         tex.GetPrim().RemoveProperty("inputs:st")  # (a float2 attribute would hold inf)
-        tex.CreateInput("st", Sdf.ValueTypeNames.Double2).Set(Gf.Vec2d(1e39, 0.0))
-    elif case == "reader fallback":
+        if strings:
+            tex.CreateInput("st", Sdf.ValueTypeNames.StringArray).Set(["0.5", "0"])
+        else:
+            tex.CreateInput("st", Sdf.ValueTypeNames.Double2).Set(Gf.Vec2d(1e39, 0.0))
+    elif case.startswith("reader fallback"):
         reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("uv")  # the quad has no uv: the fallback
-        reader.CreateInput("fallback", Sdf.ValueTypeNames.Double2).Set(Gf.Vec2d(1e39, 0.0))
+        if strings:
+            reader.CreateInput("fallback", Sdf.ValueTypeNames.StringArray).Set(["0.5", "0"])
+        else:
+            reader.CreateInput("fallback", Sdf.ValueTypeNames.Double2).Set(Gf.Vec2d(1e39, 0.0))
     else:  # a constant in, (0.5, 0.5) * 3e38 + 3e38 for every point
         xf.GetInput("in").GetAttr().ClearConnections()
         xf.GetInput("in").Set(Gf.Vec2f(0.5, 0.5))
@@ -1336,7 +1345,7 @@ def test_texture_coordinates_past_float32_do_not_stop_the_load(tmp_path, case):
     scene, messages = load_with_messages(path)
     expected = {"constant st": "constant texture coordinate is not two finite numbers",
                 "reader fallback": "fallback is not two finite numbers",
-                "transform overflow": "float32"}[case]
+                "transform overflow": "float32"}[case.removesuffix(" strings")]
     assert any(expected in m for m in messages), messages
     img = albedo(path)
     color = (0.0, 0.0, 0.0) if case == "transform overflow" else np.array([200, 100, 50]) / 255

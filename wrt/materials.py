@@ -884,12 +884,10 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
 
 def two_finite_numbers(value) -> np.ndarray | None:
     """A texture coordinate constant as ``(2,)`` float64; None when it is not two numbers finite in float32 (a
-    double2 of 1e39 became an infinite texture transform on the device, which stopped the load)."""
-    try:
-        v = np.asarray(value, np.float64).reshape(-1)
-    except (TypeError, ValueError):  # a string, None, ...
-        return None
-    return v if v.size == 2 and np.all(np.abs(v) <= np.finfo(np.float32).max) else None
+    double2 of 1e39 became an infinite texture transform on the device, which stopped the load), nor for a string or
+    a ``string[]`` (:func:`constant_numbers`)."""
+    v = constant_numbers(value)
+    return v if v is not None and v.size == 2 and np.all(np.abs(v) <= np.finfo(np.float32).max) else None
 
 
 def constant_st_transform(transform: np.ndarray, st) -> np.ndarray:
