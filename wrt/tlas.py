@@ -26,7 +26,8 @@ Hits report the geometry id of the triangle or shape (:meth:`wrt.Scene.geometry`
 once; shapes after the triangles) and the instance (-1 for world-space geometry). Shape hits carry the
 pseudo-barycentrics of :func:`wrt.primitives.shape_uv` (1/3 each on curved surfaces). Exact ties between the
 triangles of two entries go to the smaller instance (world-space geometry first), as the rows of
-``Scene.triangles()`` order them; ties with an analytic shape go to the entry visited first.
+``Scene.triangles()`` order them; a tie between a shape and a triangle or another shape is not ordered (a shape
+entered after a tied hit does not take it; a triangle of a smaller instance than a shape's does).
 
 An instance scaled past ``2^100`` (or below ``2^-100``) is traced in a copy of its prototype's BLAS scaled by the power
 of two that undoes its scale (:func:`instance_exponents`): moved into its own space, a ray's direction is as long as
