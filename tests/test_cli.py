@@ -1406,3 +1406,21 @@ def test_an_output_that_is_a_device_or_a_pipe_is_refused_naming_it(tmp_path, cap
     assert errors == [f"wrt: error: cannot write {output}: it is {kind}, not an image file (the image is written "
                       "beside it and renamed over it); give a file name ending .png, .exr or .npy"], errors
     assert Path(output).exists() and not Path(output).is_file()
+
+
+@pytest.mark.parametrize("args, folder, file", [
+    (["-o", "{dir}/shot.png", "--aov-dir", "{dir}/shot.png"], "shot.png", "shot.png/depth.npy"),
+    (["-o", "{dir}/shot.png", "--aov", "depth", "--aov-dir", "{dir}/shot.depth.png/arrays"], "shot.depth.png",
+     "shot.depth.png/arrays/depth.npy"),
+])
+def test_an_aov_folder_at_a_file_the_run_writes_is_refused_before_a_render(tmp_path, capsys, args, folder, file):
+    """``-o out/shot.png --aov-dir out/shot.png``: the image was rendered and written, then save_aovs failed on the
+    folder the image had taken ('save_aovs: directory ... is a file'), naming neither option."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")  # refused before it is read
+    args = [a.replace("{dir}", str(tmp_path)) for a in args]
+    assert main(["render", str(tmp_path / "a.usda"), *args, "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1, errors
+    assert f"cannot write {tmp_path / file}" in errors[0] and f"into {tmp_path / folder}: that is " in errors[0]
+    assert "give -o and --aov-dir other names" in errors[0], errors
+    assert list(tmp_path.iterdir()) == [tmp_path / "a.usda"]

@@ -636,7 +636,8 @@ def _check_distinct_outputs(paths: list, files: list) -> None:
     """Raises ValueError when two files of a run would be written at one path, ``files`` holding per scene those
     :func:`_files_written` names: two scenes' images (they are named by the scene's file stem, so ``a/room.usda`` and
     ``b/room.usda`` meet), or an image and an AOV file (``-o d/depth.npy --aov-dir d``; ``a.depth.usda``'s image and
-    ``a.usda``'s ``--aov depth`` preview). The later would overwrite the first without a word."""
+    ``a.usda``'s ``--aov depth`` preview). The later would overwrite the first without a word. Also when one file
+    would be the folder of another (``-o d/a.png --aov-dir d/a.png``)."""
     first = {}  # resolved file -> (scene, whether it is that scene's image)
     for path, written in zip(paths, files):
         for index, file in enumerate(written):
@@ -654,6 +655,15 @@ def _check_distinct_outputs(paths: list, files: list) -> None:
                      for scene, image in ((other, other_image), (path, index == 0))]
             raise ValueError(f"{file} would be written twice, as {roles[0]} and as {roles[1]}; give -o, --aov-dir "
                              "or the scene files other names")
+    # A file of the run on the path of another, which needs it as a folder (-o out/a.png --aov-dir out/a.png):
+    # refused here; it failed after the render, the image written, naming save_aovs and not the options.
+    for key, (path, image) in first.items():
+        folder = next((parent for parent in key.parents if parent in first), None)
+        if folder is not None:
+            other, other_image = first[folder]
+            raise ValueError(f"cannot write {key}, {'the image' if image else 'an AOV file'} of {path}, into "
+                             f"{folder}: that is {'the image' if other_image else 'an AOV file'} of {other}; give -o "
+                             "and --aov-dir other names")
 
 
 def _renderer_options(args) -> dict:
