@@ -266,7 +266,20 @@ def test_product_names_stay_in_the_output_folder(tmp_path):
     assert files == sorted([f"deep/out/{p.name}" for p in written.values()] + ["shot.usda"])
     messages = " | ".join(str(w.message) for w in record)
     assert "/Render/B writes x.png, as an earlier product does; written as x_2.png" in messages
-    assert "/Render/D productName 'aovs.png': wrt writes several channels as EXR; written as aovs.exr" in messages
+    assert ("/Render/D productName 'aovs.png': wrt writes PNG for a product of the beauty alone, EXR for any other "
+            "RenderVar; written as aovs.exr") in messages
+
+
+def test_a_png_product_of_one_data_channel_is_said_to_be_no_beauty(tmp_path):
+    """productName 'depth.png' of the depth RenderVar alone is written as EXR: the warning said 'wrt writes several
+    channels as EXR', of a product of one channel; what keeps it from PNG is that it is not the beauty."""
+    scene = load(write_stage(tmp_path, product("D", ["depth"], "depth.png"), ["D"]))
+    with pytest.warns(UserWarning) as record:
+        written = wrt.render_products(scene, tmp_path / "out", device="cpu")
+    assert written["/Render/D"].name == "depth.exr" and sorted(read_exr(written["/Render/D"])) == ["depth"]
+    messages = [str(w.message) for w in record if "productName" in str(w.message)]
+    assert len(messages) == 1 and "several channels" not in messages[0], messages
+    assert "PNG for a product of the beauty alone, EXR for any other RenderVar; written as depth.exr" in messages[0]
 
 
 def test_stage_without_products_is_an_error(tmp_path):

@@ -157,10 +157,11 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
     stem, suffix = os.path.splitext(name)
     wanted = ".exr" if not png or suffix.lower() == ".exr" else ".png"
     if suffix.lower() != wanted:
-        if suffix[1:].isalpha():  # another format's extension (".tif", or ".png" for several channels): replaced
-            warnings.warn(f"{where}: {product.product} productName {product.product_name!r}: wrt writes "
-                          f"{'PNG or EXR' if png else 'several channels as EXR'}; written as {stem}{wanted}",
-                          stacklevel=3)
+        if suffix[1:].isalpha():  # another format's extension (".tif", or ".png" of more than the beauty): replaced
+            # Not 'several channels': a product of depth alone is one channel, and still no PNG (8-bit colour).
+            what = "PNG or EXR" if png else "PNG for a product of the beauty alone, EXR for any other RenderVar"
+            warnings.warn(f"{where}: {product.product} productName {product.product_name!r}: wrt writes {what}; "
+                          f"written as {stem}{wanted}", stacklevel=3)
             name = stem
         name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
     unique = taken.unique(name)
