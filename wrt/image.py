@@ -334,8 +334,8 @@ class Image:
             - ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, flipped to the camera's side with the
               face normal, and near silhouettes turned towards it just enough that the camera's mirror direction
               stays above the surface; 0 on a miss);
-            - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera;
-            - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;
+            - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera (0 on a miss);
+            - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material (0 on a miss);
             - ``"prim"`` int32 triangle id (-1 on a miss);
             - ``"instance"`` int32 index into ``Scene.instances``; -1 on a miss or on non-instanced geometry;
             - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss, for the default material and on
