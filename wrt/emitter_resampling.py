@@ -29,6 +29,7 @@ from .geometry import stable_length
 from .light_links import lit_by
 from .light_sampling import (
     LIGHT_GLOWING_SPHERE,
+    LIGHT_GLOWING_TUBE,
     DeviceLights,
     cone_of_sphere,
     emitter_triangle,
@@ -62,9 +63,12 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
     where it sends ``p`` nothing: ``p`` behind a single-sided triangle, or every corner below ``p``'s horizon (the
     triangle lies in the half-space they span, where the BSDF reflects nothing). Returned with the unit direction
     from ``p`` to its centre. A glowing sphere of the group (wrt.glowing_spheres, after the triangles) is weighed by
-    :func:`seen_sphere`."""
-    if light_kind(lights, k) == LIGHT_GLOWING_SPHERE:
+    :func:`seen_sphere`, a glowing tube by :func:`seen_tube`."""
+    kind = light_kind(lights, k)
+    if kind == LIGHT_GLOWING_SPHERE:
         return seen_sphere(lights, k, p, n)
+    if kind == LIGHT_GLOWING_TUBE:
+        return seen_tube(lights, k, p, n)
     prim = lights.prims[k]
     a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
     area2 = stable_length(cr)  # twice the area, times down^2
@@ -96,11 +100,28 @@ def seen_sphere(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
     half below the horizon, which rounding could put wholly below it, keeps a chance; 0 inside the sphere, where
     ``sample_light`` draws nothing. Read as a triangle, a sphere's row took its shape id for a triangle's."""
     row = lights.glowing_spheres[k - lights.first_glowing_sphere]
-    c = wp.vec3(row[0], row[1], row[2])
-    cos_max, one_minus = cone_of_sphere(c, row[3], p)
+    return seen_ball(wp.vec3(row[0], row[1], row[2]), row[3], p, n, 0.0)
+
+
+@wp.func
+def seen_tube(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
+    """:func:`seen_emitter` of glowing tube ``k``: :func:`seen_ball` of a ball around it (radius plus half length),
+    and a hemisphere's 2 pi where ``p`` lies inside that ball, so that every point the tube can light keeps a weight
+    (the tube itself does not fill the ball)."""
+    j = k - lights.first_glowing_sphere
+    row = lights.glowing_spheres[j]
+    axis = lights.glowing_axes[j]
+    reach = row[3] + wp.length(wp.vec3(axis[0], axis[1], axis[2]))
+    return seen_ball(wp.vec3(row[0], row[1], row[2]), reach, p, n, 2.0 * wp.pi)
+
+
+@wp.func
+def seen_ball(c: wp.vec3, radius: float, p: wp.vec3, n: wp.vec3, inside: float):
+    """:func:`seen_sphere` of the ball of centre ``c`` and ``radius``, ``inside`` where ``p`` lies in it."""
+    cos_max, one_minus = cone_of_sphere(c, radius, p)
     towards = unit_towards(p, c)
     if cos_max > 1.0 or one_minus <= 0.0:
-        return 0.0, towards
+        return inside, towards
     cos_a = wp.dot(n, towards)
     cos_r = float(1.0)
     if cos_a < cos_max:  # the cone's nearest direction to n: cos(a - theta_max)

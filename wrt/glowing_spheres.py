@@ -1,13 +1,18 @@
-"""Glowing analytic spheres as lights: the spheres of a scene built in Python (``wrt.Shape``) and those of
-instances (the spheres of a ``Points`` prim are instances of one), bound to an emissive material, become light-table
-entries of their own, sampled by the cone they subtend as a SphereLight is (:mod:`wrt.light_sampling`), with the
-emission their material shows on them (shapes read their textures at one constant ``st``, so the glow is the same
-all over the sphere).
+"""Glowing analytic spheres and round tubes as lights: the spheres, cylinders and capsules of a scene built in Python
+(``wrt.Shape``) and those of instances (the spheres of a ``Points`` prim are instances of one, the joints and
+straight segments of a ``BasisCurves`` prim of constant width instances of a sphere and an open cylinder), bound to
+an emissive material, become light-table entries of their own, with the emission their material shows on them
+(shapes read their textures at one constant ``st``, so the glow is the same all over the shape). Spheres are sampled
+by the cone they subtend as a SphereLight is, cylinders (side, and caps where capped) and capsules (side and two
+hemispheres) uniformly by area over their whole surface (:mod:`wrt.light_sampling`): the points facing away are
+wasted draws, but the density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back for MIS.
 
-A sphere is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
-is a similarity (a rotation times one scale: an unevenly scaled sphere is an ellipsoid, which stays unsampled); the
-spheres of an instance are sampled all or none, the first instances whose spheres fit in the cap on instanced
-emitter entries. Tubes and other glowing shapes are not sampled (:attr:`GlowingSpheres.left_out` counts them).
+A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
+keeps it round: a similarity (a rotation times one scale) for spheres and capsules, and for a cylinder one scale
+across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed across an elliptic
+tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances whose shapes fit
+in the cap on instanced emitter entries. Cones, boxes and other glowing shapes are not sampled
+(:attr:`GlowingSpheres.left_out` counts them).
 """
 
 from __future__ import annotations
@@ -21,6 +26,13 @@ import numpy as np
 # similarity: float32 transforms of Points widths round near 1e-7.
 SIMILARITY_TOLERANCE = 1e-5
 
+# The shape of a row (GlowingSpheres.axes[:, 3]; wrt.light_sampling reads the same codes).
+GLOW_SPHERE = 0  # a sphere, sampled by its cone
+GLOW_OPEN_CYLINDER = 1  # the side of a cylinder (centre, radius, half axis), uniformly by area
+GLOW_CAPPED_CYLINDER = 2  # its side and both caps, uniformly by area
+GLOW_CAPSULE = 3  # the side of radius r between the centres +-axis, and a hemisphere of radius r on each
+SAMPLED_KINDS = ("sphere", "cylinder", "capsule")  # the wrt.Shape kinds that may be sampled
+
 
 @dataclasses.dataclass
 class GlowingSpheres:
@@ -33,9 +45,11 @@ class GlowingSpheres:
         power: ``(S,)`` float64 selection weights: pi times area times the material's glow.
         instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
         slots: ``(S,)`` int32 each row's place among its instance's rows (0 for world shapes).
-        left_out: glowing shapes not sampled (counted once per instance that draws them): tubes and other kinds,
-            spheres that emit inwards or are scaled unevenly.
-        past_cap: glowing spheres of instances past the cap (once per instance).
+        left_out: glowing shapes not sampled (counted once per instance that draws them): cones and other kinds,
+            shapes that emit inwards or are scaled unevenly.
+        past_cap: glowing shapes of instances past the cap (once per instance).
+        axes: ``(S, 4)`` float64 world half axis (from the centre to a cap's centre, or to a capsule's hemisphere's;
+            zero for a sphere) and the row's ``GLOW_*`` code; None: every row a sphere.
     """
 
     ids: np.ndarray
@@ -46,6 +60,7 @@ class GlowingSpheres:
     slots: np.ndarray
     left_out: int = 0
     past_cap: int = 0
+    axes: np.ndarray | None = None
 
 
 def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -57,12 +72,57 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (s2 > 0.0) & np.isfinite(s2) & (off <= SIMILARITY_TOLERANCE * s2), np.sqrt(np.maximum(s2, 0.0))
 
 
-def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, int]:
-    """``(indices, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be sampled:
-    spheres that emit outwards; and how many other glowing shapes there are."""
+def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(indices, kinds, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be
+    sampled: spheres, cylinders and capsules that emit outwards; their ``(K, 2)`` float64 ``(GLOW_* code, capsule's
+    H)``; and how many other glowing shapes there are."""
     glowing = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
-    take = [k for k in glowing if shapes[k].kind == "sphere" and (shapes[k].params[3] >= 0.0 or shapes[k].double_sided)]
-    return np.asarray(take, np.int64), len(glowing) - len(take)
+    take = [k for k in glowing
+            if shapes[k].kind in SAMPLED_KINDS and (shapes[k].params[3] >= 0.0 or shapes[k].double_sided)]
+    kinds = np.zeros((len(take), 2))
+    for row, k in enumerate(take):
+        shape = shapes[k]
+        if shape.kind == "cylinder":
+            kinds[row, 0] = GLOW_CAPPED_CYLINDER if shape.params[0] > 0.0 else GLOW_OPEN_CYLINDER
+        elif shape.kind == "capsule":
+            kinds[row] = GLOW_CAPSULE, float(shape.params[0])
+    return np.asarray(take, np.int64), kinds, len(glowing) - len(take)
+
+
+def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(round, rows, axes)`` of canonical shapes ``kinds`` (``(..., 2)``, :func:`_candidates`) under ``(..., 4, 4)``
+    world transforms: whether each stays round in the world (see the module docstring), its world ``(centre,
+    radius)`` and ``(half axis, code)`` rows (``(..., 4)``)."""
+    linear = to_world[..., :3, :3]
+    code = np.broadcast_to(kinds[..., 0], linear.shape[:-2])
+    similar, scale = _similar(linear)
+    # A cylinder: its canonical X and Y columns orthogonal, of one length (its radius), and orthogonal to Z.
+    gram = np.einsum("...ji,...jk->...ik", linear, linear)
+    r2 = 0.5 * (gram[..., 0, 0] + gram[..., 1, 1])
+    h2 = gram[..., 2, 2]
+    across = np.maximum(np.abs(gram[..., 0, 0] - gram[..., 1, 1]), np.abs(gram[..., 0, 1]))
+    along = np.maximum(np.abs(gram[..., 0, 2]), np.abs(gram[..., 1, 2]))
+    cylinder = (code == GLOW_OPEN_CYLINDER) | (code == GLOW_CAPPED_CYLINDER)
+    with np.errstate(invalid="ignore", over="ignore"):
+        round_tube = ((r2 > 0.0) & (h2 > 0.0) & np.isfinite(r2) & np.isfinite(h2)
+                      & (across <= SIMILARITY_TOLERANCE * r2) & (along <= SIMILARITY_TOLERANCE * np.sqrt(r2 * h2)))
+    ok = np.where(cylinder, round_tube, similar)
+    radius = np.where(cylinder, np.sqrt(np.maximum(r2, 0.0)), scale)
+    # The half axis: a cylinder's canonical Z column, a capsule's times H (its hemispheres' centres), a sphere's 0.
+    factor = np.where(cylinder, 1.0, np.where(code == GLOW_CAPSULE, kinds[..., 1], 0.0))
+    axis = linear[..., :, 2] * factor[..., None]
+    rows = np.concatenate([to_world[..., :3, 3], radius[..., None]], axis=-1)
+    return ok, rows, np.concatenate([axis, code[..., None]], axis=-1)
+
+
+def _areas(spheres: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """``(S,)`` float64 surface areas of the rows (:func:`_placed`), in closed form."""
+    r = spheres[:, 3]
+    h = np.linalg.norm(axes[:, :3], axis=1)
+    code = axes[:, 3]
+    side = 4.0 * math.pi * r * h  # 2 pi r times the length 2 h
+    return np.select([code == GLOW_OPEN_CYLINDER, code == GLOW_CAPPED_CYLINDER, code == GLOW_CAPSULE],
+                     [side, side + 2.0 * math.pi * r * r, side + 4.0 * math.pi * r * r], 4.0 * math.pi * r * r)
 
 
 def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
@@ -70,19 +130,20 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     estimate), at most ``cap`` rows of instances."""
     materials = scene.triangle_materials()
     first_shape = scene.num_geometry_triangles
-    ids, insts, spheres, slots = [], [], [], []
+    ids, insts, spheres, axes, slots = [], [], [], [], []
     left_out = 0
     world = list(scene.shapes)
-    take, others = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
+    take, kinds, others = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
     left_out += others
     if len(take):
         to_world = np.stack([np.asarray(world[k].to_world, np.float64) for k in take])
-        similar, scale = _similar(to_world[:, :3, :3])
-        left_out += int((~similar).sum())
-        take, to_world, scale = take[similar], to_world[similar], scale[similar]
+        ok, rows, shape_axes = _placed(to_world, kinds)
+        left_out += int((~ok).sum())
+        take = take[ok]
         ids.append(first_shape + take)
         insts.append(np.full(len(take), -1))
-        spheres.append(np.concatenate([to_world[:, :3, 3], scale[:, None]], axis=1))
+        spheres.append(rows[ok])
+        axes.append(shape_axes[ok])
         slots.append(np.zeros(len(take), np.int64))
 
     n = len(scene.instances)
@@ -90,28 +151,28 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     past_cap = 0
     if n:
         ranges = scene.prototype_shape_ranges()
-        per_proto = {}  # prototype -> (geometry ids of its candidate spheres, their local transforms)
+        per_proto = {}  # prototype -> (geometry ids of its candidate shapes, their local transforms, kinds, others)
         for p, proto in enumerate(scene.prototypes):
             shapes = list(getattr(proto, "shapes", []))
             if not shapes:
                 continue
             first = int(ranges[p, 0])
-            take, others = _candidates(shapes, materials[first : first + len(shapes)], glow)
+            take, kinds, others = _candidates(shapes, materials[first : first + len(shapes)], glow)
             if len(take) or others:
                 local = np.stack([np.asarray(shapes[k].to_world, np.float64) for k in take]) if len(take) else None
-                per_proto[p] = (first + take, local, others)
+                per_proto[p] = (first + take, local, kinds, others)
         by_prototype = scene.instances.rows_of_prototypes(len(ranges)) if per_proto else []
         visible = scene.instance_inverses()[1]
         counts = np.zeros(n, np.int64)
         usable = np.zeros(n, bool)
         to_world = scene.instances.to_world
-        for p, (p_ids, local, others) in per_proto.items():
+        for p, (p_ids, local, kinds, others) in per_proto.items():
             rows = by_prototype[p][visible[by_prototype[p]]]
             left_out += others * len(rows)
             if local is None or not len(rows):
                 continue
-            linear = np.einsum("nij,sjk->nsik", to_world[rows, :3, :3].astype(np.float64), local[:, :3, :3])
-            ok = _similar(linear)[0].all(axis=1)
+            m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, shapes, 4, 4)
+            ok = _placed(m, kinds)[0].all(axis=1)
             left_out += len(p_ids) * int((~ok).sum())
             counts[rows[ok]] = len(p_ids)
             usable[rows[ok]] = True
@@ -120,30 +181,34 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
         past_cap = int(counts[usable & ~sampled].sum())
         start = sum(len(i) for i in ids)
         instance_first[sampled] = (ends - counts)[sampled] + start
-        for p, (p_ids, local, _) in per_proto.items():
+        for p, (p_ids, local, kinds, _) in per_proto.items():
             rows = by_prototype[p][sampled[by_prototype[p]]]
             if local is None or not len(rows):
                 continue
-            m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, spheres, 4, 4)
-            scale = _similar(m[..., :3, :3])[1]
             order = np.argsort(instance_first[rows], kind="stable")
-            rows, m, scale = rows[order], m[order], scale[order]
+            rows = rows[order]
+            m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, shapes, 4, 4)
+            _, placed, shape_axes = _placed(m, kinds)
             ids.append(np.tile(p_ids, len(rows)))
             insts.append(np.repeat(rows, len(p_ids)))
-            spheres.append(np.concatenate([m[..., :3, 3], scale[..., None]], axis=2).reshape(-1, 4))
+            spheres.append(placed.reshape(-1, 4))
+            axes.append(shape_axes.reshape(-1, 4))
             slots.append(np.tile(np.arange(len(p_ids)), len(rows)))
     if not ids:
         empty = np.zeros(0, np.int32)
-        return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), instance_first, empty, left_out, past_cap)
+        return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), instance_first, empty, left_out, past_cap,
+                              np.zeros((0, 4)))
     ids_all = np.concatenate(ids).astype(np.int32)
     insts_all = np.concatenate(insts).astype(np.int32)
     spheres_all = np.concatenate(spheres)
+    axes_all = np.concatenate(axes)
     slots_all = np.concatenate(slots).astype(np.int32)
     # Rows in entry order: world shapes, then instances by their first row (the prototypes were visited apart).
     firsts = np.concatenate([instance_first, [-1]]).astype(np.int64)  # (a row for world shapes: instance -1)
     key = firsts[insts_all]
     order = np.lexsort((slots_all, key))
-    ids_all, insts_all, spheres_all, slots_all = ids_all[order], insts_all[order], spheres_all[order], slots_all[order]
-    radius = spheres_all[:, 3]
-    power = math.pi * 4.0 * math.pi * radius * radius * glow[materials[ids_all]]
-    return GlowingSpheres(ids_all, insts_all, spheres_all, power, instance_first, slots_all, left_out, past_cap)
+    ids_all, insts_all, slots_all = ids_all[order], insts_all[order], slots_all[order]
+    spheres_all, axes_all = spheres_all[order], axes_all[order]
+    power = math.pi * _areas(spheres_all, axes_all) * glow[materials[ids_all]]
+    return GlowingSpheres(ids_all, insts_all, spheres_all, power, instance_first, slots_all, left_out, past_cap,
+                          axes_all)

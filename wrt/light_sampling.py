@@ -30,6 +30,7 @@ from .affine_lights import (
 )
 from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
+from .glowing_tubes import sample_tube, tube_pdf
 from .ies import ies_factor
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
@@ -67,6 +68,9 @@ LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, rad
 # A glowing analytic sphere (wrt.glowing_spheres): entries from first_glowing_sphere on, after the triangles, sampled
 # as a sphere light is, with its material's emission.
 LIGHT_GLOWING_SPHERE = wp.constant(11)
+# A glowing round tube (wrt.glowing_spheres: a cylinder or capsule): among the same entries, its glowing_axes row's
+# code not GLOW_SPHERE; sampled uniformly by area (wrt.glowing_tubes).
+LIGHT_GLOWING_TUBE = wp.constant(12)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -128,6 +132,7 @@ class DeviceLights:
     # shape's geometry id, instances its instance (-1: a world shape), params and radiance an emissive triangle's.
     first_glowing_sphere: int
     glowing_spheres: wp.array[wp.vec4]  # (count - first_glowing_sphere, or 1) world centre and radius
+    glowing_axes: wp.array[wp.vec4]  # (as glowing_spheres) a tube's world half axis and GLOW_* code; 0: a sphere
     instance_glowing_spheres: wp.array[wp.int32]  # (N,) each instance's first glowing sphere entry, -1: none
     first_shape_id: int  # the geometry id of the first analytic shape (Scene.num_geometry_triangles)
     dome: int  # index of the dome light, -1 without one
@@ -243,9 +248,11 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
 
 @wp.func
 def light_kind(lights: DeviceLights, k: int):
-    """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles, then glowing spheres
-    (``kinds`` holds the analytic lights' alone)."""
+    """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles, then glowing spheres and
+    tubes (``kinds`` holds the analytic lights' alone)."""
     if k >= lights.first_glowing_sphere:
+        if lights.glowing_axes[k - lights.first_glowing_sphere][3] > 0.0:
+            return LIGHT_GLOWING_TUBE
         return LIGHT_GLOWING_SPHERE
     if k >= lights.num_analytic:
         return LIGHT_TRIANGLE
@@ -595,6 +602,14 @@ def glowing_sphere_pdf(lights: DeviceLights, k: int, p: wp.vec3):
 
 
 @wp.func
+def glowing_tube_pdf(lights: DeviceLights, k: int, d: wp.vec3, dist: float, n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area) at the point
+    ``dist`` along unit ``d`` whose unit normal is ``n``."""
+    j = k - lights.first_glowing_sphere
+    return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], d, dist, n)
+
+
+@wp.func
 def triangle_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, st: wp.vec2):
     """Radiance that triangle light ``k`` (of material ``m``) emits at ``st``: its radiance factor times the
     material's ``emissiveColor``, or the factor alone for a mesh light whose light does not follow its material
@@ -860,6 +875,14 @@ def sample_light(
         ln = radial
         area = 0.5 * lights.params[k][2]
         L = lights.radiance[k]
+    elif kind == LIGHT_GLOWING_TUBE:
+        # Uniform by area over the whole tube (wrt.glowing_tubes): the points facing away are dropped below.
+        j = k - lights.first_glowing_sphere
+        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], u1, u2)
+        prim = lights.prims[k]
+        # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
+        L = triangle_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
+        two_sided = tri_double_sided[prim]
     elif kind == LIGHT_ELLIPTIC_TUBE:
         # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
         q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
@@ -920,7 +943,7 @@ def sample_light(
     else:
         ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
         out.pdf = d2 * ratio * ratio / (cos_l * area)
-    if kind != LIGHT_TRIANGLE:  # triangles are not shaped (and have no row of shaping)
+    if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE:  # not shaped (no row of shaping)
         L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
     out.value = L / out.pdf
     return out

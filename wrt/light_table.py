@@ -512,7 +512,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
     _drop_unbounded(tris, mesh_lights)
-    # Glowing analytic spheres after them (wrt.glowing_spheres), within what the cap leaves of instanced entries.
+    # Glowing analytic spheres and round tubes after them (wrt.glowing_spheres), within what the cap leaves of
+    # instanced entries.
     first_sphere = num_analytic + len(tris.ids)
     lum = np.asarray(material_emission, np.float64).reshape(-1, 3) @ LUMINANCE
     spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())))
@@ -605,6 +606,9 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.first_glowing_sphere = first_sphere
     d.glowing_spheres = wp.array((spheres.spheres if len(spheres.ids) else np.zeros((1, 4))).astype(np.float32),
                                  dtype=wp.vec4, device=device)
+    axes = spheres.axes if spheres.axes is not None else np.zeros((len(spheres.ids), 4))
+    d.glowing_axes = wp.array((axes if len(axes) else np.zeros((1, 4))).astype(np.float32), dtype=wp.vec4,
+                              device=device)
     # Each instance's first sphere entry (4 bytes an instance), only where some instance has one: read only for the
     # slot of a prototype sphere (light_sampling.hit_emitter), which none has without them.
     first = np.where(spheres.instance_first >= 0, spheres.instance_first + first_sphere, -1)

@@ -25,9 +25,11 @@ from ..geometry import offset_ray_origin, stable_length
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
     LIGHT_GLOWING_SPHERE,
+    LIGHT_GLOWING_TUBE,
     DeviceLights,
     LightSample,
     glowing_sphere_pdf,
+    glowing_tube_pdf,
     hit_emitter,
     light_kind,
     lit_bsdf,
@@ -202,8 +204,11 @@ def shade_path_kernel(
             w = float(1.0)
             if e >= 0 and pdf_b > 0.0:
                 pdf_l = float(0.0)
-                if light_kind(lights, e) == LIGHT_GLOWING_SPHERE:
+                e_kind = light_kind(lights, e)
+                if e_kind == LIGHT_GLOWING_SPHERE:
                     pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
+                elif e_kind == LIGHT_GLOWING_TUBE:
+                    pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, d, t_hit, h.ng)
                 else:
                     pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
                                                                o, d, t_hit)

@@ -1,0 +1,162 @@
+"""Glowing round tubes are sampled as lights (wrt.glowing_spheres, wrt.glowing_tubes): a ``wrt.Shape`` cylinder
+(capped or open) or capsule bound to an emissive material lights a white floor as a float64 quadrature of its
+radiance over the floor's hemisphere says, under whitted (it lit nothing before, with a warning) and path (MIS
+against BSDF-sampled hits: the same floor as path finding the tube only by the rays that hit it); the straight
+segments of a glowing curve are sampled too, and a cone (a tapered curve's segment) stays named as unsampled."""
+
+import math
+
+import numpy as np
+import pytest
+from test_glowing_spheres import (
+    GLOW_AND_FLOOR,
+    PATCH,
+    RADIANCE,
+    RES,
+    UNSAMPLED,
+    floor_mesh,
+    materials,
+    no_glowing_spheres,
+    render_floor,
+)
+
+import wrt
+from wrt import light_table
+
+AXIS = np.array([1.0, 0.5, 0.3]) / np.linalg.norm([1.0, 0.5, 0.3])  # world direction of every tube's axis
+CENTRE = np.array([0.1, -0.05, 0.8])
+RADIUS = 0.15
+HALF = 0.4  # a cylinder's half length; a capsule's between its hemispheres' centres
+
+
+def frame(axis):
+    """``(3, 3)`` rotation whose third column is unit ``axis``."""
+    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, axis)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(axis, x), axis], axis=1)
+
+
+def tube_shape(kind, capped=True):
+    """A glowing ``wrt.Shape`` of ``kind`` ``cylinder`` (``capped`` or open) or ``capsule`` at CENTRE along AXIS."""
+    to_world = np.eye(4)
+    rot = frame(AXIS)
+    if kind == "cylinder":
+        to_world[:3, :3] = rot @ np.diag([RADIUS, RADIUS, HALF])
+        params = np.array([1.0 if capped else 0.0, 0.0, 0.0, 1.0], np.float32)
+    else:
+        to_world[:3, :3] = rot * RADIUS
+        params = np.array([HALF / RADIUS, 0.0, 0.0, 1.0], np.float32)
+    to_world[:3, 3] = CENTRE
+    return wrt.Shape("/Tube", kind, to_world, material_id=1, params=params)
+
+
+def surface_quadrature(kind, capped, n=64):
+    """``(points, normals, areas)``: float64 midpoint quadrature of the tube's surface (unit outward normals)."""
+    rot = frame(AXIS)
+    bx, by, w = rot[:, 0], rot[:, 1], rot[:, 2]
+    pts, nrm, area = [], [], []
+    # Side: midpoints in (z, phi).
+    z = (np.arange(n) + 0.5) / n * 2.0 * HALF - HALF
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2.0 * math.pi
+    zz, pp = np.meshgrid(z, phi, indexing="ij")
+    radial = np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by
+    pts.append((CENTRE + zz[..., None] * w + RADIUS * radial).reshape(-1, 3))
+    nrm.append(radial.reshape(-1, 3))
+    area.append(np.full(zz.size, (2.0 * HALF / n) * RADIUS * (2.0 * math.pi / (2 * n))))
+    for s in (1.0, -1.0):
+        if kind == "cylinder" and capped:  # a disk: midpoints in (rho, phi)
+            rho = (np.arange(n // 2) + 0.5) / (n // 2) * RADIUS
+            rr, pp = np.meshgrid(rho, phi, indexing="ij")
+            off = rr[..., None] * (np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by)
+            pts.append((CENTRE + s * HALF * w + off).reshape(-1, 3))
+            nrm.append(np.broadcast_to(s * w, off.shape).reshape(-1, 3))
+            area.append((rr * (RADIUS / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
+        elif kind == "capsule":  # a hemisphere: midpoints in (polar angle from s w, phi)
+            th = (np.arange(n // 2) + 0.5) / (n // 2) * (math.pi / 2)
+            tt, pp = np.meshgrid(th, phi, indexing="ij")
+            d = (np.cos(tt)[..., None] * s * w
+                 + np.sin(tt)[..., None] * (np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by))
+            pts.append((CENTRE + s * HALF * w + RADIUS * d).reshape(-1, 3))
+            nrm.append(d.reshape(-1, 3))
+            area.append((RADIUS**2 * np.sin(tt) * (math.pi / 2 / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
+    return np.concatenate(pts), np.concatenate(nrm), np.concatenate(area)
+
+
+def oracle(kind, capped=True, sub=6):
+    """``(RES, RES)`` float64 radiance of the white floor (albedo 1: E / pi) under the tube, each pixel averaged over
+    ``sub`` x ``sub`` floor points (row 0 at +Y): E = sum of L cos_floor cos_light / d^2 dA over the surface points
+    that face the floor point, every one of which it sees (the tube is convex, wholly above the floor)."""
+    q, nq, dA = surface_quadrature(kind, capped)
+    xs = ((np.arange(RES * sub) + 0.5) / (RES * sub) - 0.5) * PATCH
+    gx, gy = np.meshgrid(xs, -xs)
+    p = np.stack([gx, gy, np.zeros_like(gx)], axis=-1).reshape(-1, 3)
+    out = np.empty(len(p))
+    for i in range(0, len(p), 64):
+        v = q[None] - p[i : i + 64, None]  # (P, Q, 3) floor point to surface point
+        d2 = (v * v).sum(-1)
+        cos_l = -(v * nq[None]).sum(-1) / np.sqrt(d2)
+        cos_p = v[..., 2] / np.sqrt(d2)
+        out[i : i + 64] = (RADIANCE * np.clip(cos_l, 0.0, None) * cos_p / d2 * dA[None]).sum(-1) / math.pi
+    return out.reshape(RES, sub, RES, sub).mean(axis=(1, 3))
+
+
+def seed_images(scene, integrator, spp, seeds=range(3, 11)):
+    """``(K, RES, RES)`` float64 floor radiance rendered at each of ``seeds``, and the warnings the renders gave."""
+    images, messages = zip(*[render_floor(scene, integrator, spp, seed=s) for s in seeds])
+    return np.stack(images), [m for ms in messages for m in ms]
+
+
+def standard_error(images):
+    """The standard error of the mean of ``images`` over their first axis (one independent render each)."""
+    return images.std(axis=0, ddof=1) / math.sqrt(len(images))
+
+
+CASES = [("cylinder", True), ("cylinder", False), ("capsule", True)]
+
+
+@pytest.mark.parametrize("kind,capped", CASES, ids=["capped-cylinder", "open-cylinder", "capsule"])
+def test_a_glowing_tube_lights_the_floor_under_whitted_as_the_quadrature(kind, capped):
+    """Whitted lights the floor from the sampled tube as the quadrature says, every pixel within five standard errors
+    (over eight seeds) plus 0.5% for the quadrature and float32; it drew the floor black before and named the tube
+    as unsampled."""
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped)], materials=materials())
+    images, messages = seed_images(scene, "whitted", spp=128)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    expected = oracle(kind, capped)
+    error = np.abs(images.mean(axis=0) - expected)
+    assert (error < 5 * standard_error(images) + 0.005 * expected).all(), (images.mean(axis=0), expected)
+    mean_se = images.mean(axis=(1, 2)).std(ddof=1) / math.sqrt(len(images))
+    assert abs(images.mean() - expected.mean()) < 4 * mean_se + 0.005 * expected.mean(), (images.mean(), mean_se)
+
+
+@pytest.mark.parametrize("kind,capped", CASES, ids=["capped-cylinder", "open-cylinder", "capsule"])
+def test_path_with_and_without_sampling_the_tube_agree_with_the_quadrature(kind, capped, monkeypatch):
+    """MIS consistency: path with the tube sampled (its BSDF-sampled hits weighted against the same area density) and
+    path finding it only by the rays that hit it both give the quadrature's floor mean, each within four standard
+    errors (over eight seeds) plus 0.5% for the quadrature and float32."""
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped)], materials=materials())
+    expected = oracle(kind, capped).mean()
+    sampled = seed_images(scene, "path", spp=64)[0].mean(axis=(1, 2))
+    monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
+    hit_only = seed_images(scene, "path", spp=128)[0].mean(axis=(1, 2))
+    for means in (sampled, hit_only):
+        se = means.std(ddof=1) / math.sqrt(len(means))
+        assert abs(means.mean() - expected) < 4 * se + 0.005 * expected, (means, expected)
+    assert sampled.std() < hit_only.std(), (sampled, hit_only)  # sampling the tube is what makes it less noisy
+
+
+def test_a_glowing_curve_samples_its_segments_and_names_a_cone(tmp_path):
+    """The straight segments of a glowing curve of constant width (open cylinders) are sampled with its joints:
+    whitted names nothing; with widths that change along it the segments are cones, which stay named."""
+    body = ('def BasisCurves "Wire" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
+            '    uniform token type = "linear"\n    int[] curveVertexCounts = [3]\n'
+            "    point3f[] points = [(-0.6, 0, 1), (0, 0.1, 0.9), (0.6, 0, 1.1)]\n{widths}"
+            "    rel material:binding = </Glow>\n}\n")
+    constant = '    float[] widths = [0.2] (\n        interpolation = "constant"\n    )\n'
+    varying = '    float[] widths = [0.2, 0.3, 0.2] (\n        interpolation = "vertex"\n    )\n'
+    for name, widths, named in (("even", constant, False), ("tapered", varying, True)):
+        path = tmp_path / f"{name}.usda"
+        path.write_text(GLOW_AND_FLOOR + body.replace("{widths}", widths))
+        _, messages = render_floor(wrt.load_usd(str(path)), "whitted", spp=1)
+        assert bool([m for m in messages if "2 emissive analytic primitive" in m]) == named, (name, messages)
