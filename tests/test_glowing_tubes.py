@@ -160,3 +160,18 @@ def test_a_glowing_curve_samples_its_segments_and_names_a_cone(tmp_path):
         path.write_text(GLOW_AND_FLOOR + body.replace("{widths}", widths))
         _, messages = render_floor(wrt.load_usd(str(path)), "whitted", spp=1)
         assert bool([m for m in messages if "2 emissive analytic primitive" in m]) == named, (name, messages)
+
+
+@pytest.mark.parametrize("squeeze", ["across", "inwards"])
+def test_a_squeezed_or_inward_glowing_cylinder_stays_unsampled_and_named(squeeze):
+    """A cylinder squeezed across its axis (an elliptic tube) or emitting inwards (``leftHanded``) is not sampled:
+    whitted names it and it lights nothing."""
+    shape = tube_shape("cylinder")
+    if squeeze == "across":
+        shape.to_world[:3, :3] = frame(AXIS) @ np.diag([RADIUS, 0.7 * RADIUS, HALF])
+    else:
+        shape.params = np.array([1.0, 0.0, 0.0, -1.0], np.float32)
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[shape], materials=materials())
+    rendered, messages = render_floor(scene, "whitted", spp=4)
+    assert [m for m in messages if "1 emissive analytic primitive" in m], messages
+    assert rendered.max() == 0.0

@@ -161,8 +161,8 @@ class UnsampledEmitters:
     triangles: int = 0
     cap: int = 0
     sources: list = dataclasses.field(default_factory=list)
-    shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: tubes, ...)
-    spheres_past_cap: int = 0  # glowing spheres of instances past the cap (once per instance)
+    shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: cones, ...)
+    spheres_past_cap: int = 0  # glowing spheres and tubes of instances past the cap (once per instance)
 
     MAX_NAMED: ClassVar[int] = 4  # sources named in :meth:`describe`; the rest are counted
 
@@ -181,8 +181,8 @@ class UnsampledEmitters:
         return text + (f" and {self._spheres_text()}" if self.spheres_past_cap else "")
 
     def _spheres_text(self) -> str:
-        return (f"{self.spheres_past_cap:,} glowing sphere(s) of instances past the first {self.cap:,} instanced "
-                "emitters sampled")
+        return (f"{self.spheres_past_cap:,} glowing sphere(s) or tube(s) of instances past the first {self.cap:,} "
+                "instanced emitters sampled")
 
 
 def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
