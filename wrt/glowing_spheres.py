@@ -4,8 +4,8 @@ straight segments of a ``BasisCurves`` prim of constant width instances of a sph
 an emissive material, become light-table entries of their own, with the emission their material shows on them
 (shapes read their textures at one constant ``st``, so the glow is the same all over the shape). Spheres are sampled
 by the cone they subtend as a SphereLight is, cylinders (side, and caps where capped) and capsules (side and two
-hemispheres) uniformly by area over their whole surface (:mod:`wrt.light_sampling`): the points facing away are
-wasted draws, but the density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back for MIS.
+hemispheres) uniformly by area over the part whose front the shading point can see (:mod:`wrt.glowing_tubes`): the
+density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back for MIS.
 
 A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
 keeps it round: a similarity (a rotation times one scale) for spheres and capsules, and for a cylinder one scale

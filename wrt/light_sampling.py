@@ -602,11 +602,12 @@ def glowing_sphere_pdf(lights: DeviceLights, k: int, p: wp.vec3):
 
 
 @wp.func
-def glowing_tube_pdf(lights: DeviceLights, k: int, d: wp.vec3, dist: float, n: wp.vec3):
-    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area) at the point
-    ``dist`` along unit ``d`` whose unit normal is ``n``."""
+def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, d: wp.vec3, dist: float, n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area; ``double_sided``
+    its shape's flag) at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn from does not
+    depend on where the ray starts)."""
     j = k - lights.first_glowing_sphere
-    return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], d, dist, n)
+    return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], 1 - double_sided, d, dist, n)
 
 
 @wp.func
@@ -876,13 +877,14 @@ def sample_light(
         area = 0.5 * lights.params[k][2]
         L = lights.radiance[k]
     elif kind == LIGHT_GLOWING_TUBE:
-        # Uniform by area over the whole tube (wrt.glowing_tubes): the points facing away are dropped below.
+        # Uniform by area over the part of the tube p can see the front of, the whole of a double-sided one
+        # (wrt.glowing_tubes): points facing away are dropped below.
         j = k - lights.first_glowing_sphere
-        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], u1, u2)
         prim = lights.prims[k]
+        two_sided = tri_double_sided[prim]
+        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], p, 1 - two_sided, u1, u2)
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
         L = triangle_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
-        two_sided = tri_double_sided[prim]
     elif kind == LIGHT_ELLIPTIC_TUBE:
         # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
         q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
