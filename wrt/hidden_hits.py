@@ -369,17 +369,31 @@ def any_hit_end(first_emitter: int, k: int, t_max: float):
     return t_max
 
 
+@wp.func
+def tail_start(first_emitter: int, k: int, t_min: float, t_max: float):
+    """Where the closest-hit query of the end of a shadow ray to an emissive triangle (light ``k``) starts: at its
+    any-hit end (:func:`any_hit_end`), not before ``t_min``. An any-hit query ended there instead (``t_min`` past the
+    any-hit end) is empty as before: every query takes hits in ``[t_min, t_max)``."""
+    return wp.max(t_min, any_hit_end(first_emitter, k, t_max))
+
+
 @wp.kernel
-def shorten_emitter_rays_kernel(
+def end_any_hits_kernel(
     first_emitter: int,
     shadow_lights: wp.array[wp.int32],
+    t_mins: wp.array[float],
     t_maxs: wp.array[float],
     # outputs
     any_hit_t_maxs: wp.array[float],
 ):
-    """The ``t_max`` of each shadow ray's any-hit query (:func:`any_hit_end`)."""
+    """The ``t_max`` of each shadow ray's any-hit query (:func:`any_hit_end`), which is also where the closest-hit
+    query of the rest of its range starts (:func:`tail_start`): ``[t_min, end)`` and ``[end, t_max)``."""
     i = wp.tid()
-    any_hit_t_maxs[i] = any_hit_end(first_emitter, shadow_lights[i], t_maxs[i])
+    k = shadow_lights[i]
+    end = any_hit_end(first_emitter, k, t_maxs[i])
+    if t_maxs[i] > 0.0 and to_emitter(first_emitter, k):
+        end = tail_start(first_emitter, k, t_mins[i], t_maxs[i])
+    any_hit_t_maxs[i] = end
 
 
 @wp.kernel
@@ -414,7 +428,7 @@ def start_shadow_holes_kernel(
         return
     k = shadow_lights[i]
     if t_maxs[i] > 0.0 and to_emitter(first_emitter, k):
-        start = wp.max(t_mins[i], any_hit_end(first_emitter, k, t_maxs[i]))
+        start = tail_start(first_emitter, k, t_mins[i], t_maxs[i])
         if start < t_maxs[i]:
             retry_t_mins[i] = start
             retry_t_maxs[i] = t_maxs[i]
@@ -499,6 +513,33 @@ def pass_shadow_holes_kernel(
     retry_t_maxs[i] = 0.0
 
 
+@wp.kernel
+def reach_emitters_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    first_emitter: int,
+    emitter_prims: wp.array[wp.int32],
+    emitter_instances: wp.array[wp.int32],
+    shadow_lights: wp.array[wp.int32],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
+    # outputs
+    blocked: wp.array[wp.int32],
+):
+    """Blocks each shadow ray that its any-hit query left unblocked and whose closest hit in the rest of its range
+    (``hit_*``: an empty range, so none, but for rays to an emissive triangle) is not the emissive triangle it was
+    aimed at (:func:`reaches_its_emitter`): ``pass_shadow_holes_kernel``'s one pass where no hole or shadow link can
+    be passed."""
+    i = wp.tid()
+    prim = hit_prim[i]
+    if blocked[i] == 0 and prim >= 0:
+        if not reaches_its_emitter(scene, surf, emitter_prims, emitter_instances, first_emitter, shadow_lights[i],
+                                   prim, hit_instance[i], hit_u[i], hit_v[i]):
+            blocked[i] = 1
+
+
 def occluded_through_holes(
     accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, lights=None,
     shadow_lights=None, scene=None,
@@ -548,9 +589,19 @@ def occluded_through_holes(
         if not recheck_blocked:
             return
     else:  # scratch.t_maxs holds the any-hit ends until start_shadow_holes_kernel writes the ranges to retrace
-        wp.launch(shorten_emitter_rays_kernel, n, inputs=[first_emitter, shadow_lights, t_maxs],
+        wp.launch(end_any_hits_kernel, n, inputs=[first_emitter, shadow_lights, t_mins, t_maxs],
                   outputs=[scratch.t_maxs], device=device)
         accel.occluded(origins, directions, t_mins, scratch.t_maxs, blocked)
+        if not recheck_blocked:
+            # Nothing to pass but the ends of rays to emissive triangles: the closest hit of every ray's rest,
+            # [any-hit end, t_max) (empty for the others), decides them at once, with no retry counted or read back.
+            accel.intersect(origins, directions, scratch.t_maxs, t_maxs, scratch.hits, costs=False)
+            h = scratch.hits
+            wp.launch(reach_emitters_kernel, n,
+                      inputs=[scene, surfaces, first_emitter, emitter_prims, emitter_instances, shadow_lights,
+                              h.u, h.v, h.prim, h.instance],
+                      outputs=[blocked], device=device)
+            return
     scene = DeviceScene() if scene is None else scene  # not read without emitters
     scratch.retries.zero_()
     wp.launch(start_shadow_holes_kernel, n, inputs=[int(recheck_blocked), first_emitter, shadow_lights, t_mins, t_maxs],
@@ -570,8 +621,6 @@ def occluded_through_holes(
         )
 
     limit = MAX_SHADOW_HOLE_PASSES if passes is None else passes
-    if not recheck_blocked:  # the ends of rays to emissive triangles alone: their closest hit decides them at once
-        limit = min(limit, 1)
     if repeat_passes(one_pass, scratch, limit, passes is not None):
         # One message for every call (warned once): a dense canopy, or a forest left out of a sun's shadowLink, would
         # otherwise be shadowed without a word.
