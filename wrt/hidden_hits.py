@@ -377,6 +377,18 @@ def tail_start(first_emitter: int, k: int, t_min: float, t_max: float):
     return wp.max(t_min, any_hit_end(first_emitter, k, t_max))
 
 
+@wp.func
+def any_hit_t_max(first_emitter: int, k: int, t_min: float, t_max: float):
+    """The ``t_max`` of the any-hit query of a shadow ray of light ``k`` over ``[t_min, t_max)``
+    (:func:`any_hit_end`), which is also where the closest-hit query of the rest of a ray to an emissive triangle
+    starts (:func:`tail_start`): ``[t_min, end)`` and ``[end, t_max)``. Written by the kernels that aim shadow rays
+    (``wrt.integrators.path.aim_shadow_ray``), else by :func:`end_any_hits_kernel`."""
+    end = any_hit_end(first_emitter, k, t_max)
+    if t_max > 0.0 and to_emitter(first_emitter, k):
+        end = tail_start(first_emitter, k, t_min, t_max)
+    return end
+
+
 @wp.kernel
 def end_any_hits_kernel(
     first_emitter: int,
@@ -386,14 +398,9 @@ def end_any_hits_kernel(
     # outputs
     any_hit_t_maxs: wp.array[float],
 ):
-    """The ``t_max`` of each shadow ray's any-hit query (:func:`any_hit_end`), which is also where the closest-hit
-    query of the rest of its range starts (:func:`tail_start`): ``[t_min, end)`` and ``[end, t_max)``."""
+    """The ``t_max`` of each shadow ray's any-hit query (:func:`any_hit_t_max`)."""
     i = wp.tid()
-    k = shadow_lights[i]
-    end = any_hit_end(first_emitter, k, t_maxs[i])
-    if t_maxs[i] > 0.0 and to_emitter(first_emitter, k):
-        end = tail_start(first_emitter, k, t_mins[i], t_maxs[i])
-    any_hit_t_maxs[i] = end
+    any_hit_t_maxs[i] = any_hit_t_max(first_emitter, shadow_lights[i], t_mins[i], t_maxs[i])
 
 
 @wp.kernel
@@ -542,7 +549,7 @@ def reach_emitters_kernel(
 
 def occluded_through_holes(
     accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, lights=None,
-    shadow_lights=None, scene=None,
+    shadow_lights=None, scene=None, any_hit_t_maxs=None,
 ) -> None:
     """``accel.occluded`` for shadow rays, which pass through the holes of cut-out materials (see the module
     docstring), and through geometry that casts no shadow of their light (shadow linking): rays the any-hit query
@@ -568,6 +575,9 @@ def occluded_through_holes(
             ``lights``.
         scene: the :class:`wrt.scene.DeviceScene`, with ``lights`` that hold emissive triangles (for their
             coincident partners).
+        any_hit_t_maxs: ``(N,)`` float device array of each ray's :func:`any_hit_t_max` (of ``lights``' first
+            emissive triangle), written by the kernel that aimed the rays; it may be ``scratch.t_maxs``. None:
+            computed here, by one more launch.
     """
     origins, directions, t_mins, t_maxs = rays
     device = scratch.device
@@ -588,14 +598,16 @@ def occluded_through_holes(
         accel.occluded(*rays, blocked)
         if not recheck_blocked:
             return
-    else:  # scratch.t_maxs holds the any-hit ends until start_shadow_holes_kernel writes the ranges to retrace
-        wp.launch(end_any_hits_kernel, n, inputs=[first_emitter, shadow_lights, t_mins, t_maxs],
-                  outputs=[scratch.t_maxs], device=device)
-        accel.occluded(origins, directions, t_mins, scratch.t_maxs, blocked)
+    else:  # the any-hit ends are read until start_shadow_holes_kernel writes the ranges to retrace to scratch
+        if any_hit_t_maxs is None:
+            any_hit_t_maxs = scratch.t_maxs
+            wp.launch(end_any_hits_kernel, n, inputs=[first_emitter, shadow_lights, t_mins, t_maxs],
+                      outputs=[any_hit_t_maxs], device=device)
+        accel.occluded(origins, directions, t_mins, any_hit_t_maxs, blocked)
         if not recheck_blocked:
             # Nothing to pass but the ends of rays to emissive triangles: the closest hit of every ray's rest,
             # [any-hit end, t_max) (empty for the others), decides them at once, with no retry counted or read back.
-            accel.intersect(origins, directions, scratch.t_maxs, t_maxs, scratch.hits, costs=False)
+            accel.intersect(origins, directions, any_hit_t_maxs, t_maxs, scratch.hits, costs=False)
             h = scratch.hits
             wp.launch(reach_emitters_kernel, n,
                       inputs=[scene, surfaces, first_emitter, emitter_prims, emitter_instances, shadow_lights,

@@ -1389,7 +1389,8 @@ class Renderer:
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
         lights = self.device_lights if to_lights else None
         occluded_through_holes(self.accel, self.surfaces, self.materials, shadows.rays, shadows.blocked,
-                               shadows.scratch, passes, lights, shadows.lights, self.device_scene)
+                               shadows.scratch, passes, lights, shadows.lights, self.device_scene,
+                               shadows.any_hit_t_maxs if to_lights else None)
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)
@@ -1414,7 +1415,8 @@ class Renderer:
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.diffuse_share]
-                + [w.link_groups, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.shadow_lights, w.nee],
+                + [w.link_groups, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.shadow_lights]
+                + [w.scratch.t_maxs, w.nee],  # the shadow rays' any-hit ends (ShadowRays.any_hit_t_maxs)
                 self.device,
             )
             self._occlude_and_add(w)
@@ -1463,7 +1465,8 @@ class Renderer:
                 wp.launch(whitted_lights_kernel, b - a, device=self.device,
                           inputs=[*common, start, count, candidates, a, w.origins, w.directions, *hit, w.throughput,
                                   w.alive, w.views],
-                          outputs=[w.rng, batch.origins, batch.dirs, batch.t_maxs, batch.lights, batch.contribution])
+                          outputs=[w.rng, batch.origins, batch.dirs, batch.t_maxs, batch.lights,
+                                   batch.any_hit_t_maxs, batch.contribution])
 
             def add(a: int, b: int, count=count, batch=batch):
                 wp.launch(add_unoccluded_lights_kernel, b - a, device=self.device,

@@ -22,6 +22,7 @@ import warp as wp
 
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin, stable_length
+from ..hidden_hits import any_hit_t_max
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
     LIGHT_GLOWING_SPHERE,
@@ -84,6 +85,7 @@ def clear_shadow_ray(
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     shadow_lights: wp.array[wp.int32],
+    any_hit_t_maxs: wp.array[float],
 ):
     """Makes ray ``i``'s shadow ray empty (``t_max = 0``, no light): what it stays unless :func:`aim_shadow_ray`
     aims it."""
@@ -91,6 +93,7 @@ def clear_shadow_ray(
     shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
     shadow_lights[i] = -1
+    any_hit_t_maxs[i] = 0.0
 
 
 @wp.func
@@ -106,16 +109,20 @@ def aim_shadow_ray(
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     shadow_lights: wp.array[wp.int32],
+    any_hit_t_maxs: wp.array[float],
 ):
     """Writes ray ``i``'s shadow ray towards the point ``ls`` of light ``k`` sampled from hit ``h``: from ``h.p``
     moved off its surface, aimed by :func:`shadow_ray_to` (whitted's and path's next-event estimation); ``u``,
-    uniform and independent of ``ls``, draws its reach in a ShadowAPI falloff zone."""
+    uniform and independent of ``ls``, draws its reach in a ShadowAPI falloff zone. Also the end of its any-hit
+    query (:func:`wrt.hidden_hits.any_hit_t_max`; shadow rays start at ``t_min = 0``), so that no launch of its
+    own computes it."""
     o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
     shadow_origins[i] = o
     to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist, u)
     shadow_dirs[i] = to_light
     shadow_t_maxs[i] = t_max
     shadow_lights[i] = k
+    any_hit_t_maxs[i] = any_hit_t_max(lights.num_analytic, k, 0.0, t_max)
 
 
 @wp.kernel
@@ -150,13 +157,14 @@ def shade_path_kernel(
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     shadow_lights: wp.array[wp.int32],
+    shadow_any_hit_t_maxs: wp.array[float],
     nee: wp.array[wp.vec3],
 ):
     """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
     the next ray."""
     i = wp.tid()
     # Every path gets a shadow ray, an empty one (t_max = 0) unless next-event estimation sets it below.
-    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
+    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights, shadow_any_hit_t_maxs)
     nee[i] = wp.vec3(0.0)
     if alive[i] == 0:
         t_maxs[i] = 0.0
@@ -244,7 +252,7 @@ def shade_path_kernel(
                 if shadow_fades(lights, k):
                     u_reach, state = rand01(state)
                 aim_shadow_ray(lights, k, h, ls, u_reach, i, shadow_origins, shadow_dirs, shadow_t_maxs,
-                               shadow_lights)
+                               shadow_lights, shadow_any_hit_t_maxs)
 
     # Sample the BSDF for the next ray.
     u0, state = rand01(state)

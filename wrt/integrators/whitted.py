@@ -272,6 +272,7 @@ def whitted_lights_kernel(
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     shadow_lights: wp.array[wp.int32],
+    shadow_any_hit_t_maxs: wp.array[float],
     contribution: wp.array[wp.vec3],
 ):
     """Direct light of path ``offset + tid`` from light groups ``[first_group, first_group + num_groups)`` of
@@ -283,7 +284,8 @@ def whitted_lights_kernel(
     i = wp.tid() + offset
     n = origins.shape[0]
     for j in range(num_groups):
-        clear_shadow_ray(j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)  # unless aimed below
+        # unless aimed below
+        clear_shadow_ray(j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights, shadow_any_hit_t_maxs)
         contribution[j * n + i] = wp.vec3(0.0)
     if alive[i] == 0:
         return
@@ -322,7 +324,7 @@ def whitted_lights_kernel(
                 if count > 1 and shadow_fades(lights, k):
                     u_reach, state = rand01(state)
                 aim_shadow_ray(lights, k, h, ls, u_reach, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
-                               shadow_lights)
+                               shadow_lights, shadow_any_hit_t_maxs)
     rng[i] = state
 
 
@@ -485,3 +487,9 @@ class ShadowRays:
     @property
     def rays(self) -> list:
         return [self.origins, self.dirs, self.t_mins, self.t_maxs]
+
+    @property
+    def any_hit_t_maxs(self):
+        """Where the kernel that aims the rays writes the end of each one's any-hit query
+        (:func:`wrt.hidden_hits.any_hit_t_max`): the scratch's ``t_maxs``, free until the rays are traced."""
+        return self.scratch.t_maxs
