@@ -372,8 +372,9 @@ def any_hit_end(first_emitter: int, k: int, t_max: float):
 @wp.func
 def tail_start(first_emitter: int, k: int, t_min: float, t_max: float):
     """Where the closest-hit query of the end of a shadow ray to an emissive triangle (light ``k``) starts: at its
-    any-hit end (:func:`any_hit_end`), not before ``t_min``. An any-hit query ended there instead (``t_min`` past the
-    any-hit end) is empty as before: every query takes hits in ``[t_min, t_max)``."""
+    any-hit end (:func:`any_hit_end`), not before ``t_min``. Where ``t_min`` lies past the any-hit end, an any-hit
+    query ended here (:func:`any_hit_t_max`) is as empty as one ended there: every query takes hits in
+    ``[t_min, t_max)``."""
     return wp.max(t_min, any_hit_end(first_emitter, k, t_max))
 
 
@@ -575,9 +576,9 @@ def occluded_through_holes(
             ``lights``.
         scene: the :class:`wrt.scene.DeviceScene`, with ``lights`` that hold emissive triangles (for their
             coincident partners).
-        any_hit_t_maxs: ``(N,)`` float device array of each ray's :func:`any_hit_t_max` (of ``lights``' first
-            emissive triangle), written by the kernel that aimed the rays; it may be ``scratch.t_maxs``. None:
-            computed here, by one more launch.
+        any_hit_t_maxs: ``(N,)`` float device array of each ray's :func:`any_hit_t_max` (``first_emitter``:
+            ``lights.num_analytic``), written by the kernel that aimed the rays; it may be ``scratch.t_maxs``.
+            None: computed here, by one more launch.
     """
     origins, directions, t_mins, t_maxs = rays
     device = scratch.device
