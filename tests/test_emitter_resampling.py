@@ -50,13 +50,15 @@ def ceiling_panel(cells):
     return tessellated_rect((half, -half, CEILING), (-PANEL, 0, 0), (0, PANEL, 0), cells)
 
 
-def render_floor(glow, centre, patch, res, spp, seed=7, materials=None, textures=None, scale=1.0, floor=None):
+def render_floor(glow, centre, patch, res, spp, seed=7, materials=None, textures=None, scale=1.0, floor=None,
+                 floor_mesh=None):
     """The red channel (or all three) of an orthographic view down at a ``patch`` wide square of the floor
-    (material ``floor``, None: Lambertian) lit by ``glow`` (a mesh or a list of them), every length of the scene and
-    the camera times ``scale``."""
+    (material ``floor``, None: Lambertian; mesh ``floor_mesh``, None: a quad facing up, its material ids set here)
+    lit by ``glow`` (a mesh or a list of them), every length of the scene and the camera times ``scale``."""
     mats = materials or [wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE)]
     floor_material = floor or wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)  # no specular
-    floor = quad((0, 0, 0), (400, 0, 0), (0, 400, 0), name="/floor", material=len(mats))
+    floor = floor_mesh or quad((0, 0, 0), (400, 0, 0), (0, 400, 0), name="/floor")
+    floor.material_ids = np.full(len(floor.indices), len(mats), np.int32)
     mats = mats + [floor_material]
     meshes = [floor] + (glow if isinstance(glow, list) else [glow])
     for mesh in meshes:
@@ -229,3 +231,49 @@ def test_a_wall_whose_triangles_centres_lie_below_the_horizon_still_lights_the_f
     above = np.array([[(3.0, 2.0, 0.0), (3.0, -2.0, 0.0), (3.0, -2.0, 1.0), (3.0, 2.0, 1.0)]])
     rendered = render_floor(glow, (0.0, 0.0, 0.0), patch=0.4, res=8, spp=16)
     assert_unbiased(rendered[..., 0], lambert((0, 0, 0), 0.4, 8, above), "wall below the horizon")
+
+
+TILT = np.array([0.45, 0.0, 0.89]) / np.hypot(0.45, 0.89)  # the shading normal of the smooth floor below
+
+
+def tilted_floor(back):
+    """The z = 0 floor as a double-sided mesh whose vertex normals all lean towards +x (:data:`TILT` on the side
+    facing up): wound to face up, or (``back``) down with the normals negated, so the camera above sees its back."""
+    points = np.array([(-200, -200, 0), (200, -200, 0), (200, 200, 0), (-200, 200, 0)], np.float64)
+    indices = np.array([[0, 2, 1], [0, 3, 2]] if back else [[0, 1, 2], [0, 2, 3]], np.int32)
+    normals = np.tile(-TILT if back else TILT, (4, 1))
+    return wrt.Mesh("/floor", points, indices, None, normals=normals, double_sided=True)
+
+
+def above_plane(polygon, n, p):
+    """The part of convex ``polygon`` ``(k, 3)`` on the side of the plane through ``p`` that normal ``n`` faces
+    (Sutherland-Hodgman), no corner repeated; fewer than 3 corners where none of its area is there."""
+    out = []
+    for a, b in zip(polygon, np.roll(polygon, -1, axis=0)):
+        da, db = np.dot(n, a - p), np.dot(n, b - p)
+        if da >= 0:
+            out.append(a)
+        if (da > 0 > db) or (da < 0 < db):
+            out.append(a + (b - a) * (da / (da - db)))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("back", [False, True], ids=["front", "back"])
+def test_a_smooth_floor_is_lit_by_the_cells_above_both_its_horizons(back):
+    """A double-sided Lambertian floor whose vertex normals lean 27 degrees towards +x, seen on its front or its
+    back, between two glowing walls that straddle both the geometric horizon and the shading normal's: the BSDF
+    reflects light from above both, so the cells wholly below either send the floor nothing, and the pick (which
+    weighs with the shading normal turned to the viewer's side) keeps every cell that does. Oracle: Lambert's
+    formula about the shading normal over the cells' parts above both horizons. A pick weighing with the front
+    side's normal left the back black."""
+    west, west_cells = tessellated_rect((-3.0, -2.0, -1.0), (0, 4.0, 0), (0, 0, 4.0), 8, name="/west")
+    east, east_cells = tessellated_rect((3.0, 2.0, -2.0), (0, -4.0, 0), (0, 0, 4.0), 8, name="/east")
+    lambertian = wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True, specular_edge=0.0)
+    centre, patch, res = (0.3, 0.1, 0.0), 0.4, 8
+    rendered = render_floor([west, east], centre, patch, res, spp=32, floor=lambertian, floor_mesh=tilted_floor(back))
+    expected = []
+    for p in pixel_points(centre, patch, res, res).reshape(-1, 3):
+        parts = [above_plane(above_plane(c, TILT, p), (0, 0, 1), p) for c in np.concatenate([west_cells, east_cells])]
+        expected.append(sum(polygon_irradiance(p, TILT, q, RADIANCE) for q in parts if len(q) >= 3))
+    expected = ALBEDO * np.array(expected) / math.pi
+    assert_unbiased(rendered[..., 0], expected, "back" if back else "front")
