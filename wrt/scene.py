@@ -197,6 +197,11 @@ class Mesh(CountsAssignments):
         uvs: ``(T, 3, 2)`` float32 texture coordinates at each triangle corner, or ``None``.
         material_ids: ``(T,)`` int32 index into :attr:`Scene.materials` of each triangle (-1: the default material),
             or ``None`` for the default material everywhere.
+        tessellated_gprim: the mesh is an analytic gprim (Sphere, Cube, ...) drawn as triangles (``load_usd``'s
+            ``tessellate_gprims``, a glowing gprim, a gprim light): it has no USD faces, so its element
+            (:meth:`Scene.hit_prims`, the ``elementId`` AOV) is 0 as the analytic shape's is. Its ``face_ids`` still
+            number its triangles, each a polygon of its own: as one face, a Cube's closed surface was the reversal of
+            any other closed one (:mod:`wrt.reversed_polygons`).
     """
 
     path: str
@@ -209,6 +214,7 @@ class Mesh(CountsAssignments):
     uvs: np.ndarray | None = None
     material_ids: np.ndarray | None = None
     opacities: np.ndarray | None = None
+    tessellated_gprim: bool = False
 
     def __post_init__(self):
         self.check(keep=False)
@@ -233,6 +239,8 @@ class Mesh(CountsAssignments):
             self.path = prim_path(self.path, f"wrt.Mesh of {rows[0]} points and {rows[1]} triangles")
         if type(self.double_sided) is not bool:  # "no" was taken by its truth: double-sided
             self.double_sided = flag(self.double_sided, f"{self.path}: double_sided")
+        if type(self.tessellated_gprim) is not bool:
+            self.tessellated_gprim = flag(self.tessellated_gprim, f"{self.path}: tessellated_gprim")
 
         def assign(name: str, array: np.ndarray) -> None:
             value = getattr(self, name)
@@ -1189,7 +1197,7 @@ class Scene:
         miss. A prim id is an index into :meth:`prim_paths`; an element is the face of a mesh (``Mesh.face_ids``:
         the USD face, the control face of a subdivided mesh), the point or curve of a Points or curves prim
         (``Instances.elements``: of the prim, as the face is of its mesh; tessellated ones too) and 0 on another
-        analytic shape.
+        analytic shape, tessellated (:attr:`Mesh.tessellated_gprim`) or not.
 
         Args:
             geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
@@ -1224,7 +1232,8 @@ class Scene:
         :func:`wrt.light_links.drawn_ids`'; per geometry source (meshes, then shapes, in geometry order, then one for
         none) ``own`` is the prim id of a non-instanced one (-1 for a prototype's) and ``part`` the part index in
         its prototype of a prototype's (else -1); ``starts_geometry`` is the geometry id of each mesh's first
-        triangle (and the triangle count last), ``face_ids`` every mesh's ``face_ids`` in geometry order."""
+        triangle (and the triangle count last), ``face_ids`` every mesh's ``face_ids`` in geometry order (0 on a
+        tessellated gprim: its element)."""
         self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
         key = ("prim_table",)
         if key not in self._cache:
@@ -1237,7 +1246,9 @@ class Scene:
             part_of += [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
             part = np.concatenate([*part_of, [-1]]).astype(np.int64)
             starts_geometry = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes], dtype=np.int64)])
-            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.triangle_faces() for m in meshes])
+            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.triangle_faces() if not m.tessellated_gprim
+                                                                 else np.zeros(len(m.indices), np.int32)
+                                                                 for m in meshes])
             self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts)
         return self._cache[key]
 

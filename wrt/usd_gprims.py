@@ -254,6 +254,7 @@ class GprimReading:
             material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
             opacities=None if shape.opacity is None else np.full((n, 3), shape.opacity, np.float32),
             uvs=None if shape.st is None else np.broadcast_to(shape.st, (n, 3, 2)),
+            tessellated_gprim=True,  # its element is 0, as the analytic shape's: face_ids number its triangles
         )
 
     def _read_tubes(self, prim: Usd.Prim, ctx: Context):
