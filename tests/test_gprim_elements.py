@@ -125,3 +125,23 @@ def test_a_python_mesh_marked_as_a_tessellated_gprim_has_element_0_and_the_mark_
     assert elements.tolist() == [0, 0, 0, 1]  # the plain mesh's faces as its face_ids say
     with pytest.raises(TypeError, match="/Gprim: tessellated_gprim must be True or False"):
         wrt.Mesh("/Gprim", points, indices, None, tessellated_gprim="no")
+
+
+def test_the_preview_names_a_tessellated_gprim_face_0_as_the_element_id(tmp_path):
+    """``to_pyvista``'s ``face_id`` (the source face) of a gprim drawn as triangles, on its own or in a native
+    instance, is 0 as the analytic gprim's element is (USD gives a Sphere no faces): it numbered the triangles."""
+    pytest.importorskip("pyvista")
+    from wrt.preview import to_pyvista
+
+    path = tmp_path / "balls.usda"
+    path.write_text('#usda 1.0\n\ndef Xform "Proto"\n{\n    def Sphere "Ball"\n    {\n        double radius = 0.5\n'
+                    '    }\n}\n\ndef Sphere "Lone"\n{\n    double radius = 0.5\n}\n\n'
+                    'def Xform "Copy" (\n    instanceable = true\n    prepend references = </Proto>\n)\n{\n'
+                    '    double3 xformOp:translate = (3, 0, 0)\n'
+                    '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
+    scene = load(str(path), tessellate_gprims=True)
+    blocks = to_pyvista(scene)
+    faces = {name: blocks[name].cell_data["face_id"] for name in blocks.keys()}
+    assert len(faces) >= 3 and all(len(f) for f in faces.values()), faces
+    for name, face in faces.items():
+        np.testing.assert_array_equal(face, 0, err_msg=name)

@@ -298,10 +298,11 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
     of points alone or an instance of a prototype of analytic shapes alone: its cell arrays are empty), so the
     points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes`` plus
     ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
-    id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face. Instances are
-    added in order while the total stays within ``max_triangles`` and they number at most ``max_instances``; the
-    others are left out, and the MultiBlock's ``field_data["instances_left_out"]`` counts them. Analytic shapes
-    (spheres, cubes, ... and those of prototypes) are not among the blocks: :func:`shape_meshes` tessellates them.
+    id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face
+    (``Mesh.elements``: 0 on a tessellated gprim, as its ``elementId``). Instances are added in order while the total
+    stays within ``max_triangles`` and they number at most ``max_instances``; the others are left out, and the
+    MultiBlock's ``field_data["instances_left_out"]`` counts them. Analytic shapes (spheres, cubes, ... and those
+    of prototypes) are not among the blocks: :func:`shape_meshes` tessellates them.
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
@@ -334,7 +335,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
         poly = _triangles_block(pv, mesh.points.copy(), mesh.indices, {
             "color": colors[first : first + n],
             "prim": np.arange(first, first + n, dtype=np.int32),
-            "face_id": mesh.triangle_faces().copy(),
+            "face_id": mesh.elements().copy(),
         })
         poly.field_data["path"] = [mesh.path]
         add(poly, mesh.path, k)
@@ -361,7 +362,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
             poly = _triangles_block(pv, moved, indices[a:b] - vertex[i], {
                 "color": colors[a:b],
                 "prim": np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32),
-                "face_id": np.concatenate([m.triangle_faces() for m in proto.meshes] or [np.zeros(0, np.int32)]),
+                "face_id": np.concatenate([m.elements() for m in proto.meshes] or [np.zeros(0, np.int32)]),
             })
             path = drawn.instances.path(i)
             poly.field_data["path"] = [path]

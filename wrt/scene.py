@@ -318,6 +318,13 @@ class Mesh(CountsAssignments):
             return np.arange(len(self.indices), dtype=np.int32)
         return self.face_ids
 
+    def elements(self) -> np.ndarray:
+        """``(T,)`` int32 element of each triangle (:meth:`Scene.hit_prims`, the ``elementId`` AOV, the preview's
+        ``face_id``): :meth:`triangle_faces`, 0 on a :attr:`tessellated_gprim` (the analytic gprim's element)."""
+        if self.tessellated_gprim:
+            return np.zeros(len(self.indices), np.int32)
+        return self.triangle_faces()
+
     def check_vertices(self) -> None:
         """Raises :class:`SceneError` naming the mesh, the first triangle that uses a NaN or infinite vertex and that
         vertex (vertices no triangle uses may be anything). The BVH builds refuse them too, but could name only a
@@ -1246,9 +1253,7 @@ class Scene:
             part_of += [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
             part = np.concatenate([*part_of, [-1]]).astype(np.int64)
             starts_geometry = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes], dtype=np.int64)])
-            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.triangle_faces() if not m.tessellated_gprim
-                                                                 else np.zeros(len(m.indices), np.int32)
-                                                                 for m in meshes])
+            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.elements() for m in meshes])
             self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts)
         return self._cache[key]
 
