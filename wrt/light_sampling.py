@@ -602,6 +602,16 @@ def glowing_sphere_pdf(lights: DeviceLights, k: int, p: wp.vec3):
 
 
 @wp.func
+def shape_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, st: wp.vec2):
+    """Radiance that glowing sphere or tube ``k`` (of material ``m``) emits, read at its one ``st``: none where its
+    material cuts it out there (wholly, at one ``st``), a hole that rays pass and see no light in, as an emissive
+    triangle's hole sends none (a cut-out glowing shape lit the floor under light sampling alone)."""
+    if cut_out(mats, m, st):
+        return wp.vec3(0.0)
+    return triangle_emission(lights, mats, k, m, st)
+
+
+@wp.func
 def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, d: wp.vec3, dist: float, n: wp.vec3):
     """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area; ``double_sided``
     its shape's flag) at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn from does not
@@ -820,7 +830,7 @@ def sample_light(
         out.pdf = 1.0 / (2.0 * PI * g_one_minus)
         prim = lights.prims[k]
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
-        out.value = triangle_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) * (2.0 * PI * g_one_minus)
+        out.value = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) * (2.0 * PI * g_one_minus)
         return out
     if kind == LIGHT_ELLIPSOID:
         ell_down, ell_up = light_scales(lights, k)
@@ -884,7 +894,7 @@ def sample_light(
         two_sided = tri_double_sided[prim]
         q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], p, 1 - two_sided, u1, u2)
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
-        L = triangle_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
+        L = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
     elif kind == LIGHT_ELLIPTIC_TUBE:
         # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
         q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
