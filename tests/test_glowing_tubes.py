@@ -1,8 +1,8 @@
 """Glowing round tubes are sampled as lights (wrt.glowing_spheres, wrt.glowing_tubes): a ``wrt.Shape`` cylinder
-(capped or open) or capsule bound to an emissive material lights a white floor as a float64 quadrature of its
-radiance over the floor's hemisphere says, under whitted (it lit nothing before, with a warning) and path (MIS
-against BSDF-sampled hits: the same floor as path finding the tube only by the rays that hit it); the straight
-segments of a glowing curve are sampled too, and a cone (a tapered curve's segment) stays named as unsampled."""
+(capped or open), cone (a capped frustum, an open cone to its apex) or capsule bound to an emissive material lights a
+white floor as a float64 quadrature of its radiance over the floor's hemisphere says, under whitted (it lit nothing
+before, with a warning) and path (MIS against BSDF-sampled hits: the same floor as path finding the tube only by the
+rays that hit it); the straight segments of a glowing curve are sampled too, cones where its width changes."""
 
 import math
 
@@ -38,57 +38,78 @@ def frame(axis):
     return np.stack([x, np.cross(axis, x), axis], axis=1)
 
 
-def tube_shape(kind, capped=True):
-    """A glowing ``wrt.Shape`` of ``kind`` ``cylinder`` (``capped`` or open) or ``capsule`` at CENTRE along AXIS."""
+# A cone is squat (its half-angle 49 degrees for a cone to its apex), its narrow end tilted down to the floor: the
+# floor lies past its apex (its extension's, for a frustum), where more of its side faces a point than the half a
+# cylinder shows, all of it under the tip.
+CONE_AXIS = -np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
+CONE_RADIUS = 0.35
+CONE_HALF = 0.15
+
+
+def dims(kind):
+    """``(axis, radius, half)``: the world direction of a tube of ``kind``'s canonical +Z (a cone's narrow end), its
+    radius (a cone's at -Z) and half length."""
+    return (CONE_AXIS, CONE_RADIUS, CONE_HALF) if kind == "cone" else (AXIS, RADIUS, HALF)
+
+
+def tube_shape(kind, capped=True, taper=1.0):
+    """A glowing ``wrt.Shape`` of ``kind`` ``cylinder`` or ``cone`` (``capped`` or open; a cone of its radius
+    narrowing to ``taper`` times it) or ``capsule`` at CENTRE (:func:`dims`)."""
+    axis, radius, half = dims(kind)
     to_world = np.eye(4)
-    rot = frame(AXIS)
-    if kind == "cylinder":
-        to_world[:3, :3] = rot @ np.diag([RADIUS, RADIUS, HALF])
-        params = np.array([1.0 if capped else 0.0, 0.0, 0.0, 1.0], np.float32)
+    rot = frame(axis)
+    if kind in ("cylinder", "cone"):
+        to_world[:3, :3] = rot @ np.diag([radius, radius, half])
+        params = np.array([1.0 if capped else 0.0, taper if kind == "cone" else 0.0, 0.0, 1.0], np.float32)
     else:
-        to_world[:3, :3] = rot * RADIUS
-        params = np.array([HALF / RADIUS, 0.0, 0.0, 1.0], np.float32)
+        to_world[:3, :3] = rot * radius
+        params = np.array([half / radius, 0.0, 0.0, 1.0], np.float32)
     to_world[:3, 3] = CENTRE
     return wrt.Shape("/Tube", kind, to_world, material_id=1, params=params)
 
 
-def surface_quadrature(kind, capped, n=64):
+def surface_quadrature(kind, capped, taper=1.0, n=64):
     """``(points, normals, areas)``: float64 midpoint quadrature of the tube's surface (unit outward normals)."""
-    rot = frame(AXIS)
+    axis, radius, half = dims(kind)
+    rot = frame(axis)
     bx, by, w = rot[:, 0], rot[:, 1], rot[:, 2]
     pts, nrm, area = [], [], []
-    # Side: midpoints in (z, phi).
-    z = (np.arange(n) + 0.5) / n * 2.0 * HALF - HALF
+    # Side: midpoints in (z, phi); a cone's radius falls linearly from radius at -half to taper radius at +half, its
+    # normal leaning up the axis by that slope and its area element longer by the slant.
+    slope = radius * (1.0 - taper) / (2.0 * half)
+    z = (np.arange(n) + 0.5) / n * 2.0 * half - half
     phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2.0 * math.pi
     zz, pp = np.meshgrid(z, phi, indexing="ij")
+    r = radius - slope * (zz + half)
     radial = np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by
-    pts.append((CENTRE + zz[..., None] * w + RADIUS * radial).reshape(-1, 3))
-    nrm.append(radial.reshape(-1, 3))
-    area.append(np.full(zz.size, (2.0 * HALF / n) * RADIUS * (2.0 * math.pi / (2 * n))))
+    pts.append((CENTRE + zz[..., None] * w + r[..., None] * radial).reshape(-1, 3))
+    nrm.append(((radial + slope * w) / math.hypot(1.0, slope)).reshape(-1, 3))
+    area.append(((2.0 * half / n) * math.hypot(1.0, slope) * r * (2.0 * math.pi / (2 * n))).reshape(-1))
     for s in (1.0, -1.0):
-        if kind == "cylinder" and capped:  # a disk: midpoints in (rho, phi)
-            rho = (np.arange(n // 2) + 0.5) / (n // 2) * RADIUS
+        if kind in ("cylinder", "cone") and capped:  # a disk: midpoints in (rho, phi)
+            cap_radius = radius * (taper if s > 0 else 1.0)
+            rho = (np.arange(n // 2) + 0.5) / (n // 2) * cap_radius
             rr, pp = np.meshgrid(rho, phi, indexing="ij")
             off = rr[..., None] * (np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by)
-            pts.append((CENTRE + s * HALF * w + off).reshape(-1, 3))
+            pts.append((CENTRE + s * half * w + off).reshape(-1, 3))
             nrm.append(np.broadcast_to(s * w, off.shape).reshape(-1, 3))
-            area.append((rr * (RADIUS / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
+            area.append((rr * (cap_radius / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
         elif kind == "capsule":  # a hemisphere: midpoints in (polar angle from s w, phi)
             th = (np.arange(n // 2) + 0.5) / (n // 2) * (math.pi / 2)
             tt, pp = np.meshgrid(th, phi, indexing="ij")
             d = (np.cos(tt)[..., None] * s * w
                  + np.sin(tt)[..., None] * (np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by))
-            pts.append((CENTRE + s * HALF * w + RADIUS * d).reshape(-1, 3))
+            pts.append((CENTRE + s * half * w + radius * d).reshape(-1, 3))
             nrm.append(d.reshape(-1, 3))
-            area.append((RADIUS**2 * np.sin(tt) * (math.pi / 2 / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
+            area.append((radius**2 * np.sin(tt) * (math.pi / 2 / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
     return np.concatenate(pts), np.concatenate(nrm), np.concatenate(area)
 
 
-def oracle(kind, capped=True, sub=6):
+def oracle(kind, capped=True, taper=1.0, sub=6):
     """``(RES, RES)`` float64 radiance of the white floor (albedo 1: E / pi) under the tube, each pixel averaged over
     ``sub`` x ``sub`` floor points (row 0 at +Y): E = sum of L cos_floor cos_light / d^2 dA over the surface points
     that face the floor point, every one of which it sees (the tube is convex, wholly above the floor)."""
-    q, nq, dA = surface_quadrature(kind, capped)
+    q, nq, dA = surface_quadrature(kind, capped, taper)
     xs = ((np.arange(RES * sub) + 0.5) / (RES * sub) - 0.5) * PATCH
     gx, gy = np.meshgrid(xs, -xs)
     p = np.stack([gx, gy, np.zeros_like(gx)], axis=-1).reshape(-1, 3)
@@ -113,31 +134,33 @@ def standard_error(images):
     return images.std(axis=0, ddof=1) / math.sqrt(len(images))
 
 
-CASES = [("cylinder", True), ("cylinder", False), ("capsule", True)]
+CASES = [("cylinder", True, 1.0), ("cylinder", False, 1.0), ("capsule", True, 1.0), ("cone", True, 0.4),
+         ("cone", False, 0.0)]
+CASE_IDS = ["capped-cylinder", "open-cylinder", "capsule", "capped-frustum", "open-cone"]
 
 
-@pytest.mark.parametrize("kind,capped", CASES, ids=["capped-cylinder", "open-cylinder", "capsule"])
-def test_a_glowing_tube_lights_the_floor_under_whitted_as_the_quadrature(kind, capped):
+@pytest.mark.parametrize("kind,capped,taper", CASES, ids=CASE_IDS)
+def test_a_glowing_tube_lights_the_floor_under_whitted_as_the_quadrature(kind, capped, taper):
     """Whitted lights the floor from the sampled tube as the quadrature says, every pixel within five standard errors
     (over eight seeds) plus 0.5% for the quadrature and float32; it drew the floor black before and named the tube
     as unsampled."""
-    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped)], materials=materials())
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped, taper)], materials=materials())
     images, messages = seed_images(scene, "whitted", spp=128)
     assert not [m for m in messages if UNSAMPLED in m], messages
-    expected = oracle(kind, capped)
+    expected = oracle(kind, capped, taper)
     error = np.abs(images.mean(axis=0) - expected)
     assert (error < 5 * standard_error(images) + 0.005 * expected).all(), (images.mean(axis=0), expected)
     mean_se = images.mean(axis=(1, 2)).std(ddof=1) / math.sqrt(len(images))
     assert abs(images.mean() - expected.mean()) < 4 * mean_se + 0.005 * expected.mean(), (images.mean(), mean_se)
 
 
-@pytest.mark.parametrize("kind,capped", CASES, ids=["capped-cylinder", "open-cylinder", "capsule"])
-def test_path_with_and_without_sampling_the_tube_agree_with_the_quadrature(kind, capped, monkeypatch):
+@pytest.mark.parametrize("kind,capped,taper", CASES, ids=CASE_IDS)
+def test_path_with_and_without_sampling_the_tube_agree_with_the_quadrature(kind, capped, taper, monkeypatch):
     """MIS consistency: path with the tube sampled (its BSDF-sampled hits weighted against the same area density) and
     path finding it only by the rays that hit it both give the quadrature's floor mean, each within four standard
     errors (over eight seeds) plus 0.5% for the quadrature and float32."""
-    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped)], materials=materials())
-    expected = oracle(kind, capped).mean()
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[tube_shape(kind, capped, taper)], materials=materials())
+    expected = oracle(kind, capped, taper).mean()
     sampled = seed_images(scene, "path", spp=64)[0].mean(axis=(1, 2))
     monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
     hit_only = seed_images(scene, "path", spp=128)[0].mean(axis=(1, 2))
@@ -147,20 +170,32 @@ def test_path_with_and_without_sampling_the_tube_agree_with_the_quadrature(kind,
     assert sampled.std() < hit_only.std(), (sampled, hit_only)  # sampling the tube is what makes it less noisy
 
 
-def test_a_glowing_curve_samples_its_segments_and_names_a_cone(tmp_path):
-    """The straight segments of a glowing curve of constant width (open cylinders) are sampled with its joints:
-    whitted names nothing; with widths that change along it the segments are cones, which stay named."""
-    body = ('def BasisCurves "Wire" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
-            '    uniform token type = "linear"\n    int[] curveVertexCounts = [3]\n'
-            "    point3f[] points = [(-0.6, 0, 1), (0, 0.1, 0.9), (0.6, 0, 1.1)]\n{widths}"
-            "    rel material:binding = </Glow>\n}\n")
-    constant = '    float[] widths = [0.2] (\n        interpolation = "constant"\n    )\n'
-    varying = '    float[] widths = [0.2, 0.3, 0.2] (\n        interpolation = "vertex"\n    )\n'
-    for name, widths, named in (("even", constant, False), ("tapered", varying, True)):
-        path = tmp_path / f"{name}.usda"
-        path.write_text(GLOW_AND_FLOOR + body.replace("{widths}", widths))
-        _, messages = render_floor(wrt.load_usd(str(path)), "whitted", spp=1)
-        assert bool([m for m in messages if "2 emissive analytic primitive" in m]) == named, (name, messages)
+CURVE = ('def BasisCurves "Wire" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
+         '    uniform token type = "linear"\n    int[] curveVertexCounts = [3]\n'
+         "    point3f[] points = [(-0.6, 0, 1), (0, 0.1, 0.9), (0.6, 0, 1.1)]\n{widths}"
+         "    rel material:binding = </Glow>\n}\n")
+
+
+WIDTHS = {"even": '    float[] widths = [0.2] (\n        interpolation = "constant"\n    )\n',
+          "tapered": '    float[] widths = [0.2, 0.3, 0.05] (\n        interpolation = "vertex"\n    )\n'}
+
+
+@pytest.mark.parametrize("widths", WIDTHS.values(), ids=WIDTHS.keys())
+def test_a_glowing_curve_samples_its_segments_even_or_tapered(widths, tmp_path, monkeypatch):
+    """The straight segments of a glowing curve are sampled with its joints: open cylinders where its width is
+    constant, open cones where it changes (they were named as unsampled and lit nothing under whitted). Whitted
+    (light sampling alone) lights the floor as path finding the curve only by the rays that hit it does, within four
+    standard errors (over eight seeds)."""
+    path = tmp_path / "wire.usda"
+    path.write_text(GLOW_AND_FLOOR + CURVE.replace("{widths}", widths))
+    scene = wrt.load_usd(str(path))
+    images, messages = seed_images(scene, "whitted", spp=32)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    monkeypatch.setattr(light_table, "glowing_spheres", no_glowing_spheres)
+    hit_only = seed_images(scene, "path", spp=64)[0].mean(axis=(1, 2))
+    sampled = images.mean(axis=(1, 2))
+    se = math.hypot(sampled.std(ddof=1), hit_only.std(ddof=1)) / math.sqrt(len(sampled))
+    assert sampled.mean() > 0.0 and abs(sampled.mean() - hit_only.mean()) < 4 * se, (sampled, hit_only)
 
 
 @pytest.mark.parametrize("squeeze", ["across", "inwards"])

@@ -1,17 +1,19 @@
-"""Glowing analytic spheres and round tubes as lights: the spheres, cylinders and capsules of a scene built in Python
-(``wrt.Shape``) and those of instances (the spheres of a ``Points`` prim are instances of one, the joints and
-straight segments of a ``BasisCurves`` prim of constant width instances of a sphere and an open cylinder), bound to
-an emissive material, become light-table entries of their own, with the emission their material shows on them
-(shapes read their textures at one constant ``st``, so the glow is the same all over the shape). Spheres are sampled
-by the cone they subtend as a SphereLight is, cylinders (side, and caps where capped) and capsules (side and two
-hemispheres) uniformly by area over the part whose front the shading point can see (:mod:`wrt.glowing_tubes`): the
-density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back for MIS.
+"""Glowing analytic spheres and round tubes as lights: the spheres, cylinders, cones and capsules of a scene built in
+Python (``wrt.Shape``) and those of instances (the spheres of a ``Points`` prim are instances of one, the joints and
+straight segments of a ``BasisCurves`` prim instances of a sphere and an open cylinder, or an open cone where the
+width changes along the segment), bound to an emissive material, become light-table entries of their own, with the
+emission their material shows on them (shapes read their textures at one constant ``st``, so the glow is the same
+all over the shape). Spheres are sampled by the cone they subtend as a SphereLight is, cylinders and cones (side, and
+caps where capped; a cone is a cylinder whose radius shrinks linearly along its axis, its row's taper the top radius
+over the bottom one) and capsules (side and two hemispheres) uniformly by area over the part whose front the shading
+point can see (:mod:`wrt.glowing_tubes`): the density, ``1 / area`` in closed form, is the one a ray that hits the
+shape reads back for MIS.
 
 A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
-keeps it round: a similarity (a rotation times one scale) for spheres and capsules, and for a cylinder one scale
-across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed across an elliptic
-tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances whose shapes fit
-in the cap on instanced emitter entries. Cones, boxes and other glowing shapes are not sampled
+keeps it round: a similarity (a rotation times one scale) for spheres and capsules, and for a cylinder or cone one
+scale across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed across an
+elliptic tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances whose
+shapes fit in the cap on instanced emitter entries. Tapered capsules, boxes and other glowing shapes are not sampled
 (:attr:`GlowingSpheres.left_out` counts them).
 """
 
@@ -28,10 +30,10 @@ SIMILARITY_TOLERANCE = 1e-5
 
 # The shape of a row (GlowingSpheres.axes[:, 3]; wrt.light_sampling reads the same codes).
 GLOW_SPHERE = 0  # a sphere, sampled by its cone
-GLOW_OPEN_CYLINDER = 1  # the side of a cylinder (centre, radius, half axis), uniformly by area
+GLOW_OPEN_CYLINDER = 1  # the side of a cylinder or cone (centre, bottom radius, half axis, taper), uniformly by area
 GLOW_CAPPED_CYLINDER = 2  # its side and both caps, uniformly by area
 GLOW_CAPSULE = 3  # the side of radius r between the centres +-axis, and a hemisphere of radius r on each
-SAMPLED_KINDS = ("sphere", "cylinder", "capsule")  # the wrt.Shape kinds that may be sampled
+SAMPLED_KINDS = ("sphere", "cylinder", "cone", "capsule")  # the wrt.Shape kinds that may be sampled
 
 
 @dataclasses.dataclass
@@ -45,11 +47,13 @@ class GlowingSpheres:
         power: ``(S,)`` float64 selection weights: pi times area times the material's glow.
         instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
         slots: ``(S,)`` int32 each row's place among its instance's rows (0 for world shapes).
-        left_out: glowing shapes not sampled (counted once per instance that draws them): cones and other kinds,
+        left_out: glowing shapes not sampled (counted once per instance that draws them): tapered capsules, other kinds,
             shapes that emit inwards or are scaled unevenly.
         past_cap: glowing shapes of instances past the cap (once per instance).
         axes: ``(S, 4)`` float64 world half axis (from the centre to a cap's centre, or to a capsule's hemisphere's;
             zero for a sphere) and the row's ``GLOW_*`` code; None: every row a sphere.
+        tapers: ``(S,)`` float64 a cone's radius at ``centre + half axis`` over its radius (the row's, at ``centre -
+            half axis``), in [0, 1]; 1 for every other row (None: all 1).
     """
 
     ids: np.ndarray
@@ -61,6 +65,7 @@ class GlowingSpheres:
     left_out: int = 0
     past_cap: int = 0
     axes: np.ndarray | None = None
+    tapers: np.ndarray | None = None
 
 
 def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -74,29 +79,33 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """``(indices, kinds, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be
-    sampled: spheres, cylinders and capsules that emit outwards; their ``(K, 2)`` float64 ``(GLOW_* code, capsule's
-    H)``; and how many other glowing shapes there are."""
+    sampled: spheres, cylinders, cones and capsules that emit outwards; their ``(K, 3)`` float64 ``(GLOW_* code,
+    capsule's H, taper)`` (a cone is a cylinder of taper rho, every other shape's 1); and how many other glowing
+    shapes there are."""
     glowing = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
     take = [k for k in glowing
             if shapes[k].kind in SAMPLED_KINDS and (shapes[k].params[3] >= 0.0 or shapes[k].double_sided)]
-    kinds = np.zeros((len(take), 2))
+    kinds = np.zeros((len(take), 3))
+    kinds[:, 2] = 1.0
     for row, k in enumerate(take):
         shape = shapes[k]
-        if shape.kind == "cylinder":
+        if shape.kind in ("cylinder", "cone"):
             kinds[row, 0] = GLOW_CAPPED_CYLINDER if shape.params[0] > 0.0 else GLOW_OPEN_CYLINDER
+            if shape.kind == "cone":
+                kinds[row, 2] = float(shape.params[1])
         elif shape.kind == "capsule":
-            kinds[row] = GLOW_CAPSULE, float(shape.params[0])
+            kinds[row, :2] = GLOW_CAPSULE, float(shape.params[0])
     return np.asarray(take, np.int64), kinds, len(glowing) - len(take)
 
 
 def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(round, rows, axes)`` of canonical shapes ``kinds`` (``(..., 2)``, :func:`_candidates`) under ``(..., 4, 4)``
+    """``(round, rows, axes)`` of canonical shapes ``kinds`` (``(..., 3)``, :func:`_candidates`) under ``(..., 4, 4)``
     world transforms: whether each stays round in the world (see the module docstring), its world ``(centre,
     radius)`` and ``(half axis, code)`` rows (``(..., 4)``)."""
     linear = to_world[..., :3, :3]
     code = np.broadcast_to(kinds[..., 0], linear.shape[:-2])
     similar, scale = _similar(linear)
-    # A cylinder: its canonical X and Y columns orthogonal, of one length (its radius), and orthogonal to Z.
+    # A cylinder (or cone): its canonical X and Y columns orthogonal, of one length (its radius), and orthogonal to Z.
     gram = np.einsum("...ji,...jk->...ik", linear, linear)
     r2 = 0.5 * (gram[..., 0, 0] + gram[..., 1, 1])
     h2 = gram[..., 2, 2]
@@ -108,21 +117,24 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.nda
                       & (across <= SIMILARITY_TOLERANCE * r2) & (along <= SIMILARITY_TOLERANCE * np.sqrt(r2 * h2)))
     ok = np.where(cylinder, round_tube, similar)
     radius = np.where(cylinder, np.sqrt(np.maximum(r2, 0.0)), scale)
-    # The half axis: a cylinder's canonical Z column, a capsule's times H (its hemispheres' centres), a sphere's 0.
+    # The half axis: a cylinder's canonical Z column (a cone's, towards its narrow top), a capsule's times H (its
+    # hemispheres' centres), a sphere's 0.
     factor = np.where(cylinder, 1.0, np.where(code == GLOW_CAPSULE, kinds[..., 1], 0.0))
     axis = linear[..., :, 2] * factor[..., None]
     rows = np.concatenate([to_world[..., :3, 3], radius[..., None]], axis=-1)
     return ok, rows, np.concatenate([axis, code[..., None]], axis=-1)
 
 
-def _areas(spheres: np.ndarray, axes: np.ndarray) -> np.ndarray:
-    """``(S,)`` float64 surface areas of the rows (:func:`_placed`), in closed form."""
+def _areas(spheres: np.ndarray, axes: np.ndarray, tapers: np.ndarray) -> np.ndarray:
+    """``(S,)`` float64 surface areas of the rows (:func:`_placed`, ``tapers`` their tapers), in closed form."""
     r = spheres[:, 3]
+    top = r * tapers
     h = np.linalg.norm(axes[:, :3], axis=1)
     code = axes[:, 3]
-    side = 4.0 * math.pi * r * h  # 2 pi r times the length 2 h
+    side = math.pi * (r + top) * np.hypot(2.0 * h, r - top)  # a frustum's: pi (r1 + r2) times its slant length
+    caps = math.pi * (r * r + top * top)
     return np.select([code == GLOW_OPEN_CYLINDER, code == GLOW_CAPPED_CYLINDER, code == GLOW_CAPSULE],
-                     [side, side + 2.0 * math.pi * r * r, side + 4.0 * math.pi * r * r], 4.0 * math.pi * r * r)
+                     [side, side + caps, side + 4.0 * math.pi * r * r], 4.0 * math.pi * r * r)
 
 
 def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
@@ -130,7 +142,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     estimate), at most ``cap`` rows of instances."""
     materials = scene.triangle_materials()
     first_shape = scene.num_geometry_triangles
-    ids, insts, spheres, axes, slots = [], [], [], [], []
+    ids, insts, spheres, axes, tapers, slots = [], [], [], [], [], []
     left_out = 0
     world = list(scene.shapes)
     take, kinds, others = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
@@ -144,6 +156,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
         insts.append(np.full(len(take), -1))
         spheres.append(rows[ok])
         axes.append(shape_axes[ok])
+        tapers.append(kinds[ok, 2])
         slots.append(np.zeros(len(take), np.int64))
 
     n = len(scene.instances)
@@ -193,22 +206,24 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
             insts.append(np.repeat(rows, len(p_ids)))
             spheres.append(placed.reshape(-1, 4))
             axes.append(shape_axes.reshape(-1, 4))
+            tapers.append(np.tile(kinds[:, 2], len(rows)))
             slots.append(np.tile(np.arange(len(p_ids)), len(rows)))
     if not ids:
         empty = np.zeros(0, np.int32)
         return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), instance_first, empty, left_out, past_cap,
-                              np.zeros((0, 4)))
+                              np.zeros((0, 4)), np.zeros(0))
     ids_all = np.concatenate(ids).astype(np.int32)
     insts_all = np.concatenate(insts).astype(np.int32)
     spheres_all = np.concatenate(spheres)
     axes_all = np.concatenate(axes)
+    tapers_all = np.concatenate(tapers)
     slots_all = np.concatenate(slots).astype(np.int32)
     # Rows in entry order: world shapes, then instances by their first row (the prototypes were visited apart).
     firsts = np.concatenate([instance_first, [-1]]).astype(np.int64)  # (a row for world shapes: instance -1)
     key = firsts[insts_all]
     order = np.lexsort((slots_all, key))
     ids_all, insts_all, slots_all = ids_all[order], insts_all[order], slots_all[order]
-    spheres_all, axes_all = spheres_all[order], axes_all[order]
-    power = math.pi * _areas(spheres_all, axes_all) * glow[materials[ids_all]]
+    spheres_all, axes_all, tapers_all = spheres_all[order], axes_all[order], tapers_all[order]
+    power = math.pi * _areas(spheres_all, axes_all, tapers_all) * glow[materials[ids_all]]
     return GlowingSpheres(ids_all, insts_all, spheres_all, power, instance_first, slots_all, left_out, past_cap,
-                          axes_all)
+                          axes_all, tapers_all)

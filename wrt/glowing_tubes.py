@@ -1,7 +1,7 @@
 """Device side of glowing round tubes as lights (:mod:`wrt.glowing_spheres` builds their rows): a point drawn
-uniformly by area over a cylinder's side (and its caps, where capped) or a capsule's side and hemispheres, the part
-of them a shading point can see the front of for a single-sided tube, and that part's area, in closed form, that
-turns the draw's density ``1 / area`` into a solid-angle pdf ``dist^2 / (area |cos|)`` for both light sampling and
+uniformly by area over a cylinder's or cone's side (and its caps, where capped) or a capsule's side and hemispheres,
+the part of them a shading point can see the front of for a single-sided tube, and that part's area, in closed form,
+that turns the draw's density ``1 / area`` into a solid-angle pdf ``dist^2 / (area |cos|)`` for both light sampling and
 the MIS weight of a ray that hits the tube.
 
 Lengths are taken times the power of two ``down`` that brings the tube's largest length (its radius or a component of
@@ -25,60 +25,104 @@ def tube_scales(row: wp.vec4, axis: wp.vec4):
 
 
 @wp.func
-def tube_area(row: wp.vec4, axis: wp.vec4, down: float, facing: int):
-    """``(area, side)``: the area (times ``down^2``) that :func:`sample_tube` draws from, and its side's share of it
-    (the cylinder between the caps or hemispheres): the whole surface, or with ``facing`` 1 the half of the side
-    that faces the shading point, the one cap on its side of the centre and both hemispheres."""
-    r = row[3] * down
-    h = wp.length(wp.vec3(axis[0], axis[1], axis[2]) * down)
-    side = 4.0 * PI * r * h  # 2 pi r around, 2 h along
-    code = int(axis[3])
-    ends = float(0.0)
-    if code == TUBE_CAPPED:
-        ends = 2.0 * PI * r * r
-        if facing == 1:
-            ends = PI * r * r
-    elif code == TUBE_CAPSULE:
-        ends = 4.0 * PI * r * r  # two hemispheres
-    if facing == 1:
-        side = 0.5 * side
-    return side + ends, side
+def tube_axis(axis: wp.vec4, down: float):
+    """``(w, h)``: the unit axis (towards the top) and half length (times ``down``) of the tube of ``axis``."""
+    half = wp.vec3(axis[0], axis[1], axis[2]) * down
+    h = wp.length(half)
+    w = wp.vec3(0.0, 0.0, 1.0)
+    if h > 0.0:
+        w = half / h
+    return w, h
 
 
 @wp.func
-def sample_tube(row: wp.vec4, axis: wp.vec4, p: wp.vec3, facing: int, u1: float, u2: float):
+def facing_arc(r: float, top: float, h: float, to_p: wp.vec3, w: wp.vec3):
+    """Half the angle about the axis, centred on the shading point's direction ``to_p`` from the centre, of the side
+    :func:`sample_tube` draws from for a single-sided tube of radii ``r`` (bottom) and ``top`` and half length ``h``
+    (lengths times ``down``).
+
+    A cylinder's is a right angle: its half facing p, of constant area. A cone's tangent plane is the same all along
+    a straight line of its side, and p sees the front of the line at angle ``a`` from its own direction just where
+    ``rho cos a`` passes the cone's radius extended to p's height (``rho``: p's distance from the axis): the arc
+    ``acos(radius / rho)``, none where p lies inside the cone's extension, all round past its apex."""
+    if top == r or h <= 0.0:
+        return 0.5 * PI
+    z = wp.dot(to_p, w)
+    rho = wp.length(to_p - z * w)
+    reach = 0.5 * (r + top) - (r - top) * z / (2.0 * h)  # the cone's radius at p's height (negative past its apex)
+    if rho <= reach:
+        return 0.0
+    if rho <= -reach:
+        return PI
+    return wp.acos(reach / rho)
+
+
+@wp.func
+def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: int, to_p: wp.vec3):
+    """``(area, side, arc)``: the area (times ``down^2``) that :func:`sample_tube` draws from, its side's share of it
+    (the cylinder or cone between the caps or hemispheres) and the half angle of the side's arc about the axis: the
+    whole surface, or with ``facing`` 1 the side's arc that can face the shading point (``to_p`` from the centre,
+    times ``down``: :func:`facing_arc`), the one cap on its side of the centre and both hemispheres. ``taper``: the
+    top radius over the bottom one (``row[3]``)."""
+    r = row[3] * down
+    top = r * taper
+    w, h = tube_axis(axis, down)
+    side = PI * (r + top) * wp.sqrt(4.0 * h * h + (r - top) * (r - top))  # pi (r1 + r2) times the slant length
+    arc = PI
+    code = int(axis[3])
+    ends = float(0.0)
+    if code == TUBE_CAPPED:
+        ends = PI * (r * r + top * top)
+        if facing == 1:
+            ends = wp.where(wp.dot(to_p, w) >= 0.0, PI * top * top, PI * r * r)
+    elif code == TUBE_CAPSULE:
+        ends = 4.0 * PI * r * r  # two hemispheres
+    if facing == 1:
+        arc = facing_arc(r, top, h, to_p, w)
+        side = side * (arc / PI)
+    return side + ends, side, arc
+
+
+@wp.func
+def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: int, u1: float, u2: float):
     """``(q, n, area, down)``: a point ``q`` uniform by area on the part of the tube :func:`tube_area` names for
     shading point ``p`` (its side, caps or hemispheres chosen in proportion to their areas by ``u1``), its unit
-    outward normal ``n``, that area (times ``down^2``) and the tube's ``down`` (:func:`tube_scales`).
+    outward normal ``n``, that area (times ``down^2``; 0: nothing to draw) and the tube's ``down``
+    (:func:`tube_scales`). ``taper``: a cone's top radius over its bottom one, 1 for cylinders and capsules.
 
-    ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: a point of the side whose
-    outward normal makes more than a right angle with ``p``'s direction from the axis (seen from outside the tube,
-    the front of a side point shows only to points past its tangent plane, which lie in that half), and the cap on
-    the other side of the centre. A ray from ``p`` that hits the tube's front therefore hits the part drawn from, at
-    the density :func:`tube_pdf` reads back."""
+    ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: the points of the side off
+    :func:`facing_arc` (for a cylinder, those whose outward normal makes more than a right angle with ``p``'s
+    direction from the axis: seen from outside the tube, the front of a side point shows only to points past its
+    tangent plane, which lie in that half), and the cap on the other side of the centre. A ray from ``p`` that hits
+    the tube's front therefore hits the part drawn from, at the density :func:`tube_pdf` reads back."""
     down, up = tube_scales(row, axis)
-    area, side = tube_area(row, axis, down, facing)
     c = wp.vec3(row[0], row[1], row[2])
+    to_p = (p - c) * down
+    area, side, arc = tube_area(row, axis, taper, down, facing, to_p)
     half = wp.vec3(axis[0], axis[1], axis[2])
     r = row[3]
-    w = wp.vec3(0.0, 0.0, 1.0)
-    h_down = wp.length(half * down)
-    if h_down > 0.0:
-        w = (half * down) / h_down
+    w, h_down = tube_axis(axis, down)
     bx = basis_x(w)
     by = basis_y(w)
-    to_p = (p - c) * down
     above = wp.where(wp.dot(to_p, w) >= 0.0, 1.0, -1.0)  # the side of the centre p lies on, along the axis
-    share = side / area  # of the side
     q = c
     n = w
+    if area <= 0.0:
+        return q, n, 0.0, down
+    share = side / area  # of the side
     if u1 < share:
-        s = u1 / share  # uniform along the side
+        f = u1 / share
+        # From the bottom along the side, with density proportional to the radius 1 - (1 - taper) s (uniform by
+        # area): its CDF inverted in closed form, in the form without a cancellation (s = f for a cylinder).
+        s = (1.0 + taper) * f / (1.0 + wp.sqrt(wp.max(1.0 - (1.0 - taper * taper) * f, 0.0)))
         phi = 2.0 * PI * u2
         if facing == 1:
-            phi = wp.atan2(wp.dot(to_p, by), wp.dot(to_p, bx)) + (u2 - 0.5) * PI
-        n = wp.cos(phi) * bx + wp.sin(phi) * by
-        q = c + (2.0 * s - 1.0) * half + r * n
+            phi = wp.atan2(wp.dot(to_p, by), wp.dot(to_p, bx)) + (2.0 * u2 - 1.0) * arc
+        radial = wp.cos(phi) * bx + wp.sin(phi) * by
+        q = c + (2.0 * s - 1.0) * half + (r * (1.0 - (1.0 - taper) * s)) * radial
+        n = radial
+        if taper != 1.0:  # a cone's normal leans towards its top by the slope of its radius
+            n = wp.normalize(2.0 * h_down * radial + (1.0 - taper) * r * down * w)
     else:
         s = wp.min((u1 - share) / (1.0 - share), 1.0)
         if int(axis[3]) == TUBE_CAPSULE:
@@ -86,13 +130,14 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, p: wp.vec3, facing: int, u1: float,
             n = sample_uniform_sphere(s, u2)
             q = c + wp.where(wp.dot(n, w) >= 0.0, 1.0, -1.0) * half + r * n
         else:
-            # A cap, uniform on its disk: the one on p's side, or with both drawn the top for s < 1/2.
+            # A cap, uniform on its disk: the one on p's side, or with both drawn the top in proportion to its area.
             sign = above
             s2 = s
             if facing == 0:
-                sign = wp.where(s < 0.5, 1.0, -1.0)
-                s2 = wp.where(s < 0.5, 2.0 * s, 2.0 * s - 1.0)
-            rad = r * wp.sqrt(s2)
+                top_share = taper * taper / (1.0 + taper * taper)
+                sign = wp.where(s < top_share, 1.0, -1.0)
+                s2 = wp.where(s < top_share, s / wp.max(top_share, 1e-30), (s - top_share) / (1.0 - top_share))
+            rad = r * wp.where(sign > 0.0, taper, 1.0) * wp.sqrt(wp.min(s2, 1.0))
             phi = 2.0 * PI * u2
             n = sign * w
             q = c + sign * half + rad * (wp.cos(phi) * bx + wp.sin(phi) * by)
@@ -100,12 +145,14 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, p: wp.vec3, facing: int, u1: float,
 
 
 @wp.func
-def tube_pdf(row: wp.vec4, axis: wp.vec4, facing: int, d: wp.vec3, dist: float, n: wp.vec3):
-    """Solid-angle pdf of :func:`sample_tube` (``facing`` as there) drawing the point ``dist`` along unit ``d``
-    whose unit normal is ``n`` (either side), for a point the ray can hit: ``dist^2 / (area |cos|)``, lengths times
-    the tube's ``down``."""
+def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3, d: wp.vec3, dist: float,
+             n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_tube` (``taper`` and ``facing`` as there) from ``p`` drawing the point
+    ``dist`` along unit ``d`` whose unit normal is ``n`` (either side), for a point the ray can hit:
+    ``dist^2 / (area |cos|)``, lengths times the tube's ``down``."""
     down, up = tube_scales(row, axis)
-    area, side = tube_area(row, axis, down, facing)
+    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
+    area, side, arc = tube_area(row, axis, taper, down, facing, to_p)
     cos_l = wp.abs(wp.dot(d, n))
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0

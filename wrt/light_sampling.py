@@ -68,8 +68,8 @@ LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, rad
 # A glowing analytic sphere (wrt.glowing_spheres): entries from first_glowing_sphere on, after the triangles, sampled
 # as a sphere light is, with its material's emission.
 LIGHT_GLOWING_SPHERE = wp.constant(11)
-# A glowing round tube (wrt.glowing_spheres: a cylinder or capsule): among the same entries, its glowing_axes row's
-# code not GLOW_SPHERE; sampled uniformly by area (wrt.glowing_tubes).
+# A glowing round tube (wrt.glowing_spheres: a cylinder, cone or capsule): among the same entries, its glowing_axes
+# row's code not GLOW_SPHERE; sampled uniformly by area (wrt.glowing_tubes).
 LIGHT_GLOWING_TUBE = wp.constant(12)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
@@ -133,6 +133,7 @@ class DeviceLights:
     first_glowing_sphere: int
     glowing_spheres: wp.array[wp.vec4]  # (count - first_glowing_sphere, or 1) world centre and radius
     glowing_axes: wp.array[wp.vec4]  # (as glowing_spheres) a tube's world half axis and GLOW_* code; 0: a sphere
+    glowing_tapers: wp.array[float]  # (as glowing_spheres) a cone's top radius over its bottom one, 1 for the rest
     instance_glowing_spheres: wp.array[wp.int32]  # (N,) each instance's first glowing sphere entry, -1: none
     first_shape_id: int  # the geometry id of the first analytic shape (Scene.num_geometry_triangles)
     dome: int  # index of the dome light, -1 without one
@@ -612,12 +613,14 @@ def shape_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, 
 
 
 @wp.func
-def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, d: wp.vec3, dist: float, n: wp.vec3):
+def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, p: wp.vec3, d: wp.vec3, dist: float,
+                     n: wp.vec3):
     """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area; ``double_sided``
-    its shape's flag) at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn from does not
-    depend on where the ray starts)."""
+    its shape's flag) from ``p`` at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn
+    from is a cone's arc that can face ``p``, and the cap on ``p``'s side)."""
     j = k - lights.first_glowing_sphere
-    return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], 1 - double_sided, d, dist, n)
+    return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], lights.glowing_tapers[j], 1 - double_sided,
+                    p, d, dist, n)
 
 
 @wp.func
@@ -892,7 +895,8 @@ def sample_light(
         j = k - lights.first_glowing_sphere
         prim = lights.prims[k]
         two_sided = tri_double_sided[prim]
-        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], p, 1 - two_sided, u1, u2)
+        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], lights.glowing_tapers[j], p,
+                                        1 - two_sided, u1, u2)
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
         L = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
     elif kind == LIGHT_ELLIPTIC_TUBE:

@@ -609,6 +609,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
     axes = spheres.axes if spheres.axes is not None else np.zeros((len(spheres.ids), 4))
     d.glowing_axes = wp.array((axes if len(axes) else np.zeros((1, 4))).astype(np.float32), dtype=wp.vec4,
                               device=device)
+    tapers = spheres.tapers if spheres.tapers is not None else np.ones(len(spheres.ids))
+    d.glowing_tapers = wp.array((tapers if len(tapers) else np.ones(1)).astype(np.float32), dtype=float, device=device)
     # Each instance's first sphere entry (4 bytes an instance), only where some instance has one: read only for the
     # slot of a prototype sphere (light_sampling.hit_emitter), which none has without them.
     first = np.where(spheres.instance_first >= 0, spheres.instance_first + first_sphere, -1)

@@ -216,7 +216,7 @@ def shade_path_kernel(
                 if e_kind == LIGHT_GLOWING_SPHERE:
                     pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
                 elif e_kind == LIGHT_GLOWING_TUBE:
-                    pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], d, t_hit, h.ng)
+                    pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], o, d, t_hit, h.ng)
                 else:
                     pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
                                                                o, d, t_hit)
