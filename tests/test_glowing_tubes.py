@@ -1,8 +1,9 @@
 """Glowing round tubes are sampled as lights (wrt.glowing_spheres, wrt.glowing_tubes): a ``wrt.Shape`` cylinder
-(capped or open), cone (a capped frustum, an open cone to its apex) or capsule bound to an emissive material lights a
-white floor as a float64 quadrature of its radiance over the floor's hemisphere says, under whitted (it lit nothing
-before, with a warning) and path (MIS against BSDF-sampled hits: the same floor as path finding the tube only by the
-rays that hit it); the straight segments of a glowing curve are sampled too, cones where its width changes."""
+(capped or open), cone (a capped frustum, an open cone to its apex), capsule or tapered capsule bound to an emissive
+material lights a white floor as a float64 quadrature of its radiance over the floor's hemisphere says, under
+whitted (it lit nothing before, with a warning) and path (MIS against BSDF-sampled hits: the same floor as path
+finding the tube only by the rays that hit it); the straight segments of a glowing curve are sampled too, cones where
+its width changes."""
 
 import math
 
@@ -40,21 +41,21 @@ def frame(axis):
 
 # A cone is squat (its half-angle 49 degrees for a cone to its apex), its narrow end tilted down to the floor: the
 # floor lies past its apex (its extension's, for a frustum), where more of its side faces a point than the half a
-# cylinder shows, all of it under the tip.
+# cylinder shows, all of it under the tip. A tapered capsule (spheres of radius 0.25 and 0.25 taper, 0.4 apart)
+# points its small sphere down too.
 CONE_AXIS = -np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
-CONE_RADIUS = 0.35
-CONE_HALF = 0.15
+DIMS = {"cone": (CONE_AXIS, 0.35, 0.15), "tapered": (CONE_AXIS, 0.25, 0.2)}
 
 
 def dims(kind):
-    """``(axis, radius, half)``: the world direction of a tube of ``kind``'s canonical +Z (a cone's narrow end), its
-    radius (a cone's at -Z) and half length."""
-    return (CONE_AXIS, CONE_RADIUS, CONE_HALF) if kind == "cone" else (AXIS, RADIUS, HALF)
+    """``(axis, radius, half)``: the world direction of a tube of ``kind``'s canonical +Z (a cone's narrow end, a
+    tapered capsule's small sphere), its radius (at -Z) and half length (to a capsule's spheres' centres)."""
+    return DIMS.get(kind, (AXIS, RADIUS, HALF))
 
 
 def tube_shape(kind, capped=True, taper=1.0):
     """A glowing ``wrt.Shape`` of ``kind`` ``cylinder`` or ``cone`` (``capped`` or open; a cone of its radius
-    narrowing to ``taper`` times it) or ``capsule`` at CENTRE (:func:`dims`)."""
+    narrowing to ``taper`` times it), ``capsule`` or ``tapered`` (capsule) at CENTRE (:func:`dims`)."""
     axis, radius, half = dims(kind)
     to_world = np.eye(4)
     rot = frame(axis)
@@ -63,7 +64,7 @@ def tube_shape(kind, capped=True, taper=1.0):
         params = np.array([1.0 if capped else 0.0, taper if kind == "cone" else 0.0, 0.0, 1.0], np.float32)
     else:
         to_world[:3, :3] = rot * radius
-        params = np.array([half / radius, 0.0, 0.0, 1.0], np.float32)
+        params = np.array([half / radius, taper if kind == "tapered" else 0.0, 0.0, 1.0], np.float32)
     to_world[:3, 3] = CENTRE
     return wrt.Shape("/Tube", kind, to_world, material_id=1, params=params)
 
@@ -74,17 +75,21 @@ def surface_quadrature(kind, capped, taper=1.0, n=64):
     rot = frame(axis)
     bx, by, w = rot[:, 0], rot[:, 1], rot[:, 2]
     pts, nrm, area = [], [], []
-    # Side: midpoints in (z, phi); a cone's radius falls linearly from radius at -half to taper radius at +half, its
-    # normal leaning up the axis by that slope and its area element longer by the slant.
-    slope = radius * (1.0 - taper) / (2.0 * half)
-    z = (np.arange(n) + 0.5) / n * 2.0 * half - half
+    # Side: midpoints in (z, phi) from z0 to z1; a cone's radius falls linearly from r0 to r1, its normal leaning up
+    # the axis by that slope and its area element longer by the slant. A tapered capsule's touches its spheres (radii
+    # radius and taper radius) at latitude lat, where their normals lean up the axis as much.
+    lat = math.asin(radius * (1.0 - taper) / (2.0 * half)) if kind == "tapered" else 0.0
+    z0, z1 = -half + radius * math.sin(lat), half + taper * radius * math.sin(lat)
+    r0 = radius * math.cos(lat)
+    slope = r0 * (1.0 - taper) / (z1 - z0)
+    z = (np.arange(n) + 0.5) / n * (z1 - z0) + z0
     phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2.0 * math.pi
     zz, pp = np.meshgrid(z, phi, indexing="ij")
-    r = radius - slope * (zz + half)
+    r = r0 - slope * (zz - z0)
     radial = np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by
     pts.append((CENTRE + zz[..., None] * w + r[..., None] * radial).reshape(-1, 3))
     nrm.append(((radial + slope * w) / math.hypot(1.0, slope)).reshape(-1, 3))
-    area.append(((2.0 * half / n) * math.hypot(1.0, slope) * r * (2.0 * math.pi / (2 * n))).reshape(-1))
+    area.append((((z1 - z0) / n) * math.hypot(1.0, slope) * r * (2.0 * math.pi / (2 * n))).reshape(-1))
     for s in (1.0, -1.0):
         if kind in ("cylinder", "cone") and capped:  # a disk: midpoints in (rho, phi)
             cap_radius = radius * (taper if s > 0 else 1.0)
@@ -94,14 +99,16 @@ def surface_quadrature(kind, capped, taper=1.0, n=64):
             pts.append((CENTRE + s * half * w + off).reshape(-1, 3))
             nrm.append(np.broadcast_to(s * w, off.shape).reshape(-1, 3))
             area.append((rr * (cap_radius / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
-        elif kind == "capsule":  # a hemisphere: midpoints in (polar angle from s w, phi)
-            th = (np.arange(n // 2) + 0.5) / (n // 2) * (math.pi / 2)
+        elif kind in ("capsule", "tapered"):  # a sphere's zone: midpoints in (polar angle from s w, phi)
+            top = math.pi / 2 - s * lat  # a hemisphere's quarter turn, past the latitude the side touches it at
+            sphere = radius * (taper if s > 0 else 1.0)
+            th = (np.arange(n // 2) + 0.5) / (n // 2) * top
             tt, pp = np.meshgrid(th, phi, indexing="ij")
             d = (np.cos(tt)[..., None] * s * w
                  + np.sin(tt)[..., None] * (np.cos(pp)[..., None] * bx + np.sin(pp)[..., None] * by))
-            pts.append((CENTRE + s * half * w + radius * d).reshape(-1, 3))
+            pts.append((CENTRE + s * half * w + sphere * d).reshape(-1, 3))
             nrm.append(d.reshape(-1, 3))
-            area.append((radius**2 * np.sin(tt) * (math.pi / 2 / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
+            area.append((sphere**2 * np.sin(tt) * (top / (n // 2)) * (2.0 * math.pi / (2 * n))).reshape(-1))
     return np.concatenate(pts), np.concatenate(nrm), np.concatenate(area)
 
 
@@ -135,8 +142,8 @@ def standard_error(images):
 
 
 CASES = [("cylinder", True, 1.0), ("cylinder", False, 1.0), ("capsule", True, 1.0), ("cone", True, 0.4),
-         ("cone", False, 0.0)]
-CASE_IDS = ["capped-cylinder", "open-cylinder", "capsule", "capped-frustum", "open-cone"]
+         ("cone", False, 0.0), ("tapered", True, 0.4)]
+CASE_IDS = ["capped-cylinder", "open-cylinder", "capsule", "capped-frustum", "open-cone", "tapered-capsule"]
 
 
 @pytest.mark.parametrize("kind,capped,taper", CASES, ids=CASE_IDS)

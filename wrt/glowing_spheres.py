@@ -1,19 +1,20 @@
-"""Glowing analytic spheres and round tubes as lights: the spheres, cylinders, cones and capsules of a scene built in
-Python (``wrt.Shape``) and those of instances (the spheres of a ``Points`` prim are instances of one, the joints and
-straight segments of a ``BasisCurves`` prim instances of a sphere and an open cylinder, or an open cone where the
-width changes along the segment), bound to an emissive material, become light-table entries of their own, with the
-emission their material shows on them (shapes read their textures at one constant ``st``, so the glow is the same
-all over the shape). Spheres are sampled by the cone they subtend as a SphereLight is, cylinders and cones (side, and
-caps where capped; a cone is a cylinder whose radius shrinks linearly along its axis, its row's taper the top radius
-over the bottom one) and capsules (side and two hemispheres) uniformly by area over the part whose front the shading
-point can see (:mod:`wrt.glowing_tubes`): the density, ``1 / area`` in closed form, is the one a ray that hits the
-shape reads back for MIS.
+"""Glowing analytic spheres and round tubes as lights: the spheres, cylinders, cones and (tapered) capsules of a scene
+built in Python (``wrt.Shape``) and those of instances (the spheres of a ``Points`` prim are instances of one, the
+joints and straight segments of a ``BasisCurves`` prim instances of a sphere and an open cylinder, or an open cone
+where the width changes along the segment), bound to an emissive material, become light-table entries of their own,
+with the emission their material shows on them (shapes read their textures at one constant ``st``, so the glow is the
+same all over the shape). Spheres are sampled by the cone they subtend as a SphereLight is, cylinders and cones
+(side, and caps where capped; a cone is a cylinder whose radius shrinks linearly along its axis, its row's taper the
+top radius over the bottom one) and capsules (side and two hemispheres; a tapered capsule's side the cone tangent to
+its two spheres, and their zones beyond it) uniformly by area over the part whose front the shading point can see
+(:mod:`wrt.glowing_tubes`): the density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back
+for MIS.
 
 A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
-keeps it round: a similarity (a rotation times one scale) for spheres and capsules, and for a cylinder or cone one
-scale across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed across an
-elliptic tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances whose
-shapes fit in the cap on instanced emitter entries. Tapered capsules, boxes and other glowing shapes are not sampled
+keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a cylinder or
+cone one scale across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed
+across an elliptic tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances
+whose shapes fit in the cap on instanced emitter entries. Boxes and other glowing shapes are not sampled
 (:attr:`GlowingSpheres.left_out` counts them).
 """
 
@@ -33,7 +34,8 @@ GLOW_SPHERE = 0  # a sphere, sampled by its cone
 GLOW_OPEN_CYLINDER = 1  # the side of a cylinder or cone (centre, bottom radius, half axis, taper), uniformly by area
 GLOW_CAPPED_CYLINDER = 2  # its side and both caps, uniformly by area
 GLOW_CAPSULE = 3  # the side of radius r between the centres +-axis, and a hemisphere of radius r on each
-SAMPLED_KINDS = ("sphere", "cylinder", "cone", "capsule")  # the wrt.Shape kinds that may be sampled
+GLOW_TAPERED_CAPSULE = 4  # spheres of radius r at centre - axis and taper r at centre + axis, and the cone between
+SAMPLED_KINDS = ("sphere", "cylinder", "cone", "capsule", "tapered")  # the wrt.Shape kinds that may be sampled
 
 
 @dataclasses.dataclass
@@ -47,13 +49,14 @@ class GlowingSpheres:
         power: ``(S,)`` float64 selection weights: pi times area times the material's glow.
         instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
         slots: ``(S,)`` int32 each row's place among its instance's rows (0 for world shapes).
-        left_out: glowing shapes not sampled (counted once per instance that draws them): tapered capsules, other kinds,
+        left_out: glowing shapes not sampled (counted once per instance that draws them): boxes and other kinds,
             shapes that emit inwards or are scaled unevenly.
         past_cap: glowing shapes of instances past the cap (once per instance).
         axes: ``(S, 4)`` float64 world half axis (from the centre to a cap's centre, or to a capsule's hemisphere's;
             zero for a sphere) and the row's ``GLOW_*`` code; None: every row a sphere.
         tapers: ``(S,)`` float64 a cone's radius at ``centre + half axis`` over its radius (the row's, at ``centre -
-            half axis``), in [0, 1]; 1 for every other row (None: all 1).
+            half axis``), a tapered capsule's spheres' radii's ratio alike, in [0, 1]; 1 for every other row (None:
+            all 1).
     """
 
     ids: np.ndarray
@@ -79,8 +82,9 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """``(indices, kinds, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be
-    sampled: spheres, cylinders, cones and capsules that emit outwards; their ``(K, 3)`` float64 ``(GLOW_* code,
-    capsule's H, taper)`` (a cone is a cylinder of taper rho, every other shape's 1); and how many other glowing
+    sampled: spheres, cylinders, cones and (tapered) capsules that emit outwards; their ``(K, 3)`` float64
+    ``(GLOW_* code, capsule's H, taper)`` (a cone is a cylinder of taper rho, a tapered capsule's rho, every other
+    shape's 1); and how many other glowing
     shapes there are."""
     glowing = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
     take = [k for k in glowing
@@ -95,6 +99,8 @@ def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[
                 kinds[row, 2] = float(shape.params[1])
         elif shape.kind == "capsule":
             kinds[row, :2] = GLOW_CAPSULE, float(shape.params[0])
+        elif shape.kind == "tapered":
+            kinds[row] = GLOW_TAPERED_CAPSULE, float(shape.params[0]), float(shape.params[1])
     return np.asarray(take, np.int64), kinds, len(glowing) - len(take)
 
 
@@ -118,8 +124,9 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.nda
     ok = np.where(cylinder, round_tube, similar)
     radius = np.where(cylinder, np.sqrt(np.maximum(r2, 0.0)), scale)
     # The half axis: a cylinder's canonical Z column (a cone's, towards its narrow top), a capsule's times H (its
-    # hemispheres' centres), a sphere's 0.
-    factor = np.where(cylinder, 1.0, np.where(code == GLOW_CAPSULE, kinds[..., 1], 0.0))
+    # hemispheres' centres; a tapered capsule's spheres'), a sphere's 0.
+    capsule = np.isin(code, (GLOW_CAPSULE, GLOW_TAPERED_CAPSULE))
+    factor = np.where(cylinder, 1.0, np.where(capsule, kinds[..., 1], 0.0))
     axis = linear[..., :, 2] * factor[..., None]
     rows = np.concatenate([to_world[..., :3, 3], radius[..., None]], axis=-1)
     return ok, rows, np.concatenate([axis, code[..., None]], axis=-1)
@@ -133,8 +140,16 @@ def _areas(spheres: np.ndarray, axes: np.ndarray, tapers: np.ndarray) -> np.ndar
     code = axes[:, 3]
     side = math.pi * (r + top) * np.hypot(2.0 * h, r - top)  # a frustum's: pi (r1 + r2) times its slant length
     caps = math.pi * (r * r + top * top)
-    return np.select([code == GLOW_OPEN_CYLINDER, code == GLOW_CAPPED_CYLINDER, code == GLOW_CAPSULE],
-                     [side, side + caps, side + 4.0 * math.pi * r * r], 4.0 * math.pi * r * r)
+    # A tapered capsule: the cone tangent to its spheres at latitude asin((r - top) / 2 h), radii cos times theirs
+    # and its length shorter by (r - top) sin, and the spheres' zones below and above.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sin_lat = np.clip((r - top) / (2.0 * h), 0.0, 1.0)
+    cos_lat = np.sqrt(1.0 - sin_lat * sin_lat)
+    cone = math.pi * (r + top) * cos_lat * np.hypot(np.maximum(2.0 * h - (r - top) * sin_lat, 0.0), (r - top) * cos_lat)
+    zones = 2.0 * math.pi * (r * r * (1.0 + sin_lat) + top * top * (1.0 - sin_lat))
+    return np.select([code == GLOW_OPEN_CYLINDER, code == GLOW_CAPPED_CYLINDER, code == GLOW_CAPSULE,
+                      code == GLOW_TAPERED_CAPSULE],
+                     [side, side + caps, side + 4.0 * math.pi * r * r, cone + zones], 4.0 * math.pi * r * r)
 
 
 def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:

@@ -1,5 +1,6 @@
 """Device side of glowing round tubes as lights (:mod:`wrt.glowing_spheres` builds their rows): a point drawn
-uniformly by area over a cylinder's or cone's side (and its caps, where capped) or a capsule's side and hemispheres,
+uniformly by area over a cylinder's or cone's side (and its caps, where capped), a capsule's side and hemispheres or a
+tapered capsule's cone and sphere zones,
 the part of them a shading point can see the front of for a single-sided tube, and that part's area, in closed form,
 that turns the draw's density ``1 / area`` into a solid-angle pdf ``dist^2 / (area |cos|)`` for both light sampling and
 the MIS weight of a ray that hits the tube.
@@ -11,11 +12,12 @@ its half axis) into [1, 2): the area in world units squared overflowed float32 f
 import warp as wp
 
 from .floats import largest_magnitude, power_scales
-from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE
+from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE, GLOW_TAPERED_CAPSULE
 from .sampling import PI, basis_x, basis_y, sample_uniform_sphere
 
 TUBE_CAPPED = wp.constant(GLOW_CAPPED_CYLINDER)
 TUBE_CAPSULE = wp.constant(GLOW_CAPSULE)
+TUBE_TAPERED = wp.constant(GLOW_TAPERED_CAPSULE)
 
 
 @wp.func
@@ -58,18 +60,37 @@ def facing_arc(r: float, top: float, h: float, to_p: wp.vec3, w: wp.vec3):
 
 
 @wp.func
+def tube_side(r: float, top: float, h: float, code: int):
+    """``(mid, half, bottom, top, sin_lat)``: the cylinder or cone of the side of a tube of radii ``r`` and ``top``
+    and half axis ``h`` (lengths times ``down``): its centre's offset along the axis, half length and end radii, and
+    for a tapered capsule the sine of the latitude where it touches the spheres (its normal's lean up the axis; the
+    cone tangent to both spheres meets the bottom one at ``-h + r sin``, the top one at ``h + top sin``, its radii
+    ``cos`` times theirs), 0 for the others, whose side runs between their ends."""
+    if code != TUBE_TAPERED:
+        return 0.0, h, r, top, 0.0
+    sin_lat = wp.min((r - top) / (2.0 * h), 1.0)  # 1: the top sphere lies inside the bottom one, the side is empty
+    cos_lat = wp.sqrt(wp.max(1.0 - sin_lat * sin_lat, 0.0))
+    z0 = -h + r * sin_lat
+    z1 = h + top * sin_lat
+    return 0.5 * (z0 + z1), wp.max(0.5 * (z1 - z0), 0.0), r * cos_lat, top * cos_lat, sin_lat
+
+
+@wp.func
 def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: int, to_p: wp.vec3):
     """``(area, side, arc)``: the area (times ``down^2``) that :func:`sample_tube` draws from, its side's share of it
-    (the cylinder or cone between the caps or hemispheres) and the half angle of the side's arc about the axis: the
-    whole surface, or with ``facing`` 1 the side's arc that can face the shading point (``to_p`` from the centre,
-    times ``down``: :func:`facing_arc`), the one cap on its side of the centre and both hemispheres. ``taper``: the
-    top radius over the bottom one (``row[3]``)."""
+    (the cylinder or cone between the caps, hemispheres or, for a tapered capsule, sphere zones: :func:`tube_side`)
+    and the half angle of the side's arc about the axis: the whole surface, or with ``facing`` 1 the side's arc that
+    can face the shading point (``to_p`` from the centre, times ``down``: :func:`facing_arc`), the one cap on its
+    side of the centre and both hemispheres or sphere zones. ``taper``: the top radius over the bottom one
+    (``row[3]``)."""
     r = row[3] * down
     top = r * taper
     w, h = tube_axis(axis, down)
-    side = PI * (r + top) * wp.sqrt(4.0 * h * h + (r - top) * (r - top))  # pi (r1 + r2) times the slant length
-    arc = PI
     code = int(axis[3])
+    mid, h_side, r_side, top_side, sin_lat = tube_side(r, top, h, code)
+    # pi (r1 + r2) times the slant length
+    side = PI * (r_side + top_side) * wp.sqrt(4.0 * h_side * h_side + (r_side - top_side) * (r_side - top_side))
+    arc = PI
     ends = float(0.0)
     if code == TUBE_CAPPED:
         ends = PI * (r * r + top * top)
@@ -77,8 +98,10 @@ def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: in
             ends = wp.where(wp.dot(to_p, w) >= 0.0, PI * top * top, PI * r * r)
     elif code == TUBE_CAPSULE:
         ends = 4.0 * PI * r * r  # two hemispheres
+    elif code == TUBE_TAPERED:
+        ends = 2.0 * PI * (r * r * (1.0 + sin_lat) + top * top * (1.0 - sin_lat))  # the zones below and above
     if facing == 1:
-        arc = facing_arc(r, top, h, to_p, w)
+        arc = facing_arc(r_side, top_side, h_side, to_p - mid * w, w)
         side = side * (arc / PI)
     return side + ends, side, arc
 
@@ -86,9 +109,10 @@ def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: in
 @wp.func
 def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: int, u1: float, u2: float):
     """``(q, n, area, down)``: a point ``q`` uniform by area on the part of the tube :func:`tube_area` names for
-    shading point ``p`` (its side, caps or hemispheres chosen in proportion to their areas by ``u1``), its unit
+    shading point ``p`` (its side, caps, hemispheres or zones chosen in proportion to their areas by ``u1``), its unit
     outward normal ``n``, that area (times ``down^2``; 0: nothing to draw) and the tube's ``down``
-    (:func:`tube_scales`). ``taper``: a cone's top radius over its bottom one, 1 for cylinders and capsules.
+    (:func:`tube_scales`). ``taper``: a cone's top radius over its bottom one (a tapered capsule's spheres'), 1 for
+    cylinders and capsules.
 
     ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: the points of the side off
     :func:`facing_arc` (for a cylinder, those whose outward normal makes more than a right angle with ``p``'s
@@ -102,6 +126,8 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
     half = wp.vec3(axis[0], axis[1], axis[2])
     r = row[3]
     w, h_down = tube_axis(axis, down)
+    code = int(axis[3])
+    mid, h_side, r_side, top_side, sin_lat = tube_side(r * down, r * down * taper, h_down, code)
     bx = basis_x(w)
     by = basis_y(w)
     above = wp.where(wp.dot(to_p, w) >= 0.0, 1.0, -1.0)  # the side of the centre p lies on, along the axis
@@ -119,13 +145,27 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
         if facing == 1:
             phi = wp.atan2(wp.dot(to_p, by), wp.dot(to_p, bx)) + (2.0 * u2 - 1.0) * arc
         radial = wp.cos(phi) * bx + wp.sin(phi) * by
-        q = c + (2.0 * s - 1.0) * half + (r * (1.0 - (1.0 - taper) * s)) * radial
         n = radial
+        if code == TUBE_TAPERED:
+            q = c + ((mid + (2.0 * s - 1.0) * h_side) * up) * w + (r_side * up * (1.0 - (1.0 - taper) * s)) * radial
+        else:
+            q = c + (2.0 * s - 1.0) * half + (r * (1.0 - (1.0 - taper) * s)) * radial
         if taper != 1.0:  # a cone's normal leans towards its top by the slope of its radius
-            n = wp.normalize(2.0 * h_down * radial + (1.0 - taper) * r * down * w)
+            n = wp.normalize(2.0 * h_side * radial + (r_side - top_side) * w)
     else:
         s = wp.min((u1 - share) / (1.0 - share), 1.0)
-        if int(axis[3]) == TUBE_CAPSULE:
+        if code == TUBE_TAPERED:
+            # A zone of a sphere, uniform on it as its normal's height along the axis is (Archimedes): the bottom
+            # sphere's below the latitude the side touches it at, or the top one's above, in proportion to area.
+            low = r * r * (1.0 + sin_lat)
+            low_share = low / (low + taper * taper * r * r * (1.0 - sin_lat))
+            along = wp.where(s < low_share, -1.0 + (1.0 + sin_lat) * s / wp.max(low_share, 1e-30),
+                             sin_lat + (1.0 - sin_lat) * (s - low_share) / wp.max(1.0 - low_share, 1e-30))
+            along = wp.clamp(along, -1.0, 1.0)
+            phi = 2.0 * PI * u2
+            n = along * w + wp.sqrt(wp.max(1.0 - along * along, 0.0)) * (wp.cos(phi) * bx + wp.sin(phi) * by)
+            q = wp.where(s < low_share, c - half + r * n, c + half + (r * taper) * n)
+        elif code == TUBE_CAPSULE:
             # The two hemispheres make one sphere of radius r: a uniform direction, on the hemisphere it points to.
             n = sample_uniform_sphere(s, u2)
             q = c + wp.where(wp.dot(n, w) >= 0.0, 1.0, -1.0) * half + r * n
