@@ -220,17 +220,20 @@ def test_a_squeezed_or_inward_glowing_cylinder_stays_unsampled_and_named(squeeze
     assert rendered.max() == 0.0
 
 
-def test_a_double_sided_open_tube_lights_through_its_ends_alike_under_every_estimate(monkeypatch):
-    """A double-sided open cylinder standing over the floor glows inside too, seen through its bottom end: drawn
-    over its whole surface (both sides), its shadow rays stopped by its own near wall, its BSDF hits weighed by the
-    same density. Whitted (light sampling alone: the floor's light is all direct, the tube reflecting nothing), path
-    and path finding it only by the rays that hit it agree within four standard errors (over eight seeds)."""
+@pytest.mark.parametrize("kind,capped", [("cylinder", 0.0), ("cone", 0.0), ("cone", 1.0)],
+                         ids=["open-cylinder", "open-frustum", "capped-frustum"])
+def test_a_double_sided_tube_lights_alike_under_every_estimate(kind, capped, monkeypatch):
+    """A double-sided open cylinder or frustum (narrowing to half its radius) standing over the floor glows inside
+    too, seen through its bottom end: drawn over its whole surface (both sides; a capped frustum's caps in proportion
+    to their areas), its shadow rays stopped by its own near wall, its BSDF hits weighed by the same density. Whitted
+    (light sampling alone: the floor's light is all direct, the tube reflecting nothing), path and path finding it
+    only by the rays that hit it agree within four standard errors (over eight seeds)."""
     tilted = np.array([0.3, 0.1, 1.0]) / np.linalg.norm([0.3, 0.1, 1.0])
     to_world = np.eye(4)
     to_world[:3, :3] = frame(tilted) @ np.diag([0.2, 0.2, 0.3])
     to_world[:3, 3] = (0.0, 0.0, 0.8)
-    shape = wrt.Shape("/Tube", "cylinder", to_world, material_id=1, double_sided=True,
-                      params=np.array([0.0, 0.0, 0.0, 1.0], np.float32))
+    shape = wrt.Shape("/Tube", kind, to_world, material_id=1, double_sided=True,
+                      params=np.array([capped, 0.5 if kind == "cone" else 0.0, 0.0, 1.0], np.float32))
     scene = wrt.Scene(meshes=[floor_mesh()], shapes=[shape], materials=materials())
     results = [seed_images(scene, "whitted", spp=128)[0].mean(axis=(1, 2)),
                seed_images(scene, "path", spp=64)[0].mean(axis=(1, 2))]
