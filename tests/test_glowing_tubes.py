@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+import warp as wp
 from test_glowing_spheres import (
     GLOW_AND_FLOOR,
     PATCH,
@@ -24,6 +25,7 @@ from test_glowing_spheres import (
 
 import wrt
 from wrt import light_table
+from wrt.glowing_tubes import sample_tube, tube_area
 
 AXIS = np.array([1.0, 0.5, 0.3]) / np.linalg.norm([1.0, 0.5, 0.3])  # world direction of every tube's axis
 CENTRE = np.array([0.1, -0.05, 0.8])
@@ -259,3 +261,73 @@ def test_a_cut_out_glowing_shape_lights_nothing(kind):
     for integrator in ("whitted", "path"):
         rendered, _ = render_floor(scene, integrator, spp=4)
         assert rendered.max() == 0.0, (integrator, rendered)
+
+
+@wp.kernel
+def draw_tube_kernel(row: wp.vec4, axis: wp.vec4, taper: float, ps: wp.array[wp.vec3], us: wp.array[wp.vec2],
+                     qs: wp.array[wp.vec3], ns: wp.array[wp.vec3], drawn: wp.array[wp.vec3]):
+    """A single-sided tube's draw from each ``ps[i]``: the point, its normal and ``(area, down, arc)``."""
+    i = wp.tid()
+    q, n, area, down = sample_tube(row, axis, taper, ps[i], 1, us[i][0], us[i][1])
+    c = wp.vec3(row[0], row[1], row[2])
+    area2, side, arc = tube_area(row, axis, taper, down, 1, (ps[i] - c) * down)
+    qs[i] = q
+    ns[i] = n
+    drawn[i] = wp.vec3(area, down, arc)
+
+
+def draw_tube(kind, code, taper, ps, us):
+    """``(q, n, area, arc)`` float64 of :func:`draw_tube_kernel` for the tube of :func:`dims` (world area)."""
+    axis, radius, half = dims(kind)
+    out = [wp.zeros(len(ps), dtype=wp.vec3, device="cpu") for _ in range(3)]
+    wp.launch(draw_tube_kernel, len(ps), inputs=[wp.vec4(*CENTRE, radius), wp.vec4(*(axis * half), code), taper,
+                                                 wp.array(ps, dtype=wp.vec3, device="cpu"),
+                                                 wp.array(us, dtype=wp.vec2, device="cpu")],
+              outputs=out, device="cpu")
+    q, n, drawn = (a.numpy().astype(np.float64) for a in out)
+    return q, n, drawn[:, 0] / drawn[:, 1] ** 2, drawn[:, 2]
+
+
+TUBES = [("cone", 1, 0.0), ("cone", 2, 0.4), ("tapered", 4, 0.4)]  # (kind, GLOW_* code, taper)
+
+
+@pytest.mark.parametrize("kind,code,taper", TUBES, ids=["open-cone", "capped-frustum", "tapered-capsule"])
+def test_a_single_sided_cone_draws_from_an_arc_holding_all_the_side_facing_the_point(kind, code, taper):
+    """From points above, below and beside a single-sided cone, on its axis, inside it and past its apex, every
+    point of its side whose front faces the point (float64, brute force over the side) lies in the arc drawn from;
+    and the draw integrates a smooth weight over the surface the point sees as a float64 quadrature does (uniform by
+    area over a region holding it, the area right)."""
+    axis, radius, half = dims(kind)
+    w = axis
+    bx = np.cross(w, (0.0, 0.0, 1.0))
+    bx /= np.linalg.norm(bx)
+    by = np.cross(w, bx)
+    zs, rhos = np.meshgrid(np.linspace(-4.0, 4.0, 17) * half, np.linspace(0.0, 3.0, 13) * radius, indexing="ij")
+    ps = CENTRE + zs.reshape(-1, 1) * w + rhos.reshape(-1, 1) * (0.6 * bx + 0.8 * by)
+    _, _, _, arcs = draw_tube(kind, code, taper, ps, np.full((len(ps), 2), 0.5))
+    q, nq, _ = surface_quadrature(kind, False, taper, n=96)
+    side = np.abs(nq @ w) < 0.999  # the side (and, for a tapered capsule, its spheres' zones: filtered below)
+    if kind == "tapered":
+        lat = math.asin(radius * (1.0 - taper) / (2.0 * half))
+        along = (q - CENTRE) @ w
+        side &= (along > -half + radius * math.sin(lat)) & (along < half + taper * radius * math.sin(lat))
+    q, nq = q[side], nq[side]
+    for p, arc in zip(ps, arcs):
+        to_p = p - CENTRE
+        facing = ((p - q) * nq).sum(-1) > 1e-9
+        off = np.angle(np.exp(1j * (np.arctan2((q - CENTRE) @ by, (q - CENTRE) @ bx)
+                                    - np.arctan2(to_p @ by, to_p @ bx))))
+        assert (np.abs(off[facing]) <= arc + 1e-4).all(), (p, arc, np.abs(off[facing]).max())
+
+    rng = np.random.default_rng(7)
+    q_all, n_all, dA = surface_quadrature(kind, code == 2, taper, n=256)
+    count = 200_000
+    for z, rho in [(3.0, 0.0), (-3.0, 0.5), (0.5, 3.0), (5.0, 0.2)]:
+        p = CENTRE + z * half * w + rho * radius * bx
+        weight = lambda x: 1.0 / (1.0 + ((x - p) ** 2).sum(-1))  # noqa: E731 (smooth, to integrate)
+        seen = ((p - q_all) * n_all).sum(-1) > 0.0
+        expected = (weight(q_all) * dA * seen).sum()
+        qs, ns, area, _ = draw_tube(kind, code, taper, np.tile(p, (count, 1)), rng.uniform(size=(count, 2)))
+        est = area * weight(qs) * (((p - qs) * ns).sum(-1) > 0.0)
+        se = est.std() / math.sqrt(count)
+        assert abs(est.mean() - expected) <= 4.0 * se + 0.005 * expected, (z, rho, est.mean(), expected, se)
