@@ -80,9 +80,14 @@ def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: in
     """``(area, side, arc)``: the area (times ``down^2``) that :func:`sample_tube` draws from, its side's share of it
     (the cylinder or cone between the caps, hemispheres or, for a tapered capsule, sphere zones: :func:`tube_side`)
     and the half angle of the side's arc about the axis: the whole surface, or with ``facing`` 1 the side's arc that
-    can face the shading point (``to_p`` from the centre, times ``down``: :func:`facing_arc`), the one cap on its
-    side of the centre and both hemispheres or sphere zones. ``taper``: the top radius over the bottom one
-    (``row[3]``)."""
+    can face the shading point (``to_p`` from the centre, times ``down``: :func:`facing_arc`), a cylinder's one cap on
+    its side of the centre (a cone's two: see below) and both hemispheres or sphere zones. ``taper``: the top radius
+    over the bottom one (``row[3]``).
+
+    A cone's caps differ in area, so drawing the one on p's side made the area jump where p crosses the plane
+    through the centre; path weighs a hit by the density from the ray's origin, its last shading point moved off
+    the surface, while light sampling drew from that point: on a floor through the centre's plane the two fell on
+    either side and the floor came out 7% dark. Both caps keep the area continuous in p (a cylinder's are equal)."""
     r = row[3] * down
     top = r * taper
     w, h = tube_axis(axis, down)
@@ -94,8 +99,8 @@ def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: in
     ends = float(0.0)
     if code == TUBE_CAPPED:
         ends = PI * (r * r + top * top)
-        if facing == 1:
-            ends = wp.where(wp.dot(to_p, w) >= 0.0, PI * top * top, PI * r * r)
+        if facing == 1 and top == r:
+            ends = PI * r * r
     elif code == TUBE_CAPSULE:
         ends = 4.0 * PI * r * r  # two hemispheres
     elif code == TUBE_TAPERED:
@@ -117,8 +122,8 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
     ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: the points of the side off
     :func:`facing_arc` (for a cylinder, those whose outward normal makes more than a right angle with ``p``'s
     direction from the axis: seen from outside the tube, the front of a side point shows only to points past its
-    tangent plane, which lie in that half), and the cap on the other side of the centre. A ray from ``p`` that hits
-    the tube's front therefore hits the part drawn from, at the density :func:`tube_pdf` reads back."""
+    tangent plane, which lie in that half), and a cylinder's cap on the other side of the centre. A ray from ``p``
+    that hits the tube's front therefore hits the part drawn from, at the density :func:`tube_pdf` reads back."""
     down, up = tube_scales(row, axis)
     c = wp.vec3(row[0], row[1], row[2])
     to_p = (p - c) * down
@@ -170,10 +175,11 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
             n = sample_uniform_sphere(s, u2)
             q = c + wp.where(wp.dot(n, w) >= 0.0, 1.0, -1.0) * half + r * n
         else:
-            # A cap, uniform on its disk: the one on p's side, or with both drawn the top in proportion to its area.
+            # A cap, uniform on its disk: a single-sided cylinder's on p's side, or with both drawn (a cone's, whose
+            # caps differ: tube_area) the top in proportion to its area.
             sign = above
             s2 = s
-            if facing == 0:
+            if facing == 0 or taper != 1.0:
                 top_share = taper * taper / (1.0 + taper * taper)
                 sign = wp.where(s < top_share, 1.0, -1.0)
                 s2 = wp.where(s < top_share, s / wp.max(top_share, 1e-30), (s - top_share) / (1.0 - top_share))

@@ -617,7 +617,7 @@ def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, p: wp.vec3
                      n: wp.vec3):
     """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area; ``double_sided``
     its shape's flag) from ``p`` at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn
-    from is a cone's arc that can face ``p``, and the cap on ``p``'s side)."""
+    from is a cone's arc that can face ``p``, and a cylinder's cap on ``p``'s side)."""
     j = k - lights.first_glowing_sphere
     return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], lights.glowing_tapers[j], 1 - double_sided,
                     p, d, dist, n)
