@@ -245,6 +245,7 @@ def shade_path_kernel(
             f = lit_bsdf(lights, k, f_d, f_s)
             if max_component(f) > 0.0:
                 w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
+                # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
                 # A number of its own for a fading shadow only, so that other renders draw the numbers they drew.

@@ -317,6 +317,7 @@ def whitted_lights_kernel(
             f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
             f = lit_bsdf(lights, k, f_d, f_s)
             if max_component(f) > 0.0:
+                # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
                 # u_pick (unused by a group of one light), or a number of its own for a fading shadow (shadow_fades).
