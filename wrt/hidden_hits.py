@@ -386,7 +386,7 @@ def any_hit_t_max(first_emitter: int, k: int, t_min: float, t_max: float):
     (``wrt.integrators.path.aim_shadow_ray``), else by :func:`end_any_hits_kernel`."""
     end = any_hit_end(first_emitter, k, t_max)
     if t_max > 0.0 and to_emitter(first_emitter, k):
-        end = tail_start(first_emitter, k, t_min, t_max)
+        end = wp.max(t_min, end)  # tail_start's, from the end already found
     return end
 
 
