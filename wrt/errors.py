@@ -71,11 +71,12 @@ def user_stacklevel() -> int:
 
 
 def warn_keyed(message: str, key) -> None:
-    """``warnings.warn(message)`` at the user's line (a UserWarning), carrying ``key`` as ``said_once_key``: what a
-    Renderer says the warning once by (``Renderer._warn_once``, the far-view warnings), its words naming a count or a
-    distance that change from frame to frame. The worker processes of a frame run (``wrt render --devices``,
-    ``--dask``) each say it once and send it back with the key, by which their parent says it once for all of them
-    (:func:`wrt.animation.render_frame_task`): by its words, each worker's was said again."""
+    """``warnings.warn(message)`` at the user's line (a UserWarning), carrying ``key`` as ``said_once_key`` (None:
+    none, as a plain warning): what a Renderer says the warning once by (``Renderer._warn_once``, the far-view
+    warnings), its words naming a count or a distance that change from frame to frame. The worker processes of a
+    frame run (``wrt render --devices``, ``--dask``) each say it once and send it back with the key, by which their
+    parent says it once for all of them (:func:`wrt.animation.render_frame_task`): by its words, each worker's was
+    said again."""
     import warnings
 
     warning = UserWarning(message)

@@ -907,17 +907,11 @@ class Scene:
         """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's
         warnings (:mod:`wrt.usd_problems`); ``count``: how many there are, where ``paths`` holds the first few;
         ``key``: what a Renderer says it once by (:func:`wrt.errors.warn_keyed`), if anything."""
-        import warnings
-
-        from .errors import user_stacklevel, warn_keyed
+        from .errors import warn_keyed
 
         count = len(paths) if count is None else count
         shown = ", ".join(paths[:3]) + (", ..." if count > 3 else "")
-        message = f"{self.source or 'scene'}: {what}: {count} prim(s): {shown}"
-        if key is not None:
-            warn_keyed(message, key)
-        else:
-            warnings.warn(message, stacklevel=user_stacklevel())
+        warn_keyed(f"{self.source or 'scene'}: {what}: {count} prim(s): {shown}", key)
 
     def _check_axis_and_units(self) -> None:
         """Takes ``up_axis`` ``"y"`` or ``"z"`` as ``"Y"`` or ``"Z"`` and refuses anything else with a ``ValueError``:
