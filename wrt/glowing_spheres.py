@@ -53,10 +53,9 @@ class GlowingSpheres:
             shapes that emit inwards or are scaled unevenly.
         past_cap: glowing shapes of instances past the cap (once per instance).
         axes: ``(S, 4)`` float64 world half axis (from the centre to a cap's centre, or to a capsule's hemisphere's;
-            zero for a sphere) and the row's ``GLOW_*`` code; None: every row a sphere.
+            zero for a sphere) and the row's ``GLOW_*`` code.
         tapers: ``(S,)`` float64 a cone's radius at ``centre + half axis`` over its radius (the row's, at ``centre -
-            half axis``), a tapered capsule's spheres' radii's ratio alike, in [0, 1]; 1 for every other row (None:
-            all 1).
+            half axis``), a tapered capsule's spheres' radii's ratio alike, in [0, 1]; 1 for every other row.
     """
 
     ids: np.ndarray
@@ -67,8 +66,8 @@ class GlowingSpheres:
     slots: np.ndarray
     left_out: int = 0
     past_cap: int = 0
-    axes: np.ndarray | None = None
-    tapers: np.ndarray | None = None
+    axes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
+    tapers: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
 def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -225,8 +224,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
             slots.append(np.tile(np.arange(len(p_ids)), len(rows)))
     if not ids:
         empty = np.zeros(0, np.int32)
-        return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), instance_first, empty, left_out, past_cap,
-                              np.zeros((0, 4)), np.zeros(0))
+        return GlowingSpheres(empty, empty, np.zeros((0, 4)), np.zeros(0), instance_first, empty, left_out, past_cap)
     ids_all = np.concatenate(ids).astype(np.int32)
     insts_all = np.concatenate(insts).astype(np.int32)
     spheres_all = np.concatenate(spheres)

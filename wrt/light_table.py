@@ -606,11 +606,10 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.first_glowing_sphere = first_sphere
     d.glowing_spheres = wp.array((spheres.spheres if len(spheres.ids) else np.zeros((1, 4))).astype(np.float32),
                                  dtype=wp.vec4, device=device)
-    axes = spheres.axes if spheres.axes is not None else np.zeros((len(spheres.ids), 4))
-    d.glowing_axes = wp.array((axes if len(axes) else np.zeros((1, 4))).astype(np.float32), dtype=wp.vec4,
-                              device=device)
-    tapers = spheres.tapers if spheres.tapers is not None else np.ones(len(spheres.ids))
-    d.glowing_tapers = wp.array((tapers if len(tapers) else np.ones(1)).astype(np.float32), dtype=float, device=device)
+    d.glowing_axes = wp.array((spheres.axes if len(spheres.ids) else np.zeros((1, 4))).astype(np.float32),
+                              dtype=wp.vec4, device=device)
+    d.glowing_tapers = wp.array((spheres.tapers if len(spheres.ids) else np.ones(1)).astype(np.float32), dtype=float,
+                                device=device)
     # Each instance's first sphere entry (4 bytes an instance), only where some instance has one: read only for the
     # slot of a prototype sphere (light_sampling.hit_emitter), which none has without them.
     first = np.where(spheres.instance_first >= 0, spheres.instance_first + first_sphere, -1)
