@@ -11,7 +11,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdShade
 from test_materials import add_quad, bind, materialx_preview_stage, new_stage, textured_stage
 from test_materialx import base_color_image, colour_image_stage, load, mtlx_material, write_png
-from test_texture_files import write_exr
+from test_texture_files import srgb_decoded, write_exr
 
 # The canonical names MaterialX 1.39's DefaultColorManagementSystem remaps to one of its colour transforms.
 MATERIALX_DECODES = ("srgb_rec709_scene", "lin_rec709_scene", "g22_rec709_scene", "g18_rec709_scene",
@@ -107,9 +107,9 @@ def test_a_constant_colour_in_a_usd_colour_space_is_decoded_as_materialx_decodes
 
 
 def srgb64(x) -> np.ndarray:
-    """MaterialX's ``srgb_texture`` decode (``mx_srgb_texture_to_lin_rec709``) in float64."""
-    x = np.asarray(x, np.float64)
-    return np.where(x > 0.04045, ((x + 0.055) / 1.055) ** 2.4, x / 12.92)
+    """MaterialX's ``srgb_texture`` decode (``mx_srgb_texture_to_lin_rec709``) in float64: IEC 61966-2-1's inverse
+    transfer function of values in [0, 1] (:func:`test_texture_files.srgb_decoded`)."""
+    return srgb_decoded(x, full=1.0)
 
 
 @pytest.mark.parametrize("type_name", ["color4f", "float4"])
