@@ -1336,8 +1336,9 @@ def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function
     """A standard_surface ``base_color`` constant whose ``colorSpace`` (or that of the Material input it connects
     to) is ``srgb_texture`` or ``g22_rec709`` is decoded as MaterialX decodes a value bound to a node input with a
     colour space (ShaderGraph's colour transform of bound inputs): (0.2, 0.5, 0.8) in ``srgb_texture`` is the sRGB
-    decode of each, in float64 here; ``lin_rec709`` keeps it and ``acescg`` keeps it, named as not converted. Its
-    colour space was ignored: the constant was read as linear."""
+    decode of each, in float64 here; ``lin_rec709`` keeps it and ``acescg`` is converted from ACEScg's primaries
+    as USD converts ``lin_ap1_scene`` (``Gf.ColorSpace.Convert``; it was kept, named as not converted). Its colour
+    space was ignored: the constant was read as linear."""
     stage, path = new_stage(tmp_path)
     material, shader = mtlx_material(stage, "/Looks/Paint", base=1.0)
     color = Gf.Vec3f(0.2, 0.5, 0.8)
@@ -1352,14 +1353,16 @@ def test_a_constant_colour_in_a_colour_space_is_decoded_by_its_transfer_function
     bind(add_quad(stage, "/Quad"), material)
     stage.Save()
     scene, messages = load(path)
-    decode, other_primaries = {**TRANSFERS, "srgb_texture": (lambda x: srgb_decoded(x, 1.0), False),
-                               "lin_rec709": (lambda x: x, False)}[space]
-    if other_primaries:
-        assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages
-    else:
-        assert not messages, messages
+    assert not messages, messages
     (mat,) = scene.materials
-    np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)
+    if space == "acescg":
+        source, target = Gf.ColorSpace(Gf.ColorSpaceNames.LinearAP1), Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+        expected = np.array(target.Convert(source, color).GetRGB(), np.float64)
+    else:
+        decode = {**TRANSFERS, "srgb_texture": (lambda x: srgb_decoded(x, 1.0), False),
+                  "lin_rec709": (lambda x: x, False)}[space][0]
+        expected = decode(np.array([0.2, 0.5, 0.8]))
+    np.testing.assert_allclose(mat.diffuse_color, expected, rtol=1e-5, atol=1e-6)
 
 
 @pytest.mark.parametrize("node", ["ND_constant_color3", "ND_multiply_color3"])

@@ -49,12 +49,31 @@ def test_a_preview_colour_in_a_linear_or_data_colour_space_is_kept(tmp_path, spa
     np.testing.assert_allclose(scene.materials[0].diffuse_color, COLOR, rtol=1e-6)
 
 
-def test_a_preview_colour_of_other_primaries_is_decoded_and_named(tmp_path):
-    """``g22_ap1_scene``: decoded by its transfer function, its primaries named (no gamut conversion)."""
-    _, path = preview_stage(tmp_path, "diffuseColor", "g22_ap1_scene")
+def usd_converted(space: str, rgb) -> np.ndarray:
+    """``rgb`` in colour space ``space`` converted to linear Rec.709 by USD itself (``Gf.ColorSpace.Convert``)."""
+    source, target = Gf.ColorSpace(space), Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+    return np.array(target.Convert(source, Gf.Vec3f(*rgb)).GetRGB(), np.float64)
+
+
+@pytest.mark.parametrize("space", ["lin_ap1_scene", "g22_ap1_scene", "srgb_p3d65_scene", "lin_adobergb_scene",
+                                   "lin_rec2020_scene", "srgb_ap1_scene", "acescg"])
+def test_a_preview_colour_of_other_primaries_is_converted_to_linear_rec709(tmp_path, space):
+    """``lin_ap1_scene`` (ACEScg) (0.2, 0.5, 0.8), and the other spaces of other primaries, read as USD converts
+    them to linear Rec.709 (transfer function, then primaries: ``Gf.ColorSpace.Convert``; MaterialX's ``acescg`` as
+    ``lin_ap1_scene``). They were decoded by the transfer function alone, the primaries named as not converted
+    (``srgb_ap1_scene``, ``lin_rec2020_scene`` read as stored)."""
+    _, path = preview_stage(tmp_path, "diffuseColor", space)
     scene, messages = load(path)
-    assert any("'g22_ap1_scene'" in m and "no gamut conversion" in m and "/Looks/Paint" in m for m in messages)
-    np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_decoded("g22_ap1_scene", COLOR), rtol=1e-5)
+    assert not messages, messages
+    oracle = usd_converted("lin_ap1_scene" if space == "acescg" else space, COLOR)
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, oracle, rtol=1e-5, atol=1e-6)
+
+
+def test_an_unknown_preview_colour_space_is_named_and_read_as_linear(tmp_path):
+    _, path = preview_stage(tmp_path, "diffuseColor", "bogus_space")
+    scene, messages = load(path)
+    assert any("'bogus_space'" in m and "/Looks/Paint" in m and "diffuseColor" in m for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, COLOR, rtol=1e-6)
 
 
 def test_a_preview_colour_takes_the_colour_space_of_the_interface_input_it_reads(tmp_path):

@@ -1444,7 +1444,7 @@ class MaterialReader:
         color_space = str(self._constant(tex, "sourceColorSpace") or ("raw" if materialx else "auto"))
         file_space = None
         if materialx:  # the file's colorSpace, as MaterialX's image nodes, else sourceColorSpace as UsdUVTexture's
-            from .materialx import file_color_space  # that module imports this one
+            from .color_spaces import file_color_space
 
             # MaterialX's nodedef has no sourceColorSpace; one authored is what the writer meant for this texture
             # (converters carry UsdUVTexture's over), so it is read as UsdUVTexture's where the file has no
@@ -1513,7 +1513,7 @@ class MaterialReader:
         decoded from its ``colorSpace`` (:func:`wrt.materialx.decoded_color`, as MaterialX's constants), its note (a
         colour space of other primaries, unknown, or inherited and not read) given; None, named in a warning, where
         the decode passes float32's range (1e20 in sRGB), for the caller to keep its default."""
-        from .materialx import decoded_color  # that module imports this one
+        from .color_spaces import decoded_color
 
         what = f"{node.GetPath()}'s {name}"
         decoded, note = decoded_color(node.GetInput(name), value, what, color=True)
@@ -1529,11 +1529,12 @@ class MaterialReader:
         ``scale`` or ``bias`` (``name``) carries: they are ``float4`` in its Sdr definition, no colours, so their
         numbers are read as authored (a scale or bias is applied to decoded texels). It was left out without a word.
         A linear Rec.709 or data space, which reads alike, is not named."""
-        from .materialx import COLOR_SPACES, inherited_color_space, own_color_space  # that module imports this one
+        from .color_spaces import inherited_color_space, own_color_space, reads_as_stored
 
         inp = tex.GetInput(name)
-        space = own_color_space(inp) or inherited_color_space(inp)
-        if space and COLOR_SPACES.get(space) != ("raw", False):
+        attrs = [inp.GetAttr(), *inp.GetValueProducingAttributes()] if inp else []
+        space = own_color_space(attrs) or (inherited_color_space(inp.GetAttr())[0] if inp else "")
+        if space and not reads_as_stored(space):
             self.skip(f"material {material_path}: a UsdUVTexture's fallback, scale and bias are float4 in its "
                       "definition, no colours: they are read as authored, the colour space they carry is not read",
                       tex.GetPrim(), detail=f"{name} in {space!r}")
@@ -1690,17 +1691,17 @@ class MaterialReader:
         materialNetwork reads no colour space metadata for it), and so does wrt, so ``sourceColorSpace = raw``
         beside ``colorSpace = "srgb_rec709_scene"`` reads the file raw. Only MaterialX's image nodes (and its
         ``ND_UsdUVTexture``) take the file's colorSpace. It was left out without a word."""
-        from .materialx import inherited_color_space, own_color_space  # that module imports this one
+        from .color_spaces import inherited_color_space, own_color_space, reads_as_stored
 
         file_input = tex.GetInput("file")
-        name = own_color_space(file_input)
+        name = own_color_space([file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else [])
         if name:
             self.skip(f"material {material_path}: a UsdUVTexture file's colorSpace is not read (Storm reads "
                       f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
                       tex.GetPrim(), detail=name)
             return
-        inherited = inherited_color_space(file_input)
-        if inherited:  # from UsdColorSpaceAPI on an ancestor: not read either
+        inherited = inherited_color_space(file_input.GetAttr())[0] if file_input else ""
+        if inherited and not reads_as_stored(inherited):  # from UsdColorSpaceAPI on an ancestor: not read either
             self.skip(f"material {material_path}: a UsdUVTexture file's colour space inherited through "
                       "UsdColorSpaceAPI is not read (Storm reads sourceColorSpace alone); the file is decoded as "
                       f"sourceColorSpace {color_space}", tex.GetPrim(), detail=inherited)

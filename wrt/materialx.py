@@ -58,7 +58,7 @@ channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`),
 ``color4`` nodes the
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
 whichever file channels they hold, as MaterialX transforms the output), ``g22_rec709`` and kin decoded by their
-transfer function (:data:`COLOR_SPACES`, USD's canonical names such as ``srgb_rec709_scene`` as MaterialX remaps
+transfer function (wrt.color_spaces, USD's canonical names such as ``srgb_rec709_scene`` as MaterialX remaps
 them; other primaries noted, not converted), ``lin_rec709``/``raw`` and other linear spaces kept (USD's ``data``,
 ``identity`` and ``unknown`` too), none kept too (MaterialX's default working space is ``none``, no colour
 management, and Storm reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as
@@ -90,6 +90,7 @@ import re
 
 import numpy as np
 
+from .color_spaces import decoded_color, file_color_space
 from .materials import (
     COLOR_PRIMVAR_READERS,
     MIN_IOR,
@@ -104,7 +105,6 @@ from .materials import (
     two_finite_numbers,
 )
 from .materialx_fold import TYPE_SIZES, Folded, Unfoldable, fold
-from .textures import decode_curve
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -176,30 +176,6 @@ TEXCOORD_MATH = {"multiply": (("in1", "in2"), {"in1": 0.0, "in2": 1.0}), "divide
                  "subtract": (("in1", "in2"), {"in1": 0.0, "in2": 0.0}), "rotate2d": (("in",), {"amount": 0.0})}
 TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vector2(FA)?$")
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
-# MaterialX's colour spaces (Specification 1.39) -> (wrt's colour space, whether its primaries are other than
-# Rec.709's: a gamut conversion wrt does not make, named in a note). The transfer functions are those of MaterialX's
-# colour transforms: max(x, 0)^2.2 or ^1.8, rec709_display's ^2.4 (cmlib's NG_rec709_display_to_lin_rec709), Adobe
-# RGB's ^(563/256), sRGB's curve for srgb_displayp3.
-COLOR_SPACES = {"srgb_texture": ("sRGB", False), "lin_rec709": ("raw", False), "raw": ("raw", False),
-                "lin_srgb": ("raw", False), "g22_rec709": ("gamma 2.2", False), "g18_rec709": ("gamma 1.8", False),
-                "rec709_display": ("gamma 2.4", False),
-                "acescg": ("raw", True), "lin_ap1": ("raw", True), "g22_ap1": ("gamma 2.2", True),
-                "g18_ap1": ("gamma 1.8", True), "adobergb": (f"gamma {563 / 256}", True),
-                "lin_adobergb": ("raw", True), "srgb_displayp3": ("sRGB", True), "lin_displayp3": ("raw", True),
-                # USD's canonical (Color Interop Forum) names, GfColorSpaceNames, as MaterialX 1.39's default colour
-                # management system remaps them to its own (DefaultColorManagementSystem's COLOR_SPACE_REMAP:
-                # srgb_rec709_scene is srgb_texture, g24_rec709_scene rec709_display, ...). It has no transform for
-                # the others (srgb_ap1_scene, lin_ap0_scene, lin_rec2020_scene, ...): read as stored, named.
-                "srgb_rec709_scene": ("sRGB", False), "lin_rec709_scene": ("raw", False),
-                "g22_rec709_scene": ("gamma 2.2", False), "g18_rec709_scene": ("gamma 1.8", False),
-                "g24_rec709_scene": ("gamma 2.4", False), "lin_ap1_scene": ("raw", True),
-                "g22_ap1_scene": ("gamma 2.2", True), "srgb_p3d65_scene": ("sRGB", True),
-                "lin_p3d65_scene": ("raw", True), "lin_adobergb_scene": ("raw", True),
-                "g22_adobergb_scene": (f"gamma {563 / 256}", True),
-                # USD's names of no colour transform (Gf.ColorSpace's data spaces): the samples are read as stored.
-                "data": ("raw", False), "identity": ("raw", False), "unknown": ("raw", False)}
-
-
 def read_materialx_surface(reader, shader, path: str) -> Material:
     """The :class:`Material` for ``shader`` (a ``standard_surface`` or OpenPBR ``UsdShade.Shader``) of the material
     at ``path``, read by ``reader`` (a :class:`wrt.materials.MaterialReader`: its inputs, images and warnings). What
@@ -732,74 +708,6 @@ class _Graph:
         self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
-
-def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:
-    """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
-    node's; 1 (a grey), 3 or 4 numbers, alpha kept) decoded from the colour space of its ``colorSpace`` (or that of
-    the interface input it connects to: :func:`file_color_space`, whose note names it as ``what``'s), as MaterialX's
-    ShaderGraph transforms a value bound to a node input of a colour type; as it is for other inputs and where none
-    is authored. ``color`` says whether the node's definition types the input ``color3`` or ``color4``: MaterialX
-    decides by the nodedef's port, not by the USD attribute, so a ``float3`` base_color in ``srgb_texture`` is
-    decoded (it was kept), and so is one number on a colour port, the grey it is (a graph node's was kept, decided
-    by its count of numbers). ``decoded`` is None where the decode passes float32's range."""
-    if value.size not in (1, 3, 4) or not inp or not color:
-        return value, None
-    space, note = file_color_space(inp, what)
-    decode = decode_curve(space or "raw")
-    if decode is None:
-        return value, note
-    decoded = np.array(value, np.float64)
-    with np.errstate(over="ignore"):  # told by the caller, naming the input
-        decoded[:3] = decode(value[:3])
-    return (decoded if np.isfinite(decoded).all() else None), note
-
-
-def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
-    """``(space, note)``: wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for an image
-    node's ``file`` input (or a constant colour input), from the ``colorSpace`` metadata of the input or of the
-    interface input it connects to (None where neither has one; an empty one is none, as hdMtlx passes it on), and
-    the note to give, None but for a colour space wrt does not know (read as ``raw``) or whose primaries it does not
-    convert, naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as
-    stored: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
-    name = own_color_space(file_input)
-    if name:
-        if name not in COLOR_SPACES:
-            return "raw", f"{what} colour space {name!r} is read as linear (no gamut conversion)"
-        space, other_primaries = COLOR_SPACES[name]
-        return space, (f"{what} colour space {name!r} is decoded by its transfer function, its primaries taken for "
-                       "Rec.709's (no gamut conversion)" if other_primaries else None)
-    inherited = inherited_color_space(file_input)
-    return None, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm reads an "
-                  "attribute's own colorSpace alone); it is read as without one" if inherited else None)
-
-
-def own_color_space(inp) -> str:
-    """The ``colorSpace`` metadata of input ``inp``, else of the interface input it connects to (``""`` where
-    neither has one; an empty one is none, as hdMtlx passes it on)."""
-    for attr in [inp.GetAttr(), *inp.GetValueProducingAttributes()] if inp else []:
-        name = str(attr.GetColorSpace()) if attr.HasColorSpace() else ""
-        if name:
-            return name
-    return ""
-
-
-def inherited_color_space(inp) -> str | None:
-    """The colour space USD's resolution (``UsdColorSpaceAPI::ComputeColorSpaceName``) gives input ``inp`` (which
-    has no ``colorSpace`` of its own) from ``UsdColorSpaceAPI`` on its prim or an ancestor, for a note: Storm does
-    not read it (UsdImaging hands Hydra an attribute's own ``colorSpace`` alone, and the usd-wg MaterialX colour
-    space assets draw wrong in Storm where UsdColorSpaceAPI carries them), so neither does wrt. None where there is
-    none, or it is one that reads as stored (linear Rec.709, USD's data spaces). It was left out without a word."""
-    from pxr import Usd
-
-    api = getattr(Usd, "ColorSpaceAPI", None)  # USD 25.05 and later
-    if api is None or not inp:
-        return None
-    try:
-        name = str(api.ComputeColorSpaceName(inp.GetAttr(), None) or "")
-    except TypeError:  # a USD whose binding takes other arguments: nothing to name
-        return None
-    return name if name and COLOR_SPACES.get(name) != ("raw", False) else None
-
 
 def _affine(linear=np.eye(2), shift=(0.0, 0.0)) -> np.ndarray:
     """The ``(3, 3)`` float64 map of texture coordinates ``st -> linear @ st + shift``."""

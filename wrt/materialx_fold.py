@@ -118,7 +118,7 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
             raise Unfoldable(node) from None
         if value.size == 0 or not np.all(np.isfinite(value)):
             raise Unfoldable(node)
-        from .materialx import decoded_color  # that module imports this one
+        from .color_spaces import decoded_color
 
         # The node's definition types the input, as MaterialX's port (port_type), not the USD attribute nor the
         # count of numbers: a mix's float mix authored as a color3f was decoded as a colour and mixed each channel

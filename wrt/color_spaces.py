@@ -1,0 +1,164 @@
+"""The colour space of USD colour values and their conversion to linear Rec.709, the space wrt renders in.
+
+USD's colour guides make an attribute's ``colorSpace`` metadata the source colour space of its values: a colour
+constant of a shader, a light's ``inputs:color``, a colour primvar such as ``displayColor``. A colour value is read
+in its space and brought to linear Rec.709 (:func:`linear_rec709`): the space's transfer function decoded
+(:func:`wrt.textures.decode_curve`: ``srgb_rec709_scene`` by sRGB's curve, ``g22_rec709_scene`` as ``max(x, 0)^2.2``),
+then its primaries converted (a ``(3, 3)`` matrix from USD's own ``Gf.ColorSpace`` RGB-to-XYZ matrices, whose white
+points are adapted to D65 as ``Gf.ColorSpace.Convert`` converts: ``lin_ap1_scene``, ACEScg, ``(1, 0, 0)`` is
+``(1.705, -0.130, -0.024)``). Names are USD's canonical ones (``GfColorSpaceNames``) and MaterialX's
+(:data:`COLOR_SPACES`); ``data``, ``raw``, ``identity`` and ``unknown`` are read as stored. An image file (a
+MaterialX image node's) is decoded by the transfer function alone (:func:`file_color_space` says so in its note).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .textures import decode_curve
+
+# Colour space name -> (wrt's transfer function, as wrt.textures.decode_curve takes it; the USD name of the linear
+# space of its primaries, None for Rec.709's). MaterialX's (Specification 1.39) as its colour transforms decode them:
+# max(x, 0)^2.2 or ^1.8, rec709_display's ^2.4 (cmlib's NG_rec709_display_to_lin_rec709), Adobe RGB's ^(563/256),
+# sRGB's curve for srgb_displayp3; USD's canonical (Color Interop Forum) names, GfColorSpaceNames, by the transfer
+# function Gf.ColorSpace declares for each (the same ones: MaterialX 1.39's colour management remaps them to its own,
+# srgb_rec709_scene to srgb_texture, g24_rec709_scene to rec709_display, ...).
+LINEAR_REC709 = "lin_rec709_scene"
+AP1, AP0, P3, ADOBE, REC2020, XYZ = ("lin_ap1_scene", "lin_ap0_scene", "lin_p3d65_scene", "lin_adobergb_scene",
+                                     "lin_rec2020_scene", "lin_ciexyzd65_scene")
+ADOBE_GAMMA = f"gamma {563 / 256}"
+COLOR_SPACES = {"srgb_texture": ("sRGB", None), "lin_rec709": ("raw", None), "raw": ("raw", None),
+                "lin_srgb": ("raw", None), "g22_rec709": ("gamma 2.2", None), "g18_rec709": ("gamma 1.8", None),
+                "rec709_display": ("gamma 2.4", None),
+                "acescg": ("raw", AP1), "lin_ap1": ("raw", AP1), "g22_ap1": ("gamma 2.2", AP1),
+                "g18_ap1": ("gamma 1.8", AP1), "adobergb": (ADOBE_GAMMA, ADOBE), "lin_adobergb": ("raw", ADOBE),
+                "srgb_displayp3": ("sRGB", P3), "lin_displayp3": ("raw", P3),
+                "srgb_rec709_scene": ("sRGB", None), LINEAR_REC709: ("raw", None),
+                "g22_rec709_scene": ("gamma 2.2", None), "g18_rec709_scene": ("gamma 1.8", None),
+                "g24_rec709_scene": ("gamma 2.4", None), AP1: ("raw", AP1), "g22_ap1_scene": ("gamma 2.2", AP1),
+                "srgb_ap1_scene": ("sRGB", AP1), AP0: ("raw", AP0), "srgb_p3d65_scene": ("sRGB", P3),
+                P3: ("raw", P3), ADOBE: ("raw", ADOBE), "g22_adobergb_scene": (ADOBE_GAMMA, ADOBE),
+                REC2020: ("raw", REC2020), XYZ: ("raw", XYZ),
+                # USD's names of no colour transform (Gf.ColorSpace's data spaces): the values are read as stored.
+                "data": ("raw", None), "identity": ("raw", None), "unknown": ("raw", None)}
+# USD names MaterialX 1.39 has no transform for: a MaterialX image file in one is read as stored, named.
+NO_MATERIALX_TRANSFORM = ("srgb_ap1_scene", AP0, REC2020, XYZ)
+
+
+def reads_as_stored(name: str) -> bool:
+    """Whether values in colour space ``name`` read as stored: linear Rec.709, or a data space."""
+    return COLOR_SPACES.get(name) == ("raw", None)
+
+
+@functools.cache
+def gamut_matrix(primaries: str) -> np.ndarray:
+    """The ``(3, 3)`` float64 matrix taking linear RGB of the primaries of USD colour space ``primaries`` to linear
+    Rec.709: ``XYZ -> Rec.709`` after ``RGB -> XYZ``, both ``Gf.ColorSpace``'s (their white points adapted to D65)."""
+    from pxr import Gf
+
+    def to_xyz(name):
+        return np.array(Gf.ColorSpace(name).GetRGBToXYZ(), np.float64)
+
+    return np.linalg.solve(to_xyz(LINEAR_REC709), to_xyz(primaries))
+
+
+def linear_rec709(values, name: str) -> np.ndarray:
+    """``values`` (``(..., 3)`` or more channels, the rest kept, such as alpha) in known colour space ``name``
+    (:data:`COLOR_SPACES`) as float64 linear Rec.709: decoded by its transfer function, then converted from its
+    primaries. Values past float32's range after the decode are inf (the caller names them)."""
+    transfer, primaries = COLOR_SPACES[name]
+    out = np.array(values, np.float64)
+    decode = decode_curve(transfer)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if decode is not None:
+            out[..., :3] = decode(out[..., :3])
+        if primaries is not None:
+            out[..., :3] = out[..., :3] @ gamut_matrix(primaries).T
+    return out
+
+
+def own_color_space(attrs) -> str:
+    """The first non-empty ``colorSpace`` metadata of attributes ``attrs`` (an input, then the interface input it
+    reads), ``""`` where none has one (an empty one is none, as hdMtlx passes it on)."""
+    for attr in attrs:
+        name = str(attr.GetColorSpace()) if attr and attr.HasColorSpace() else ""
+        if name:
+            return name
+    return ""
+
+
+def inherited_color_space(attr) -> tuple[str, str]:
+    """``(name, prim path)``: the colour space attribute ``attr`` (with no ``colorSpace`` of its own) takes from
+    ``UsdColorSpaceAPI`` on its prim or its nearest ancestor with one whose ``colorSpace:name`` is authored, as USD's
+    ``UsdColorSpaceAPI::ComputeColorSpaceName`` resolves it; ``("", "")`` where none has one (USD's default, linear
+    Rec.709). The path names the prim that carries it, for a warning."""
+    from pxr import Usd
+
+    api = getattr(Usd, "ColorSpaceAPI", None)  # USD 25.05 and later
+    prim = attr.GetPrim() if api is not None and attr else None
+    while prim:
+        if prim.HasAPI(api):
+            name = str(api(prim).GetColorSpaceNameAttr().Get() or "")
+            if name:
+                return name, str(prim.GetPath())
+        prim = prim.GetParent()
+    return "", ""
+
+
+def unknown_space_words(name: str, attr, holder: str = "") -> str:
+    """Words naming colour space ``name`` of attribute ``attr`` (inherited from the prim at ``holder``, if any) as one
+    wrt does not know, for a warning."""
+    where = f", inherited through UsdColorSpaceAPI on {holder}" if holder else ""
+    return f"{attr.GetName()} in {name!r}{where}"
+
+
+def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:
+    """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
+    node's; 1 (a grey), 3 or 4 numbers, alpha kept) in linear Rec.709 (:func:`linear_rec709`) from the colour space
+    of its ``colorSpace`` (or that of the interface input it connects to: :func:`file_color_space`, whose note names
+    it as ``what``'s), as MaterialX's ShaderGraph transforms a value bound to a node input of a colour type; as it is
+    for other inputs and where none is authored. ``color`` says whether the node's definition types the input
+    ``color3`` or ``color4``: MaterialX decides by the nodedef's port, not by the USD attribute, so a ``float3``
+    base_color in ``srgb_texture`` is decoded, and so is one number on a colour port, the grey it is. ``decoded`` is
+    None where the conversion passes float32's range."""
+    if value.size not in (1, 3, 4) or not inp or not color:
+        return value, None
+    attrs = [inp.GetAttr(), *inp.GetValueProducingAttributes()]
+    name = own_color_space(attrs)
+    if not name:
+        inherited, _ = inherited_color_space(inp.GetAttr())
+        return value, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm "
+                       "reads an attribute's own colorSpace alone); it is read as without one"
+                       if inherited and not reads_as_stored(inherited) else None)
+    if name not in COLOR_SPACES:
+        return value, f"{what} colour space {name!r} is read as linear Rec.709 (wrt does not know it)"
+    if reads_as_stored(name):
+        return value, None
+    rgb = np.broadcast_to(np.asarray(value, np.float64)[:3], 3)  # a grey: the same in each channel
+    decoded = np.array(value, np.float64) if value.size == 4 else np.zeros(3)
+    decoded[:3] = linear_rec709(rgb, name)
+    if value.size == 1 and COLOR_SPACES[name][1] is None:
+        decoded = decoded[:1]
+    return (decoded if np.isfinite(decoded).all() else None), None
+
+
+def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
+    """``(space, note)``: wrt's transfer function (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for a
+    MaterialX image node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input
+    it connects to (None where neither has one), and the note to give, None but for a colour space wrt does not
+    know or MaterialX has no transform for (read as ``raw``), or one whose primaries it does not convert in images,
+    naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as stored: a
+    ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
+    name = own_color_space([file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else [])
+    if name:
+        if name not in COLOR_SPACES or name in NO_MATERIALX_TRANSFORM:
+            return "raw", f"{what} colour space {name!r} is read as linear (no gamut conversion)"
+        space, primaries = COLOR_SPACES[name]
+        return space, (f"{what} colour space {name!r} is decoded by its transfer function, its primaries taken for "
+                       "Rec.709's (no gamut conversion)" if primaries is not None else None)
+    inherited = inherited_color_space(file_input.GetAttr())[0] if file_input else ""
+    return None, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm reads an "
+                  "attribute's own colorSpace alone); it is read as without one"
+                  if inherited and not reads_as_stored(inherited) else None)
