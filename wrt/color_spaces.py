@@ -107,11 +107,40 @@ def inherited_color_space(attr) -> tuple[str, str]:
     return "", ""
 
 
+def attribute_color_space(attrs) -> tuple[str, str]:
+    """``(name, holder)``: the colour space of the values of attribute ``attrs[0]`` (then of the attributes its value
+    comes from: the interface input, the light rig's input it connects to): the first ``colorSpace`` of their own
+    (:func:`own_color_space`, ``holder`` ``""``), else the one ``attrs[0]`` inherits through ``UsdColorSpaceAPI``
+    (:func:`inherited_color_space`, ``holder`` the path of the prim that carries it); ``("", "")`` for none, USD's
+    default (linear Rec.709)."""
+    own = own_color_space(attrs)
+    return (own, "") if own or not attrs else inherited_color_space(attrs[0])
+
+
+UNKNOWN_SPACE = "colour values in a colour space wrt does not know were read as linear Rec.709"
+
+
 def unknown_space_words(name: str, attr, holder: str = "") -> str:
     """Words naming colour space ``name`` of attribute ``attr`` (inherited from the prim at ``holder``, if any) as one
     wrt does not know, for a warning."""
     where = f", inherited through UsdColorSpaceAPI on {holder}" if holder else ""
     return f"{attr.GetName()} in {name!r}{where}"
+
+
+def linear_colors(values, attrs, prim, skip) -> np.ndarray:
+    """``values`` (``(..., 3)``, the rgb) of colour attribute ``attrs[0]`` (a light's ``inputs:color``, a colour
+    primvar; then the attributes its value comes from) as float64 linear Rec.709 from the colour space USD gives it
+    (:func:`attribute_color_space`: its ``colorSpace``, else ``UsdColorSpaceAPI`` on its prim or an ancestor;
+    :func:`linear_rec709`); as they are where it has none or one that reads as stored. One wrt does not know is
+    read as linear Rec.709, named through ``skip(reason, prim, detail)`` with the attribute and the space."""
+    attrs = [attr for attr in attrs if attr]
+    name, holder = attribute_color_space(attrs)
+    if not name or reads_as_stored(name):
+        return np.asarray(values, np.float64)
+    if name not in COLOR_SPACES:
+        skip(UNKNOWN_SPACE, prim, unknown_space_words(name, attrs[0], holder))
+        return np.asarray(values, np.float64)
+    return linear_rec709(values, name)
 
 
 def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:

@@ -9,6 +9,7 @@ import os
 import numpy as np
 
 from .affine_lights import flat, similar
+from .color_spaces import linear_colors
 from .errors import SceneError
 from .light_links import read_collection
 from .light_shaping import Shaping, primary_axis, read_shaping, x_axis, y_axis
@@ -56,10 +57,11 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
         textures: a :class:`LightTextures` kept over one load: each texture file is read once, and the lights that
             name it share its image; None: read here.
     """
-    get, legacy, mistyped, unevaluated = input_reader(prim, time)
+    get, legacy, mistyped, unevaluated, read_from = input_reader(prim, time)
     if to_world is None:
         to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
-    result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures() if textures is None else textures)
+    result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures() if textures is None else textures,
+                         read_from)
     if legacy:
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
@@ -73,18 +75,21 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
 
 
 def input_reader(prim, time):
-    """``(get, legacy, mistyped, unevaluated)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time``
+    """``(get, legacy, mistyped, unevaluated, read_from)``: ``get(attr, default)`` reads a light input of ``prim`` at
+    ``time``
     (``default`` where it has no value), ``legacy`` lists the names it read without their ``inputs:`` prefix, for one
     warning, and ``mistyped`` the inputs it read authored with another type than the schema's (``double
     inputs:radius = 3``), which it reads as USD's typed readers do (:func:`wrt.usd_values.schema_typed_value`: a
     SphereLight of radius 0.5 to its extent and to Hydra, of radius 3 to wrt before); bool switches are
     :func:`flag`'s. An input connected to another prim (a light rig's NodeGraph) is read from the input its
-    connections lead to (:func:`connected_source`); ``unevaluated`` names those connected to a shader's output."""
+    connections lead to (:func:`connected_source`); ``unevaluated`` names those connected to a shader's output.
+    ``read_from`` maps an input's name to the attribute whose authored value ``get`` read (the input, the one its
+    connections lead to, or its old unprefixed name), for its colour space."""
     from pxr import Sdf
 
     from .usd_values import read_time, schema_typed_value
 
-    legacy, mistyped, unevaluated = [], [], []
+    legacy, mistyped, unevaluated, read_from = [], [], [], {}
     # Names with scene description: an old name with an authored value is one of them (a schema's fallback is none).
     authored = set(prim.GetAuthoredPropertyNames())
 
@@ -107,6 +112,8 @@ def input_reader(prim, time):
                 attr, has_value = old, True
         if not attr:
             return default
+        if has_value:
+            read_from[name] = attr
         if has_value and attr.GetTypeName() != Sdf.ValueTypeNames.Bool:
             value, wrong = schema_typed_value(attr, time)
             if wrong is not None and wrong not in mistyped:
@@ -119,7 +126,7 @@ def input_reader(prim, time):
             value = prim.GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
         return default if value is None else value
 
-    return get, legacy, mistyped, unevaluated
+    return get, legacy, mistyped, unevaluated, read_from
 
 
 def connected_source(attr, unevaluated: list):
@@ -233,8 +240,9 @@ def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> N
                  '"independent" to emit the light\'s colour', prim)
 
 
-def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
-    """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name)."""
+def _read_light(prim, to_world, time, up_axis: str, skip, get, textures, read_from):
+    """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name; ``read_from``:
+    :func:`input_reader`'s)."""
     from pxr import UsdLux
 
     light = UsdLux.LightAPI(prim)
@@ -256,7 +264,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     def vector(value):
         return np.array(value, dtype=np.float64)
 
-    color = read(light.GetColorAttr(), (1.0, 1.0, 1.0), vector)
+    color_attr = light.GetColorAttr()
+    color = read(color_attr, (1.0, 1.0, 1.0), vector)
     intensity = read(light.GetIntensityAttr(), 1.0, float)
     exposure = read(light.GetExposureAttr(), 0.0, float)
     blackbody = flag(get, light.GetEnableColorTemperatureAttr(), False, warn_flag)
@@ -265,6 +274,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         skip("lights whose colour, intensity, exposure or colour temperature is not a number were skipped", prim,
              ", ".join(mistyped))
         return None
+    if color_attr.GetName() in read_from:  # authored: its colorSpace's (USD's default, the fallback, is linear)
+        color = linear_colors(color, [color_attr, read_from[color_attr.GetName()]], prim, skip)
     if blackbody:
         if math.isnan(kelvin):  # UsdLux.BlackbodyTemperatureAsRgb segfaults on NaN (it clamps the rest)
             skip("lights whose colorTemperature is NaN were skipped", prim,

@@ -1,0 +1,106 @@
+"""The colour space of a UsdLux light's ``inputs:color``: its own ``colorSpace`` metadata, else ``UsdColorSpaceAPI`` on
+the light or an ancestor (USD's ``UsdColorSpaceAPI::ComputeColorSpaceName``), else linear Rec.709. The light's
+colour is brought to linear Rec.709 as USD itself converts it: the oracle is ``Gf.ColorSpace.Convert``."""
+
+import warnings
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdLux, UsdShade
+
+import wrt
+
+COLOR = (0.6, 0.5, 0.4)  # inside Rec.709's gamut from each space below
+SPACES = ["lin_rec709_scene", "srgb_rec709_scene", "lin_ap1_scene", "g22_rec709_scene", "g22_ap1_scene",
+          "srgb_p3d65_scene", "data"]
+
+
+def usd_linear_rec709(space: str, rgb) -> np.ndarray:
+    """``rgb`` in colour space ``space`` as linear Rec.709, converted by USD (``Gf.ColorSpace.Convert``)."""
+    target = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+    return np.array(target.Convert(Gf.ColorSpace(space), Gf.Vec3f(*rgb)).GetRGB(), np.float64)
+
+
+def light_stage(tmp_path, space: str, where: str) -> str:
+    """A DistantLight ``/Rig/Sun`` of colour :data:`COLOR` (intensity 1) in colour space ``space``, authored on its
+    ``inputs:color`` (``own``), through ``UsdColorSpaceAPI`` on its parent ``/Rig`` (``ancestor``), or on the input of
+    a light rig's NodeGraph its colour connects to (``rig``)."""
+    path = str(tmp_path / "light.usda")
+    stage = Usd.Stage.CreateNew(path)
+    rig = stage.DefinePrim("/Rig", "Xform")
+    light = UsdLux.DistantLight.Define(stage, "/Rig/Sun")
+    light.CreateIntensityAttr(1.0)  # (its fallback is 50000)
+    color = light.CreateColorAttr(Gf.Vec3f(*COLOR))
+    if where == "own":
+        color.SetColorSpace(space)
+    elif where == "ancestor":
+        Usd.ColorSpaceAPI.Apply(rig).CreateColorSpaceNameAttr(space)
+    else:
+        graph = UsdShade.NodeGraph.Define(stage, "/Rig/Controls")
+        source = graph.CreateInput("tint", Sdf.ValueTypeNames.Color3f)
+        source.Set(Gf.Vec3f(*COLOR))
+        source.GetAttr().SetColorSpace(space)
+        color.Clear()
+        UsdShade.Input(color).ConnectToSource(source)
+    stage.Save()
+    if where != "rig" and Gf.ColorSpace.IsValid(space):  # USD's own resolution gives the light's colour that space
+        assert Usd.ColorSpaceAPI.ComputeColorSpaceName(color, None) == space
+    return path
+
+
+def load(path):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    return scene, [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("where", ["own", "ancestor", "rig"])
+@pytest.mark.parametrize("space", SPACES)
+def test_a_light_colour_is_read_in_its_colour_space(tmp_path, space, where):
+    """(0.6, 0.5, 0.4) in ``srgb_rec709_scene`` lights as sRGB's decode of each channel, in ``lin_ap1_scene``
+    (ACEScg) as its Rec.709 conversion, ... whether the space is the attribute's own, inherited from UsdColorSpaceAPI
+    on an ancestor, or that of the rig input the colour reads. Every one was read as linear Rec.709."""
+    scene, messages = load(light_stage(tmp_path, space, where))
+    assert not messages, messages
+    (light,) = scene.lights
+    np.testing.assert_allclose(light.color, usd_linear_rec709(space, COLOR), rtol=1e-5, atol=1e-6)
+
+
+def test_an_unauthored_light_colour_under_a_colour_space_stays_white(tmp_path):
+    """The schema's fallback white is white in every space these convert from (their white points adapted to
+    D65): no warning, no change."""
+    path = str(tmp_path / "light.usda")
+    stage = Usd.Stage.CreateNew(path)
+    Usd.ColorSpaceAPI.Apply(stage.DefinePrim("/Rig", "Xform")).CreateColorSpaceNameAttr("lin_ap1_scene")
+    UsdLux.DistantLight.Define(stage, "/Rig/Sun").CreateIntensityAttr(1.0)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.lights[0].color, 1.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("where", ["own", "ancestor"])
+def test_a_light_colour_in_an_unknown_colour_space_is_named_and_read_as_linear(tmp_path, where):
+    """A colour space neither USD nor MaterialX names is read as linear Rec.709, with a warning naming the light,
+    its ``inputs:color`` and the space (and the prim that carries an inherited one)."""
+    scene, messages = load(light_stage(tmp_path, "bogus_space", where))
+    named = [m for m in messages if "'bogus_space'" in m and "inputs:color" in m and "/Rig/Sun" in m]
+    assert len(named) == 1, messages
+    if where == "ancestor":
+        assert "UsdColorSpaceAPI on /Rig" in named[0]
+    np.testing.assert_allclose(scene.lights[0].color, COLOR, rtol=1e-6)
+
+
+def test_a_light_colour_outside_rec709s_gamut_is_clamped_with_a_warning(tmp_path):
+    """ACEScg (0.9, 0.5, 0.2) in ``g22_ap1_scene`` has a negative blue in linear Rec.709 (USD's conversion): a light
+    cannot take light away, so it is clamped to 0 with the warning a negative colour gets; the rest as USD's."""
+    path = light_stage(tmp_path, "g22_ap1_scene", "own")
+    stage = Usd.Stage.Open(path)
+    UsdLux.DistantLight(stage.GetPrimAtPath("/Rig/Sun")).GetColorAttr().Set(Gf.Vec3f(0.9, 0.5, 0.2))
+    stage.Save()
+    expected = usd_linear_rec709("g22_ap1_scene", (0.9, 0.5, 0.2))
+    assert expected[2] < 0.0 < expected[:2].min()
+    scene, messages = load(path)
+    assert any("negative light colour" in m and "/Rig/Sun" in m for m in messages), messages
+    np.testing.assert_allclose(scene.lights[0].color, np.maximum(expected, 0.0), rtol=1e-5, atol=1e-6)
