@@ -9,6 +9,7 @@ import math
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .color_spaces import linear_colors
 from .instancing import world_boxes
 from .primitives import (
     Shape,
@@ -151,7 +152,7 @@ class GprimReading:
         values = values[:, :3].astype(np.float64)  # the rgb of a color4f
         if interpolation == UsdGeom.Tokens.constant:
             values = first_of_constant(values, prim, name, self._skip)
-        return finite_colors(values, prim, name, self._skip)
+        return finite_colors(linear_colors(values, [primvar.GetAttr()], prim, self._skip), prim, name, self._skip)
 
     def _canonical_space(self, prim: Usd.Prim) -> tuple | None:
         """``(kind, local, params)`` of gprim ``prim``: its :class:`Shape` kind, the ``(4, 4)`` column-vector

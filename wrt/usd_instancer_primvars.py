@@ -12,6 +12,7 @@ import math
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .color_spaces import linear_colors
 from .usd_contents import Context
 from .usd_primvars import (
     CONSTANT_OF_SEVERAL,
@@ -56,8 +57,9 @@ class InstancerPrimvarReading:
         values = self._instance_values(prim, n, read, name, (3, 4))
         if values is None:
             return None
+        values = linear_colors(values[:, :3], [UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).GetAttr()], prim, self._skip)
         # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
-        return np.broadcast_to(finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), (n, 3))
+        return np.broadcast_to(finite_colors(values.astype(np.float32), prim, name, self._skip), (n, 3))
 
     def _instance_uv_groups(self, prim: Usd.Prim, n: int, read, wanted: list[str], beneath: bool, rows: np.ndarray,
                             ctx: Context, uvs_by_name: dict) -> list[tuple]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .color_spaces import linear_colors
 from .usd_ancestors import BLOCKED
 from .usd_contents import Context
 from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, quaternion_typed, unit_opacities
@@ -117,7 +118,7 @@ class LookReading:
                            f"{self._authored_type(attr)} holding {type(raw).__name__}")
                 continue
             values = first_of_constant(values[:, :3].astype(np.float64), holder, attr.GetName(), self._skip)
-            values = finite_colors(values, holder, name, self._skip)
+            values = finite_colors(linear_colors(values, [attr], holder, self._skip), holder, name, self._skip)
             found.append((name, tuple(float(v) for v in values[0])))
         return tuple(found)
 

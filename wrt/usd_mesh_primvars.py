@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, UsdGeom
 
+from .color_spaces import linear_colors
 from .usd_ancestors import BLOCKED
 from .usd_primvars import (
     PRIMVAR_DROPPED,
@@ -72,7 +73,8 @@ class MeshPrimvarReading:
         if found is None:
             return None
         values, corner_index = found
-        return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
+        values = linear_colors(values[:, :3], [primvar.GetAttr()], prim, self._skip)  # in its colour space
+        return finite_colors(values.astype(np.float32), prim, name, self._skip), corner_index
 
     def _read_opacities(self, prim, topology, keep_opaque=False, blocked_opaque=False):
         """``(values (K,) float32, corner index (T, 3))`` from ``displayOpacity`` (its own or a constant inherited one;

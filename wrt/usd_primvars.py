@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd
 
+from .color_spaces import linear_colors
 from .usd_problems import authored_type
 from .usd_values import read_time
 
@@ -238,8 +239,8 @@ class FieldReader:
                       f"needs {sizes[interpolation]}")
             return None
         values = values[:, :components]
-        if components == 3:
-            values = finite_colors(values, prim, name, self.skip)
+        if components == 3:  # colours, in their colour space
+            values = finite_colors(linear_colors(values, [attr], prim, self.skip), prim, name, self.skip)
         interpolation = "varying" if interpolation == "faceVarying" else interpolation
         return interpolation, values
 

@@ -1,0 +1,116 @@
+"""The colour space of ``primvars:displayColor``: its own ``colorSpace`` metadata, else ``UsdColorSpaceAPI`` on the
+prim that holds it or an ancestor (USD's ``UsdColorSpaceAPI::ComputeColorSpaceName``), else linear Rec.709. What
+is drawn (the albedo AOV of the default material, which is displayColor) is the colour USD's own conversion to
+linear Rec.709 gives (``Gf.ColorSpace.ConvertRGBSpan``), on a mesh, a gprim, Points, a PointInstancer's instances and
+a native instance's prototype that inherits its colour."""
+
+import warnings
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+from test_materials import add_quad
+
+import wrt
+
+COLOR = (0.6, 0.5, 0.4)
+SPACES = ["srgb_rec709_scene", "lin_ap1_scene", "g22_rec709_scene", "lin_rec709_scene"]
+KINDS = ["mesh", "sphere", "points", "instancer", "native instance"]
+
+
+def usd_linear_rec709(space: str, rgb) -> np.ndarray:
+    """``rgb`` in colour space ``space`` as linear Rec.709, converted in place by USD (``ConvertRGBSpan``, which
+    converts from the space it is called on to its argument, the ``to`` of colorSpace.cpp)."""
+    span = Vt.FloatArray(list(rgb))
+    Gf.ColorSpace(space).ConvertRGBSpan(Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709), span)
+    return np.array(span, np.float64)
+
+
+def colored(stage, kind: str) -> Usd.Attribute:
+    """A white-lit thing of kind ``kind`` under ``/World/Group`` that covers the origin seen from +Z, coloured by a
+    constant ``displayColor`` of :data:`COLOR`; returns that primvar's attribute (the PointInstancer's, or the native
+    instance's, which its prototype's quad inherits)."""
+    path = "/World/Group/Thing"
+    if kind == "mesh":
+        gprim = add_quad(stage, path, size=4.0)
+    elif kind == "sphere":
+        gprim = UsdGeom.Sphere.Define(stage, path)
+        gprim.CreateRadiusAttr(2.0)
+    elif kind == "points":
+        gprim = UsdGeom.Points.Define(stage, path)
+        gprim.CreatePointsAttr([(0.0, 0.0, 0.0)])
+        gprim.CreateWidthsAttr([4.0])
+    elif kind == "instancer":
+        gprim = UsdGeom.PointInstancer.Define(stage, path)
+        add_quad(stage, f"{path}/Prototypes/Quad", size=4.0)
+        gprim.CreatePrototypesRel().SetTargets([f"{path}/Prototypes/Quad"])
+        gprim.CreateProtoIndicesAttr([0])
+        gprim.CreatePositionsAttr([(0.0, 0.0, 0.0)])
+    else:
+        stage.CreateClassPrim("/Proto")  # not drawn itself
+        add_quad(stage, "/Proto/Quad", size=4.0)
+        gprim = UsdGeom.Xform.Define(stage, path)
+        gprim.GetPrim().GetReferences().AddInternalReference("/Proto")
+        gprim.GetPrim().SetInstanceable(True)
+    primvar = UsdGeom.PrimvarsAPI(gprim).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                      UsdGeom.Tokens.constant)
+    primvar.Set([Gf.Vec3f(*COLOR)])
+    return primvar.GetAttr()
+
+
+def display_stage(tmp_path, kind: str, space: str, where: str) -> str:
+    """:func:`colored` with its displayColor in colour space ``space``: the attribute's own (``own``) or through
+    ``UsdColorSpaceAPI`` on ``/World`` (``ancestor``)."""
+    path = str(tmp_path / "display.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    world = UsdGeom.Xform.Define(stage, "/World").GetPrim()
+    attr = colored(stage, kind)
+    if where == "own":
+        attr.SetColorSpace(space)
+    else:
+        Usd.ColorSpaceAPI.Apply(world).CreateColorSpaceNameAttr(space)
+    stage.Save()
+    if Gf.ColorSpace.IsValid(space):  # USD's own resolution gives displayColor that space
+        assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == space
+    return path
+
+
+def rendered_albedo(path):
+    """The albedo at the centre of a small top-down orthographic render of the stage at ``path``, and the load's
+    warnings."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    camera = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    albedo = wrt.render(scene, camera=camera, width=2, height=2, device="cpu").aovs["albedo"]
+    return np.asarray(albedo, np.float64).reshape(-1, 3).mean(axis=0), [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("space", SPACES)
+def test_a_display_color_is_drawn_in_its_own_colour_space(tmp_path, kind, space):
+    """(0.6, 0.5, 0.4) in ``srgb_rec709_scene`` is drawn as sRGB's decode of each channel, in ``lin_ap1_scene``
+    (ACEScg) as its Rec.709 conversion, ...: USD's. Every one was drawn as linear Rec.709."""
+    albedo, messages = rendered_albedo(display_stage(tmp_path, kind, space, "own"))
+    assert not messages, messages
+    np.testing.assert_allclose(albedo, usd_linear_rec709(space, COLOR), rtol=1e-3, atol=1e-4)
+
+
+@pytest.mark.parametrize("kind", ["mesh", "points"])
+def test_a_display_color_takes_the_colour_space_of_usd_colour_space_api_above_it(tmp_path, kind):
+    albedo, messages = rendered_albedo(display_stage(tmp_path, kind, "srgb_rec709_scene", "ancestor"))
+    assert not messages, messages
+    np.testing.assert_allclose(albedo, usd_linear_rec709("srgb_rec709_scene", COLOR), rtol=1e-3, atol=1e-4)
+
+
+@pytest.mark.parametrize("where", ["own", "ancestor"])
+def test_a_display_color_in_an_unknown_colour_space_is_named_and_drawn_as_linear(tmp_path, where):
+    """A colour space USD does not know is read as linear Rec.709, with a warning naming the prim, displayColor
+    and the space (and the prim that carries an inherited one)."""
+    albedo, messages = rendered_albedo(display_stage(tmp_path, "mesh", "bogus_space", where))
+    named = [m for m in messages if "'bogus_space'" in m and "primvars:displayColor" in m and "/World/Group/Thing" in m]
+    assert len(named) == 1, messages
+    if where == "ancestor":
+        assert "UsdColorSpaceAPI on /World" in named[0]
+    np.testing.assert_allclose(albedo, COLOR, rtol=1e-3)
