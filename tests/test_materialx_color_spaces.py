@@ -182,13 +182,13 @@ def test_a_colour_image_default_authored_as_float3_is_decoded_by_its_colour_spac
 
 
 @pytest.mark.parametrize("inherited", ["srgb_rec709_scene", "g22_ap1_scene", "lin_rec709_scene", "data"])
-def test_a_colour_space_inherited_through_usd_colour_space_api_is_named_not_read(tmp_path, inherited):
+def test_a_colour_space_inherited_through_usd_colour_space_api_is_read(tmp_path, inherited):
     """A colour space applied with ``UsdColorSpaceAPI`` on an ancestor of the material, which USD's resolution
     (``UsdColorSpaceAPI::ComputeColorSpaceName``) gives an image file and a constant colour without a ``colorSpace``
-    of their own, is not read, as Storm does not read it (UsdImaging passes an attribute's own ``colorSpace``
-    alone): the file reads as stored and the emission_color as authored. One that would change what is read
-    (``srgb_rec709_scene``, ``g22_ap1_scene``) is named for each; a linear Rec.709 or data one is not. It was left
-    out without a word."""
+    of their own, is read as their own would be: the file decoded by the space's transfer function (one of other
+    primaries named: images get no gamut conversion), the emission_color converted as USD converts it
+    (``Gf.ColorSpace.Convert``); a linear Rec.709 or data one reads as stored, without a word. Both were read as
+    stored, the space named as not read."""
     png = write_png(tmp_path / "colour.png", np.tile([51, 102, 153], (2, 2, 1)))
     stage, path = new_stage(tmp_path)
     looks = stage.DefinePrim("/Looks", "Scope")
@@ -203,15 +203,18 @@ def test_a_colour_space_inherited_through_usd_colour_space_api_is_named_not_read
         assert not attr.HasColorSpace()
         assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == inherited
     scene, messages = load(path)
-    named = [m for m in messages if repr(inherited) in m and "UsdColorSpaceAPI" in m]
-    if inherited in ("lin_rec709_scene", "data"):
-        assert not messages, messages
+    if not Gf.ColorSpace(inherited).IsData() and other_primaries(inherited):
+        assert any(repr(inherited) in m and "no gamut conversion" in m and "/Looks" in m for m in messages), messages
     else:
-        assert len(named) == 1 and named[0].count(repr(inherited)) == 2, messages  # the file's and the colour's
+        assert not messages, messages
+    stored = np.array([0.2, 0.4, 0.6])
     (mat,) = scene.materials
     texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
-    np.testing.assert_allclose(texels, np.broadcast_to([0.2, 0.4, 0.6], texels.shape), atol=1e-6)
-    np.testing.assert_allclose(mat.emissive_color, [0.2, 0.5, 0.8], rtol=1e-6)
+    decoded = stored if Gf.ColorSpace(inherited).IsData() else usd_decoded(inherited, stored)
+    np.testing.assert_allclose(texels, np.broadcast_to(decoded, texels.shape), rtol=1e-5, atol=1e-6)
+    target = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+    converted = target.Convert(Gf.ColorSpace(inherited), Gf.Vec3f(0.2, 0.5, 0.8)).GetRGB()
+    np.testing.assert_allclose(mat.emissive_color, converted, rtol=1e-5, atol=1e-6)
 
 
 def test_a_usd_uv_textures_inherited_colour_space_is_named_and_its_source_color_space_decides(tmp_path):

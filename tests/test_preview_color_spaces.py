@@ -91,18 +91,43 @@ def test_a_preview_colour_takes_the_colour_space_of_the_interface_input_it_reads
     np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_decoded("srgb_rec709_scene", COLOR), rtol=1e-5)
 
 
-def test_a_preview_colour_space_inherited_through_usd_colour_space_api_is_named_not_read(tmp_path):
-    """As for MaterialX's constants (``test_materialx_color_spaces``): the colour space USD's resolution gives an
-    input without its own (``ComputeColorSpaceName``) is named, and the colour read as authored. It was left out
-    without a word."""
+@pytest.mark.parametrize("inherited", ["srgb_rec709_scene", "lin_ap1_scene", "g22_rec709_scene"])
+def test_a_preview_colour_takes_the_colour_space_inherited_through_usd_colour_space_api(tmp_path, inherited):
+    """An input without a colour space of its own takes the one USD's resolution gives it (``ComputeColorSpaceName``:
+    ``UsdColorSpaceAPI`` on an ancestor, ``/Looks``), and is converted as USD converts it. It was named and read as
+    authored."""
     stage, path = preview_stage(tmp_path, "emissiveColor")
-    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr(inherited)
     stage.Save()
     attr = UsdShade.Shader.Get(stage, "/Looks/Paint/Surface").GetInput("emissiveColor").GetAttr()
-    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == "srgb_rec709_scene"
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == inherited
     scene, messages = load(path)
-    assert any("'srgb_rec709_scene'" in m and "UsdColorSpaceAPI" in m for m in messages), messages
-    np.testing.assert_allclose(scene.materials[0].emissive_color, COLOR, rtol=1e-6)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].emissive_color, usd_converted(inherited, COLOR), rtol=1e-5,
+                               atol=1e-6)
+
+
+def test_a_preview_colours_own_colour_space_wins_over_an_inherited_one(tmp_path):
+    """``colorSpace`` on the attribute comes before ``UsdColorSpaceAPI`` above it, as ``ComputeColorSpaceName``
+    resolves them."""
+    stage, path = preview_stage(tmp_path, "diffuseColor", "g22_rec709_scene")
+    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("lin_ap1_scene")
+    stage.Save()
+    attr = UsdShade.Shader.Get(stage, "/Looks/Paint/Surface").GetInput("diffuseColor").GetAttr()
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == "g22_rec709_scene"
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_converted("g22_rec709_scene", COLOR), rtol=1e-5)
+
+
+def test_an_unknown_inherited_preview_colour_space_is_named_with_the_prim_that_carries_it(tmp_path):
+    stage, path = preview_stage(tmp_path, "diffuseColor")
+    Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("bogus_space")
+    stage.Save()
+    scene, messages = load(path)
+    assert any("'bogus_space'" in m and "UsdColorSpaceAPI on /Looks" in m and "diffuseColor" in m
+               for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, COLOR, rtol=1e-6)
 
 
 def test_a_preview_colour_past_float32_after_its_decode_keeps_its_default_with_a_warning(tmp_path):

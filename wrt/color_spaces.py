@@ -123,8 +123,7 @@ UNKNOWN_SPACE = "colour values in a colour space wrt does not know were read as 
 def unknown_space_words(name: str, attr, holder: str = "") -> str:
     """Words naming colour space ``name`` of attribute ``attr`` (inherited from the prim at ``holder``, if any) as one
     wrt does not know, for a warning."""
-    where = f", inherited through UsdColorSpaceAPI on {holder}" if holder else ""
-    return f"{attr.GetName()} in {name!r}{where}"
+    return f"{attr.GetName()} in {name!r}{_inherited(holder)}"
 
 
 def linear_colors(values, attrs, prim, skip) -> np.ndarray:
@@ -145,25 +144,20 @@ def linear_colors(values, attrs, prim, skip) -> np.ndarray:
 
 def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.ndarray | None, str | None]:
     """``(decoded, note)``: constant ``value`` of colour input ``inp`` (of a surface, an image's ``default``, any
-    node's; 1 (a grey), 3 or 4 numbers, alpha kept) in linear Rec.709 (:func:`linear_rec709`) from the colour space
-    of its ``colorSpace`` (or that of the interface input it connects to: :func:`file_color_space`, whose note names
-    it as ``what``'s), as MaterialX's ShaderGraph transforms a value bound to a node input of a colour type; as it is
-    for other inputs and where none is authored. ``color`` says whether the node's definition types the input
-    ``color3`` or ``color4``: MaterialX decides by the nodedef's port, not by the USD attribute, so a ``float3``
-    base_color in ``srgb_texture`` is decoded, and so is one number on a colour port, the grey it is. ``decoded`` is
-    None where the conversion passes float32's range."""
+    node's; 1 (a grey), 3 or 4 numbers, alpha kept) in linear Rec.709 (:func:`linear_rec709`) from the colour space of
+    its ``colorSpace``, or that of the interface input it connects to, else the one it inherits through
+    ``UsdColorSpaceAPI`` (:func:`attribute_color_space`), as MaterialX's ShaderGraph transforms a value bound to a node
+    input of a colour type and as USD's colour guides resolve a value's space; as it is for other inputs and where there
+    is none. ``note`` names a space wrt does not know (read as linear) as ``what``'s. ``color`` says whether the node's
+    definition types the input ``color3`` or ``color4``: MaterialX decides by the nodedef's port, not by the USD
+    attribute, so a ``float3`` base_color in ``srgb_texture`` is decoded, and so is one number on a colour port, the
+    grey it is. ``decoded`` is None where the conversion passes float32's range."""
     if value.size not in (1, 3, 4) or not inp or not color:
         return value, None
-    attrs = [inp.GetAttr(), *inp.GetValueProducingAttributes()]
-    name = own_color_space(attrs)
-    if not name:
-        inherited, _ = inherited_color_space(inp.GetAttr())
-        return value, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm "
-                       "reads an attribute's own colorSpace alone); it is read as without one"
-                       if inherited and not reads_as_stored(inherited) else None)
-    if name not in COLOR_SPACES:
-        return value, f"{what} colour space {name!r} is read as linear Rec.709 (wrt does not know it)"
-    if reads_as_stored(name):
+    name, holder = attribute_color_space([inp.GetAttr(), *inp.GetValueProducingAttributes()])
+    if name and name not in COLOR_SPACES:
+        return value, f"{what} colour space {name!r}{_inherited(holder)} is read as linear Rec.709 (unknown to wrt)"
+    if not name or reads_as_stored(name):
         return value, None
     rgb = np.broadcast_to(np.asarray(value, np.float64)[:3], 3)  # a grey: the same in each channel
     decoded = np.array(value, np.float64) if value.size == 4 else np.zeros(3)
@@ -176,18 +170,23 @@ def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.nd
 def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
     """``(space, note)``: wrt's transfer function (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for a
     MaterialX image node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input
-    it connects to (None where neither has one), and the note to give, None but for a colour space wrt does not
+    it connects to, else ``UsdColorSpaceAPI`` on its prim or an ancestor (:func:`attribute_color_space`; None where
+    there is none), and the note to give, None but for a colour space wrt does not
     know or MaterialX has no transform for (read as ``raw``), or one whose primaries it does not convert in images,
     naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as stored: a
     ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
-    name = own_color_space([file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else [])
-    if name:
-        if name not in COLOR_SPACES or name in NO_MATERIALX_TRANSFORM:
-            return "raw", f"{what} colour space {name!r} is read as linear (no gamut conversion)"
-        space, primaries = COLOR_SPACES[name]
-        return space, (f"{what} colour space {name!r} is decoded by its transfer function, its primaries taken for "
-                       "Rec.709's (no gamut conversion)" if primaries is not None else None)
-    inherited = inherited_color_space(file_input.GetAttr())[0] if file_input else ""
-    return None, (f"{what} colour space {inherited!r} inherited through UsdColorSpaceAPI is not read (Storm reads an "
-                  "attribute's own colorSpace alone); it is read as without one"
-                  if inherited and not reads_as_stored(inherited) else None)
+    attrs = [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []
+    name, holder = attribute_color_space(attrs)
+    if not name:
+        return None, None
+    named = f"{what} colour space {name!r}{_inherited(holder)}"
+    if name not in COLOR_SPACES or name in NO_MATERIALX_TRANSFORM:
+        return "raw", f"{named} is read as linear (no gamut conversion)"
+    space, primaries = COLOR_SPACES[name]
+    return space, (f"{named} is decoded by its transfer function, its primaries taken for Rec.709's (no gamut "
+                   "conversion)" if primaries is not None else None)
+
+
+def _inherited(holder: str) -> str:
+    """Words for a colour space inherited from the prim at ``holder`` (none for ``""``, an attribute's own)."""
+    return f" (inherited through UsdColorSpaceAPI on {holder})" if holder else ""

@@ -1510,8 +1510,8 @@ class MaterialReader:
 
     def _decoded_color(self, node, name: str, value: np.ndarray, material_path: str) -> np.ndarray | None:
         """Colour constant ``value`` (float64, 3 or 4 numbers, alpha kept) of input ``name`` of shader ``node``
-        decoded from its ``colorSpace`` (:func:`wrt.materialx.decoded_color`, as MaterialX's constants), its note (a
-        colour space of other primaries, unknown, or inherited and not read) given; None, named in a warning, where
+        in linear Rec.709 from its colour space (:func:`wrt.color_spaces.decoded_color`, as MaterialX's constants),
+        its note (a colour space wrt does not know) given; None, named in a warning, where
         the decode passes float32's range (1e20 in sRGB), for the caller to keep its default."""
         from .color_spaces import decoded_color
 

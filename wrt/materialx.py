@@ -293,7 +293,7 @@ class _Graph:
         return value, folded.source
 
     def _decoded(self, inp, value: np.ndarray, what: str, color: bool) -> np.ndarray | None:
-        """:func:`decoded_color` of ``value``, its note (a colour space of other primaries, or unknown) kept. A
+        """:func:`decoded_color` of ``value``, its note (a colour space wrt does not know) kept. A
         base_color of 0.5 in ``srgb_texture`` was read as 0.5 for MaterialX's 0.214. None where the decode passes
         float32's range (1e20 in ``srgb_texture``), for the caller to use its default: an emission_color so, times
         the emission weight 0, was NaN, and the stage failed to load."""

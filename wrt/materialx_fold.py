@@ -127,7 +127,7 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
         if TYPE_SIZES[port] == 1 and value.size > 1:
             raise Unfoldable(node, f"input {name}, a {port} in its definition, is authored with {value.size} numbers")
         # In its colorSpace, as MaterialX transforms a colour value bound to any node's input: a constant node's
-        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on other primaries is not passed on from here.) A
+        # srgb_texture 0.5 was read as 0.5 for 0.214. (A note on an unknown space is not passed on from here.) A
         # float3 value of a constant_color3 is a colour, a color3f one of a constant_vector3 is not.
         decoded, _ = decoded_color(node.GetInput(name), value, name, color=port in ("color3", "color4"))
         if decoded is None:
