@@ -6,7 +6,8 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from test_materials import add_quad
 
 import wrt
 
@@ -104,3 +105,23 @@ def test_a_light_colour_outside_rec709s_gamut_is_clamped_with_a_warning(tmp_path
     scene, messages = load(path)
     assert any("negative light colour" in m and "/Rig/Sun" in m for m in messages), messages
     np.testing.assert_allclose(scene.lights[0].color, np.maximum(expected, 0.0), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("space", ["srgb_rec709_scene", "lin_ap1_scene"])
+def test_a_white_plane_under_a_light_in_a_colour_space_renders_its_converted_colour(tmp_path, space):
+    """A white Lambertian quad (displayColor 1) facing a DistantLight straight above it, rendered with the whitted
+    integrator: the pixels' channels stand in the ratios of the light's colour converted by USD (``Gf``), not of
+    the authored numbers."""
+    path = light_stage(tmp_path, space, "own")
+    stage = Usd.Stage.Open(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    quad = add_quad(stage, "/Quad", size=4.0)
+    quad.CreateDisplayColorAttr([(1.0, 1.0, 1.0)])
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    camera = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    rgb = wrt.render(scene, camera=camera, width=2, height=2, device="cpu", integrator="whitted").rgb
+    pixel = np.asarray(rgb, np.float64).reshape(-1, 3).mean(axis=0)
+    expected = usd_linear_rec709(space, COLOR)
+    np.testing.assert_allclose(pixel / pixel[1], expected / expected[1], rtol=1e-3)
