@@ -1431,7 +1431,8 @@ class Renderer:
             launch_per_path(
                 shade_whitted_kernel,
                 w.n,
-                [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.throughput, w.link_groups],
+                [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.t_maxs, w.throughput,
+                 w.link_groups],
                 [w.radiance, w.alive, w.rng],
                 self.device,
             )

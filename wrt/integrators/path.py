@@ -184,7 +184,10 @@ def shade_path_kernel(
     camera = wp.where(bounce == 0, 1, 0)
     share = diffuse_share[i]
     g_prev = link_groups[i]
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i], camera, share, g_prev))
+    # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or a
+    # clipping plane's cut hides the lights past it, as it hides geometry (bounce rays have t_max = inf).
+    end = wp.min(t_hit, t_maxs[i])
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, pdf_b, prev_normal[i], camera, share, g_prev))
     if prim < 0:
         L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share, g_prev))
         radiance[i] = L

@@ -187,6 +187,7 @@ def shade_whitted_kernel(
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_mins: wp.array[float],
+    t_maxs: wp.array[float],
     throughput: wp.array[wp.vec3],
     link_groups: wp.array[wp.int32],
     # outputs
@@ -210,7 +211,10 @@ def shade_whitted_kernel(
     # and they see only the lights linked to the surface that sent them (link_groups, set by continue_whitted).
     camera = wp.where(bounce == 0, 1, 0)
     g_prev = link_groups[i]
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0),
+    # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or a
+    # clipping plane's cut hides the lights past it, as it hides geometry (mirror rays have t_max = inf).
+    end = wp.min(t_hit, t_maxs[i])
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0),
                                         g_prev))
     if prim < 0:
         L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0), g_prev))
