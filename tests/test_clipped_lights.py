@@ -43,3 +43,21 @@ def test_a_light_outside_the_clipping_range_or_planes_is_not_seen(tmp_path, inte
     np.testing.assert_allclose(middle, RADIANCE if seen else 0.0, rtol=1e-5)
     if not seen:
         assert (image.rgb == 0.0).all()
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_the_camera_framing_a_stage_without_cameras_hides_no_light_past_the_geometry(tmp_path, integrator):
+    """A stage of lights and no camera: the camera wrt makes frames the geometry (here none, so the unit cube around
+    the origin) and sees the 100 x 100 rect light 30 units behind it across the whole view, at its radiance. Its
+    clipping range ended a few units past the framed box, which (once the far plane hid lights) hid the light."""
+    path = str(tmp_path / "lights_only.usda")
+    stage = Usd.Stage.CreateNew(path)
+    light = UsdLux.RectLight.Define(stage, "/Light")
+    light.CreateWidthAttr(100.0)
+    light.CreateHeightAttr(100.0)
+    light.CreateIntensityAttr(RADIANCE)
+    light.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, -30.0))
+    light.AddRotateYOp().Set(180.0)  # facing +Z, where the camera wrt makes looks from
+    stage.Save()
+    image = wrt.render(wrt.load_usd(path), width=8, height=6, integrator=integrator, device="cpu")
+    np.testing.assert_allclose(image.rgb, RADIANCE, rtol=1e-5)

@@ -577,8 +577,9 @@ def _look_at_matrix(eye, target, up) -> np.ndarray:
 
 def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Camera:
     """A perspective camera that sees the whole box ``[lower, upper]`` from the front and above (a box of no size
-    as one 1e-6 across). A box of any other size fills the view: its radius was taken as at least 1e-6, and a scene
-    scaled by 1e-20 was a dot in the middle of the image."""
+    as one 1e-6 across), and everything behind it: its far clipping plane is at infinity. A box of any other size
+    fills the view: its radius was taken as at least 1e-6, and a scene scaled by 1e-20 was a dot in the middle of
+    the image."""
     lower = np.asarray(lower, dtype=np.float64)
     upper = np.asarray(upper, dtype=np.float64)
     center = (lower + upper) / 2.0
@@ -591,7 +592,8 @@ def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Ca
     # Turned from its offset, placed at the eye after: a box far from the origin (1e30) rounds the eye's offset
     # away along some axes, and eye - center turned the view to look straight down (or refused it as along up).
     offset = _normalized(view) * distance
-    camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg,
-                            clipping_range=(distance * 1e-4, distance + 4.0 * radius))
+    # No far plane: the box bounds the geometry, not the lights, and an area light behind it (a backdrop, or any
+    # light of a stage of lights alone, framed as the unit cube) was hidden by a far plane just past the box.
+    camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg, clipping_range=(distance * 1e-4, math.inf))
     camera.to_world[:3, 3] = center + offset
     return camera
