@@ -2333,10 +2333,11 @@ def test_limits_around_the_moved_origin_keep_the_float64_hits_of_stretched_insta
     to_world[-1] = np.eye(4)
     to_world[-1, :3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * 50.0
     scene = octahedra_scene(to_world)
-    # The instances as the device holds them (float32 [A | c], wrt.transforms): a 1e6 squash held in float32 moves
-    # the sheet's corners by up to 1e-2, out of its plane too, which a ray from 1 away sees as 1% of its t.
-    held = np.linalg.inv(np.linalg.inv(to_world[:, :3, :3]).astype(np.float32).astype(np.float64))
-    placed = to_world[:, :3, 3].astype(np.float32)
+    # The instances as the device holds them (float32 [A | c], wrt.transforms), the squashed sheets thickened to
+    # FLAT_THICKNESS (Scene.instances.to_world): float32 holds an inverse of 1e6 between two turns no better than
+    # FLOAT32_INVERSE_TOLERANCE once applied (the corners it held moved by up to 1e-2, out of the sheet's plane too).
+    held = np.linalg.inv(np.linalg.inv(scene.instances.to_world[:, :3, :3]).astype(np.float32).astype(np.float64))
+    placed = scene.instances.to_world[:, :3, 3].astype(np.float32)
     world, indices = octahedra_triangles(held, placed)
     n = 1500
     aim = rng.integers(0, len(indices), 4 * n)

@@ -44,11 +44,16 @@ NO_FLOAT32_INVERSE_SKIPPED = ("instances whose transform cannot be inverted reli
 # it (float32_inverse_errors): rays are taken into local space through that inverse, so its error is that of the
 # local coordinates of the instance's own points, relative to its size. Its entries are rounded at the scale of the
 # largest (1 / the thinnest scale), which between two turns mixes into every local direction: about 1e-8 over the
-# thickness (up to 0.05 at 1e-6, traced as float32 holds it), so a card scaled by 1e-10 between two turns was missed
-# by 1,943 of 1,986 rays (1e-8: 415 of 1,993), while one of 1e-14, singular up to rounding, was thickened and drawn.
-# Beyond it, invert_transforms says no inverse, and thicken_flat_transforms thickens the flat ones as it thickens zero
-# scales (at FLAT_THICKNESS the error is at most 4e-4); a thin scale before or after one turn stays as it is.
+# thickness, so a card scaled by 1e-10 between two turns was missed by 1,943 of 1,986 rays (1e-8: 415 of 1,993),
+# while one of 1e-14, singular up to rounding, was thickened and drawn. Applying it in float32 rounds as much again
+# (float32_product_errors, about 3e-7 over the thickness): at 1e-6 and 3e-7, whose inverses float32 holds within
+# 0.02, rays entered the sheet up to 0.3 of its size off and missed it. Beyond the tolerance, invert_transforms says
+# no inverse, and thicken_flat_transforms thickens the flat ones as it thickens zero scales (at FLAT_THICKNESS the
+# error is at most 4e-4); a thin scale before or after one turn stays as it is.
 FLOAT32_INVERSE_TOLERANCE = 2.0**-4
+# How far float32 rounds a product of three terms and their sum relative to the terms' magnitudes (three roundings of
+# 2^-24): the bound of a local coordinate's error when a ray is taken into an instance's space (float32_product_errors).
+FLOAT32_PRODUCT_ROUNDING = 3.0 * 2.0**-24
 # The thickness, relative to its largest scale, that thicken_flat_transforms gives an instance flattened by a zero
 # scale. Rays move into an instance's space through its float32 inverse, whose rounding grows as one over the
 # thickness: at 1e-6, 20 of 148 rays through a squashed instance hit or missed unlike its flattened copy; at 1e-5, 1;
@@ -379,20 +384,37 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def float32_inverse_errors(inverse: np.ndarray, linear: np.ndarray) -> np.ndarray:
     """``(N,)`` how far the float32 rounding of each ``(N, 3, 3)`` float64 ``inverse`` misses inverting its
-    ``linear`` part, in the local directions that matter (see :data:`FLOAT32_INVERSE_TOLERANCE`): the largest entry
-    of ``P (inverse32 @ linear - I) P``, ``P`` the projection off the local direction that ``linear`` shrinks most.
-    Along that direction the error is harmless: a ray that meets the squashed instance runs nearly along it in local
-    space, so there it only moves a hit along its ray (a scale of 1e-10 after a turn errs by 600 there, and rays hit
-    it as exactly as an unturned one); it is looked at (an SVD) only where the whole error is too large."""
+    ``linear`` part, and how far applying it in float32 can miss, in the local directions that matter (see
+    :data:`FLOAT32_INVERSE_TOLERANCE`): the largest entry of ``P (inverse32 @ linear - I) P``, ``P`` the projection off
+    the local direction that ``linear`` shrinks most, plus :func:`float32_product_errors`. Along that direction the
+    error is harmless: a ray that meets the squashed instance runs nearly along it in local space, so there it only
+    moves a hit along its ray (a scale of 1e-10 after a turn errs by 600 there, and rays hit it as exactly as an
+    unturned one); it is looked at (an SVD) only where the whole error is too large."""
     with np.errstate(over="ignore", invalid="ignore"):
         error = inverse.astype(np.float32).astype(np.float64) @ linear - np.eye(3)
-        largest = np.abs(error).max(axis=(1, 2)) if len(error) else np.zeros(0)
+        product = FLOAT32_PRODUCT_ROUNDING * np.abs(inverse) @ np.abs(linear)
+        largest = np.abs(error).max(axis=(1, 2)) + product.max(axis=(1, 2)) if len(error) else np.zeros(0)
         rows = np.flatnonzero(~(largest <= FLOAT32_INVERSE_TOLERANCE) & np.isfinite(linear).all(axis=(1, 2)))
         if len(rows):
             thin = np.linalg.svd(linear[rows])[2][:, 2]  # the right singular vector of the smallest scale
             off = np.eye(3) - thin[:, :, None] * thin[:, None, :]
-            largest[rows] = np.abs(off @ error[rows] @ off).max(axis=(1, 2))
+            largest[rows] = np.abs(off @ error[rows] @ off).max(axis=(1, 2)) + float32_product_errors(product[rows],
+                                                                                                     off)
     return largest
+
+
+def float32_product_errors(product: np.ndarray, off: np.ndarray) -> np.ndarray:
+    """``(N,)`` the largest error off the thin local direction (``off``, ``(N, 3, 3)``: the projection off it) that
+    rounding can leave in the float32 product of an instance's inverse and a world point one local unit from its
+    origin, given ``product`` ``(N, 3, 3)``, the bound of that rounding on local coordinate ``i`` of local unit point
+    ``k`` (:data:`FLOAT32_PRODUCT_ROUNDING` times ``|inverse| @ |linear|``): each coordinate rounds either way, so
+    every sign pattern is tried (the error is a vector in that box). Between two turns the inverse's entries of
+    1 / squash meet in sums that cancel to the point's local coordinates, and their rounding lands across the sheet:
+    a sheet of 3e-7 whose inverse float32 holds within 0.02 was entered up to 0.3 of its size off, and rays aimed
+    a third inside its triangles missed it. After one turn it stays along the thin direction, which ``off`` drops."""
+    signs = np.array([(1, 1, 1), (1, 1, -1), (1, -1, 1), (1, -1, -1)], np.float64)
+    box = signs[None, :, :, None] * product[:, None]  # (N, sign, local coordinate, local point)
+    return np.abs(off[:, None] @ box).max(axis=(1, 2, 3))
 
 
 def singular_transforms(to_world: np.ndarray) -> np.ndarray:
