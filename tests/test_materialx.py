@@ -1463,3 +1463,79 @@ def test_an_image_nodes_default_in_a_colour_space_is_decoded(tmp_path, space):
               "lin_rec709": lambda x: x}[space]
     (mat,) = scene.materials
     np.testing.assert_allclose(mat.diffuse_color, decode(np.array([0.2, 0.5, 0.8])), rtol=1e-5)
+
+
+def image_node(stage, path, png, node_id="ND_image_float"):
+    """An ``node_id`` image node of ``png`` (no colorSpace: read as stored) at ``path``; its ``out`` to connect."""
+    image = UsdShade.Shader.Define(stage, path)
+    image.CreateIdAttr(node_id)
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateOutput("out", Sdf.ValueTypeNames.Color3f if node_id.endswith("color3") else Sdf.ValueTypeNames.Float)
+    return image
+
+
+def texture_beside_constant(shader, name, image, value=None):
+    """Connects input ``name`` of ``shader`` to ``image``'s ``out``, with ``value`` authored beside the connection."""
+    inp = shader.CreateInput(name, Sdf.ValueTypeNames.Float)
+    if value is not None:
+        inp.Set(value)
+    inp.ConnectToSource(image.ConnectableAPI(), "out")
+
+
+@pytest.mark.parametrize("shader_id, weight, authored, expected", [
+    (STANDARD, "base", None, 1.0), (STANDARD, "base", 0.6, 0.6),  # standard_surface's base defaults to 1
+    (OPEN_PBR, "base_weight", None, 1.0), (OPEN_PBR, "base_weight", 0.25, 0.25)])
+def test_a_textured_weight_beside_a_textured_colour_keeps_its_constant(tmp_path, shader_id, weight, authored,
+                                                                       expected):
+    """``base_color`` and its weight each read from an image (as Houdini's and Substance's exports wire both maps):
+    wrt keeps one texture, the colour's, and reads the weight as unconnected, its value authored beside the
+    connection or the specification's default, as the warning says. The colour was multiplied by the weight image's
+    ``default`` (0 unauthored) instead: the albedo was black."""
+    texels = np.array([[[200, 40, 90], [10, 120, 250]], [[60, 60, 60], [255, 0, 128]]])
+    colour = write_png(tmp_path / "colour.png", texels)
+    grey = write_png(tmp_path / "weight.png", np.full((2, 2), 77))
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Painted", shader_id)
+    closest_image(stage, "/Looks/Painted", colour)
+    texture_beside_constant(shader, weight, image_node(stage, "/Looks/Painted/Weight", grey), authored)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Painted" in m and f"the texture of {weight} is ignored" in m and f"{expected:.3g} is used" in m
+               for m in messages), messages
+    got = albedo(scene, 4)  # 2 x 2 pixels per texel, each reading the texel under it (filtertype closest)
+    np.testing.assert_allclose(got[::2, ::2], texels / 255.0 * expected, atol=1e-3)
+
+
+@pytest.mark.parametrize("shader_id, name, authored, expected", [
+    (STANDARD, "specular_IOR", None, 1.5), (STANDARD, "specular_IOR", 1.33, 1.33),  # the specification's default
+    (OPEN_PBR, "specular_ior", None, 1.5), (OPEN_PBR, "specular_ior", 2.0, 2.0)])
+def test_a_textured_specular_index_keeps_its_constant(tmp_path, shader_id, name, authored, expected):
+    """An index of refraction read from an image, which wrt draws as one constant index: the input as unconnected
+    (its authored value, else the specification's default), as the warning says. It took the image's ``default``,
+    0, drawn as wrt's smallest index 1e-3: a dielectric of F0 0.996, a mirror."""
+    grey = write_png(tmp_path / "ior.png", np.full((2, 2), 128))
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Glaze", shader_id)
+    texture_beside_constant(shader, name, image_node(stage, "/Looks/Glaze/Index", grey), authored)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Glaze" in m and f"the texture of {name} is ignored" in m for m in messages), messages
+    assert scene.materials[0].ior == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("shader_id, coat, name, expected", [
+    (STANDARD, "coat", "coat_IOR", 1.5), (OPEN_PBR, "coat_weight", "coat_ior", 1.6)])  # the specification's defaults
+def test_a_textured_coat_index_keeps_its_default(tmp_path, shader_id, coat, name, expected):
+    """A coat's index read from an image: the specification's default index, as the warning says, not the image's
+    ``default`` 0 (wrt's smallest index 1e-3: a mirror coat)."""
+    grey = write_png(tmp_path / "ior.png", np.full((2, 2), 128))
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Lacquer", shader_id, **{coat: 1.0})
+    texture_beside_constant(shader, name, image_node(stage, "/Looks/Lacquer/Index", grey))
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Lacquer" in m and f"the texture of {name} is ignored" in m for m in messages), messages
+    assert scene.materials[0].clearcoat_ior == pytest.approx(expected)

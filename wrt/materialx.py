@@ -38,7 +38,10 @@ Approximations, each named in the material's one warning when it changes what is
   wrt has none but transmission. A ``thin_walled`` fed by a node is ignored (a solid), with a note.
 - The coat is wrt's clearcoat of index ``coat_IOR`` (OpenPBR ``coat_ior``; F0 ``((1 - n) / (1 + n))^2``, F90
   white, as MaterialX's graphs make the coat a dielectric of that index): ``coat_color`` is ignored, and so is a
-  texture of the index (its constant is kept).
+  texture of the index (its constant is kept: the value authored beside the connection, else the default), as are
+  textures of ``specular_IOR``, the specular weight and colour.
+- A colour and its weight (``base_color`` and ``base``, the emission's) each from an image: the colour's texture
+  times the weight's constant, its texture ignored.
 - OpenPBR's ``emission_luminance`` is in nits; wrt's radiance is in UsdLux's units, where a light of intensity 1
   has luminance 1 nit, so the emitted radiance is ``emission_luminance * emission_color`` (MaterialX's own OpenPBR
   graph feeds that product to its ``uniform_edf`` unchanged). A 1000-nit panel is 1000 times a UsdLux light of
@@ -258,14 +261,6 @@ class _Graph:
             return decoded, None
         node = found[1]
 
-        def kept() -> np.ndarray:
-            """The value authored beside the connection, read as the input unconnected reads it: decoded from its
-            colorSpace (it was kept as authored), else the default."""
-            inp = self.shader.GetInput(name)
-            own = _input_array(value_at(inp.GetAttr(), self.reader.time), default.size)
-            own = None if own is None else self._decoded(inp, own, f"{name}'s", color=default.size == 3)
-            return default if own is None else own
-
         def leaf(source, source_id: str) -> Folded | None:
             if IMAGE_NODE.match(source_id):
                 return Folded(*self._image(source, source_id))
@@ -280,17 +275,29 @@ class _Graph:
         except Unfoldable as e:
             node_id = e.node.GetShaderId() or "node without info:id"
             why = f"whose {e.problem}" if e.problem else "which is not supported"
-            constant = kept()
+            constant = self.unconnected(role)
             self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), {why}; its constant "
                               f"{_format(constant)} is used")
             return constant, None
         value = _array(folded.value, default.size)
         if value is None:  # a folded value past float64's range
-            constant = kept()
+            constant = self.unconnected(role)
             self.notes.append(f"{name} is not a finite number after its nodes; its constant {_format(constant)} is "
                               "used")
             return constant, None
         return value, folded.source
+
+    def unconnected(self, role: str) -> np.ndarray:
+        """The input playing ``role`` as it reads unconnected: the value authored beside its connection, decoded from
+        its colorSpace, else its default; what it keeps where wrt cannot evaluate its node or ignores its texture.
+        An ignored texture left the constant ``read`` returns beside it, the image's ``default`` (0 unauthored): a
+        base_color image times a base image was black, a specular_IOR image drew a mirror (index 1e-3)."""
+        name, default = self.inputs[role]
+        default = np.atleast_1d(np.asarray(default, np.float64))
+        inp = self.shader.GetInput(name)
+        own = _input_array(value_at(inp.GetAttr(), self.reader.time), default.size) if inp else None
+        own = None if own is None else self._decoded(inp, own, f"{name}'s", color=default.size == 3)
+        return default if own is None else own
 
     def _decoded(self, inp, value: np.ndarray, what: str, color: bool) -> np.ndarray | None:
         """:func:`decoded_color` of ``value``, its note (a colour space wrt does not know) kept. A
@@ -312,6 +319,11 @@ class _Graph:
         (a weight texture by the colour's mean, its tint lost); of two textures the colour's is kept."""
         color, color_texture = self.read(color_role)
         weight, weight_texture = self.read(weight_role)
+        if color_texture is not None and weight_texture is not None:  # the weight's texture is ignored
+            weight = self.unconnected(weight_role)
+            self.notes.append(f"the texture of {self.inputs[weight_role][0]} is ignored (its colour is textured); "
+                              f"its constant {_format(weight)} is used")
+            weight_texture = None
         color, weight = np.resize(color, 3), float(np.mean(weight))
         (color_name, color_default), (weight_name, weight_default) = (self.inputs[color_role],
                                                                       self.inputs[weight_role])
@@ -326,8 +338,6 @@ class _Graph:
             return default.astype(np.float32), None
         if color_texture is not None:
             _multiply(color_texture, weight)
-            if weight_texture is not None:
-                self.notes.append(f"the texture of {self.inputs[weight_role][0]} is ignored (its colour is textured)")
             return (color * weight).astype(np.float32), color_texture
         if weight_texture is not None:
             _multiply(weight_texture, float(np.mean(color)))
@@ -341,13 +351,7 @@ class _Graph:
         """``ior`` whose dielectric F0 is the specular weight times the mean specular colour times the F0 of the
         authored index (textures of these three keep their constants). A ``pure_metal`` has no dielectric F0 to
         show, and no note about it."""
-        ior, ior_texture = self.read("ior")
-        weight, weight_texture = self.read("specular_weight")
-        color, color_texture = self.read("specular_color")
-        for role, texture in (("ior", ior_texture), ("specular_weight", weight_texture),
-                              ("specular_color", color_texture)):
-            if texture is not None:
-                self.notes.append(f"the texture of {self.inputs[role][0]} is ignored (wrt has one constant ior)")
+        ior, weight, color = (self._constant_of(role) for role in ("ior", "specular_weight", "specular_color"))
         authored = float(np.mean(ior))
         ior = max(authored, float(MIN_IOR))  # as wrt draws it: an index of -1 divided by zero below
         factor = float(np.mean(weight)) * float(np.mean(color))
@@ -445,6 +449,8 @@ class _Graph:
         notes on the coat inputs wrt's clearcoat cannot follow, where the coat shows. The index was ignored (always
         1.5, with a note): a coat of index 2 reflected 0.04 head-on instead of 0.11."""
         coat_ior, coat_ior_texture = self.read("coat_ior")
+        if coat_ior_texture is not None:
+            coat_ior = self.unconnected("coat_ior")
         index = max(float(np.mean(coat_ior)), float(MIN_IOR))
         if coat <= 0.0 and not textured:
             return index
@@ -453,8 +459,20 @@ class _Graph:
             self.notes.append(f"{self.inputs['coat_color'][0]} is ignored (wrt's clearcoat is clear)")
         if coat_ior_texture is not None:
             self.notes.append(f"the texture of {self.inputs['coat_ior'][0]} is ignored (wrt has one constant coat "
-                              "index)")
+                              f"index); its constant {_format(coat_ior)} is used")
         return index
+
+    def _constant_of(self, role: str) -> np.ndarray:
+        """The constant of the input playing ``role``, which wrt reads as a constant only (the dielectric's index):
+        its :meth:`read` value, or, where an image feeds it, its :meth:`unconnected` value, the texture named in a
+        note."""
+        value, texture = self.read(role)
+        if texture is None:
+            return value
+        value = self.unconnected(role)
+        self.notes.append(f"the texture of {self.inputs[role][0]} is ignored (wrt has one constant ior); its constant "
+                          f"{_format(value)} is used")
+        return value
 
     def ignored_notes(self, ignored: dict):
         """Names the inputs of lobes wrt lacks (``ignored``: name -> the value that switches the lobe off) that are
