@@ -1310,6 +1310,56 @@ def test_transform2d_scales_and_translates_st(tmp_path):
     np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
 
 
+def transform_chain(stage, material_path, count, **values):
+    """``count`` UsdTransform2d nodes ``{material_path}/Xf0`` ... in a chain from the ``st`` reader of a
+    :func:`textured_stage` material to its image, each of the inputs ``values`` (input name -> value)."""
+    source = st_source(stage, material_path)
+    for k in range(count):
+        xf = UsdShade.Shader.Define(stage, f"{material_path}/Xf{k}")
+        xf.CreateIdAttr("UsdTransform2d")
+        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(*source)
+        for key, value in values.items():
+            xf.CreateInput(key, Sdf.ValueTypeNames.Float if key == "rotation" else Sdf.ValueTypeNames.Float2).Set(value)
+        source = xf.ConnectableAPI(), "result"
+    UsdShade.Shader.Get(stage, f"{material_path}/Image").GetInput("st").ConnectToSource(*source)
+    return source[0]
+
+
+def test_a_long_chain_of_transform2d_nodes_applies_every_one(tmp_path):
+    """Ten UsdTransform2d nodes in a row, each moving st by (0.05, 0): the image moves by 0.5 in s (its halves
+    swap). The walk stopped after eight without a word, so the image moved by 0.4."""
+    halves = np.zeros((8, 8, 3))
+    halves[:, :4] = (255, 0, 0)  # left half red, right half blue
+    halves[:, 4:] = (0, 0, 255)
+    path = textured_stage(tmp_path, write_png(tmp_path / "halves.png", halves), wrap="repeat", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    transform_chain(stage, "/Looks/Tex", 10, translation=(0.05, 0.0))
+    stage.Save()
+    img = albedo(path)  # pixel centres at s = 0.125 ... 0.875, read at s + 0.5 (mod 1)
+    s = ((np.arange(4) + 0.5) / 4 + 0.5) % 1.0
+    expected = np.where(s[:, None] < 0.5, (1.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    np.testing.assert_allclose(img, np.broadcast_to(expected, (4, 4, 3)), atol=1e-3)
+
+
+def test_transform2d_nodes_that_loop_back_are_named_and_applied_once(tmp_path):
+    """A UsdTransform2d whose ``in`` is its own ``result`` (a network that loops back): named in a warning with the
+    node, and applied once (a quarter turn and a move of (0.5, 0): st (s, t) read at (0.5 - t, s)). The walk went
+    round eight times without a word, which here (four quarter turns twice, the moves cancelling) read st
+    unmoved."""
+    path = textured_stage(tmp_path, write_png(tmp_path / "checker.png", CHECKER), wrap="repeat", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    xf = transform_chain(stage, "/Looks/Tex", 1, rotation=90.0, translation=(0.5, 0.0))
+    UsdShade.Shader(xf.GetPrim()).GetInput("in").ConnectToSource(xf, "result")  # (replaces the reader)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"loop back on themselves.*/Looks/Tex/Xf0"):
+        img = albedo(path)
+    centres = (np.arange(4) + 0.5) / 4
+    s, t = np.meshgrid(centres, centres[::-1])  # row 0 at the top
+    read_s, read_t = (0.5 - t) % 1.0, s  # every point lies inside a 4 x 4 block of CHECKER, away from its edges
+    expected = CHECKER[(np.floor((1.0 - read_t) * 2) * 4).astype(int), (np.floor(read_s * 2) * 4).astype(int)]
+    np.testing.assert_allclose(img, expected / 255.0, atol=1e-3)
+
+
 @pytest.mark.parametrize("case", ["constant st", "reader fallback", "transform overflow", "constant st strings",
                                   "reader fallback strings"])
 def test_texture_coordinates_past_float32_do_not_stop_the_load(tmp_path, case):

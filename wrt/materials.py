@@ -1598,7 +1598,14 @@ class MaterialReader:
         transform = np.eye(3, dtype=np.float32)
         no_fallback = np.zeros(2, np.float32)
         found, node, name = self._producer(tex, "st"), tex, "st"
-        for _ in range(8):  # follow a short chain of transforms
+        passed = set()  # the transforms on the way: a chain that loops back (in fed by its own result) ends there
+        while True:
+            if found is not None and found[0] == "shader" and found[1].GetPrim().GetPath() in passed:
+                # It went round a fixed number of times without a word: a rotation of 30 degrees drew 240.
+                self.skip(f"material {material_path}: a texture's st comes through UsdTransform2d nodes that loop "
+                          "back on themselves; each is applied once and the st primvar read", tex.GetPrim(),
+                          detail=str(found[1].GetPrim().GetPath()))
+                return "st", transform, no_fallback
             if found is not None and found[0] == "value":
                 st = self._constant_st(found[1], node, name, material_path)
                 if st is not None:
@@ -1635,6 +1642,7 @@ class MaterialReader:
                     return None, constant_st_transform(transform, fallback), no_fallback
                 return str(geomprop), transform, fallback
             if node_id in TRANSFORM2D_IDS:
+                passed.add(node.GetPrim().GetPath())
                 rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
                                                 for name, default in TRANSFORM2D_DEFAULTS)
                 with np.errstate(over="ignore", invalid="ignore"):  # past float32: inf, named by _texture
@@ -1652,7 +1660,6 @@ class MaterialReader:
                       "not supported; these materials' textures read the st primvar", tex.GetPrim(),
                       detail=f"{material_path}: {node_id or 'no info:id'}")
             return "st", transform, no_fallback
-        return "st", transform, no_fallback
 
     def _transform2d_input(self, node, name: str, default: tuple, material_path: str) -> np.ndarray:
         """Input ``name`` of ``UsdTransform2d`` ``node`` as ``len(default)`` float64 numbers: ``default`` (the
