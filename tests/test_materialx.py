@@ -1539,3 +1539,37 @@ def test_a_textured_coat_index_keeps_its_default(tmp_path, shader_id, coat, name
     scene, messages = load(path)
     assert any("/Looks/Lacquer" in m and f"the texture of {name} is ignored" in m for m in messages), messages
     assert scene.materials[0].clearcoat_ior == pytest.approx(expected)
+
+
+def test_a_materialx_preview_surface_reads_materialx_image_nodes(tmp_path):
+    """MaterialX's ``ND_UsdPreviewSurface_surfaceshader`` fed by MaterialX's own image nodes in a node graph, as
+    MaterialX's example usd_preview_surface_brass_tiled.mtlx wires it: ``diffuseColor`` from an
+    ``ND_tiledimage_color3`` (srgb_texture, uvtiling 2: the image twice across) and ``opacity`` from an
+    ``ND_tiledimage_float`` of the same file (its red channel, data) cut at ``opacityThreshold`` 0.5. They were
+    named as unsupported shaders and drawn in the defaults: grey 0.18, opaque."""
+    blocks = np.array([[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [128, 128, 128]]])
+    png = write_png(tmp_path / "blocks.png", np.repeat(np.repeat(blocks, 4, 0), 4, 1))  # 4 x 4 texels per block
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Tiles", "ND_UsdPreviewSurface_surfaceshader",
+                                     opacityThreshold=0.5)
+    graph = UsdShade.NodeGraph.Define(stage, "/Looks/Tiles/Graph")
+    for name, node_id, value_type, surface_input in (
+            ("Colour", "ND_tiledimage_color3", Sdf.ValueTypeNames.Color3f, "diffuseColor"),
+            ("Mask", "ND_tiledimage_float", Sdf.ValueTypeNames.Float, "opacity")):
+        image = UsdShade.Shader.Define(stage, f"/Looks/Tiles/Graph/{name}")
+        image.CreateIdAttr(node_id)
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+        image.GetInput("file").GetAttr().SetColorSpace("srgb_texture")  # (a float image is data whatever it says)
+        image.CreateInput("uvtiling", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(2.0, 2.0))
+        image.CreateOutput("out", value_type)
+        graph.CreateOutput(name, value_type).ConnectToSource(image.ConnectableAPI(), "out")
+        shader.CreateInput(surface_input, value_type).ConnectToSource(graph.ConnectableAPI(), name)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    st = pixel_centre_st(8) * 2.0 % 1.0  # every pixel centre lies inside a block, two texels from its edges
+    block = blocks[(st[..., 1] < 0.5).astype(int), (st[..., 0] >= 0.5).astype(int)]
+    hole = block[..., 0] / 255.0 < 0.5  # the mask's red channel, read as stored
+    expected = np.where(hole[..., None], 0.0, srgb_decoded(block))
+    np.testing.assert_allclose(albedo(scene, 8), expected, atol=1e-3)

@@ -1349,6 +1349,8 @@ class MaterialReader:
                 f"material {mat.path}: {name} reads primvar {varname!r}, which is not supported; its fallback is used",
                 source.GetPrim(),
             )
+        elif shader.GetShaderId() == PREVIEW_SURFACE_IDS[1] and source_id.startswith("ND_"):
+            self._read_materialx_nodes(shader, name, field, is_color, mat)
         else:
             # The schema's default, as Storm draws it: UsdImaging passes a connected input no value (its value-producing
             # attribute is the output), and Storm's fallback for an unrecognized upstream node is then the Sdr default.
@@ -1357,6 +1359,22 @@ class MaterialReader:
                 "its default is used, as Storm draws it (a value authored beside the connection is not read)",
                 source.GetPrim(),
             )
+
+    def _read_materialx_nodes(self, shader, name: str, field: str, is_color: bool, mat: Material):
+        """Input ``name`` of MaterialX's ``ND_UsdPreviewSurface_surfaceshader`` ``shader`` fed by MaterialX's own
+        nodes (``ND_image_*``, ``ND_tiledimage_*``, the math :mod:`wrt.materialx_fold` folds), read as a
+        standard_surface input is (:func:`wrt.materialx.read_node_input`), its notes in one warning. MaterialX's
+        own examples wire a UsdPreviewSurface so (usd_preview_surface_brass_tiled.mtlx: tiledimage nodes in a
+        node graph): they were drawn in the inputs' defaults, as from an unsupported shader."""
+        from .materialx import read_node_input  # that module imports this one
+
+        value, texture, notes = read_node_input(self, shader, name, getattr(mat, field), mat.path)
+        if notes:
+            self.skip(f"material {mat.path}: {name} is drawn approximately: {'; '.join(notes)}", shader.GetPrim())
+        if isinstance(texture, TextureInput):
+            mat.textures[name] = texture
+        else:
+            self._set_constant(mat, name, field, is_color, value, shader.GetPrim())
 
     def color_primvar_input(self, reader, material_path: str) -> PrimvarInput:
         """The :class:`PrimvarInput` of ``reader`` (a shader of :data:`COLOR_PRIMVAR_READERS`). One that names no

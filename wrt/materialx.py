@@ -224,6 +224,16 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     return mat
 
 
+def read_node_input(reader, shader, name: str, default, path: str) -> tuple:
+    """``(constant, texture, notes)`` of input ``name`` of ``shader`` (of the material at ``path``) fed by MaterialX
+    nodes, read as the surfaces' inputs are (:meth:`_Graph.read`: image nodes, and the nodes
+    :func:`wrt.materialx_fold.fold` folds), ``default`` its value unauthored (three numbers: a colour, decoded from
+    its colour space); ``notes`` says what is approximated or ignored."""
+    graph = _Graph(reader, shader, path, {name: (name, default)})
+    value, texture = graph.read(name)
+    return value, texture, graph.notes
+
+
 class _Graph:
     """The inputs of one surface shader, resolved through interface inputs and NodeGraph outputs, and the notes
     (approximations, unsupported nodes) for its material's warning."""
