@@ -1573,3 +1573,40 @@ def test_a_materialx_preview_surface_reads_materialx_image_nodes(tmp_path):
     hole = block[..., 0] / 255.0 < 0.5  # the mask's red channel, read as stored
     expected = np.where(hole[..., None], 0.0, srgb_decoded(block))
     np.testing.assert_allclose(albedo(scene, 8), expected, atol=1e-3)
+
+
+@pytest.mark.parametrize("order", [0, 1])
+def test_a_place2d_between_materialx_s_uv_texture_and_its_texcoord_maps_it(tmp_path, order):
+    """MaterialX's ``ND_UsdUVTexture`` of a ``ND_UsdPreviewSurface_surfaceshader`` whose ``st`` comes through an
+    ``ND_place2d_vector2`` of ``ND_texcoord_vector2``, as MaterialX's example usd_preview_normal_map.mtlx wires it:
+    the texture is read at the placed st, as MaterialX's node graph defines place2d. It was named as an unsupported
+    shader and primvar ``st`` read, unplaced. Oracle: the colour of the 4 x 4 texel block of the image under each
+    pixel centre's placed st (bilinear lookups there read that block alone)."""
+    blocks = np.array([[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 0]]])
+    png = write_png(tmp_path / "blocks.png", np.repeat(np.repeat(blocks, 4, 0), 4, 1))
+    stage, path = new_stage(tmp_path, f"place{order}.usda")
+    material, shader = mtlx_material(stage, "/Looks/Placed", "ND_UsdPreviewSurface_surfaceshader")
+    texcoord = UsdShade.Shader.Define(stage, "/Looks/Placed/Texcoord")
+    texcoord.CreateIdAttr("ND_texcoord_vector2")
+    place = UsdShade.Shader.Define(stage, "/Looks/Placed/Place")
+    place.CreateIdAttr("ND_place2d_vector2")
+    place.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
+    inputs = {"pivot": (0.5, 0.5), "scale": (0.5, 0.5), "rotate": 90.0, "offset": (0.0625, 0.0625)}
+    for name, value in inputs.items():
+        place.CreateInput(name, Sdf.ValueTypeNames.Float if name == "rotate" else Sdf.ValueTypeNames.Float2).Set(value)
+    place.CreateInput("operationorder", Sdf.ValueTypeNames.Int).Set(order)
+    image = UsdShade.Shader.Define(stage, "/Looks/Placed/Image")
+    image.CreateIdAttr("ND_UsdUVTexture")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))  # no colour space: raw
+    image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
+    image.CreateOutput("rgb", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "rgb")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    st = place2d_oracle(pixel_centre_st(4), np.array(inputs["pivot"]), np.array(inputs["scale"]), inputs["rotate"],
+                        np.array(inputs["offset"]), order) % 1.0  # (periodic, the node's default wrap)
+    assert np.all(np.abs(st * 2 - np.round(st * 2)) > 0.2), st  # a texel or more inside a block: one colour
+    expected = blocks[(st[..., 1] < 0.5).astype(int), (st[..., 0] >= 0.5).astype(int)] / 255.0
+    np.testing.assert_allclose(albedo(scene, 4), expected, atol=1e-3)

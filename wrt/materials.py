@@ -1674,10 +1674,35 @@ class MaterialReader:
                               node.GetPrim())
                     return None, constant_st_transform(transform, (0.0, 0.0)), no_fallback
                 continue
+            mapped = self._materialx_texcoord_map(tex, node, material_path)
+            if mapped is not None:
+                passed.add(node.GetPrim().GetPath())
+                with np.errstate(over="ignore", invalid="ignore"):  # past float32: inf, named by _texture
+                    transform = (transform @ mapped[0]).astype(np.float32)
+                found, name = mapped[1], "texcoord"
+                continue
             self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
                       "not supported; these materials' textures read the st primvar", tex.GetPrim(),
                       detail=f"{material_path}: {node_id or 'no info:id'}")
             return "st", transform, no_fallback
+
+    def _materialx_texcoord_map(self, tex, node, material_path: str) -> tuple | None:
+        """``(map, source)`` of MaterialX's ``place2d`` or vector2 math node ``node`` between MaterialX's
+        UsdUVTexture ``tex`` and its texture coordinates (:func:`wrt.materialx.texcoord_node_map`: its notes in a
+        warning), as MaterialX's own UsdPreviewSurface example wires a place2d (usd_preview_normal_map.mtlx); None
+        for another node, or for UsdUVTexture itself (Storm's UsdPreviewSurface network evaluates no MaterialX
+        node)."""
+        if (tex.GetShaderId() or "") == "UsdUVTexture":
+            return None
+        from .materialx import texcoord_node_map  # that module imports this one
+
+        mapped = texcoord_node_map(self, node, material_path)
+        if mapped is None:
+            return None
+        if mapped[2]:
+            self.skip(f"material {material_path}: a texture's coordinates are moved approximately: "
+                      f"{'; '.join(mapped[2])}", tex.GetPrim())
+        return mapped[0], mapped[1]
 
     def _transform2d_input(self, node, name: str, default: tuple, material_path: str) -> np.ndarray:
         """Input ``name`` of ``UsdTransform2d`` ``node`` as ``len(default)`` float64 numbers: ``default`` (the

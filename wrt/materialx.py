@@ -234,6 +234,20 @@ def read_node_input(reader, shader, name: str, default, path: str) -> tuple:
     return value, texture, graph.notes
 
 
+def texcoord_node_map(reader, node, path: str) -> tuple | None:
+    """``(map, source, notes)`` of MaterialX node ``node`` (of the material at ``path``) on texture coordinates where
+    it is a ``place2d`` or vector2 math of a constant: the ``(3, 3)`` float64 affine map it applies (as an image
+    node's :meth:`_Graph._texcoord` reads it), :meth:`wrt.materials.MaterialReader._producer` of the input the
+    coordinates come in by and the notes on it; None for any other node."""
+    graph = _Graph(reader, node, path, {})
+    node_id = node.GetShaderId() or ""
+    if node_id == PLACE2D_ID:
+        return graph._place2d(node), reader._producer(node, "texcoord"), graph.notes
+    math_node = TEXCOORD_MATH_ID.match(node_id)
+    mapped = graph._texcoord_math(node, math_node.group(1)) if math_node else None
+    return None if mapped is None else (*mapped, graph.notes)
+
+
 class _Graph:
     """The inputs of one surface shader, resolved through interface inputs and NodeGraph outputs, and the notes
     (approximations, unsupported nodes) for its material's warning."""
