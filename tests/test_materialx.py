@@ -1610,3 +1610,54 @@ def test_a_place2d_between_materialx_s_uv_texture_and_its_texcoord_maps_it(tmp_p
     assert np.all(np.abs(st * 2 - np.round(st * 2)) > 0.2), st  # a texel or more inside a block: one colour
     expected = blocks[(st[..., 1] < 0.5).astype(int), (st[..., 0] >= 0.5).astype(int)] / 255.0
     np.testing.assert_allclose(albedo(scene, 4), expected, atol=1e-3)
+
+
+def place2d_chain(stage, material, count, **inputs):
+    """``count`` ``ND_place2d_vector2`` nodes ``{material}/Place0`` ... in a chain (the first's ``texcoord``
+    unconnected: primvar st), each of ``inputs``; the last one."""
+    previous = None
+    for k in range(count):
+        place = UsdShade.Shader.Define(stage, f"{material}/Place{k}")
+        place.CreateIdAttr("ND_place2d_vector2")
+        for name, value in inputs.items():
+            place.CreateInput(name, Sdf.ValueTypeNames.Float if name == "rotate" else Sdf.ValueTypeNames.Float2
+                              ).Set(value)
+        if previous is not None:
+            place.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(previous.ConnectableAPI(), "out")
+        previous = place
+    return previous
+
+
+def test_a_long_chain_of_place2d_nodes_applies_every_one(tmp_path):
+    """Twenty ``place2d`` nodes in a row before an image node, each moving its coordinates by an offset of
+    (0.05, 0): st read at s - 1. The walk stopped after sixteen and named the rest as an unsupported node, the image
+    read at s - 0.8."""
+    png = write_png(tmp_path / "pixels.png", PIXELS)
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Placed")
+    closest_image(stage, "/Looks/Placed", png, place2d_chain(stage, "/Looks/Placed", 20, offset=(0.05, 0.0)))
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    assert_reads_the_texels_at(scene, PIXELS, pixel_centre_st(12) - (1.0, 0.0))
+
+
+def test_place2d_nodes_that_loop_back_are_named_and_applied_once(tmp_path):
+    """A ``place2d`` whose ``texcoord`` is its own output (a network that loops back): named in the material's
+    warning, and applied once (a quarter turn about the centre). The walk went round sixteen times (four whole
+    turns: the image unturned) and named the node as unsupported."""
+    png = write_png(tmp_path / "pixels.png", PIXELS)
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Placed")
+    inputs = {"pivot": (0.5, 0.5), "rotate": 90.0}
+    place = place2d_chain(stage, "/Looks/Placed", 1, **inputs)
+    place.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Placed", png, place)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    loop = "loop back on themselves (/Looks/Placed/Place0)"
+    assert any("/Looks/Placed" in m and loop in m for m in messages), messages
+    st = place2d_oracle(pixel_centre_st(12), np.array(inputs["pivot"]), np.ones(2), inputs["rotate"], np.zeros(2), 0)
+    assert_reads_the_texels_at(scene, PIXELS, st)

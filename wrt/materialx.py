@@ -636,14 +636,19 @@ class _Graph:
         (identity without one), the image's nearest first."""
         placement = np.eye(3)
         found, holder = self.reader._producer(node, "texcoord"), node
-        for _ in range(16):  # a short chain of such nodes
-            if found is None or found[0] != "shader":
-                break
+        passed = set()  # the nodes on the way: a chain that loops back (fed by its own output) ends there
+        while found is not None and found[0] == "shader":
+            if found[1].GetPath() in passed:
+                # It went round sixteen times, then was named as an unsupported node.
+                self.notes.append(f"the texture coordinates of {node.GetPath()} come through nodes that loop back on "
+                                  f"themselves ({found[1].GetPath()}); each is applied once and primvar st read")
+                return "st", np.zeros(2, np.float32), None, placement
             node_id = found[1].GetShaderId() or ""
             if node_id == PLACE2D_ID:
                 holder = found[1]
                 placement = placement @ self._place2d(holder)
                 found = self.reader._producer(holder, "texcoord")  # unconnected: UV0, st (defaultgeomprop)
+                passed.add(holder.GetPath())
                 continue
             math_node = TEXCOORD_MATH_ID.match(node_id)
             mapped = self._texcoord_math(found[1], math_node.group(1)) if math_node else None
@@ -651,6 +656,7 @@ class _Graph:
                 break
             holder = found[1]
             placement, found = placement @ mapped[0], mapped[1]
+            passed.add(holder.GetPath())
         return (*self._texcoord_source(found, holder), placement)
 
     def _texcoord_math(self, node, op: str):
