@@ -341,7 +341,11 @@ def _instance_parts(scene) -> list:
     prototype share both: one entry for them all."""
     instances = scene.instances
     roots = instances.root if len(instances.roots) else np.full(len(instances), -1, np.int32)
-    pairs, inverse = np.unique(np.stack([instances.prototype, roots], axis=1), axis=0, return_inverse=True)
+    # One int64 key per pair, ordered as the pairs are (prototype, then root from -1): np.unique(axis=0) of the
+    # stacked pairs sorts them as structured rows, 1.7 s for 1M PointInstancer instances, the keys 0.04 s.
+    span = len(instances.roots) + 1
+    keys, inverse = np.unique(instances.prototype.astype(np.int64) * span + roots + 1, return_inverse=True)
+    pairs = np.stack([keys // span, keys % span - 1], axis=1)
     found = []
     for (proto, root), rows in zip(pairs, _rows_by_key(inverse.reshape(-1), len(pairs))):
         prototype = scene.prototypes[proto]
