@@ -1,8 +1,8 @@
 """Instance and prim paths of a stage of many instances (a PointInstancer of three prototypes in shuffled order,
-native instances of two classes in turn, a PointInstancer inside a native instance): ``Scene.hit_paths`` and
-``Scene.prim_paths`` against what pxr says of the same stage (the prims under
-each instance, the instancer's prototypes and ``ComputeInstanceTransformsAtTime``). The prims are grouped by one
-key per (prototype, root)."""
+native instances of two classes in turn, a PointInstancer inside a native instance): ``Scene.hit_paths``,
+``Scene.prim_paths`` and the preview's ``instance_row`` against what pxr says of the same stage (the prims under
+each instance, the instancer's prototypes and ``ComputeInstanceTransformsAtTime``). The prims are grouped by one key
+per (prototype, root), and ``instance_row`` matches the sources' paths, without a path string per instance."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ pxr = pytest.importorskip("pxr")
 from pxr import Gf, Sdf, Usd, UsdGeom  # noqa: E402
 
 import wrt  # noqa: E402
+from wrt.preview_blas import instance_row  # noqa: E402
 
 N_POINTS = 40  # instances of /PI
 N_NATIVE = 6  # native instances /N0.. of /ClassA and /ClassB in turn, from B
@@ -99,3 +100,18 @@ def test_hit_paths_and_prim_ids_are_the_usd_prims_under_each_instance(stage_path
     assert [paths[i] for i in ids] == list(prims)
     assert sorted(paths) == sorted({prim for _, prim, _ in expected})
 
+
+def test_instance_row_finds_each_instance_by_its_usd_path(stage_path):
+    """``bvh_instance="/PI[7]"`` picks the instance that pxr places there (its transform is
+    ``ComputeInstanceTransformsAtTime``'s, in float64); a path that names none, an index written otherwise than
+    ``Instances.path`` writes it among them, is refused."""
+    stage = Usd.Stage.Open(stage_path)
+    scene = wrt.load_usd(stage_path)
+    for name, _, to_world in usd_instances(stage):
+        row = instance_row(scene, name)
+        np.testing.assert_allclose(scene.instances.to_world[row], to_world.T, rtol=1e-6, atol=1e-6)
+        assert scene.instances.path(row) == name
+    for name in ("/PI", "/PI[07]", "/PI[+7]", "/PI[ 7]", "/PI[7]x", "/PI[-1]", f"/PI[{N_POINTS}]", "/PI[99999999999]",
+                 "/N1[0]", "/N", "/Outer", "/Outer/Kit", "/PI[\u0667]"):
+        with pytest.raises(ValueError, match="names no instance"):
+            instance_row(scene, name)

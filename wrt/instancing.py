@@ -22,6 +22,7 @@ front side (the barycentrics ``u, v`` of a hit on such a row swap accordingly).
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 
@@ -105,6 +106,9 @@ class Prototype(CountsAssignments):
             lo, hi = world_boxes(*s.local_bounds(), s.to_world[None])
             lower, upper = np.minimum(lower, lo[0]), np.maximum(upper, hi[0])
         return lower, upper
+
+
+_INDEX_SUFFIX = re.compile(r"\[(?:0|[1-9][0-9]*)\]")  # a PointInstancer index as Instances.path writes it
 
 
 @dataclasses.dataclass
@@ -304,6 +308,23 @@ class Instances(CountsAssignments):
         """A name for instance ``i``: its source prim path, plus ``[index]`` for a PointInstancer's instance."""
         name = self.source_path(i)
         return f"{name}[{self.index[i]}]" if self.index[i] >= 0 else name
+
+    def rows_named(self, name: str) -> np.ndarray:
+        """``(K,)`` int64 rows ``i``, increasing, whose :meth:`path` is ``name``, matched against the sources and the
+        indices: making every row's path to compare took 1.5 s for a PointInstancer of 1M instances."""
+        sources = self.sources or ["/instances"]
+        source = self.source if self.sources else np.zeros(len(self), np.int32)
+        plain, indexed = [], {}  # sources named ``name``; index -> sources named ``name`` less ``[index]``
+        for s, path in enumerate(sources):
+            rest = name[len(path):] if name.startswith(path) else None
+            if rest == "":
+                plain.append(s)
+            elif rest is not None and _INDEX_SUFFIX.fullmatch(rest):  # "[7]" as path() writes it, not "[07]"
+                indexed.setdefault(int(rest[1:-1]), []).append(s)
+        match = np.isin(source, plain) & (self.index < 0)
+        for index, these in indexed.items():
+            match |= np.isin(source, these) & (self.index == index)
+        return np.flatnonzero(match)
 
     def source_path(self, i: int) -> str:
         """The path of instance ``i``'s source prim (the PointInstancer, instanceable prim, Points or curves prim

@@ -43,16 +43,16 @@ def instance_row(scene, instance, names: dict = PYTHON_NAMES) -> int:
             raise ValueError(f"{choice}: the scene has {len(instances):,} instances, 0 to {len(instances) - 1:,}")
         return int(instance)
     if isinstance(instance, str):
-        paths = [instances.path(i) for i in range(len(instances))]
-        rows = [i for i, path in enumerate(paths) if path == instance]
+        rows = instances.rows_named(instance).tolist()
         if len(rows) == 1:
             return rows[0]
         if rows:  # a nested PointInstancer's instances go by the outer instance's path: the first was taken unsaid
             shown = ", ".join(map(str, rows[:6])) + (", ..." if len(rows) > 6 else "")
             raise ValueError(f"{choice} names {len(rows):,} instances ({shown}): give one's index")
-        hint = did_you_mean(instance, paths) if len(paths) <= SUGGESTION_LIMIT else ""
+        paths = [instances.path(i) for i in range(len(instances))] if len(instances) <= SUGGESTION_LIMIT else []
+        hint = did_you_mean(instance, paths) if paths else ""
         raise ValueError(f"{choice} names no instance{hint}; give an index 0 to {len(instances) - 1:,} or a path "
-                         f"such as {paths[0]!r}")
+                         f"such as {instances.path(0)!r}")
     raise ValueError(f"{choice}: give an instance index or path, got {type(instance).__name__}")
 
 
