@@ -214,6 +214,34 @@ def test_expanded_instance_triangles_are_each_instance_moved_in_order(monkeypatc
     assert indices.dtype == np.int64 and points.dtype == np.float32
 
 
+@pytest.mark.parametrize("block", [7, 1 << 20], ids=["blocks", "one-block"])
+def test_instance_transforms_are_inverted_in_blocks_each_as_numpy_inverts_it(monkeypatch, block):
+    """``invert_transforms`` works in blocks of ``INVERT_ROWS`` rows (its temporaries took 560 MB more at the load
+    peak of a 1M-instance PointInstancer); whether the rows fall in one block or many (7 rows here, the last one
+    short), each invertible one is ``np.linalg.inv`` of it in float64, and the singular ones (a zero scale, a NaN)
+    are refused with zero rows."""
+    import wrt.instancing as wrt_instancing
+
+    monkeypatch.setattr(wrt_instancing, "INVERT_ROWS", block)
+    rng = np.random.default_rng(123)
+    n = 52
+    to_world = np.tile(np.eye(4), (n, 1, 1))
+    to_world[:, :3, :3] = np.linalg.qr(rng.normal(size=(n, 3, 3)))[0] * rng.uniform(0.5, 4.0, (n, 1, 3))
+    to_world[:, :3, 3] = rng.uniform(-100.0, 100.0, (n, 3))
+    singular = np.zeros(n, bool)
+    singular[[3, 7, 20, 51]] = True
+    to_world[[3, 20], :3, 1] = 0.0  # a zero scale
+    to_world[7, :3, :3] = 0.0
+    to_world[51, 0, 2] = np.nan
+
+    world_to_local, ok = wrt_instancing.invert_transforms(to_world)
+
+    np.testing.assert_array_equal(ok, ~singular)
+    np.testing.assert_array_equal(world_to_local[singular], 0.0)
+    expected = np.linalg.inv(to_world[~singular])[:, :3, :]
+    np.testing.assert_allclose(world_to_local[~singular], expected, rtol=1e-12, atol=1e-12)
+
+
 def _many_prototypes_scene(n_prototypes, n_instances, seed=123):
     from wrt.instancing import Instances, Prototype
     from wrt.scene import Mesh, Scene

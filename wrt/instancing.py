@@ -351,6 +351,7 @@ def group_rows(keys: np.ndarray, n_groups: int) -> list[np.ndarray]:
 
 
 EXPAND_POINTS = 1 << 20  # points moved at a time by expand_instance_triangles
+INVERT_ROWS = 1 << 16  # transforms inverted at a time by invert_transforms
 
 
 def transform_points(points: np.ndarray, to_world: np.ndarray) -> np.ndarray:
@@ -376,6 +377,19 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     or one of 1e-45: its float64 inverse is finite, but a float32 one sent every ray to inf and the instance
     vanished without the warning singular ones get), or where that float32 inverse does not invert it to within
     :data:`FLOAT32_INVERSE_TOLERANCE` (a scale of 1e-10 between two turns: see there)."""
+    if len(to_world) <= INVERT_ROWS:
+        return _invert_block(to_world)
+    # Each row is inverted on its own: in blocks, the temporaries (some 560 bytes per row) stay small. At once they
+    # took 560 MB more for a PointInstancer of 1M instances, at the load's peak.
+    world_to_local, ok = np.empty((len(to_world), 3, 4)), np.empty(len(to_world), bool)
+    for start in range(0, len(to_world), INVERT_ROWS):
+        block = slice(start, start + INVERT_ROWS)
+        world_to_local[block], ok[block] = _invert_block(to_world[block])
+    return world_to_local, ok
+
+
+def _invert_block(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`invert_transforms` of one block of rows."""
     linear = to_world[:, :3, :3]
     # The inverse is the adjugate over the determinant, both from the rows' cross products: numpy's batched LAPACK
     # inv and det took 2.6 s for a million instances (points of a UsdGeom.Points prim, PointInstancer instances).
