@@ -342,6 +342,14 @@ class Instances(CountsAssignments):
         """``(N,)`` bool: the transform flips orientation (``det < 0``)."""
         return np.linalg.det(self.to_world[:, :3, :3]) < 0.0 if len(self) else np.zeros(0, bool)
 
+    def mirrored_rows(self, rows: np.ndarray) -> np.ndarray:
+        """:attr:`mirrored` of instances ``rows`` (``(K,)`` int) alone, each distinct one's determinant taken once:
+        the hits of every ``wrt.trace`` call took all of them, 0.4 s a call for 1M instances however few rays."""
+        distinct, inverse = np.unique(rows, return_inverse=True)
+        if not len(distinct):
+            return np.zeros(0, bool)
+        return (np.linalg.det(self.to_world[distinct, :3, :3]) < 0.0)[inverse.reshape(-1)]
+
 
 def group_rows(keys: np.ndarray, n_groups: int) -> list[np.ndarray]:
     """``[np.flatnonzero(keys == g) for g in range(n_groups)]`` from one stable sort instead of a scan per group."""

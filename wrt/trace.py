@@ -659,7 +659,7 @@ def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
     # even without instances: their triangles are geometry ids but no rows, so shape ids shift down.
     instance = hits.instance.numpy()
     swap = instance >= 0
-    swap[swap] = scene.instances.mirrored[instance[swap]]
+    swap[swap] = scene.instances.mirrored_rows(instance[swap])
     u, v = np.where(swap, v, u), np.where(swap, u, v)
     rows = scene.expanded_ids(prim, instance)
     return Hits(t, u, v, rows, cost[:, 0].copy(), cost[:, 1].copy(), instance=instance, local_prim=prim)
