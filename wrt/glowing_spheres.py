@@ -6,9 +6,9 @@ with the emission their material shows on them (shapes read their textures at on
 same all over the shape). Spheres are sampled by the cone they subtend as a SphereLight is, cylinders and cones
 (side, and caps where capped; a cone is a cylinder whose radius shrinks linearly along its axis, its row's taper the
 top radius over the bottom one) and capsules (side and two hemispheres; a tapered capsule's side the cone tangent to
-its two spheres, and their zones beyond it) uniformly by area over the part whose front the shading point can see
-(:mod:`wrt.glowing_tubes`): the density, ``1 / area`` in closed form, is the one a ray that hits the shape reads back
-for MIS.
+its two spheres, and their zones beyond it) uniformly by area over the part whose front the shading point can see,
+mixed with a draw of the side by the angles it subtends (:mod:`wrt.glowing_tubes`): the mixture's density, in closed
+form, is the one a ray that hits the shape reads back for MIS.
 
 A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
 keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a cylinder or

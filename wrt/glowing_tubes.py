@@ -1,9 +1,11 @@
 """Device side of glowing round tubes as lights (:mod:`wrt.glowing_spheres` builds their rows): a point drawn
 uniformly by area over a cylinder's or cone's side (and its caps, where capped), a capsule's side and hemispheres or a
 tapered capsule's cone and sphere zones,
-the part of them a shading point can see the front of for a single-sided tube, and that part's area, in closed form,
-that turns the draw's density ``1 / area`` into a solid-angle pdf ``dist^2 / (area |cos|)`` for both light sampling and
-the MIS weight of a ray that hits the tube.
+the part of them a shading point can see the front of for a single-sided tube, and that part's area, in closed form;
+mixed with a draw of the side by the angles it subtends (:mod:`wrt.subtended_tube`: drawn by area alone, a point
+0.01 radii off a long cylinder estimated its light 250 times as noisily). The mixture's density in closed form
+(:func:`tube_density`) turns into a solid-angle pdf ``dist^2 density / |cos|`` for both light sampling and the MIS
+weight of a ray that hits the tube.
 
 Lengths are taken times the power of two ``down`` that brings the tube's largest length (its radius or a component of
 its half axis) into [1, 2): the area in world units squared overflowed float32 for a tube 1e19 across.
@@ -14,10 +16,17 @@ import warp as wp
 from .floats import largest_magnitude, power_scales
 from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE, GLOW_TAPERED_CAPSULE
 from .sampling import PI, basis_x, basis_y, sample_uniform_sphere
+from .subtended_tube import sample_subtended, subtended_density
 
 TUBE_CAPPED = wp.constant(GLOW_CAPPED_CYLINDER)
 TUBE_CAPSULE = wp.constant(GLOW_CAPSULE)
 TUBE_TAPERED = wp.constant(GLOW_TAPERED_CAPSULE)
+# The share of sample_tube's draws made by the angles the side subtends (wrt.subtended_tube), where it can draw:
+# the rest, uniform by area, also reach the caps and spheres.
+SUBTENDED_SHARE = wp.constant(0.9)
+# Farther than this from the side's centre (lengths times down: the tube's largest about 1), the draw by area alone:
+# there the two draws are alike, and the subtended draw's cubed distances would overflow float32.
+SUBTENDED_FAR = wp.constant(1.0e4)
 
 
 @wp.func
@@ -38,6 +47,13 @@ def tube_axis(axis: wp.vec4, down: float):
 
 
 @wp.func
+def cone_reach(r: float, top: float, h: float, z: float):
+    """The radius at height ``z`` of the cone of radii ``r`` (at ``-h``) and ``top`` (at ``h``) extended past its
+    ends (negative past its apex)."""
+    return 0.5 * (r + top) - (r - top) * z / (2.0 * h)
+
+
+@wp.func
 def facing_arc(r: float, top: float, h: float, to_p: wp.vec3, w: wp.vec3):
     """Half the angle about the axis, centred on the shading point's direction ``to_p`` from the centre, of the side
     :func:`sample_tube` draws from for a single-sided tube of radii ``r`` (bottom) and ``top`` and half length ``h``
@@ -51,7 +67,7 @@ def facing_arc(r: float, top: float, h: float, to_p: wp.vec3, w: wp.vec3):
         return 0.5 * PI
     z = wp.dot(to_p, w)
     rho = wp.length(to_p - z * w)
-    reach = 0.5 * (r + top) - (r - top) * z / (2.0 * h)  # the cone's radius at p's height (negative past its apex)
+    reach = cone_reach(r, top, h, z)
     if rho <= reach:
         return 0.0
     if rho <= -reach:
@@ -112,18 +128,96 @@ def tube_area(row: wp.vec4, axis: wp.vec4, taper: float, down: float, facing: in
 
 
 @wp.func
-def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: int, u1: float, u2: float):
-    """``(q, n, area, down)``: a point ``q`` uniform by area on the part of the tube :func:`tube_area` names for
-    shading point ``p`` (its side, caps, hemispheres or zones chosen in proportion to their areas by ``u1``), its unit
-    outward normal ``n``, that area (times ``down^2``; 0: nothing to draw) and the tube's ``down``
-    (:func:`tube_scales`). ``taper``: a cone's top radius over its bottom one (a tapered capsule's spheres'), 1 for
-    cylinders and capsules.
+def segment_distance(x: float, y: float, x0: float, y0: float, x1: float, y1: float):
+    """The distance from ``(x, y)`` to the segment from ``(x0, y0)`` to ``(x1, y1)``."""
+    ex = x1 - x0
+    ey = y1 - y0
+    t = wp.clamp(((x - x0) * ex + (y - y0) * ey) / wp.max(ex * ex + ey * ey, 1e-30), 0.0, 1.0)
+    return wp.sqrt((x - x0 - t * ex) * (x - x0 - t * ex) + (y - y0 - t * ey) * (y - y0 - t * ey))
 
+
+@wp.func
+def end_distance(r: float, top: float, h: float, code: int, rho: float, z: float):
+    """The distance from the point ``rho`` from the axis and ``z`` along it from the centre to the nearer of the
+    tube's caps (radii ``r`` at ``-h``, ``top`` at ``h``) or spheres (a capsule's, a tapered capsule's); a large
+    number for an open tube, which has none."""
+    if code == TUBE_CAPPED:
+        return wp.min(segment_distance(rho, z, 0.0, -h, r, -h), segment_distance(rho, z, 0.0, h, top, h))
+    if code == TUBE_CAPSULE or code == TUBE_TAPERED:
+        below = wp.abs(wp.sqrt(rho * rho + (z + h) * (z + h)) - r)
+        return wp.min(below, wp.abs(wp.sqrt(rho * rho + (z - h) * (z - h)) - top))
+    return SUBTENDED_FAR * 4.0
+
+
+@wp.func
+def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.vec3, facing: int, arc: float):
+    """``(mid, ra, rb, half, reach, spread, rho, z, phi_p, share)``: the side (:func:`tube_side`, lengths times
+    ``down``) and shading point (``to_p`` from the centre) as :mod:`wrt.subtended_tube` takes them (``reach``,
+    ``spread``: its draw's arguments), p's angle about the axis from ``basis_x(w)``, and the share of draws
+    :func:`sample_tube` makes by the angles the side subtends: none where that draw has nothing to draw from (a
+    single-sided tube's side p sees no front of, from inside its extension) or p lies far away."""
+    mid, half, ra, rb, sin_lat = tube_side(r, top, h, code)
+    rel = to_p - mid * w
+    z = wp.dot(rel, w)
+    px = wp.dot(rel, basis_x(w))
+    py = wp.dot(rel, basis_y(w))
+    rho = wp.sqrt(px * px + py * py)
+    phi_p = wp.atan2(py, px)
+    reach = float(0.0)
+    spread = float(0.0)
+    if half > 0.0 and ra + rb > 0.0 and wp.max(rho, wp.abs(z)) < SUBTENDED_FAR:
+        reach = cone_reach(ra, rb, half, z)
+        if reach <= 0.0 or facing == 0:
+            spread = arc  # past a cone's apex (p sees the front all round, or of more than half), or double-sided
+        if reach >= rho:
+            reach = 0.0
+    share = float(0.0)
+    if reach > 0.0 or spread > 0.0:
+        # Less of it the nearer p lies to the caps or spheres than to the side, which only the draw by area reaches
+        # (continuous in p: path weighs a hit by the density from its ray's origin, just off the shading point).
+        near_end = end_distance(r, top, h, code, rho, z + mid)
+        to_side = segment_distance(rho, z, ra, -half, rb, half)
+        share = SUBTENDED_SHARE
+        if near_end + to_side > 0.0:
+            share = SUBTENDED_SHARE * near_end * near_end / (near_end * near_end + to_side * to_side)
+    return mid, ra, rb, half, reach, spread, rho, z, phi_p, share
+
+
+@wp.func
+def tube_density(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.vec3, facing: int, area: float,
+                 arc: float, q_rel: wp.vec3, on_side: int):
+    """Density by area (lengths times ``down``) with which :func:`sample_tube` draws the point ``q_rel`` from the
+    centre (``on_side`` 1: on the side; the rest is caps or spheres), p ``to_p`` from it, ``area`` and ``arc`` as
+    :func:`tube_area` gives them: the draw uniform by area's ``1 / area`` and the draw by the angles the side
+    subtends, mixed."""
+    mid, ra, rb, half, reach, spread, rho, z, phi_p, share = side_view(r, top, h, code, w, to_p, facing, arc)
+    density = (1.0 - share) / area
+    if on_side == 1 and share > 0.0:
+        rel = q_rel - mid * w
+        delta = wp.atan2(wp.dot(rel, basis_y(w)), wp.dot(rel, basis_x(w))) - phi_p
+        if delta > PI:
+            delta = delta - 2.0 * PI
+        if delta < -PI:
+            delta = delta + 2.0 * PI
+        density += share * subtended_density(ra, rb, half, reach, spread, rho, z, delta, wp.dot(rel, w))
+    return density
+
+
+@wp.func
+def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: int, u1: float, u2: float):
+    """``(q, n, area, down)``: a point ``q`` on the tube drawn for shading point ``p``, its unit outward normal
+    ``n``, one over the density by area it was drawn with (times ``down^2``; 0: nothing drawn) and the tube's
+    ``down`` (:func:`tube_scales`). ``taper``: a cone's top radius over its bottom one (a tapered capsule's
+    spheres'), 1 for cylinders and capsules.
+
+    Two draws, mixed (:func:`tube_density`): by the angles the side subtends from ``p`` (:mod:`wrt.subtended_tube`,
+    ``SUBTENDED_SHARE`` of the draws where it can draw), and uniformly by area over the part of the tube
+    :func:`tube_area` names for ``p`` (its side, caps, hemispheres or zones chosen in proportion to their areas).
     ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: the points of the side off
     :func:`facing_arc` (for a cylinder, those whose outward normal makes more than a right angle with ``p``'s
     direction from the axis: seen from outside the tube, the front of a side point shows only to points past its
     tangent plane, which lie in that half), and a cylinder's cap on the other side of the centre. A ray from ``p``
-    that hits the tube's front therefore hits the part drawn from, at the density :func:`tube_pdf` reads back."""
+    that hits the tube's front therefore hits a part drawn from, at the density :func:`tube_pdf` reads back."""
     down, up = tube_scales(row, axis)
     c = wp.vec3(row[0], row[1], row[2])
     to_p = (p - c) * down
@@ -140,54 +234,76 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
     n = w
     if area <= 0.0:
         return q, n, 0.0, down
-    share = side / area  # of the side
-    if u1 < share:
-        f = u1 / share
-        # From the bottom along the side, with density proportional to the radius 1 - (1 - taper) s (uniform by
-        # area): its CDF inverted in closed form, in the form without a cancellation (s = f for a cylinder).
-        s = (1.0 + taper) * f / (1.0 + wp.sqrt(wp.max(1.0 - (1.0 - taper * taper) * f, 0.0)))
-        phi = 2.0 * PI * u2
-        if facing == 1:
-            phi = wp.atan2(wp.dot(to_p, by), wp.dot(to_p, bx)) + (2.0 * u2 - 1.0) * arc
+    mid, r_side, top_side, h_side, reach, spread, rho, z, phi_p, by_angle = side_view(
+        r * down, r * down * taper, h_down, code, w, to_p, facing, arc)
+    on_side = int(0)
+    if u1 < by_angle:
+        delta, qz, drawn = sample_subtended(r_side, top_side, h_side, reach, spread, rho, z, u1 / by_angle, u2)
+        if drawn == 0:
+            return q, n, 0.0, down
+        phi = phi_p + delta
         radial = wp.cos(phi) * bx + wp.sin(phi) * by
+        along = (qz + h_side) / (2.0 * h_side)
+        q = c + ((mid + qz) * up) * w + ((r_side + (top_side - r_side) * along) * up) * radial
         n = radial
-        if code == TUBE_TAPERED:
-            q = c + ((mid + (2.0 * s - 1.0) * h_side) * up) * w + (r_side * up * (1.0 - (1.0 - taper) * s)) * radial
-        else:
-            q = c + (2.0 * s - 1.0) * half + (r * (1.0 - (1.0 - taper) * s)) * radial
         if taper != 1.0:  # a cone's normal leans towards its top by the slope of its radius
             n = wp.normalize(2.0 * h_side * radial + (r_side - top_side) * w)
+        on_side = 1
     else:
-        s = wp.min((u1 - share) / (1.0 - share), 1.0)
-        if code == TUBE_TAPERED:
-            # A zone of a sphere, uniform on it as its normal's height along the axis is (Archimedes): the bottom
-            # sphere's below the latitude the side touches it at, or the top one's above, in proportion to area.
-            low = r * r * (1.0 + sin_lat)
-            low_share = low / (low + taper * taper * r * r * (1.0 - sin_lat))
-            along = wp.where(s < low_share, -1.0 + (1.0 + sin_lat) * s / wp.max(low_share, 1e-30),
-                             sin_lat + (1.0 - sin_lat) * (s - low_share) / wp.max(1.0 - low_share, 1e-30))
-            along = wp.clamp(along, -1.0, 1.0)
+        ua = (u1 - by_angle) / (1.0 - by_angle)
+        share = side / area  # of the side
+        if ua < share:
+            f = ua / share
+            on_side = 1
+            # From the bottom along the side, with density proportional to the radius 1 - (1 - taper) s (uniform by
+            # area): its CDF inverted in closed form, in the form without a cancellation (s = f for a cylinder).
+            s = (1.0 + taper) * f / (1.0 + wp.sqrt(wp.max(1.0 - (1.0 - taper * taper) * f, 0.0)))
             phi = 2.0 * PI * u2
-            n = along * w + wp.sqrt(wp.max(1.0 - along * along, 0.0)) * (wp.cos(phi) * bx + wp.sin(phi) * by)
-            q = wp.where(s < low_share, c - half + r * n, c + half + (r * taper) * n)
-        elif code == TUBE_CAPSULE:
-            # The two hemispheres make one sphere of radius r: a uniform direction, on the hemisphere it points to.
-            n = sample_uniform_sphere(s, u2)
-            q = c + wp.where(wp.dot(n, w) >= 0.0, 1.0, -1.0) * half + r * n
+            if facing == 1:
+                phi = wp.atan2(wp.dot(to_p, by), wp.dot(to_p, bx)) + (2.0 * u2 - 1.0) * arc
+            radial = wp.cos(phi) * bx + wp.sin(phi) * by
+            n = radial
+            if code == TUBE_TAPERED:
+                q = c + ((mid + (2.0 * s - 1.0) * h_side) * up) * w + (r_side * up * (1.0 - (1.0 - taper) * s)) * radial
+            else:
+                q = c + (2.0 * s - 1.0) * half + (r * (1.0 - (1.0 - taper) * s)) * radial
+            if taper != 1.0:  # a cone's normal leans towards its top by the slope of its radius
+                n = wp.normalize(2.0 * h_side * radial + (r_side - top_side) * w)
         else:
-            # A cap, uniform on its disk: a single-sided cylinder's on p's side, or with both drawn (a cone's, whose
-            # caps differ: tube_area) the top in proportion to its area.
-            sign = above
-            s2 = s
-            if facing == 0 or taper != 1.0:
-                top_share = taper * taper / (1.0 + taper * taper)
-                sign = wp.where(s < top_share, 1.0, -1.0)
-                s2 = wp.where(s < top_share, s / wp.max(top_share, 1e-30), (s - top_share) / (1.0 - top_share))
-            rad = r * wp.where(sign > 0.0, taper, 1.0) * wp.sqrt(wp.min(s2, 1.0))
-            phi = 2.0 * PI * u2
-            n = sign * w
-            q = c + sign * half + rad * (wp.cos(phi) * bx + wp.sin(phi) * by)
-    return q, n, area, down
+            s = wp.min((ua - share) / (1.0 - share), 1.0)
+            if code == TUBE_TAPERED:
+                # A zone of a sphere, uniform on it as its normal's height along the axis is (Archimedes): the bottom
+                # sphere's below the latitude the side touches it at, or the top one's above, in proportion to area.
+                low = r * r * (1.0 + sin_lat)
+                low_share = low / (low + taper * taper * r * r * (1.0 - sin_lat))
+                along = wp.where(s < low_share, -1.0 + (1.0 + sin_lat) * s / wp.max(low_share, 1e-30),
+                                 sin_lat + (1.0 - sin_lat) * (s - low_share) / wp.max(1.0 - low_share, 1e-30))
+                along = wp.clamp(along, -1.0, 1.0)
+                phi = 2.0 * PI * u2
+                n = along * w + wp.sqrt(wp.max(1.0 - along * along, 0.0)) * (wp.cos(phi) * bx + wp.sin(phi) * by)
+                q = wp.where(s < low_share, c - half + r * n, c + half + (r * taper) * n)
+            elif code == TUBE_CAPSULE:
+                # The two hemispheres make one sphere of radius r: a uniform direction, on the hemisphere it points to.
+                n = sample_uniform_sphere(s, u2)
+                q = c + wp.where(wp.dot(n, w) >= 0.0, 1.0, -1.0) * half + r * n
+            else:
+                # A cap, uniform on its disk: a single-sided cylinder's on p's side, or with both drawn (a cone's, whose
+                # caps differ: tube_area) the top in proportion to its area.
+                sign = above
+                s2 = s
+                if facing == 0 or taper != 1.0:
+                    top_share = taper * taper / (1.0 + taper * taper)
+                    sign = wp.where(s < top_share, 1.0, -1.0)
+                    s2 = wp.where(s < top_share, s / wp.max(top_share, 1e-30), (s - top_share) / (1.0 - top_share))
+                rad = r * wp.where(sign > 0.0, taper, 1.0) * wp.sqrt(wp.min(s2, 1.0))
+                phi = 2.0 * PI * u2
+                n = sign * w
+                q = c + sign * half + rad * (wp.cos(phi) * bx + wp.sin(phi) * by)
+    density = tube_density(r * down, r * down * taper, h_down, code, w, to_p, facing, area, arc, (q - c) * down,
+                           on_side)
+    if density <= 0.0:
+        return q, n, 0.0, down
+    return q, n, 1.0 / density, down
 
 
 @wp.func
@@ -195,7 +311,9 @@ def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3,
              n: wp.vec3):
     """Solid-angle pdf of :func:`sample_tube` (``taper`` and ``facing`` as there) from ``p`` drawing the point
     ``dist`` along unit ``d`` whose unit normal is ``n`` (either side), for a point the ray can hit:
-    ``dist^2 / (area |cos|)``, lengths times the tube's ``down``."""
+    ``dist^2 density / |cos|`` (:func:`tube_density`), lengths times the tube's ``down``. The point is on the side
+    unless it lies past the side's ends (a capsule's hemispheres, a tapered capsule's zones) or, capped, its normal
+    is the axis."""
     down, up = tube_scales(row, axis)
     to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
     area, side, arc = tube_area(row, axis, taper, down, facing, to_p)
@@ -203,4 +321,16 @@ def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3,
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
     scaled = dist * down
-    return scaled * scaled / (area * cos_l)
+    q_rel = to_p + d * scaled
+    w, h = tube_axis(axis, down)
+    code = int(axis[3])
+    r = row[3] * down
+    mid, h_side, r_side, top_side, sin_lat = tube_side(r, r * taper, h, code)
+    on_side = int(1)
+    if code == TUBE_CAPPED:
+        lean = wp.abs(r_side - top_side) / wp.sqrt(4.0 * h_side * h_side + (r_side - top_side) * (r_side - top_side))
+        on_side = wp.where(wp.abs(wp.dot(n, w)) < 0.5 * (1.0 + lean), 1, 0)
+    elif code == TUBE_CAPSULE or code == TUBE_TAPERED:
+        on_side = wp.where(wp.abs(wp.dot(q_rel, w) - mid) < h_side, 1, 0)
+    density = tube_density(r, r * taper, h, code, w, to_p, facing, area, arc, q_rel, on_side)
+    return scaled * scaled * density / cos_l

@@ -69,7 +69,7 @@ LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, rad
 # as a sphere light is, with its material's emission.
 LIGHT_GLOWING_SPHERE = wp.constant(11)
 # A glowing round tube (wrt.glowing_spheres: a cylinder, cone or capsule): among the same entries, its glowing_axes
-# row's code not GLOW_SPHERE; sampled uniformly by area (wrt.glowing_tubes).
+# row's code not GLOW_SPHERE; sampled by area and by the angles its side subtends, mixed (wrt.glowing_tubes).
 LIGHT_GLOWING_TUBE = wp.constant(12)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
@@ -615,9 +615,10 @@ def shape_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, 
 @wp.func
 def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, p: wp.vec3, d: wp.vec3, dist: float,
                      n: wp.vec3):
-    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (uniform by area; ``double_sided``
-    its shape's flag) from ``p`` at the point ``dist`` along unit ``d`` whose unit normal is ``n`` (the area drawn
-    from is a cone's arc that can face ``p``, and a cylinder's cap on ``p``'s side)."""
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing tube ``k`` (``double_sided`` its shape's flag)
+    from ``p`` at the point ``dist`` along unit ``d`` whose unit normal is ``n``: :func:`wrt.glowing_tubes.tube_pdf`,
+    the draw by area (over a cone's arc that can face ``p``, a cylinder's cap on ``p``'s side) and by the angles the
+    side subtends, mixed."""
     j = k - lights.first_glowing_sphere
     return tube_pdf(lights.glowing_spheres[j], lights.glowing_axes[j], lights.glowing_tapers[j], 1 - double_sided,
                     p, d, dist, n)
@@ -890,8 +891,9 @@ def sample_light(
         area = 0.5 * lights.params[k][2]
         L = lights.radiance[k]
     elif kind == LIGHT_GLOWING_TUBE:
-        # Uniform by area over the part of the tube p can see the front of, the whole of a double-sided one
-        # (wrt.glowing_tubes): points facing away are dropped below.
+        # Uniform by area over the part of the tube p can see the front of (the whole of a double-sided one) and by
+        # the angles its side subtends, mixed (wrt.glowing_tubes); "area" is one over the mixture's density. Points
+        # facing away are dropped below.
         j = k - lights.first_glowing_sphere
         prim = lights.prims[k]
         two_sided = tri_double_sided[prim]
