@@ -27,6 +27,8 @@ SUBTENDED_SHARE = wp.constant(0.9)
 # Farther than this from the side's centre (lengths times down: the tube's largest about 1), the draw by area alone:
 # there the two draws are alike, and the subtended draw's cubed distances would overflow float32.
 SUBTENDED_FAR = wp.constant(1.0e4)
+# Within this share of the side's larger radius of a cone's apex plane, the subtended draw's share fades to 0.
+APEX_FADE = wp.constant(0.1)
 
 
 @wp.func
@@ -155,7 +157,7 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
     ``down``) and shading point (``to_p`` from the centre) as :mod:`wrt.subtended_tube` takes them (``reach``,
     ``spread``: its draw's arguments), p's angle about the axis from ``basis_x(w)``, and the share of draws
     :func:`sample_tube` makes by the angles the side subtends: none where that draw has nothing to draw from (a
-    single-sided tube's side p sees no front of, from inside its extension) or p lies far away."""
+    single-sided tube's side p sees no front of, from inside its extension), past a cone's apex or far away."""
     mid, half, ra, rb, sin_lat = tube_side(r, top, h, code)
     rel = to_p - mid * w
     z = wp.dot(rel, w)
@@ -165,21 +167,26 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
     phi_p = wp.atan2(py, px)
     reach = float(0.0)
     spread = float(0.0)
+    fade = float(0.0)
     if half > 0.0 and ra + rb > 0.0 and wp.max(rho, wp.abs(z)) < SUBTENDED_FAR:
         reach = cone_reach(ra, rb, half, z)
-        if reach <= 0.0 or facing == 0:
-            spread = arc  # past a cone's apex (p sees the front all round, or of more than half), or double-sided
+        # Past a cone's apex (reach <= 0) the draw by area alone, faded in from the apex's plane: drawn there by the
+        # angles too, in the arc p sees the front of, the density jumped at that plane (a floor there would get its
+        # light samples' density from one side of it and its hits' from its rays' origins just off it).
+        fade = wp.clamp(reach / (APEX_FADE * wp.max(ra, rb)), 0.0, 1.0)
         if reach >= rho:
             reach = 0.0
+            if facing == 0:
+                spread = arc  # inside a double-sided tube or its extension: all round
     share = float(0.0)
-    if reach > 0.0 or spread > 0.0:
+    if fade > 0.0 and (reach > 0.0 or spread > 0.0):
         # Less of it the nearer p lies to the caps or spheres than to the side, which only the draw by area reaches
         # (continuous in p: path weighs a hit by the density from its ray's origin, just off the shading point).
         near_end = end_distance(r, top, h, code, rho, z + mid)
         to_side = segment_distance(rho, z, ra, -half, rb, half)
-        share = SUBTENDED_SHARE
+        share = SUBTENDED_SHARE * fade
         if near_end + to_side > 0.0:
-            share = SUBTENDED_SHARE * near_end * near_end / (near_end * near_end + to_side * to_side)
+            share = share * near_end * near_end / (near_end * near_end + to_side * to_side)
     return mid, ra, rb, half, reach, spread, rho, z, phi_p, share
 
 

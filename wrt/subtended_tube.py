@@ -6,8 +6,8 @@ few draws by area land on: its irradiance estimate's relative noise per draw was
 
 Coordinates are p's: ``rho`` its distance from the axis, ``z`` its height, ``delta`` a side point's angle about the
 axis from p's. The angle ``delta`` is drawn uniformly in the angle that p sees the side's circle at its own height
-subtend across the axis (``reach``: the cone's radius extended to p's height), when p lies outside it; otherwise (p
-past a cone's apex, or inside a double-sided tube) uniformly in ``+-spread``. Along the straight line of the side at
+subtend across the axis (``reach``: the cone's radius extended to p's height), when p lies outside it; otherwise
+(inside a double-sided tube or its extension) uniformly in ``+-spread``. Along the straight line of the side at
 ``delta`` the point is drawn uniformly in the sine of its angle from the line's nearest point to p as p sees it:
 the two draws together make a cylinder's strip of the side uniform by solid angle. Its density by area,
 :func:`subtended_density`, is the product of the two, over the side's radius at the point."""
