@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 from light_oracle import polygon_irradiance
 from shading_helpers import pixel_points, quad
+from test_subtended_tube import irradiance_from
 
 import wrt
 import wrt.emitter_resampling
+from wrt.glowing_spheres import GLOW_CAPPED_CYLINDER
 
 ALBEDO = 0.5
 RADIANCE = 2.0
@@ -277,3 +279,47 @@ def test_a_smooth_floor_is_lit_by_the_cells_above_both_its_horizons(back):
         expected.append(sum(polygon_irradiance(p, TILT, q, RADIANCE) for q in parts if len(q) >= 3))
     expected = ALBEDO * np.array(expected) / math.pi
     assert_unbiased(rendered[..., 0], expected, "back" if back else "front")
+
+
+# A glowing capped cylinder 0.02 thick and 6 long (axis along +y) lying 1.5 to the side of the patch, 0.3 over the
+# floor: the patch lies well inside the ball around it, where the tube subtends about 0.02 sr.
+TUBE = ("cylinder", GLOW_CAPPED_CYLINDER, 1.0, 0.02, 3.0)
+TUBE_CENTRE = np.array([1.5, 0.0, 0.3])
+TUBE_FRAME = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # columns: its X, Y and axis
+
+
+def tube_beside_the_panel():
+    """The ceiling panel (8 x 8 cells) and the thin glowing tube over the floor, one glowing material."""
+    glow, corners = ceiling_panel(8)
+    _, _, _, r, half = TUBE
+    to_world = np.eye(4)
+    to_world[:3, :3] = TUBE_FRAME @ np.diag([r, r, half])
+    to_world[:3, 3] = TUBE_CENTRE
+    tube = wrt.Shape("/Tube", "cylinder", to_world, material_id=0, params=np.array([1.0, 0.0, 0.0, 1.0], np.float32))
+    floor = quad((0, 0, 0), (400, 0, 0), (0, 400, 0), name="/floor")
+    floor.material_ids = np.full(len(floor.indices), 1, np.int32)
+    mats = [wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE),
+            wrt.Material(diffuse_color=ALBEDO, use_specular_workflow=True)]
+    return wrt.Scene(meshes=[floor, glow], shapes=[tube], materials=mats), corners
+
+
+def test_a_thin_glowing_tube_beside_a_panel_is_weighed_by_its_solid_angle():
+    """Whitted's pick among the panel's triangles and the tube weighed the tube by the cone of a ball around it, a
+    hemisphere's 2 pi anywhere inside the ball: it drew the tube nearly always, though the panel sends the floor
+    160 times its light, and the floor's noise per pixel at 4 samples was 0.97 of its light. Weighed by about the
+    solid angle the tube subtends, the floor stays unbiased about Lambert's formula for the panel plus a float64
+    quadrature of the tube's irradiance, and its noise falls below 0.2 of its light (0.10 over four seeds)."""
+    scene, corners = tube_beside_the_panel()
+    centre, patch, res = (0.0, 0.0, 0.0), 1.0, 16
+    cam = wrt.Camera.orthographic(eye=(0.0, 0.0, 1.0), target=centre, up=(0, 1, 0), height=patch,
+                                  clipping_range=(0.01, 1e6))
+    rendered = wrt.render(scene, camera=cam, width=res, height=res, spp=4, seed=7, device="cpu", integrator="whitted",
+                          max_depth=1).rgb[..., 0].astype(np.float64)
+    tube = []
+    for p in pixel_points(centre, patch, res, res).reshape(-1, 3):
+        local = (p - TUBE_CENTRE) @ TUBE_FRAME
+        tube.append(irradiance_from(TUBE, local, TUBE_FRAME.T @ np.array([0.0, 0.0, 1.0]), n=96))
+    expected = lambert(centre, patch, res, corners) + ALBEDO * RADIANCE * np.array(tube) / math.pi
+    assert_unbiased(rendered, expected, "panel and tube")
+    noise = (rendered.ravel() - expected).std() / expected.mean()
+    assert noise < 0.2, noise

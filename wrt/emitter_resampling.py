@@ -26,6 +26,7 @@ import warp as wp
 
 from .bsdf import LobeAlbedos, Surface, eval_bsdf_lobes, surface_albedo
 from .geometry import stable_length
+from .glowing_tubes import tube_axis, tube_scales
 from .light_links import lit_by
 from .light_sampling import (
     LIGHT_GLOWING_SPHERE,
@@ -41,6 +42,7 @@ from .microfacet_albedo import GgxAlbedo
 from .sampling import luminance, rand01
 from .scene import DeviceScene
 from .spherical_triangle import seen_solid_angle, unit_towards
+from .subtended_tube import sine_span
 
 # Triangles drawn by power per sample, one kept (1: the plain power pick). Each costs a triangle's corners and solid
 # angle, no ray. Under a 4 x 4 ceiling panel of 2 x 16 x 16 triangles 2.5 over a floor (tests/test_emitter_resampling),
@@ -105,30 +107,65 @@ def seen_sphere(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
 
 @wp.func
 def seen_tube(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
-    """:func:`seen_emitter` of glowing tube ``k``: :func:`seen_ball` of a ball around it (radius plus half length),
-    and a hemisphere's 2 pi where ``p`` lies inside that ball, so that every point the tube can light keeps a weight
-    (the tube itself does not fill the ball)."""
+    """:func:`seen_emitter` of glowing tube ``k``: about the solid angle it subtends (:func:`tube_solid_angle`), at
+    most the cone of a ball around it (radius plus half length), times the largest cosine at ``p`` over that cone (1
+    inside the ball, never below :data:`SPHERE_COSINE_FLOOR`), so that every point the tube can light keeps a
+    weight. The ball's cone alone weighed a long thin tube as if it filled the ball, a hemisphere's 2 pi anywhere
+    inside it: whitted drew the tube over a panel that sent the floor 160 times its light (the floor's noise at 4
+    samples 0.97 of its light, now 0.10)."""
     j = k - lights.first_glowing_sphere
     row = lights.glowing_spheres[j]
     axis = lights.glowing_axes[j]
-    reach = row[3] + wp.length(wp.vec3(axis[0], axis[1], axis[2]))
-    return seen_ball(wp.vec3(row[0], row[1], row[2]), reach, p, n, 2.0 * wp.pi)
+    c = wp.vec3(row[0], row[1], row[2])
+    ball, cos_r, towards = ball_cone(c, row[3] + wp.length(wp.vec3(axis[0], axis[1], axis[2])), p, n, 2.0 * wp.pi)
+    return wp.min(ball, tube_solid_angle(row, axis, lights.glowing_tapers[j], p)) * cos_r, towards
+
+
+@wp.func
+def tube_solid_angle(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3):
+    """About the solid angle a tube (a glowing tube's row, half axis and taper) subtends at ``p``, at most 2 pi: its
+    axis' sine span seen from ``p`` (:func:`wrt.subtended_tube.sine_span`: a line at distance ``D`` of width ``2 r``
+    subtends ``2 r span / D``) and its ends' disks' ``pi r^2 / d^2`` (what keeps it above 0 on the axis past an
+    end), lengths times the tube's ``down``."""
+    down, up = tube_scales(row, axis)
+    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
+    w, h = tube_axis(axis, down)
+    r = row[3] * down
+    top = r * taper
+    z = wp.dot(to_p, w)
+    across = wp.length(to_p - z * w)
+    span, below_top, above_bottom = sine_span(across, -h - z, h - z)
+    to_bottom = wp.length_sq(to_p + h * w)
+    to_top = wp.length_sq(to_p - h * w)
+    omega = float(2.0 * wp.pi)
+    if across > 0.0 and to_bottom > 0.0 and to_top > 0.0:
+        omega = (r + top) * span / across + wp.pi * (r * r / to_bottom + top * top / to_top)
+    return wp.min(omega, 2.0 * wp.pi)
 
 
 @wp.func
 def seen_ball(c: wp.vec3, radius: float, p: wp.vec3, n: wp.vec3, inside: float):
     """:func:`seen_sphere` of the ball of centre ``c`` and ``radius``, ``inside`` where ``p`` lies in it."""
+    omega, cos_r, towards = ball_cone(c, radius, p, n, inside)
+    return omega * cos_r, towards
+
+
+@wp.func
+def ball_cone(c: wp.vec3, radius: float, p: wp.vec3, n: wp.vec3, inside: float):
+    """``(omega, cos_r, towards)``: the solid angle of the cone the ball of centre ``c`` and ``radius`` subtends at
+    ``p`` (``inside`` where ``p`` lies in it), the largest cosine at ``p`` over that cone (1 where the normal points
+    into it or ``p`` lies inside; at least :data:`SPHERE_COSINE_FLOOR`) and the unit direction to ``c``."""
     cos_max, one_minus = cone_of_sphere(c, radius, p)
     towards = unit_towards(p, c)
     if cos_max > 1.0 or one_minus <= 0.0:
-        return inside, towards
+        return inside, 1.0, towards
     cos_a = wp.dot(n, towards)
     cos_r = float(1.0)
     if cos_a < cos_max:  # the cone's nearest direction to n: cos(a - theta_max)
         sin_a = wp.sqrt(wp.max(0.0, 1.0 - cos_a * cos_a))
         sin_max = wp.sqrt(wp.max(0.0, one_minus * (1.0 + cos_max)))
         cos_r = cos_a * cos_max + sin_a * sin_max
-    return 2.0 * wp.pi * one_minus * wp.max(cos_r, SPHERE_COSINE_FLOOR), towards
+    return 2.0 * wp.pi * one_minus, wp.max(cos_r, SPHERE_COSINE_FLOOR), towards
 
 
 @wp.func
