@@ -263,6 +263,26 @@ def test_a_cut_out_glowing_shape_lights_nothing(kind):
         assert rendered.max() == 0.0, (integrator, rendered)
 
 
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_cut_out_glowing_shape_takes_no_light_picks(integrator):
+    """A wholly cut-out glowing capsule (opacity 0 under an opacityThreshold) beside a glowing sphere lights nothing,
+    and the light picks it took were all wasted (their samples zero): the floor renders as with the sphere alone,
+    sample for sample (same seed). It took picks before, so the two differed by their noise."""
+    mats = materials()
+    mats.append(wrt.Material("/CutGlow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(RADIANCE,) * 3, ior=1.0,
+                             specular_edge=0.0, opacity=0.0, opacity_threshold=0.5))
+    capsule = tube_shape("capsule")
+    capsule.material_id = 2
+    capsule.to_world[:3, 3] = (2.0, 1.5, 0.6)  # off the patch, away from its shadow rays to the sphere
+    sphere = sphere_shape((0.0, 0.0, 1.0), 0.3)
+    alone = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere], materials=mats)
+    beside = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere, capsule], materials=mats)
+    expected, _ = render_floor(alone, integrator, spp=16)
+    rendered, _ = render_floor(beside, integrator, spp=16)
+    assert expected.min() > 0.0
+    np.testing.assert_allclose(rendered, expected, rtol=1e-6)
+
+
 @wp.kernel
 def draw_tube_kernel(row: wp.vec4, axis: wp.vec4, taper: float, ps: wp.array[wp.vec3], us: wp.array[wp.vec2],
                      qs: wp.array[wp.vec3], ns: wp.array[wp.vec3], drawn: wp.array[wp.vec3]):

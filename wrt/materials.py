@@ -1971,6 +1971,14 @@ def _unpacked_texels(pixels: np.ndarray, resolved: str) -> str:
     return f"{', '.join(found)} of {np.size(pixels)} values" if found else ""
 
 
+def wholly_cut_out(mat: Material) -> bool:
+    """``mat`` is a hole everywhere (:func:`cut_out` true at every ``st``): a positive ``opacityThreshold`` above its
+    constant ``opacity`` (clamped to [0, 1]; in float32, as the device compares them), with no texture on opacity."""
+    threshold = np.float32(mat.opacity_threshold)
+    return bool("opacity" not in mat.textures and threshold > 0.0
+                and np.clip(np.float32(mat.opacity), np.float32(0.0), np.float32(1.0)) < threshold)
+
+
 def emission_estimates(materials: list[Material], textures: list[np.ndarray]) -> list[np.ndarray]:
     """Per device material (``[default] + materials``) a ``(3,)`` estimate of its emitted radiance
     (:func:`emission_estimate`). Used to find and weigh light sources."""

@@ -45,7 +45,7 @@ from .integrators.whitted import (
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
-from .materials import emission_estimates, upload_materials
+from .materials import emission_estimates, upload_materials, wholly_cut_out
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
@@ -912,7 +912,12 @@ class Renderer:
                           "rendered without the default lights, which are for stages without lights",
                           stacklevel=user_stacklevel())
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
-        self.device_lights, unsampled = build_lights(list(self.lights), scene, emission, dev, glow)
+        # A material cut out everywhere emits nothing (rays pass its holes and see no light; its light samples were
+        # zero): its triangles and glowing shapes take no light picks, which they wasted. (It still counts as the
+        # stage's light above: the stage's author lit it with that glow, and gets no default lights.)
+        lit = [np.zeros(3, np.float32) if k > 0 and wholly_cut_out(scene.materials[k - 1]) else e
+               for k, e in enumerate(emission)]
+        self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
