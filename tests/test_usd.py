@@ -1324,6 +1324,21 @@ def test_a_missing_sublayer_is_reported_once(tmp_path):
     assert f"/: Could not load sublayer @{tmp_path}/gone_layer.usda@" in reports[0], reports[0]
 
 
+def test_a_missing_sublayer_brought_in_again_by_a_reference_is_named_once(tmp_path):
+    """A prim referencing a prim of its own file brings that file's layer stack in again, and USD lists its missing
+    subLayer once more: the warning counted two errors and named the same one twice."""
+    from pxr import Usd
+
+    body = mesh_usda("Kept") + 'def Xform "Again" (references = @./scene.usda@</Kept>)\n{\n}\n'
+    path = write_usda(tmp_path, body, layer_meta="subLayers = [@./gone_layer.usda@]")
+    errors = [(str(e.rootSite.path), str(e)) for e in Usd.Stage.Open(path).GetCompositionErrors()]
+    assert len(errors) == 2 and len(set(errors)) == 1, errors  # USD's own list holds it twice
+    with pytest.warns(UserWarning, match="composition error") as record:
+        load_usd(path)
+    (message,) = [str(w.message) for w in record if "composition error" in str(w.message)]
+    assert "1 composition error(s)" in message and message.count("gone_layer.usda") == 1, message
+
+
 def test_composition_errors_past_those_the_warning_names_are_still_printed_once(tmp_path):
     """Twelve missing references: the warning names eight and counts the rest, whose USD lines still print (held
     back, they would be read nowhere); each of the twelve assets appears on stderr exactly once."""

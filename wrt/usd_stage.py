@@ -82,8 +82,10 @@ def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     stages are common and the rest still renders. Each error is named by the stage prim it is found at, as USD names
     it. ``trap``: the :func:`trap_usd_diagnostics` the stage was opened in, whose held copies of USD's printed
     report of these errors are dropped (the same error was printed twice)."""
-    # Sorted: USD's order varies. A parse error of the file an arc brings in ends in a newline and a full stop.
-    errors = sorted((str(e.rootSite.path), str(e).strip().rstrip(".").rstrip()) for e in stage.GetCompositionErrors())
+    # Sorted: USD's order varies. A parse error of the file an arc brings in ends in a newline and a full stop. Once
+    # each: USD lists a missing subLayer again for every arc that brings its layer stack in anew (a prim referencing
+    # a prim of the same file), and the warning counted and named it twice.
+    errors = sorted({(str(e.rootSite.path), str(e).strip().rstrip(".").rstrip()) for e in stage.GetCompositionErrors()})
     if not errors:
         return
     named = errors[:MAX_NAMED_COMPOSITION_ERRORS]
