@@ -1098,6 +1098,9 @@ def test_a_scene_and_its_meshes_print_as_counts(np_rng):
     uvs = np.zeros((2, 3, 2), np.float32)
     assert repr(Mesh("/m", ground.points, ground.indices, [0, 0], uvs=uvs, double_sided=True)) == (
         "Mesh('/m', 4 points, 2 triangles, uvs, double-sided)")
+    # A prototype of one triangle printed as "Mesh('/World/PI/Protos/Tri', 3 points, 1 triangles)".
+    one = Mesh("/one", ground.points[:1], np.zeros((1, 3), np.int32), [0])
+    assert repr(one) == "Mesh('/one', 1 point, 1 triangle)"
 
 
 def test_a_scene_of_a_mesh_not_in_a_list_names_the_field():

@@ -347,7 +347,7 @@ class Mesh(CountsAssignments):
         names = ("normals", "colors", "opacities", "uvs", "material_ids")
         extras = [name for name in names if getattr(self, name) is not None]
         sided = ", double-sided" if self.double_sided else ""
-        return (f"Mesh({self.path!r}, {len(self.points):,} points, {len(self.indices):,} triangles"
+        return (f"Mesh({self.path!r}, {counted(len(self.points), 'point')}, {counted(len(self.indices), 'triangle')}"
                 f"{''.join(f', {name}' for name in extras)}{sided})")
 
 
