@@ -899,6 +899,10 @@ def test_a_bad_thread_count_raises_on_a_gpu_too(monkeypatch):
     for bad in (0, -2, "two", True):
         with pytest.raises(ValueError, match="threads must be"):
             resolve_threads(bad, gpu)
+    # The error lists every value taken: "all" is one (the docstring's), which it left out.
+    for device in (gpu, wp.get_device("cpu")):
+        with pytest.raises(ValueError, match=r"threads must be a positive integer, 'all' or None, got 0"):
+            resolve_threads(0, device)
     assert resolve_threads(4, gpu) == 1
     monkeypatch.setenv("WRT_THREADS", "nonsense")
     assert resolve_threads(None, gpu) == 1

@@ -151,7 +151,7 @@ def _thread_count(threads) -> int:
         threads = int(threads)
     # A bool is an int to Python: threads=True would quietly mean one thread.
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        expected = "a positive integer or 'all'" if source != "threads" else "a positive integer or None"
+        expected = "a positive integer or 'all'" if source != "threads" else "a positive integer, 'all' or None"
         raise ValueError(f"{source} must be {expected}, got {given!r}")
     return int(threads)
 
