@@ -381,6 +381,17 @@ def test_an_image_shows_itself_in_a_notebook_as_its_png(tmp_path, room):
     assert repr(img) == "Image(40x30, aovs: " + ", ".join(img.aovs) + ")"
 
 
+def test_a_renderer_prints_what_it_draws(room):
+    """A cell ending in a Renderer showed '<wrt.render.Renderer object at 0x...>'; it names the scene, the size, the
+    camera (or how many), the integrator and the device, as the stage and the arguments give them."""
+    renderer = wrt.Renderer(room, width=40, height=30, integrator="normals", device="cpu")
+    camera = next(iter(room.cameras))  # the stage's first camera: the default scene has no render settings
+    assert repr(renderer) == (f"Renderer({room.source!r}, 40x30, camera {camera}, integrator='normals', "
+                              "device='cpu')")
+    renderer.set_cameras([wrt.Camera.look_at((0, 1, 5), (0, 0, 0))] * 2)
+    assert repr(renderer) == f"Renderer({room.source!r}, 40x30, 2 cameras, integrator='normals', device='cpu')"
+
+
 def test_images_compare_by_their_arrays_identity_as_batch_images_do():
     """Image's dataclass == compared its arrays with numpy's ==, whose answer has no truth value: comparing an image
     with another of equal arrays, and ``image in images``, raised ValueError. Images are equal where they hold the

@@ -68,6 +68,7 @@ from .shade import (
 )
 from .textures import scene_images
 from .trace import HitBuffer, check_scene, get_accelerator, resolve_device, resolve_threads, run_in_chunks
+from .wording import counted
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
@@ -681,6 +682,13 @@ class Renderer:
         self._camera_key = self._camera_sources_key()
         self._note_views()
         self._warn_clipped_away()
+
+    def __repr__(self) -> str:
+        # The default repr, '<wrt.render.Renderer object at 0x...>', was all a notebook cell ending in one showed.
+        views = counted(len(self.cameras), "camera") if self.batched else self.camera.label()
+        source = f"{self.scene.source!r}" if self.scene.source else "scene"
+        return (f"Renderer({source}, {self.width}x{self.height}, {views}, integrator={self.integrator!r}, "
+                f"device={str(self.device)!r})")
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
