@@ -499,6 +499,9 @@ def test_clipping_range_limits_depth():
                       r"scene, which lies from 10 to 10 along its view"):
         img = wrt.render(scene, camera=cam, width=8, height=8, device="cpu")
     assert (img.aovs["prim"] == -1).all()
+    # A scene in the camera's own plane lies at depth 0, which the warning gave as "from -0 to -0".
+    with pytest.warns(UserWarning, match=r"which lies from 0 to 0 along its view"):
+        wrt.render(quad_scene(-100.0, 100.0, -100.0, 100.0, 0.0), camera=cam, width=8, height=8, device="cpu")
 
 
 def test_bad_camera_values_raise():

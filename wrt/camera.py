@@ -346,7 +346,8 @@ class Camera:
         the world box ``lower``-``upper``: every point of the box lies in that range, whatever the camera's
         transform (scale and shear included)."""
         corners = np.array([[(lower, upper)[k >> a & 1][a] for a in range(3)] + [1.0] for k in range(8)], np.float64)
-        depths = -(np.linalg.inv(np.asarray(self.to_world, np.float64)) @ corners.T)[2]
+        # + 0.0: a box in the camera's plane lies at -0.0, which messages printed as "-0" (IEEE: -0 + 0 = +0).
+        depths = -(np.linalg.inv(np.asarray(self.to_world, np.float64)) @ corners.T)[2] + 0.0
         return float(depths.min()), float(depths.max())
 
     def label(self) -> str:
