@@ -565,9 +565,13 @@ class Hits:
         t: float32 distance in units of ``|direction|``; ``inf`` on a miss; a hit at the origin is ``0.0``, never
             ``-0.0``.
         u: float32 barycentric weight of the triangle's second vertex.
-        v: float32 barycentric weight of the third vertex: ``hit = (1-u-v) p0 + u p1 + v p2``.
+        v: float32 barycentric weight of the third vertex: ``hit = (1-u-v) p0 + u p1 + v p2``. On an analytic
+            shape (a USD gprim: ``Sphere``, ``Cube``, ...) ``u`` and ``v`` are no barycentrics (1/3 on curved
+            surfaces): the hit point is ``origin + t * direction``.
         prim: row of ``Scene.triangles()`` (instances expanded), -1 on a miss; int32, or int64 for scenes of more
-            than ``2**31 - 1`` rendered triangles.
+            than ``2**31 - 1`` rendered triangles. An analytic shape has no row there: its id comes after them,
+            ``Scene.stats()["rendered_triangles"] + k`` for the ``k``-th rendered shape (:mod:`wrt.scene`), so
+            ``indices[hits.prim]`` of ``Scene.triangles()`` holds triangle hits only (``Scene.hit_paths`` names both).
         nodes_visited: int32 BVH nodes visited per ray, top- and bottom-level together (0 for ``accel="warp"``): the
             nodes whose box the ray enters, each once. The ``compact``, ``wide`` and ``wide8`` layouts keep no box
             for their root, so every ray that can hit counts it (a ray that misses the scene's box: 1, ``binary``:
