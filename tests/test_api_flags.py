@@ -154,6 +154,31 @@ def test_pending_frames_resume_is_a_flag(tmp_path):
     assert [f for f, _ in animation.pending_frames([1.0, 2.0], pattern, 0)] == [1.0, 2.0]
 
 
+@pytest.mark.parametrize("jobs, error, match", [
+    # Each failed in Python's words, naming no job: 'cannot unpack non-iterable int object', "too many values to
+    # unpack (expected 2)", "'<' not supported between instances of 'str' and 'float'"; a .jpg after its render.
+    ([1.0, 2.0], TypeError, r"render_frames: jobs\[0\] must be a \(frame, file\) pair, as pending_frames makes"),
+    ({1.0: "f.npy"}, TypeError, r"jobs must be a list of \(frame, file\) pairs.*list\(jobs.items\(\)\)"),
+    (["f.npy"], TypeError, r"jobs\[0\] must be a \(frame, file\) pair"),
+    ([(1.0, "f.npy", 2)], TypeError, r"jobs\[0\] must be a \(frame, file\) pair"),
+    ([(1.0, "f.npy"), ("2", "g.npy")], TypeError, r"jobs\[1\]: the frame must be a number \(a time code\), got str"),
+    ([(1.0, "f.npy"), (2.0, "g.jpg")], ValueError, "cannot write g.jpg: supported image formats are"),
+    ([(1.0, 5)], TypeError, "image path must be a str or os.PathLike, got int 5"),
+])
+def test_render_frames_checks_its_jobs_before_a_frame(shot, tmp_path, monkeypatch, jobs, error, match):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(error, match=match):
+        animation.render_frames(shot, jobs)
+    assert not list(tmp_path.iterdir())
+
+
+def test_render_frames_takes_jobs_from_a_generator(shot, tmp_path):
+    """A generator of jobs failed in ``len()`` ('object of type 'generator' has no len()')."""
+    rows = animation.render_frames(shot, ((f, tmp_path / f"f{f:g}.npy") for f in (1.0, 2.0)), width=4, height=3)
+    assert sorted(row["frame"] for row in rows) == [1.0, 2.0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f1.npy", "f2.npy"]
+
+
 @pytest.mark.parametrize("option, error, match", [
     (dict(progress="false"), TypeError, "render_frames: progress must be True or False"),
     (dict(devices="cpu"), ValueError, r"devices must be a non-empty list of Warp devices, such as \['cpu'\]"),

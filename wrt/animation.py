@@ -386,6 +386,35 @@ def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
     return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
 
 
+def check_jobs(jobs) -> list[tuple]:
+    """``jobs`` of :func:`render_frames` as a list of ``(frame, Path)``, checked before a frame is rendered.
+
+    Raises:
+        TypeError: naming the job that is no ``(frame number, file path)`` pair; a generator or a dict failed in
+            ``len()`` or unpacking ('cannot unpack non-iterable int object'), a text frame in a comparison.
+        ValueError: a file whose format :meth:`wrt.Image.save` cannot write, found only at the first frame's save.
+    """
+    from collections.abc import Mapping
+
+    from .image import check_image_path
+
+    if isinstance(jobs, (str, bytes, os.PathLike, Mapping)) or not hasattr(jobs, "__iter__"):
+        hint = " (a dict: list(jobs.items()))" if isinstance(jobs, Mapping) else ""
+        raise TypeError(f"render_frames: jobs must be a list of (frame, file) pairs, as pending_frames makes them"
+                        f"{hint}, got {type(jobs).__name__}")
+    checked = []
+    for k, job in enumerate(jobs):
+        if isinstance(job, (str, bytes)) or not hasattr(job, "__len__") or len(job) != 2:
+            raise TypeError(f"render_frames: jobs[{k}] must be a (frame, file) pair, as pending_frames makes them, "
+                            f"got {job!r}")
+        frame, file = job
+        if isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, float, np.integer, np.floating)):
+            raise TypeError(f"render_frames: jobs[{k}]: the frame must be a number (a time code), got "
+                            f"{type(frame).__name__} {frame!r}")
+        checked.append((frame, check_image_path(file)))
+    return checked
+
+
 def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, log=None,
                   log_row=None, **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
@@ -397,7 +426,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
 
     Args:
         path: the USD file.
-        jobs: ``(frame, file)`` pairs; the file suffix picks the format (``.png``, ``.exr``, ``.npy``).
+        jobs: ``(frame, file)`` pairs (a list or any iterable); the file suffix picks the format (``.png``,
+            ``.exr``, ``.npy``). A job that is no such pair, or a format that cannot be written, raises before any
+            frame is rendered (:func:`check_jobs`).
         devices: Warp devices to spread the frames over.
         spp: samples per pixel.
         seed: seed of every random decision (the same for every frame).
@@ -428,6 +459,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     for device in devices:  # a bad name failed only in a spawned worker, seconds later, under a started progress bar
         resolve_device(device)
     path = os.fspath(path)
+    jobs = check_jobs(jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     rows = LogRows(log, log_row)
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
@@ -687,6 +719,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
 
     check_exposure(exposure)
     path = os.fspath(path)
+    jobs = check_jobs(jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = LogRows(log, log_row)
