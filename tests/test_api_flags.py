@@ -172,6 +172,28 @@ def test_render_frames_checks_its_jobs_before_a_frame(shot, tmp_path, monkeypatc
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("run, option, match", [
+    # Each failed at the first frame's render, after its load: "Renderer.__init__() got an unexpected keyword argument
+    # 'widht'" naming neither the call nor the option meant, and device= as "got multiple values for keyword argument".
+    ("serial", dict(widht=4), r"render_frames has no option 'widht' \(did you mean 'width'\?\); options: devices,"),
+    ("serial", dict(device="cpu"), r"render_frames has no option 'device' \(did you mean 'devices'\?\)"),
+    ("dask", dict(devices=["cpu"]), r"render_frames_on_dask has no option 'devices'"),
+    ("frames", dict(tesselate_gprims=True), r"FrameRenderer has no option 'tesselate_gprims' \(did you mean "
+                                            r"'tessellate_gprims'\?\)"),
+])
+def test_frame_renderers_name_an_unknown_option_before_a_frame(shot, tmp_path, monkeypatch, run, option, match):
+    def no_load(*args, **kwargs):
+        raise AssertionError("a frame was loaded before the options were checked")
+
+    monkeypatch.setattr(animation, "warn_frames_outside_range", no_load)
+    calls = {"serial": lambda: animation.render_frames(shot, [(1.0, tmp_path / "f.npy")], **option),
+             "dask": lambda: animation.render_frames_on_dask(shot, [(1.0, tmp_path / "f.npy")], **option),
+             "frames": lambda: animation.FrameRenderer(shot, **option)}
+    with pytest.raises(TypeError, match=match):
+        calls[run]()
+    assert not list(tmp_path.iterdir())
+
+
 def test_render_frames_takes_jobs_from_a_generator(shot, tmp_path):
     """A generator of jobs failed in ``len()`` ('object of type 'generator' has no len()')."""
     rows = animation.render_frames(shot, ((f, tmp_path / f"f{f:g}.npy") for f in (1.0, 2.0)), width=4, height=3)

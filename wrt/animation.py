@@ -251,6 +251,27 @@ def follow(accel, scene, change: str) -> tuple[str, int]:
     return "refit", 0
 
 
+# The wrt.Renderer options a FrameRenderer passes on (its camera is its own, read at each frame's time), and its
+# own wrt.load_usd ones. The frames of render_frames take their device from its devices, not from an option.
+RENDERER_OPTIONS = ("width", "height", "device", "builder", "accel", "integrator", "max_depth", "ao_radius")
+LOAD_OPTIONS = ("camera", "tessellate_gprims", "refine_level", "variants", "render_settings")
+FRAME_OPTIONS = tuple(name for name in LOAD_OPTIONS + RENDERER_OPTIONS if name != "device")
+FRAMES_OWN = ("devices", "spp", "seed", "exposure", "progress", "log", "log_row")  # render_frames' named arguments
+DASK_OWN = ("address", "n_workers", "spp", "seed", "exposure", "progress", "log", "log_row", "task")  # on Dask
+
+
+def check_frame_options(options: dict, what: str, valid: tuple) -> None:
+    """Raises ``TypeError`` naming the first of ``options`` not in ``valid`` and the name meant: a typo
+    (``widht=8``) failed at the first frame's render, after its load, as 'Renderer.__init__() got an unexpected
+    keyword argument', and ``render_frames(device=...)`` as 'got multiple values for keyword argument'."""
+    from .errors import did_you_mean
+
+    unknown = [name for name in options if name not in valid]
+    if unknown:
+        raise TypeError(f"{what} has no option {unknown[0]!r}{did_you_mean(unknown[0], valid)}; options: "
+                        f"{', '.join(valid)}")
+
+
 class FrameRenderer:
     """Renders time samples of one stage, keeping the accelerator from frame to frame.
 
@@ -271,6 +292,7 @@ class FrameRenderer:
 
     def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, variants=None,
                  render_settings=None, **options):
+        check_frame_options(options, "FrameRenderer", LOAD_OPTIONS + RENDERER_OPTIONS)
         self.path = os.fspath(path)
         self.camera = camera
         self.load_options = {"tessellate_gprims": tessellate_gprims, "refine_level": refine_level,
@@ -458,6 +480,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                          f"{[devices or 'cpu']!r}, got {devices!r}")
     for device in devices:  # a bad name failed only in a spawned worker, seconds later, under a started progress bar
         resolve_device(device)
+    check_frame_options(options, "render_frames", FRAMES_OWN + FRAME_OPTIONS)
     path = os.fspath(path)
     jobs = check_jobs(jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
@@ -718,6 +741,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     from .image import check_exposure
 
     check_exposure(exposure)
+    check_frame_options(options, "render_frames_on_dask", DASK_OWN + FRAME_OPTIONS)
     path = os.fspath(path)
     jobs = check_jobs(jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
