@@ -1098,6 +1098,12 @@ def test_a_scene_and_its_meshes_print_as_counts(np_rng):
     uvs = np.zeros((2, 3, 2), np.float32)
     assert repr(Mesh("/m", ground.points, ground.indices, [0, 0], uvs=uvs, double_sided=True)) == (
         "Mesh('/m', 4 points, 2 triangles, uvs, double-sided)")
+    # Instances printed every transform and source path: 400 KB for 20,000 instanceable prims.
+    assert repr(scene.instances) == "Instances(5 instances of 2 prototypes, 1 source)"
+    many = wrt.Instances(np.zeros(20_000, np.int32), np.tile(np.eye(4), (20_000, 1, 1)), np.arange(20_000),
+                         np.full(20_000, -1), sources=[f"/World/Tree_{i}" for i in range(20_000)],
+                         colors=np.ones((20_000, 3)))
+    assert repr(many) == "Instances(20,000 instances of 1 prototype, 20,000 sources, colors)"
     # A prototype of one triangle printed as "Mesh('/World/PI/Protos/Tri', 3 points, 1 triangles)".
     one = Mesh("/one", ground.points[:1], np.zeros((1, 3), np.int32), [0])
     assert repr(one) == "Mesh('/one', 1 point, 1 triangle)"

@@ -304,6 +304,16 @@ class Instances(CountsAssignments):
     def __len__(self) -> int:
         return len(self.prototype)
 
+    def __repr__(self) -> str:
+        # The dataclass repr printed every source path (one per instanceable prim: 400 KB for 20,000 of them) and
+        # every transform; this says what it holds, as Scene and Mesh do.
+        from .wording import counted
+
+        held = [name for name in ("colors", "opacities", "roots", "elements") if len(getattr(self, name))]
+        return (f"Instances({counted(len(self), 'instance')} of "
+                f"{counted(len(np.unique(self.prototype)), 'prototype')}, {counted(len(self.sources), 'source')}"
+                f"{''.join(f', {name}' for name in held)})")
+
     def path(self, i: int) -> str:
         """A name for instance ``i``: its source prim path, plus ``[index]`` for a PointInstancer's instance."""
         name = self.source_path(i)
