@@ -5,6 +5,7 @@ import re
 
 import numpy as np
 import pytest
+import warp as wp
 
 import wrt
 import wrt.rays as rays
@@ -84,6 +85,32 @@ def _hits(scene):
     origins = np.array([[0.0, 3.0, 0.0]], np.float32)
     directions = np.array([[0.0, -1.0, 0.0]], np.float32)
     return origins, directions, wrt.trace(scene, origins, directions)
+
+
+def test_secondary_rays_take_rays_as_trace_does_and_name_a_mismatch(floor):
+    """Lists failed in numpy's words ('only integer scalar arrays can be converted'), rays of another count than the
+    hits as 'boolean index did not match', and ``hits.t`` given for the hits as an AttributeError on 'prim'."""
+    origins = np.array([[0.0, 3.0, 0.0], [1.0, 3.0, 1.0], [9.0, 3.0, 9.0]], np.float32)
+    directions = np.array([[0.0, -1.0, 0.0], [0.0, -2.0, 0.0], [0.0, -1.0, 0.0]], np.float32)
+    hits = wrt.trace(floor, origins, directions)
+    for kind in ("shadow", "diffuse"):
+        expected = rays.secondary_rays(floor, kind, origins, directions, hits, seed=3)
+        # The floor (y = 0) is hit below the two first origins; the third misses.
+        np.testing.assert_allclose(expected[0][:, [0, 2]], [[0.0, 0.0], [1.0, 1.0]])
+        assert np.all(expected[0][:, 1] > 0.0) and np.all(expected[0][:, 1] < 1e-3)
+        for given in ((origins.tolist(), directions.tolist()), (wp.array(origins, dtype=wp.vec3), directions)):
+            got = rays.secondary_rays(floor, kind, *given, hits, seed=3)
+            for a, b in zip(got, expected):
+                np.testing.assert_array_equal(a, b)
+    one = wrt.trace(floor, origins[0], directions)  # one origin for every direction, as trace takes it
+    got = rays.secondary_rays(floor, "shadow", origins[0], directions, one)
+    for a, b in zip(got, rays.secondary_rays(floor, "shadow", np.repeat(origins[:1], 3, axis=0), directions, one)):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match=r"secondary_rays: origins must be the \(N, 3\) rays the hits came from, "
+                                         r"N = 3; got shape \(2, 3\)"):
+        rays.secondary_rays(floor, "shadow", origins[:2], directions[:2], hits)
+    with pytest.raises(TypeError, match="secondary_rays: hits must be the Hits of wrt.trace"):
+        rays.secondary_rays(floor, "shadow", origins, directions, hits.t)
 
 
 def test_diffuse_rays_name_a_bad_seed(floor):

@@ -12,6 +12,7 @@ import warp as wp
 from .camera import generate_rays_kernel
 from .errors import did_you_mean, flag
 from .primitives import SHAPE_KINDS, shape_surface
+from .ray_batch import host_array
 from .render import check_sides, resolve_view
 from .scene import DistantLight, Scene
 
@@ -167,6 +168,30 @@ def shadow_target(scene: Scene) -> tuple[np.ndarray, str]:
     return to_light / np.linalg.norm(to_light), "default sun"
 
 
+def _traced_rays(origins, directions, hits) -> tuple[np.ndarray, np.ndarray]:
+    """``origins`` and ``directions`` as the float64 ``(N, 3)`` rays ``hits`` (:class:`wrt.Hits` of N rays) came from,
+    taken as :func:`wrt.trace` takes them (lists, ``wp.array``s; one ray for all of them). Lists failed in numpy's
+    words ('only integer scalar arrays can be converted'), rays of another count as 'boolean index did not match',
+    and ``hits.t`` given for the hits as "'numpy.ndarray' object has no attribute 'prim'"."""
+    if not all(hasattr(hits, name) for name in ("t", "prim", "local_prim", "instance")):
+        raise TypeError(f"secondary_rays: hits must be the Hits of wrt.trace(scene, origins, directions), got "
+                        f"{type(hits).__name__}")
+    n = len(hits.t)
+    rays = []
+    for name, values in (("origins", origins), ("directions", directions)):
+        array = np.asarray(host_array(name, values))
+        if array.dtype.kind not in "fiu":
+            raise ValueError(f"secondary_rays: {name} must hold real numbers, got dtype {array.dtype}")
+        array = array.astype(np.float64, copy=False)
+        if array.shape in ((3,), (1, 3)):
+            array = np.broadcast_to(array.reshape(1, 3), (n, 3))
+        if array.shape != (n, 3):
+            raise ValueError(f"secondary_rays: {name} must be the (N, 3) rays the hits came from, N = {n:,}; got "
+                             f"shape {array.shape}")
+        rays.append(array)
+    return rays[0], rays[1]
+
+
 def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int = 0):
     """Shadow rays (towards :func:`shadow_target`: the scene's first distant light, else :data:`DEFAULT_SUN` rotated
     to the up axis; other lights are not aimed at) or cosine-weighted diffuse bounce rays from the hits of a primary
@@ -175,6 +200,7 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
         raise ValueError(f"unknown secondary ray kind {kind!r}{did_you_mean(kind, ('shadow', 'diffuse'))}; valid: "
                          "shadow, diffuse")
     seed = check_count(0, seed)[1]
+    origins, directions = _traced_rays(origins, directions, hits)
     position, normal = _surface_points(scene, origins, directions, hits)
     if kind == "shadow":
         out = np.broadcast_to(shadow_target(scene)[0], position.shape)
