@@ -336,7 +336,8 @@ class Image:
               stays above the surface; 0 on a miss);
             - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera (0 on a miss);
             - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material (0 on a miss);
-            - ``"prim"`` int32 triangle id (-1 on a miss);
+            - ``"prim"`` int32 id of the triangle or analytic shape hit, as ``Hits.prim`` (a row of
+              ``Scene.triangles()``; a shape's id comes after them), -1 on a miss;
             - ``"instance"`` int32 index into ``Scene.instances``; -1 on a miss or on non-instanced geometry;
             - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss, for the default material and on
               mesh lights of ``noMaterialResponse``, whose surface has none);
