@@ -1430,3 +1430,27 @@ def test_a_near_plane_past_float32s_range_along_the_corner_rays_is_refused_namin
     expected = camera_rays(scene, plain, width=4, height=3, t_range=True)[2].astype(np.float64) * scale
     assert np.all(np.isfinite(t_min))
     np.testing.assert_allclose(t_min, expected, rtol=1e-6)
+
+
+def test_an_attribute_that_is_no_camera_field_is_refused_at_the_render():
+    """``cam.fov = 30`` (or ``fov_y_deg``, ``eye``) was kept by the dataclass and read by nothing: the image came from
+    the camera as it was, without a word; a kept Renderer drew it so too, and a batch named no camera."""
+    scene = quad_scene(-1.0, 1.0, -1.0, 1.0, 0.0)
+    cam = wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov_y_deg=40)
+    renderer = wrt.Renderer(scene, camera=cam, width=4, height=4, device="cpu")
+    renderer.render()
+    cam.fov = 30
+    with pytest.raises(ValueError, match=r"camera has no field 'fov' \(set as an attribute, it is read by nothing\); "
+                                         r"set one of to_world, focal_length, .*, or Camera.look_at\(eye, target, up, "
+                                         r"fov_y_deg\) for a field of view"):
+        renderer.render()
+    with pytest.raises(ValueError, match="camera has no field 'fov'"):
+        wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    del cam.fov
+    cam.focal_lenght = 35
+    with pytest.raises(ValueError, match=r"cameras\[1\] of 2: camera has no field 'focal_lenght' \(did you mean "
+                                         r"'focal_length'\?\)"):
+        wrt.render_batch(scene, [wrt.Camera.look_at((0, 0, 5), (0, 0, 0)), cam], 4, 4, device="cpu")
+    del cam.focal_lenght
+    np.testing.assert_array_equal(renderer.render().aovs["depth"],
+                                  wrt.render(scene, camera=cam, width=4, height=4, device="cpu").aovs["depth"])

@@ -227,6 +227,14 @@ class Camera:
         plain attributes, set after construction too (``wrt.procedural.ring_of_cameras`` shifts film offsets so),
         and a NaN written into ``to_world`` was reported as a singular transform ("a zero scale"), a NaN focal
         length or an inverted clipping range rendered background without a word."""
+        # A dataclass keeps any attribute: cam.fov = 30 (or eye, fov_y_deg, position) was kept and read by nothing.
+        unknown = [name for name in vars(self) if name not in CAMERA_FIELDS]
+        if unknown:
+            hint = (", or Camera.look_at(eye, target, up, fov_y_deg) for a field of view" if "fov" in unknown[0]
+                    else "")
+            raise ValueError(f"{self.label()} has no field {unknown[0]!r}{did_you_mean(unknown[0], CAMERA_FIELDS)} "
+                             f"(set as an attribute, it is read by nothing); set one of {', '.join(CAMERA_FIELDS)}"
+                             f"{hint}")
         path = prim_path(self.path, "wrt.Camera", optional=True)  # an int was kept, and named in messages
         if path is not self.path:
             self.path = path
@@ -331,6 +339,7 @@ class Camera:
         """Every field's value now, arrays as their bytes (an edit in place shows too), for telling whether the
         camera changed since (a kept :class:`wrt.Renderer` follows its cameras so)."""
         values = list(map(self.__dict__.get, CAMERA_FIELDS))
+        values.append(tuple(name for name in vars(self) if name not in CAMERA_FIELDS))  # for check() to refuse
         for k, v in enumerate(values):
             if type(v) not in IMMUTABLE_TYPES:  # an array (or list) as its bytes then, so later edits in place show
                 try:
