@@ -1441,8 +1441,8 @@ def test_an_attribute_that_is_no_camera_field_is_refused_at_the_render():
     renderer.render()
     cam.fov = 30
     with pytest.raises(ValueError, match=r"camera has no field 'fov' \(set as an attribute, it is read by nothing\); "
-                                         r"set one of to_world, focal_length, .*, or Camera.look_at\(eye, target, up, "
-                                         r"fov_y_deg\) for a field of view"):
+                                         r"its fields: to_world, focal_length, .*; for a field of view, "
+                                         r"Camera.look_at\(eye, target, up, fov_y_deg\)"):
         renderer.render()
     with pytest.raises(ValueError, match="camera has no field 'fov'"):
         wrt.render(scene, camera=cam, width=4, height=4, device="cpu")

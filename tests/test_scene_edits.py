@@ -628,3 +628,24 @@ def test_a_batch_edited_in_place_leaves_the_resumed_render_as_a_fresh_one():
         _, aovs = batch.numpy()
         for name in expected:
             np.testing.assert_array_equal(aovs[name], expected[name], err_msg=name)
+
+
+@pytest.mark.parametrize("edit, error, match", [
+    # Each was kept by its dataclass and read by nothing: the image came out as before, without a word.
+    (lambda s: setattr(s.materials[0], "diffuseColor", (0.1, 0.8, 0.1)), wrt.SceneError,
+     r"/Red: has no field 'diffuseColor' \(did you mean 'diffuse_color'\?\) \(set as an attribute, it is read by "
+     r"nothing\); its fields: path, diffuse_color,"),
+    (lambda s: setattr(s.meshes[0], "colours", np.ones((4, 3))), wrt.SceneError,
+     r"/Square: wrt.Mesh has no field 'colours' \(did you mean 'colors'\?\)"),
+    (lambda s: setattr(s.lights[0], "angel", 5.0), wrt.SceneError,
+     r"DistantLight has no field 'angel' \(did you mean 'angle'\?\)"),
+    (lambda s: s.shapes.append(Shape("/Ball", "sphere", np.eye(4))) or setattr(s.shapes[0], "radius", 2.0),
+     ValueError, r"shape /Ball: has no field 'radius'"),
+    (lambda s: setattr(s, "light", []), ValueError, r"scene has no field 'light' \(did you mean 'lights'\?\)"),
+])
+def test_an_attribute_that_is_no_field_is_refused_at_the_render(edit, error, match):
+    scene = red_square()
+    wrt.render(scene, **OPTIONS)
+    edit(scene)
+    with pytest.raises(error, match=match):
+        wrt.render(scene, **OPTIONS)

@@ -31,7 +31,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .errors import bottom_row_problem, did_you_mean, prim_path
+from .errors import bottom_row_problem, did_you_mean, prim_path, stray_field
 from .geometry import stable_length
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
@@ -227,14 +227,10 @@ class Camera:
         plain attributes, set after construction too (``wrt.procedural.ring_of_cameras`` shifts film offsets so),
         and a NaN written into ``to_world`` was reported as a singular transform ("a zero scale"), a NaN focal
         length or an inverted clipping range rendered background without a word."""
-        # A dataclass keeps any attribute: cam.fov = 30 (or eye, fov_y_deg, position) was kept and read by nothing.
-        unknown = [name for name in vars(self) if name not in CAMERA_FIELDS]
-        if unknown:
-            hint = (", or Camera.look_at(eye, target, up, fov_y_deg) for a field of view" if "fov" in unknown[0]
-                    else "")
-            raise ValueError(f"{self.label()} has no field {unknown[0]!r}{did_you_mean(unknown[0], CAMERA_FIELDS)} "
-                             f"(set as an attribute, it is read by nothing); set one of {', '.join(CAMERA_FIELDS)}"
-                             f"{hint}")
+        stray = stray_field(self)  # cam.fov = 30 (or eye, fov_y_deg, position): kept and read by nothing
+        if stray:
+            hint = "; for a field of view, Camera.look_at(eye, target, up, fov_y_deg)" if "'fov" in stray else ""
+            raise ValueError(f"{self.label()} {stray}{hint}")
         path = prim_path(self.path, "wrt.Camera", optional=True)  # an int was kept, and named in messages
         if path is not self.path:
             self.path = path

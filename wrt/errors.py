@@ -1,5 +1,6 @@
 """Errors that wrt raises for bad input, so callers can tell them from bugs, and the checks that raise them."""
 
+import dataclasses
 import difflib
 import os
 import sys
@@ -104,6 +105,18 @@ def did_you_mean(value, valid) -> str:
     if not close and len(key) >= 3:
         close = [n for n in names if n.startswith(key)][:2]
     return f" (did you mean {names[close[0]]!r}?)" if len(close) == 1 else ""
+
+
+def stray_field(obj, internal: tuple = ()) -> str:
+    """``""``, or words naming the first attribute of the dataclass ``obj`` that is none of its fields (nor private,
+    ``_name``, nor one of ``internal``) and the field meant: a dataclass keeps any attribute, so ``cam.fov = 30``,
+    ``material.diffuseColor = ...`` (USD's spelling) or ``mesh.colours = ...`` was kept and read by nothing."""
+    names = [f.name for f in dataclasses.fields(obj)]
+    stray = [name for name in vars(obj) if name not in names and name[:1] != "_" and name not in internal]
+    if not stray:
+        return ""
+    return (f"has no field {stray[0]!r}{did_you_mean(stray[0], names)} (set as an attribute, it is read by nothing); "
+            f"its fields: {', '.join(names)}")
 
 
 def prim_path(value, what: str, *, optional: bool = False) -> str:

@@ -66,7 +66,7 @@ import math
 import numpy as np
 
 from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angled, similar
-from .errors import SceneError, bottom_row_problem, check_fields, check_flags, prim_path, unit_vector
+from .errors import SceneError, bottom_row_problem, check_fields, check_flags, prim_path, stray_field, unit_vector
 from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .ray_batch import host_array
@@ -648,7 +648,8 @@ FOLDED_INPUTS = ("intensity", "exposure", "color_temperature", "enable_color_tem
 
 def check_folded_inputs(light) -> None:
     """Refuses a light given an attribute named after a UsdLux input that wrt folds into ``color``
-    (:data:`FOLDED_INPUTS`): a dataclass keeps any attribute, and the light shone on as before without a word.
+    (:data:`FOLDED_INPUTS`), or any other that is none of its fields (:func:`wrt.errors.stray_field`): a dataclass
+    keeps any attribute, and the light shone on as before without a word.
     Checked with the light's fields before a render (:func:`wrt.render.check_lights`), not at each assignment, which
     would slow every light's construction (the loader's too).
 
@@ -661,6 +662,9 @@ def check_folded_inputs(light) -> None:
             raise SceneError(f"{type(light).__name__} has no field {name}: its color is UsdLux's intensity * "
                              "2**exposure * color (times the blackbody colour of an enabled colorTemperature); set "
                              "color", prim=getattr(light, "path", "") or None)
+    stray = stray_field(light) if dataclasses.is_dataclass(light) else ""  # light.angle = 5 on a SphereLight, ...
+    if stray:
+        raise SceneError(f"{type(light).__name__} {stray}", prim=getattr(light, "path", "") or None)
 
 
 def _checked_texture(light) -> np.ndarray | None:

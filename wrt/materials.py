@@ -55,7 +55,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
-from .errors import SceneError, check_fields, did_you_mean, eight_bit_colors, flag, int32_problem
+from .errors import SceneError, check_fields, did_you_mean, eight_bit_colors, flag, int32_problem, stray_field
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     FILTER_CLOSEST,
@@ -318,6 +318,9 @@ class Material(CountsAssignments):
     textures: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
+        stray = stray_field(self)  # material.diffuseColor = (1, 0, 0), USD's spelling: kept and read by nothing
+        if stray:
+            raise SceneError(stray if self.path else f"Material {stray}", prim=self.path or None)
         _refuse_eight_bit(self)
         for name in ("diffuse_color", "emissive_color", "specular_color"):
             value = getattr(self, name)

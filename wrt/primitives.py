@@ -50,6 +50,7 @@ from .errors import (
     flag,
     int32_problem,
     prim_path,
+    stray_field,
     with_bottom_row,
 )
 from .floats import scaled_limit, unit_scales
@@ -485,6 +486,9 @@ class Shape(CountsAssignments):
         path = prim_path(self.path, f"wrt.Shape {self.kind!r}")
         if path is not self.path:
             self.path = path
+        stray = stray_field(self, internal=("draws_nothing", "warned"))  # shape.radius = 2: read by nothing
+        if stray:
+            raise ValueError(f"shape {self.path}: {stray}")
         if not (isinstance(self.kind, str) and self.kind in SHAPE_KINDS):  # a list failed as unhashable
             hint = did_you_mean(self.kind, SHAPE_KINDS) if isinstance(self.kind, str) else ""
             raise ValueError(f"shape {self.path}: unknown shape kind {self.kind!r}{hint}; valid kinds: "

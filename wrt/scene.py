@@ -232,11 +232,14 @@ class Mesh(CountsAssignments):
             SceneError: naming the mesh and the array.
         """
         from .bvh.common import triangle_arrays
-        from .errors import SceneError, eight_bit_colors, flag, prim_path
+        from .errors import SceneError, eight_bit_colors, flag, prim_path, stray_field
 
         if type(self.path) is not str:  # named by its size, the message made only when needed
             rows = [len(a) if hasattr(a, "__len__") else 0 for a in (self.points, self.indices)]  # (V, 3), (T, 3)
             self.path = prim_path(self.path, f"wrt.Mesh of {rows[0]} points and {rows[1]} triangles")
+        stray = stray_field(self)  # mesh.colours = ... or mesh.vertex_colors = ...: kept and read by nothing
+        if stray:
+            raise SceneError(f"wrt.Mesh {stray}", prim=self.path)
         if type(self.double_sided) is not bool:  # "no" was taken by its truth: double-sided
             self.double_sided = flag(self.double_sided, f"{self.path}: double_sided")
         if type(self.tessellated_gprim) is not bool:

@@ -31,7 +31,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.warp_mesh import WARP_BUILDERS
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
-from .errors import did_you_mean, user_stacklevel
+from .errors import did_you_mean, stray_field, user_stacklevel
 from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
@@ -518,6 +518,9 @@ def check_scene(scene) -> None:
     inside)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a wrt.Scene (from wrt.load_usd or built in Python), got {type(scene).__name__}")
+    stray = stray_field(scene)  # scene.light = [...] (for lights): kept and read by nothing
+    if stray:
+        raise ValueError(f"scene {stray}")
 
 
 def get_accelerator(
