@@ -107,14 +107,21 @@ def did_you_mean(value, valid) -> str:
     return f" (did you mean {names[close[0]]!r}?)" if len(close) == 1 else ""
 
 
+_FIELD_NAMES: dict = {}  # dataclass -> frozenset of its field names (stray_field)
+
+
 def stray_field(obj, internal: tuple = ()) -> str:
     """``""``, or words naming the first attribute of the dataclass ``obj`` that is none of its fields (nor private,
     ``_name``, nor one of ``internal``) and the field meant: a dataclass keeps any attribute, so ``cam.fov = 30``,
     ``material.diffuseColor = ...`` (USD's spelling) or ``mesh.colours = ...`` was kept and read by nothing."""
-    names = [f.name for f in dataclasses.fields(obj)]
-    stray = [name for name in vars(obj) if name not in names and name[:1] != "_" and name not in internal]
+    cls = type(obj)
+    if cls not in _FIELD_NAMES:  # once per class: a mesh is checked at every construction (the loader's too)
+        _FIELD_NAMES[cls] = frozenset(f.name for f in dataclasses.fields(cls))
+    known = _FIELD_NAMES[cls]
+    stray = [name for name in vars(obj) if name not in known and name[:1] != "_" and name not in internal]
     if not stray:
         return ""
+    names = [f.name for f in dataclasses.fields(cls)]
     return (f"has no field {stray[0]!r}{did_you_mean(stray[0], names)} (set as an attribute, it is read by nothing); "
             f"its fields: {', '.join(names)}")
 
