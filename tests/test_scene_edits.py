@@ -642,9 +642,14 @@ def test_a_batch_edited_in_place_leaves_the_resumed_render_as_a_fresh_one():
     (lambda s: s.shapes.append(Shape("/Ball", "sphere", np.eye(4))) or setattr(s.shapes[0], "radius", 2.0),
      ValueError, r"shape /Ball: has no field 'radius'"),
     (lambda s: setattr(s, "light", []), ValueError, r"scene has no field 'light' \(did you mean 'lights'\?\)"),
+    (lambda s: setattr(s.instances, "transforms", np.eye(4)[None]), ValueError,
+     r"Instances has no field 'transforms' \(set as an attribute, it is read by nothing\); its fields: prototype, "
+     r"to_world,"),
 ])
 def test_an_attribute_that_is_no_field_is_refused_at_the_render(edit, error, match):
     scene = red_square()
+    scene.prototypes.append(Prototype("/Proto", meshes=[square("/Proto/Square", offset=(0.0, 0.0, -3.0))]))
+    scene.instances = Instances.from_transforms([0], np.eye(4)[None])
     wrt.render(scene, **OPTIONS)
     edit(scene)
     with pytest.raises(error, match=match):

@@ -27,7 +27,7 @@ import re
 import numpy as np
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import int32_problem
+from .errors import int32_problem, stray_field
 from .ray_batch import host_array
 from .unique import sorted_unique
 
@@ -167,8 +167,11 @@ class Instances(CountsAssignments):
         object: the caches compare objects).
 
         Raises:
-            ValueError: naming the field.
+            ValueError: naming the field, or an attribute that is none (``instances.transforms = ...``).
         """
+        stray = stray_field(self)  # instances.transforms = poses: kept and read by nothing, the old poses drawn
+        if stray:
+            raise ValueError(f"Instances {stray}")
         for name, dtype, shape in (("prototype", np.int32, (-1,)), ("to_world", np.float64, (-1, 4, 4)),
                                    ("source", np.int32, (-1,)), ("index", np.int32, (-1,)), ("root", np.int32, (-1,)),
                                    ("elements", np.int32, (-1,))):
