@@ -654,3 +654,15 @@ def test_an_attribute_that_is_no_field_is_refused_at_the_render(edit, error, mat
     edit(scene)
     with pytest.raises(error, match=match):
         wrt.render(scene, **OPTIONS)
+
+
+def test_a_mesh_of_triangles_alone_takes_each_triangle_as_its_face():
+    """``face_ids`` is documented as optional (None: each triangle a face of its own), yet ``wrt.Mesh(path, points,
+    indices)`` raised "missing 1 required positional argument: 'face_ids'"."""
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]))
+    assert mesh.face_ids is None
+    np.testing.assert_array_equal(mesh.triangle_faces(), [0, 1])
+    scene = wrt.Scene(meshes=[mesh])
+    hits = wrt.trace(scene, [[0.5, -0.5, 1.0], [-0.5, 0.5, 1.0]], [0.0, 0.0, -1.0])
+    np.testing.assert_array_equal(hits.prim, [0, 1])  # (0.5, -0.5) lies in (0, 1, 2), (-0.5, 0.5) in (0, 2, 3)
+    np.testing.assert_array_equal(scene.hit_prims(hits.local_prim, hits.instance)[1], [0, 1])  # each its own face

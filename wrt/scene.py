@@ -207,7 +207,7 @@ class Mesh(CountsAssignments):
     path: str
     points: np.ndarray
     indices: np.ndarray
-    face_ids: np.ndarray
+    face_ids: np.ndarray | None = None  # documented as optional, yet wrt.Mesh(path, points, indices) was a TypeError
     normals: np.ndarray | None = None
     colors: np.ndarray | None = None
     double_sided: bool = False
