@@ -172,9 +172,16 @@ def test_t_max_is_exclusive_and_per_ray():
     # None means no limit, as the default does (it became NaN and every ray missed); NaN itself is refused.
     assert wrt.trace(scene, origins, directions, t_max=None).prim.tolist() == [0, 0, 0]
     assert wrt.occluded(scene, origins, directions, t_max=None).tolist() == [True] * 3
-    for t_max in (np.nan, [None] * 3, [4.0, np.nan, 6.0]):
+    for t_max in (np.nan, [4.0, np.nan, 6.0]):
         with pytest.raises(ValueError, match="t_max must not be NaN"):
             wrt.trace(scene, origins, directions, t_max=t_max)
+    # A None among per-ray values was refused as "t_max must not be NaN ...; use inf (or None) for no limit".
+    for t_max, row in (([None] * 3, 0), ([4.0, None, 6.0], 1), ([None], 0), (np.array([4.0, 5.0, None]), 2)):
+        with pytest.raises(ValueError, match=rf"t_max\[{row}\] is None: one value per ray takes numbers only \(None "
+                                             r"stands for the whole argument, the default\); give inf for no limit"):
+            wrt.trace(scene, origins, directions, t_max=t_max)
+    with pytest.raises(ValueError, match=r"t_min\[1\] is None: .*; give 0 there"):
+        wrt.occluded(scene, origins, directions, t_min=[0.0, None, 0.0])
 
 
 @pytest.mark.parametrize("accel", ["wrt", "warp"])

@@ -170,6 +170,14 @@ def _shape(rays) -> tuple:
     return (len(rays), 3) if isinstance(rays, wp.array) else rays.shape
 
 
+def _is_none_at(values, row: int) -> bool:
+    """Whether the per-ray limit ``row`` of ``values`` as given (a list, an object array) is None."""
+    if not isinstance(values, (list, tuple, np.ndarray)) or (isinstance(values, np.ndarray) and values.dtype != object):
+        return False
+    flat = np.asarray(values, dtype=object).reshape(-1)
+    return row < len(flat) and flat[row] is None
+
+
 def _limits(name: str, values, default: float, n: int) -> np.ndarray:
     """``t_min`` or ``t_max``: a scalar or one value per ray, never NaN; ``None`` is the default.
 
@@ -188,6 +196,10 @@ def _limits(name: str, values, default: float, n: int) -> np.ndarray:
                          f"got shape {given}")
     nan = np.flatnonzero(np.isnan(limits))
     if len(nan):  # every ray would miss without a word (a list [None] converts to NaN)
+        row = int(nan[0]) if limits.ndim else 0
+        if _is_none_at(values, row):  # it said "must not be NaN; use inf (or None) for no limit" of [None, 4]
+            raise ValueError(f"{name}[{row}] is None: one value per ray takes numbers only (None stands for the "
+                             f"whole argument, the default); give {'inf for no limit' if default > 0 else '0'} there")
         where = f" (ray {nan[0]} is the first of {len(nan)})" if limits.ndim else ""
         raise ValueError(f"{name} must not be NaN{where}" + ("; use inf (or None) for no limit" if default > 0 else ""))
     return np.broadcast_to(limits, (n,)).copy()
