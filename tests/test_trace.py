@@ -1384,3 +1384,16 @@ def test_occluded_agrees_with_trace_on_intervals_ending_at_hits(accel, builder):
         assert np.all(hits.t[hits.hit] >= lo[hits.hit]) and np.all(hits.t[hits.hit] < hi[hits.hit])
         blocked = wrt.occluded(scene, o, d, t_min=t_min, t_max=t_max, accel=accel, builder=builder)
         np.testing.assert_array_equal(blocked, hits.hit)
+
+
+def test_hits_compare_by_their_arrays():
+    """``hits == again`` and ``hits in results`` raised numpy's 'truth value of an array ... is ambiguous'."""
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins, directions = [[0.2, 0.2, 1.0], [0.2, 0.2, -1.0], [5.0, 5.0, 1.0]], [0.0, 0.0, -1.0]
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.t, [1.0, np.inf, np.inf])  # the plane z = 0 is 1 below the first origin only
+    again = wrt.trace(scene, origins, directions)
+    assert hits == again and not hits != again and hits in [again]
+    fewer = wrt.trace(scene, origins, directions, t_max=0.5)  # the one hit is past t_max
+    assert hits != fewer and hits not in [fewer] and fewer.t.tolist() == [np.inf] * 3
+    assert hits != wrt.trace(scene, origins[:2], directions) and hits != "hits"

@@ -603,6 +603,16 @@ class Hits:
         if self.local_prim is None:
             self.local_prim = np.asarray(self.prim, np.int32).copy()
 
+    def __eq__(self, other) -> bool:
+        """Whether ``other`` holds the same hits: every array equal, costs included (``np.array_equal``). The
+        dataclass compared the arrays with numpy's ``==``, whose answer has no truth value: ``hits == again`` and
+        ``hits in results`` raised ValueError."""
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in dataclasses.fields(self))
+
+    __hash__ = None  # equal by value, and its arrays are mutable
+
     @property
     def hit(self) -> np.ndarray:
         """bool mask of rays that hit."""
