@@ -1454,3 +1454,13 @@ def test_an_attribute_that_is_no_camera_field_is_refused_at_the_render():
     del cam.focal_lenght
     np.testing.assert_array_equal(renderer.render().aovs["depth"],
                                   wrt.render(scene, camera=cam, width=4, height=4, device="cpu").aovs["depth"])
+
+
+def test_cameras_compare_by_their_fields():
+    """``cam == other`` and ``cam in cameras`` raised numpy's 'truth value of an array ... is ambiguous'."""
+    cam = wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=40)
+    same = wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=40)
+    assert cam == same and cam in [wrt.Camera(), same] and not cam != same
+    assert cam != wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=41) and cam != "camera"
+    same.to_world[0, 3] += 1.0  # an edit in place
+    assert cam != same

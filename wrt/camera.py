@@ -331,6 +331,16 @@ class Camera:
             )
         self.clipping_planes = planes
 
+    def __eq__(self, other) -> bool:
+        """Whether ``other`` is a camera of the same field values (:meth:`snapshot`). The dataclass compared
+        ``to_world`` with numpy's ``==``, whose answer has no truth value: ``cam == other`` and ``cam in cameras``
+        raised ValueError."""
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self.snapshot() == other.snapshot()
+
+    __hash__ = None  # equal by value, and its fields are set after construction
+
     def snapshot(self) -> tuple:
         """Every field's value now, arrays as their bytes (an edit in place shows too), for telling whether the
         camera changed since (a kept :class:`wrt.Renderer` follows its cameras so)."""
