@@ -100,3 +100,64 @@ def test_lights_past_the_budget_are_drawn_spread_over_the_scene():
     drawn = np.unique(glyphs.cell_data["light"])
     assert len(drawn) == 10 and "10 drawn, 990 left out" in note, note
     assert glyphs.bounds[0] <= xs.min() + 1e-6 and glyphs.bounds[1] >= xs.max() - 1e-6, (glyphs.bounds, xs[-1])
+
+
+def reference_spread_rows(centres, budget: int) -> np.ndarray:
+    """spread_rows' definition in plain Python sets: the rows furthest along each axis, then an even stride through the
+    others (row k of m others taken at (k (m - 1)) // (budget - 1), as even_rows takes them)."""
+    centres = np.asarray(centres, np.float64)
+    total = len(centres)
+    if budget >= total:
+        return list(range(total))
+    if budget <= 0:
+        return []
+    extremes = sorted({int(r) for r in list(centres.argmin(axis=0)) + list(centres.argmax(axis=0))})
+    if len(extremes) >= budget:
+        return sorted(extremes[:budget])
+    rest = [r for r in range(total) if r not in set(extremes)]
+    left = budget - len(extremes)
+    taken = [0] if left == 1 else [k * (len(rest) - 1) // (left - 1) for k in range(left)]
+    return sorted(extremes + [rest[k] for k in taken])
+
+
+@pytest.mark.parametrize("total", [1, 2, 7, 50, 1000])
+def test_spread_rows_matches_its_definition(total):
+    """Every budget from 0 to past the count, on random places and on places whose extremes fall on the first and
+    last rows and next to each other: the rows are those of the definition in plain Python."""
+    from wrt.preview_subsets import spread_rows
+
+    rng = np.random.default_rng(total)
+    grid = np.zeros((total, 3))
+    grid[:, 0] = np.arange(total)
+    grid[:, 1] = np.arange(total) % 3
+    for centres in (rng.normal(size=(total, 3)), grid):
+        for budget in sorted({0, 1, 2, 3, 5, 6, 7, total // 2, total - 1, total, total + 3}):
+            got = spread_rows(centres, budget)
+            assert got.dtype == np.int64
+            assert got.tolist() == reference_spread_rows(centres, budget), (total, budget)
+
+
+def test_rows_within_a_million_instances_does_no_set_operation_over_all_of_them(monkeypatch):
+    """A preview of a million-instance PointInstancer past its budget spent over a minute in rows_within: each of its
+    twenty bisection steps ran np.setdiff1d and np.union1d over all million rows (a hash of a million ints each).
+    The subset it picks is the definition's, found without them."""
+    from wrt.preview_subsets import rows_within
+
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(0.0, 100.0, (1_000_000, 3))
+    sizes = np.full(len(centres), 12, np.int64)
+
+    def refused(*args, **kwargs):
+        raise AssertionError("a set operation over every instance")
+
+    monkeypatch.setattr(np, "setdiff1d", refused)
+    monkeypatch.setattr(np, "union1d", refused)
+    rows = rows_within(centres, sizes, 0, 12 * 1000)
+    monkeypatch.undo()
+    assert len(rows) == 1000
+    extremes = set(np.concatenate([centres.argmin(axis=0), centres.argmax(axis=0)]).tolist())
+    assert extremes <= set(rows.tolist())
+    rest = np.setdiff1d(np.arange(len(centres)), list(extremes))
+    expected = np.union1d(list(extremes), rest[np.arange(1000 - len(extremes)) * (len(rest) - 1)
+                                                // (1000 - len(extremes) - 1)])
+    assert rows.tolist() == expected.tolist()
