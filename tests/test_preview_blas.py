@@ -4,6 +4,7 @@ node boxes of the accelerator the renderer traces, their eight corners moved by 
 numpy."""
 
 import itertools
+import sys
 
 import numpy as np
 import pytest
@@ -143,4 +144,48 @@ def test_cli_bad_bvh_instances_are_refused_naming_the_flag(tmp_path, capsys, mon
         assert main(["preview", path, "--bvh-leaves", "--bvh-instance", which, "-o", "x.png", "-q"]) == 2
         errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
         assert len(errors) == 1 and needle in errors[0] and "bvh_" not in errors[0], errors
+    assert not (tmp_path / "x.png").exists()
+
+
+MIXED_USDA = """#usda 1.0
+def PointInstancer "PI" {
+    point3f[] positions = [(0, 0, 0), (3, 0, 0), (6, 0, 0)]
+    int[] protoIndices = [1, 0, 1]
+    rel prototypes = [</PI/Protos/Tri>, </PI/Protos/Ball>]
+    def Scope "Protos" {
+        def Mesh "Tri" {
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        }
+        def Sphere "Ball" {
+        }
+    }
+}
+"""
+
+
+def test_an_instance_without_a_blas_is_refused_first_naming_the_option_and_one_that_has_one(tmp_path, capsys,
+                                                                                        monkeypatch):
+    """/PI[0] is a Sphere gprim's instance (USD's protoIndices): an analytic shape, a TLAS entry with no BLAS. It was
+    refused only after the scene, the rays and the whole TLAS were drawn and built, in words that named neither
+    ``--bvh-instance`` nor an instance that has a BLAS. Now it is refused up front, naming the option and /PI[1], the
+    instance of the triangle mesh, as one to give."""
+    from pxr import Usd, UsdGeom
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mixed.usda").write_text(MIXED_USDA)
+    stage = Usd.Stage.Open(str(tmp_path / "mixed.usda"))
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    targets = pi.GetPrototypesRel().GetTargets()
+    kinds = [stage.GetPrimAtPath(targets[k]).GetTypeName() for k in pi.GetProtoIndicesAttr().Get()]
+    assert kinds == ["Sphere", "Mesh", "Sphere"]
+    scene = wrt.load_usd(tmp_path / "mixed.usda")
+    preview_module = sys.modules["wrt.preview"]
+    monkeypatch.setattr(preview_module, "get_accelerator", lambda *a, **k: pytest.fail("built the accelerator first"))
+    with pytest.raises(ValueError, match=r"bvh_instance='/PI\[0\]'.*no BLAS.*such as '/PI\[1\]'"):
+        wrt.preview(scene, bvh_leaves=True, bvh_instance="/PI[0]", window_size=(32, 24))
+    assert main(["preview", "mixed.usda", "--bvh-depth", "1", "--bvh-instance", "2", "-o", "x.png", "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "--bvh-instance 2" in errors[0] and "'/PI[1]'" in errors[0], errors
     assert not (tmp_path / "x.png").exists()

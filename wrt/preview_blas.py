@@ -31,7 +31,8 @@ def instance_row(scene, instance, names: dict = PYTHON_NAMES) -> int:
 
     Raises:
         ValueError: no such instance, a path that several instances share (those of a PointInstancer nested in
-            another's prototype), or the scene has none.
+            another's prototype), an instance with no BLAS (of a prototype without triangles, or a transform that
+            cannot be inverted), or the scene has none.
     """
     instances = scene.instances
     choice = names["choice"].format(instance)
@@ -41,11 +42,11 @@ def instance_row(scene, instance, names: dict = PYTHON_NAMES) -> int:
     if isinstance(instance, (int, np.integer)) and not isinstance(instance, bool):
         if not 0 <= instance < len(instances):
             raise ValueError(f"{choice}: the scene has {len(instances):,} instances, 0 to {len(instances) - 1:,}")
-        return int(instance)
+        return _with_blas(scene, int(instance), choice, names)
     if isinstance(instance, str):
         rows = instances.rows_named(instance).tolist()
         if len(rows) == 1:
-            return rows[0]
+            return _with_blas(scene, rows[0], choice, names)
         if rows:  # a nested PointInstancer's instances go by the outer instance's path: the first was taken unsaid
             shown = ", ".join(map(str, rows[:6])) + (", ..." if len(rows) > 6 else "")
             raise ValueError(f"{choice} names {len(rows):,} instances ({shown}): give one's index")
@@ -54,6 +55,25 @@ def instance_row(scene, instance, names: dict = PYTHON_NAMES) -> int:
         raise ValueError(f"{choice} names no instance{hint}; give an index 0 to {len(instances) - 1:,} or a path "
                          f"such as {instances.path(0)!r}")
     raise ValueError(f"{choice}: give an instance index or path, got {type(instance).__name__}")
+
+
+def _with_blas(scene, row: int, choice: str, names: dict) -> int:
+    """``row``, where instance ``row`` is traced in a BLAS (its prototype holds triangles and its transform inverts);
+    else ValueError naming ``choice`` and an instance that has one. :func:`instance_blas` found out only after the
+    scene was drawn and the whole accelerator built, in words that named no option."""
+    instances = scene.instances
+    with_triangles = scene.prototype_ranges()[:, 1] > 0
+    traced = scene.instance_inverses()[1]
+    if with_triangles[instances.prototype[row]] and traced[row]:
+        return row
+    prototype = scene.prototypes[instances.prototype[row]].path
+    why = ("has a transform that cannot be inverted: it is left out of the trace" if with_triangles[
+        instances.prototype[row]] else f"is of prototype {prototype}, which holds no triangles (analytic shapes are "
+        "TLAS entries of their own, drawn by the TLAS boxes)")
+    others = np.flatnonzero(with_triangles[instances.prototype] & traced)
+    hint = (f"give one of the {len(others):,} that have one, such as {instances.path(int(others[0]))!r} (index "
+            f"{int(others[0])})" if len(others) else f"no instance has one: draw the TLAS with {names['boxes']} alone")
+    raise ValueError(f"{choice}: instance {row} ({instances.path(row)}) {why}, and has no BLAS; {hint}")
 
 
 def instance_blas(accel, scene, row: int) -> tuple[FlatBvh, np.ndarray]:
