@@ -45,3 +45,28 @@ def test_a_camera_too_far_for_float32_is_named_once_with_rays_and_the_image():
     card = quad((1e6, 1e6, 1e6), (1, 0, 0), (0, 1, 0.5), name="/card")
     said = previewed_warnings(wrt.Scene(meshes=[card]), 40, 30, rays=40 * 30, image=True)
     assert len([m for m in said if "float32 resolves distances" in m]) == 1, said
+
+
+@pytest.mark.parametrize("options", [{"bvh_depth": 3}, {"bvh_leaves": True}], ids=["depth3", "leaves"])
+def test_the_bvh_of_a_stage_with_nothing_to_draw_is_said_to_be_empty_not_drawn_as_leaves(tmp_path, options):
+    """A stage with no gprims (USD's own traversal finds none): its BVH has no triangles and no box. With
+    bvh_depth 3 the preview warned that the depth was past the deepest leaf and 'the boxes drawn are its leaves', and
+    the summary said 'the leaves, 0 boxes'; it says the tree is empty, with no boxes drawn, and warns of nothing but
+    the empty view."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "empty.usda"))
+    UsdGeom.Xform.Define(stage, "/World")
+    stage.Save()
+    opened = Usd.Stage.Open(str(tmp_path / "empty.usda"))
+    assert not [p for p in opened.Traverse() if p.IsA(UsdGeom.Gprim)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plotter = wrt.preview(str(tmp_path / "empty.usda"), window_size=(320, 240), **options)
+    said = [str(w.message) for w in caught]
+    assert len(said) == 1 and "nothing to draw" in said[0], said
+    text = plotter.actors["summary"].GetText(2).replace("\n  ", " ")
+    plotter.close()
+    assert "bvh" not in plotter.actors
+    line = next(line for line in text.splitlines() if line.startswith("BVH"))
+    assert "empty" in line and "no boxes" in line and "leaves" not in line, line

@@ -1000,6 +1000,8 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_wi
     returns a summary for the text and a note for the title when only a subset of the boxes is drawn (else ``""``)."""
     from matplotlib.colors import LinearSegmentedColormap
 
+    if not bvh.num_prims:  # a scene with nothing to draw: 'past the deepest leaf ... the leaves, 0 boxes' said before
+        return f"{counted(bvh.num_nodes, 'node')}: empty (no triangles or analytic shapes), no boxes", ""
     nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
     boxes = bvh_boxes(bvh, nodes, color, max_boxes)
     shown = boxes.n_cells // 12
