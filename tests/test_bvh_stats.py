@@ -52,6 +52,20 @@ def test_epo_is_zero_without_overlap_and_positive_with_it():
     assert stats["epo"] == pytest.approx(0.125 / 8.125, abs=4 * stats["epo_stderr"] + 1e-3)
 
 
+@pytest.mark.parametrize("offset", [0.0, 1e6])
+def test_epo_of_boxes_that_only_touch_is_zero_far_from_the_origin(offset):
+    # A row of right triangles, one per unit cell [k, k + 1] x [0, 1]: leaf boxes touch only along lines, which hold
+    # no area, so EPO is exactly 0. At x = 1e6 float32 steps by 1/16 and samples rounded to it fell on the shared
+    # faces about one time in 32, counted in the neighbour's box too (EPO 0.1).
+    k = np.arange(16.0)[:, None] * np.float64([1, 0, 0]) + np.float64([offset, 0, 0])
+    corners = np.stack([k, k + [1, 0, 0], k + [0, 1, 0]], 1)
+    points = corners.reshape(-1, 3).astype(np.float32)
+    assert np.array_equal(points.astype(np.float64), corners.reshape(-1, 3))  # exact in float32: the oracle holds
+    for builder in ("sah", "median", "lbvh"):
+        stats = build_bvh(points, np.arange(48, dtype=np.int32).reshape(-1, 3), builder, leaf_size=1).stats()
+        assert stats["leaves"] == 16 and stats["epo"] == pytest.approx(0.0, abs=1e-6), builder
+
+
 def test_stats_are_consistent(np_rng):
     n = 2000
     centers = np_rng.uniform(-1, 1, (n, 1, 3))

@@ -33,20 +33,23 @@ NODE_BYTES = 32  # canonical node: lower (12) + upper (12) + left_first (4) + pr
 
 @wp.kernel
 def epo_samples_kernel(
-    lowers: wp.array[wp.vec3],
-    uppers: wp.array[wp.vec3],
+    lowers: wp.array[wp.vec3d],
+    uppers: wp.array[wp.vec3d],
     left_first: wp.array[wp.int32],
     prim_count: wp.array[wp.int32],
     range_lo: wp.array[wp.int32],
     range_hi: wp.array[wp.int32],
     node_cost: wp.array[float],
-    points: wp.array[wp.vec3],
+    points: wp.array[wp.vec3d],
     slots: wp.array[wp.int32],
     # outputs
     sums: wp.array[float],
 ):
     """For sample ``i`` at ``points[i]`` on the triangle in slot ``slots[i]``: the summed cost of the nodes whose
-    (closed) boxes contain the point but whose subtrees do not hold that triangle."""
+    (closed) boxes contain the point but whose subtrees do not hold that triangle.
+
+    Points and boxes are float64: a point rounded to float32 far from the origin (1e6, where float32 steps by 1/16)
+    lands on box faces, shared by touching boxes, a measurable part of the time, and was counted in both."""
     i = wp.tid()
     p = points[i]
     s = slots[i]
@@ -54,7 +57,7 @@ def epo_samples_kernel(
     top = int(0)
     total = float(0.0)
     node = int(-1)
-    if wp.min(p - lowers[0]) >= 0.0 and wp.min(uppers[0] - p) >= 0.0:
+    if wp.min(p - lowers[0]) >= wp.float64(0.0) and wp.min(uppers[0] - p) >= wp.float64(0.0):
         node = 0
     while node >= 0:
         if s < range_lo[node] or s >= range_hi[node]:
@@ -64,7 +67,7 @@ def epo_samples_kernel(
             # Visit every child whose box holds the point: go to the first, push the second.
             for j in range(2):
                 c = left_first[node] + j
-                if wp.min(p - lowers[c]) >= 0.0 and wp.min(uppers[c] - p) >= 0.0:
+                if wp.min(p - lowers[c]) >= wp.float64(0.0) and wp.min(uppers[c] - p) >= wp.float64(0.0):
                     if next_node < 0:
                         next_node = c
                     else:
@@ -142,9 +145,9 @@ def epo(
     r1, r2 = rng.random(samples), rng.random(samples)
     su = np.sqrt(r1)
     w = np.stack([1.0 - su, su * (1.0 - r2), su * r2], 1)
-    sample_points = np.einsum("sk,skd->sd", w, tri[ids]).astype(np.float32)
+    sample_points = np.einsum("sk,skd->sd", w, tri[ids])  # float64, see epo_samples_kernel
     # Clamp onto the triangle's box, which float rounding of the interpolation might leave.
-    sample_points = np.clip(sample_points, points[indices[ids]].min(1), points[indices[ids]].max(1))
+    sample_points = np.clip(sample_points, tri[ids].min(1), tri[ids].max(1))
     slot_of = np.empty(bvh.num_prims, np.int32)
     slot_of[bvh.prim_ids] = np.arange(bvh.num_prims, dtype=np.int32)
     lo, hi = subtree_ranges(bvh)
@@ -158,14 +161,14 @@ def epo(
         epo_samples_kernel,
         samples,
         inputs=[
-            wp.array(bvh.lowers, dtype=wp.vec3, device=dev),
-            wp.array(bvh.uppers, dtype=wp.vec3, device=dev),
+            wp.array(bvh.lowers.astype(np.float64), dtype=wp.vec3d, device=dev),  # exact: float32 values
+            wp.array(bvh.uppers.astype(np.float64), dtype=wp.vec3d, device=dev),
             wp.array(bvh.left_first, dtype=wp.int32, device=dev),
             wp.array(bvh.prim_count, dtype=wp.int32, device=dev),
             wp.array(lo.astype(np.int32), dtype=wp.int32, device=dev),
             wp.array(hi.astype(np.int32), dtype=wp.int32, device=dev),
             wp.array(node_cost, dtype=float, device=dev),
-            wp.array(sample_points, dtype=wp.vec3, device=dev),
+            wp.array(sample_points, dtype=wp.vec3d, device=dev),
             wp.array(slot_of[ids], dtype=wp.int32, device=dev),
         ],
         outputs=[sums],
