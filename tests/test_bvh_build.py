@@ -184,6 +184,67 @@ def test_validate_catches_a_broken_tree(np_rng):
         bvh.validate()
 
 
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_validate_names_the_node_a_corruption_breaks(builder, np_rng):
+    points, indices = soup(np_rng, 40)
+    leaves = lambda t: np.flatnonzero(t.prim_count > 0)  # noqa: E731
+    # A leaf box pulled off its triangles (its parent's still holds them): rays at those triangles miss.
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    leaf = leaves(bvh)[1]
+    corners = points[indices[bvh.prim_ids[bvh.left_first[leaf]]]]
+    bvh.uppers[leaf] = corners.max(0) - np.float32(0.5) * (corners.max(0) - corners.min(0))
+    with pytest.raises(AssertionError, match=rf"^leaf {leaf}: box does not hold its triangles"):
+        bvh.validate()
+    # An inverted leaf box lies inside its parent's box and holds nothing.
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    bvh.lowers[leaf], bvh.uppers[leaf] = bvh.uppers[leaf].copy(), bvh.lowers[leaf].copy()
+    with pytest.raises(AssertionError, match=rf"^leaf {leaf}: box does not hold"):
+        bvh.validate()
+    # A child box grown past its parent's.
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    child = bvh.left_first[np.flatnonzero(bvh.prim_count == 0)[-1]] + 1
+    bvh.uppers[child] += np.float32(1.0)
+    with pytest.raises(AssertionError, match=rf"^node {child}: child box above its parent's"):
+        bvh.validate()
+    # A leaf whose slot range runs past the slots.
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    bvh.prim_count[leaf] += 40
+    with pytest.raises(AssertionError, match=rf"^leaf {leaf}: slot range out of range"):
+        bvh.validate()
+    # A triangle in two slots (and another in none).
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    bvh.prim_ids[7] = bvh.prim_ids[3]
+    with pytest.raises(AssertionError, match=rf"triangle {bvh.prim_ids[3]} is in slots \[3, 7\]"):
+        bvh.validate()
+    # Arrays of different lengths are named, not an IndexError.
+    bvh = build_bvh(points, indices, builder, leaf_size=2)
+    bvh.uppers = bvh.uppers[:-1]
+    with pytest.raises(AssertionError, match="uppers has shape"):
+        bvh.validate()
+
+
+def test_validate_still_checks_under_python_dash_o(tmp_path):
+    # ``assert`` statements vanish under ``python -O``: validate() passed every corrupted tree there.
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = tmp_path / "corrupt.py"
+    script.write_text(
+        "import numpy as np\nfrom wrt.bvh import build_bvh\n"
+        "p = np.random.default_rng(1).random((30, 3)).astype(np.float32)\n"
+        "bvh = build_bvh(p, np.arange(30, dtype=np.int32).reshape(-1, 3), leaf_size=1)\n"
+        "bvh.prim_ids[1] = bvh.prim_ids[0]\n"
+        "try:\n    bvh.validate()\nexcept AssertionError as e:\n    print('caught:', e)\n"
+    )
+    root = str(Path(wrt.__file__).resolve().parents[1])  # the script's folder is no place to import wrt from
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    out = subprocess.run([sys.executable, "-O", str(script)], capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert "caught: prim_ids is not a permutation" in out.stdout
+
+
 def degenerate_cases():
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
     rng = np.random.default_rng(5)

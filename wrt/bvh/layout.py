@@ -163,46 +163,79 @@ class FlatBvh:
         return depth
 
     def validate(self, max_depth: int | None = None) -> None:
-        """Checks the structural invariants; raises ``AssertionError`` naming the first one broken.
+        """Checks the structural invariants; raises ``AssertionError`` naming the first one broken and the first node
+        (or slot) that breaks it. The checks are explicit raises, not ``assert`` statements, so they also run under
+        ``python -O`` (which strips those and let every corrupted tree through).
 
         Every slot sits in exactly one leaf, every triangle in at least one slot (exactly one unless the tree was
         built with pre-splits, ``presplit.py``), every node is reached exactly once, child boxes lie inside their
-        parent's, no inner node is empty, and no leaf is deeper than ``max_depth - 1`` (the traversal stack).
+        parent's, no inner node is empty, no leaf is deeper than ``max_depth - 1`` (the traversal stack), and, where
+        the tree holds the triangles it was built over, every leaf box holds its triangles' boxes (meets them, for a
+        tree built with pre-splits, whose slots hold pieces of triangles).
         """
         from .common import MAX_DEPTH
 
         max_depth = MAX_DEPTH if max_depth is None else max_depth
         m, n = self.num_nodes, self.num_prims
+        for name in ("lowers", "uppers"):
+            _require(np.shape(getattr(self, name)) == (m, 3), f"{name} has shape {np.shape(getattr(self, name))}, "
+                     f"not ({m}, 3) for {m} nodes")
+        _require(np.shape(self.prim_count) == (m,), f"prim_count has {np.size(self.prim_count)} entries for {m} nodes")
         if n == 0:
-            assert m == 1 and self.prim_count[0] == 0, "an empty tree has exactly one empty root"
+            _require(m == 1 and self.prim_count[0] == 0, "an empty tree has exactly one empty root")
             return
+        _require_each(self.prim_count >= 0, "node", "negative prim_count")
         leaf = self.prim_count > 0
         inner = ~leaf
-        assert np.all(self.prim_count >= 0), "negative prim_count"
+        parents = np.flatnonzero(inner)
         children = self.left_first[inner]
-        assert np.all((children >= 1) & (children + 1 < m)), "child index out of range"
+        _require_each((children >= 1) & (children + 1 < m), "node", "child index out of range", parents)
         reached = np.zeros(m, np.int64)
         reached[0] += 1
         np.add.at(reached, children, 1)
         np.add.at(reached, children + 1, 1)
-        assert np.all(reached == 1), f"{np.count_nonzero(reached != 1)} nodes are not reached exactly once"
+        _require(np.all(reached == 1), f"{np.count_nonzero(reached != 1)} nodes are not reached exactly once "
+                 f"(first: node {np.flatnonzero(reached != 1)[0] if np.any(reached != 1) else 0})")
         first, count = self.left_first[leaf], self.prim_count[leaf]
-        assert np.all(first >= 0) and np.all(first + count <= n), "leaf slot range out of range"
+        _require_each((first >= 0) & (first + count <= n), "leaf", f"slot range out of range (slots: {n})",
+                      np.flatnonzero(leaf))
         covered = np.zeros(n, np.int64)
         np.add.at(covered, np.repeat(first, count) + _ranges(count), 1)
-        assert np.all(covered == 1), "leaf slot ranges do not cover every slot exactly once"
+        _require_each(covered == 1, "slot", "not in exactly one leaf's slot range")
         triangles = self.num_triangles
         if n == triangles:
-            assert np.array_equal(np.sort(self.prim_ids), np.arange(n)), "prim_ids is not a permutation"
+            _require_each((self.prim_ids >= 0) & (self.prim_ids < n), "slot", f"prim_ids out of range ({n} triangles)")
+            slots_of = np.bincount(self.prim_ids, minlength=n)
+            twice = np.flatnonzero(slots_of > 1)
+            _require(len(twice) == 0, f"prim_ids is not a permutation: triangle {twice[0] if len(twice) else 0} is in "
+                     f"slots {np.flatnonzero(self.prim_ids == (twice[0] if len(twice) else 0)).tolist()}")
         else:  # pre-split references: several slots may hold one triangle
-            assert np.all((self.prim_ids >= 0) & (self.prim_ids < triangles)), "prim_ids out of range"
-            assert np.unique(self.prim_ids).size == triangles, "a triangle is in no slot"
+            _require_each((self.prim_ids >= 0) & (self.prim_ids < triangles), "slot", "prim_ids out of range")
+            _require(np.unique(self.prim_ids).size == triangles, "a triangle is in no slot")
         for child in (children, children + 1):
-            parents = np.flatnonzero(inner)
-            assert np.all(self.lowers[child] >= self.lowers[parents]), "child box below its parent's"
-            assert np.all(self.uppers[child] <= self.uppers[parents]), "child box above its parent's"
+            _require_each(np.all(self.lowers[child] >= self.lowers[parents], axis=1), "node",
+                          "child box below its parent's", child)
+            _require_each(np.all(self.uppers[child] <= self.uppers[parents], axis=1), "node",
+                          "child box above its parent's", child)
+        if self.points is not None and self.indices is not None:
+            self._validate_leaf_boxes(leaf, first, count)
         depth = self.depths()
-        assert depth.max() <= max_depth - 1, f"depth {depth.max()} exceeds the traversal stack ({max_depth})"
+        _require(depth.max() <= max_depth - 1, f"depth {depth.max()} exceeds the traversal stack ({max_depth})")
+
+    def _validate_leaf_boxes(self, leaf: np.ndarray, first: np.ndarray, count: np.ndarray) -> None:
+        """Every leaf box holds the boxes of its slots' triangles (meets them after pre-splits)."""
+        points = self.points.numpy() if isinstance(self.points, wp.array) else np.asarray(self.points)
+        indices = self.indices.numpy() if isinstance(self.indices, wp.array) else np.asarray(self.indices)
+        corners = points.reshape(-1, 3)[indices.reshape(-1, 3)[self.prim_ids]]
+        slot_leaf = np.repeat(np.flatnonzero(leaf), count)[np.argsort(np.repeat(first, count) + _ranges(count))]
+        lo, hi = self.lowers[slot_leaf], self.uppers[slot_leaf]
+        if self.num_prims == self.num_triangles:
+            inside = np.all((corners.min(1) >= lo) & (corners.max(1) <= hi), axis=1)
+            what = "box does not hold its triangles"
+        else:
+            inside = np.all((corners.max(1) >= lo) & (corners.min(1) <= hi), axis=1)
+            what = "box misses a triangle of its slots"
+        _require_each(inside, "leaf", what, slot_leaf)
 
     def stats(
         self,
@@ -391,6 +424,22 @@ def upload_triangles(prim_ids: np.ndarray, points: np.ndarray, indices: np.ndarr
         wp.array(np.ascontiguousarray(corners[:, 1]), dtype=wp.vec3, device=device),
         wp.array(np.ascontiguousarray(corners[:, 2]), dtype=wp.vec3, device=device),
     )
+
+
+def _require(ok, message: str) -> None:
+    """Raises ``AssertionError(message)`` unless ``ok`` (an ``assert`` that ``python -O`` keeps)."""
+    if not ok:
+        raise AssertionError(message)
+
+
+def _require_each(ok: np.ndarray, kind: str, message: str, ids: np.ndarray | None = None) -> None:
+    """Raises ``AssertionError`` naming the first ``kind`` (``ids[j]``, else ``j``) whose ``ok[j]`` is false."""
+    bad = np.flatnonzero(~np.asarray(ok, bool))
+    if len(bad):
+        named = bad if ids is None else np.unique(np.asarray(ids)[bad])
+        j = int(bad[0]) if ids is None else int(np.asarray(ids)[bad[0]])
+        more = f" (and {len(named) - 1} more)" if len(named) > 1 else ""
+        raise AssertionError(f"{kind} {j}: {message}{more}")
 
 
 def _ranges(counts: np.ndarray) -> np.ndarray:
