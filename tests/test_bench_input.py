@@ -313,7 +313,7 @@ def test_agreement_checks_the_hits_of_the_kernel_that_was_timed(tmp_path, monkey
     assert [(r["accel"], r["disagreements"]) for r in rows] == [("warp:sah", 0), ("wrt:sah", 7)]
 
 
-@pytest.mark.parametrize("wrong", ["false hit", "hit moved"])
+@pytest.mark.parametrize("wrong", ["false hit", "hit moved", "other triangle"])
 def test_a_wrong_hit_on_an_edge_of_its_triangle_is_a_disagreement_not_a_tie(tmp_path, monkeypatch, wrong):
     """Edge ties were judged by the barycentrics each answer reports: a wrong hit reported at u = v = 0 (a vertex, as
     a buffer cleared to zeros reads) counted as a tie, so 7 false hits, or 7 hits 1.5 times too far, were no
@@ -326,9 +326,17 @@ def test_a_wrong_hit_on_an_edge_of_its_triangle_is_a_disagreement_not_a_tie(tmp_
             if wrong == "false hit":
                 rays = np.flatnonzero(hits.prim < 0)[:7]  # rays that meet nothing: report triangle 0 at t = 1
                 hits.prim[rays], hits.t[rays] = 0, 1.0
-            else:
+            elif wrong == "hit moved":
                 rays = np.flatnonzero(hits.prim >= 0)[:7]
                 hits.t[rays] *= 1.5
+            else:  # the right distance, a triangle on the far side of the sphere: the row agreed (100.000 %)
+                rays = np.flatnonzero(hits.prim >= 0)[:7]
+                points, indices = subject.scene.triangles()
+                hit_points = subject.rays[0].numpy()[rays] + hits.t[rays, None] * subject.rays[1].numpy()[rays]
+                far = np.argmax(points[indices].mean(1) @ -hit_points.mean(0))
+                assert np.linalg.norm(points[indices[far]].mean(0) - hit_points, axis=1).min() > 0.5  # far indeed
+                hits.prim[rays] = far
+                return hits
             hits.u[rays], hits.v[rays] = 0.0, 0.0
         return hits
 

@@ -1,7 +1,8 @@
 """Ray-by-ray comparison of two sets of hits (for example ``accel="wrt"`` against ``accel="warp"``).
 
 Two results agree on a ray when both miss, or both hit with ``|t_a - t_b| <= rtol * |t_b| + atol``. Which triangle
-was hit is not compared: two triangles can share the nearest point.
+was hit is not compared: two triangles can share the nearest point. A hit off the triangle it names
+(:func:`off_triangle`, passed as ``wrong``) is a disagreement even at the right ``t``: it names a wrong triangle.
 
 ``atol`` is the float32 resolution of the scene's coordinates along the ray: ``COORD_ULPS`` ulps of the largest
 coordinate magnitude ``scale``, divided by ``|direction|``. A hit next to the ray origin cannot be located more
@@ -115,7 +116,8 @@ def compare_hits(
         scale: largest coordinate magnitude of the scene, for the absolute tolerance.
         ties: optional ``(N,)`` bool mask of further rays to count as exact ties (e.g. :func:`near_edge_world`).
         wrong: optional ``(N,)`` bool mask of rays answered wrongly by ``a`` or ``b`` on their own (e.g.
-            :func:`off_triangle`): never counted as ties, whatever barycentrics they report.
+            :func:`off_triangle`): disagreements whatever their ``t`` (a hit at the right distance naming a triangle
+            that does not hold it agreed), never counted as ties, whatever barycentrics they report.
 
     Returns:
         dict with ``rays``, ``hits_a``, ``hits_b``, ``hit_mismatch`` (one hits, the other misses),
@@ -149,6 +151,7 @@ def compare_hits(
     if ties is not None:
         tie = tie | np.asarray(ties, bool)
     if wrong is not None:
+        mismatch = mismatch | np.asarray(wrong, bool)
         tie = tie & ~np.asarray(wrong, bool)
     return {
         "rays": int(n),
