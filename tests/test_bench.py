@@ -615,6 +615,26 @@ def tree_row(accel, build_ms, sah_cost, rays="primary", threads=1, scene="sphere
                 mrays=5.0, mrays_min=4.0, mrays_max=6.0, hit_fraction=0.2, sah_cost=sah_cost)
 
 
+def test_every_plot_is_a_png_whose_axes_are_all_named(tmp_path, monkeypatch):
+    """mrays.png named its y axis only: the groups of bars under it had no axis label saying what they were."""
+    import matplotlib.pyplot as plt
+    from PIL import Image as PilImage
+
+    rows = [tree_row(accel, ms, cost, scene=f"sphere:{n}") | {"triangles": n, "sweep": True}
+            for accel, cost in (("wrt:sah", 23.5), ("wrt:lbvh", 30.1)) for n, ms in ((1000, 2.0), (8000, 15.0))]
+    figures = plotted_figures(monkeypatch, rows, tmp_path)
+    try:
+        assert sorted(figures) == ["build_vs_quality.png", "mrays.png", "scaling.png"]
+        for name, fig in figures.items():
+            for ax in fig.axes:
+                assert ax.get_xlabel().strip() and ax.get_ylabel().strip(), (name, ax.get_xlabel(), ax.get_ylabel())
+            with PilImage.open(tmp_path / name) as image:
+                image.verify()  # a whole PNG file, not just its signature
+    finally:
+        monkeypatch.undo()
+        plt.close("all")
+
+
 @pytest.mark.parametrize("times", [(2.1, 2.2, 2.45, 2.34, 2.5, 2.83), (84, 88, 98, 94, 100, 113),
                                    (8e3, 9e3, 9.5e3, 1e4, 1.1e4, 1.2e4), (0.4, 3, 40, 700, 9e3, 3e4)])
 def test_build_axis_labels_of_builds_within_a_decade_do_not_overlap(tmp_path, monkeypatch, times):

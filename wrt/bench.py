@@ -1553,6 +1553,7 @@ def plot(rows: list[dict], out: Path, earlier=()) -> list[Path]:
             if any(r["accel"] == "*" and (r["scene"], r["rays"]) == (scene, kind) for r in rows):
                 ax.text(centres[k], 0, "failed", ha="center", va="bottom", rotation=90, fontsize=6)
         ax.set_xticks(centres, texts, fontsize=7)
+        ax.set_xlabel("scene, ray kind")  # the only axis of the three plots that was not named
         ax.set_ylabel("Mrays/s (median)")
         if marked:  # a series' entry took the look of its first bar, hollow where that is an earlier row
             from matplotlib.patches import Patch
