@@ -292,6 +292,10 @@ def test_cli_bvh_stats_json_is_strict_for_a_scene_without_area(capsys, tmp_path)
     assert main(["bvh-stats", str(path), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
     assert rows[0]["epo"] is None
+    # The table reads n/a there too: it printed 'nan' (an EPO of a number that is not one).
+    assert main(["bvh-stats", str(path)]) == 0
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| sah |")][0]
+    assert row.split("|")[4].strip() == "n/a" and "nan" not in row
 
 
 def test_quality_script_json_is_strict_for_a_scene_without_area(monkeypatch, tmp_path):

@@ -8,6 +8,7 @@ canonical layout), so both sides are measured by the same code under the same co
 from __future__ import annotations
 
 import inspect
+import math
 
 from ..errors import did_you_mean
 from ..strict_json import strict_json
@@ -130,7 +131,8 @@ def format_table(rows: list[dict]) -> str:
     )
     lines = [header, "|" + "|".join(["---"] * (header.count("|") - 1)) + "|"]
     for r in rows:
-        epo = "n/a" if r["epo"] is None else f"{r['epo']:.3f}"
+        # No EPO (not estimated, or NaN where the triangles have no area) reads 'n/a', as wrt bench's table has it.
+        epo = "n/a" if r["epo"] is None or not math.isfinite(r["epo"]) else f"{r['epo']:.3f}"
         lines.append(
             f"| {r['builder']} | {r['build_seconds']:.3f} | {r['sah_cost']:.2f} | {epo} | {r['nodes']} | {r['leaves']} "
             f"| {r['max_depth']} | {r['mean_leaf_depth']:.1f} | {r['layout']} | {r['layout_nodes']} "
