@@ -168,10 +168,10 @@ class FlatBvh:
         ``python -O`` (which strips those and let every corrupted tree through).
 
         Every slot sits in exactly one leaf, every triangle in at least one slot (exactly one unless the tree was
-        built with pre-splits, ``presplit.py``), every node is reached exactly once, child boxes lie inside their
-        parent's, no inner node is empty, no leaf is deeper than ``max_depth - 1`` (the traversal stack), and, where
-        the tree holds the triangles it was built over, every leaf box holds its triangles' boxes (meets them, for a
-        tree built with pre-splits, whose slots hold pieces of triangles).
+        built with pre-splits, ``presplit.py``), every node is reached exactly once, no box is inverted, child boxes
+        lie inside their parent's, no inner node is empty, no leaf is deeper than ``max_depth - 1`` (the traversal
+        stack), and, where the tree holds the triangles it was built over, every leaf box holds its triangles' boxes
+        (meets them, for a tree built with pre-splits, whose slots hold pieces of triangles).
         """
         from .common import MAX_DEPTH
 
@@ -212,6 +212,8 @@ class FlatBvh:
         else:  # pre-split references: several slots may hold one triangle
             _require_each((self.prim_ids >= 0) & (self.prim_ids < triangles), "slot", "prim_ids out of range")
             _require(np.unique(self.prim_ids).size == triangles, "a triangle is in no slot")
+        # An inverted (or NaN) box is entered by no ray; a leaf's, inside its parent's, passed every other check.
+        _require_each(np.all(self.lowers <= self.uppers, axis=1), "node", "box inverted or not a number")
         for child in (children, children + 1):
             _require_each(np.all(self.lowers[child] >= self.lowers[parents], axis=1), "node",
                           "child box below its parent's", child)
