@@ -145,9 +145,11 @@ def epo(
     r1, r2 = rng.random(samples), rng.random(samples)
     su = np.sqrt(r1)
     w = np.stack([1.0 - su, su * (1.0 - r2), su * r2], 1)
-    sample_points = np.einsum("sk,skd->sd", w, tri[ids])  # float64, see epo_samples_kernel
+    corners = tri[ids]
+    sample_points = np.einsum("sk,skd->sd", w, corners)  # float64, see epo_samples_kernel
     # Clamp onto the triangle's box, which float rounding of the interpolation might leave.
-    sample_points = np.clip(sample_points, tri[ids].min(1), tri[ids].max(1))
+    np.clip(sample_points, corners.min(1), corners.max(1), out=sample_points)
+    del corners
     slot_of = np.empty(bvh.num_prims, np.int32)
     slot_of[bvh.prim_ids] = np.arange(bvh.num_prims, dtype=np.int32)
     lo, hi = subtree_ranges(bvh)
