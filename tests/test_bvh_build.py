@@ -225,6 +225,17 @@ def test_validate_names_the_node_a_corruption_breaks(builder, np_rng):
         bvh.validate()
 
 
+def test_stats_of_a_tree_whose_child_links_loop_is_an_error_not_a_runaway():
+    # Node 1's children are nodes 1 and 2: every level of the walk doubled, until memory ran out (stats() does not
+    # validate the tree first).
+    tree = wrt.bvh.FlatBvh(lowers=np.zeros((3, 3), np.float32), uppers=np.ones((3, 3), np.float32),
+                           left_first=np.int32([1, 1, 0]), prim_count=np.int32([0, 0, 1]), prim_ids=np.int32([0]))
+    with pytest.raises(ValueError, match="a child link leads back up the tree"):
+        tree.stats(epo_samples=0)
+    with pytest.raises(AssertionError, match="not reached exactly once"):
+        tree.validate()
+
+
 def test_validate_still_checks_under_python_dash_o(tmp_path):
     # ``assert`` statements vanish under ``python -O``: validate() passed every corrupted tree there.
     import os

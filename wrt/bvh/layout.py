@@ -153,8 +153,13 @@ class FlatBvh:
         if self.num_prims == 0:
             return np.zeros(self.num_nodes, np.int64)
         frontier = np.array([0])
-        d = 0
+        d, visited = 0, 0
         while len(frontier):
+            # A child link back up the tree (a corrupted one) made the levels double for ever, until memory ran out.
+            visited += len(frontier)
+            if visited > self.num_nodes:
+                raise ValueError(f"node {int(frontier[0])} is reached a second time at depth {d}: a child link leads "
+                                 "back up the tree (FlatBvh.validate() names it)")
             depth[frontier] = d
             inner = frontier[self.prim_count[frontier] == 0]
             children = self.left_first[inner]
