@@ -1285,6 +1285,33 @@ def test_frames_outside_the_range_are_those_usd_puts_outside(tmp_path, metadata)
         assert messages == []
 
 
+def test_frames_of_a_reversed_time_range_are_each_named_once_as_outside_it(tmp_path):
+    """A stage whose startTimeCode is after its endTimeCode ([8, 1]) holds no time, and the --frames warning counted
+    each frame on both sides of it: 'frames 0 to 6 and 3 to 9 (6 of 4)'. Each frame is named once, and the words say
+    the range is reversed (not that USD holds the nearest samples, which it does not between two samples)."""
+    from pxr import Usd
+
+    from wrt.animation import warn_frames_outside_range
+
+    path = tmp_path / "reversed.usda"
+    path.write_text('#usda 1.0\n(\n    startTimeCode = 8\n    endTimeCode = 1\n)\ndef Sphere "Ball"\n{\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    frames = [0.0, 3.0, 6.0, 9.0]
+    outside = [f for f in frames if not start <= f <= end]  # USD's range holds none of them
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warn_frames_outside_range(path, frames)
+        wrt.load_usd(path, time=5.0)
+    messages = [str(w.message) for w in caught if "time range" in str(w.message)]
+    assert len(messages) == 2, messages
+    assert messages[0].startswith(f"reversed.usda: frames 0 to 9 ({len(outside)} of {len(frames)}) are outside the "
+                                  f"stage's time range [{start:g}, {end:g}], which is reversed")
+    assert messages[1].startswith(f"reversed.usda: time 5 is outside the stage's time range [{start:g}, {end:g}], "
+                                  "which is reversed")
+    assert not any("nearest time samples" in m for m in messages)
+
+
 def far_camera_stage(tmp_path) -> str:
     """A unit sphere seen by ``/Far``, which flies from 1e8 to 3e8 from it (frames 1 to 3) through a lens whose view
     is 0.2 units wide at 1e8: far enough for both far-view warnings (the scene too far for float32 depths, the shape

@@ -367,7 +367,10 @@ def warn_frames_outside_range(path, frames) -> None:
     if found is None:
         return
     frames = sorted(frames)
-    spans = [side for side in ([f for f in frames if f < found[0]], [f for f in frames if f > found[1]]) if side]
+    if found[0] > found[1]:  # a reversed range holds no time: every frame once (each was counted on both sides)
+        spans = [frames] if frames else []
+    else:
+        spans = [side for side in ([f for f in frames if f < found[0]], [f for f in frames if f > found[1]]) if side]
     n = sum(map(len, spans))
     if n:
         named = " and ".join(f"{s[0]:g}" if len(s) == 1 else f"{s[0]:g} to {s[-1]:g}" for s in spans)

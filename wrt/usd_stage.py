@@ -247,7 +247,12 @@ def check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
 
 
 def outside_range(start: float, end: float) -> str:
-    """The words of a :class:`TimeRangeWarning`, after the time or frames it is about."""
+    """The words of a :class:`TimeRangeWarning`, after the time or frames it is about. A reversed range (start after
+    end) holds no time: its words say so, where they said that USD holds the nearest samples' values, which it does
+    not at a time between two samples."""
+    if start > end:
+        return (f"outside the stage's time range [{start:g}, {end:g}], which is reversed (startTimeCode after "
+                "endTimeCode) and holds no time; USD evaluates the stage there as at any other time")
     return f"outside the stage's time range [{start:g}, {end:g}]; USD holds the values of the nearest time samples"
 
 
