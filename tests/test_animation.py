@@ -634,6 +634,55 @@ def Sphere "Ball"
         render_frames(path, pending_frames([9.0], tmp_path / "g_#.npy", resume=False), **SIZE)
 
 
+@pytest.mark.parametrize("where", ["serial", "two devices"])
+def test_each_frames_log_row_names_the_warnings_of_that_frame(tmp_path, where):
+    """An instancer whose position is NaN at frame 2 alone: its instance is skipped with a warning, said once per run
+    and naming no frame, so nothing told which frame of a long run lost it. Each row lists its frame's warnings:
+    those of the frames USD gives a non-finite position at, and only those."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "nan_instance.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 3
+)
+def PointInstancer "PI"
+{
+    point3f[] positions.timeSamples = {
+        1: [(0, 0, 0), (2, 0, 0)], 2: [(0, 0, 0), (nan, 0, 0)], 3: [(0, 0, 0), (2, 0, 0)] }
+    int[] protoIndices = [0, 0]
+    rel prototypes = </PI/Protos/Ball>
+    def Scope "Protos"
+    {
+        def Sphere "Ball"
+        {
+        }
+    }
+}
+def Camera "Cam"
+{
+    double3 xformOp:translate = (1, 0, 8)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+""")
+    stage = Usd.Stage.Open(str(path))
+    positions = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPositionsAttr()
+    bad = {t for t in (1.0, 2.0, 3.0) if not np.isfinite(np.array(positions.Get(t), np.float64)).all()}
+    assert bad == {2.0}
+    jobs = pending_frames([1.0, 2.0, 3.0], tmp_path / "out" / "f_#.npy", resume=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = render_frames(path, jobs, devices=["cpu"] if where == "serial" else ["cpu", "cpu"], **SIZE)
+    said = [str(w.message) for w in caught if "non-finite" in str(w.message)]
+    assert len(said) == 1, said  # still said once on screen
+    by_frame = {row["frame"]: row for row in rows}
+    assert sorted(by_frame) == [1.0, 2.0, 3.0] and not any("error" in row for row in rows)
+    for frame, row in by_frame.items():
+        named = [m for m in row["warnings"] if "non-finite" in m and "/PI" in m]
+        assert len(named) == (frame in bad), (frame, row["warnings"])
+
+
 def blind_at_frame_2(tmp_path) -> Path:
     """A ball and a camera that moves past its far clip at frame 2 only: that frame warns that it sees nothing."""
     path = tmp_path / "blind.usda"

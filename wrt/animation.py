@@ -386,7 +386,9 @@ def _frame_warnings(shown: set):
 
     The caller's filters still decide inside, only those that show a warning now and then showing it every time (to
     be recorded): one they make an error raises where it is given, failing the frame. Under an "always" filter for
-    all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run."""
+    all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run.
+
+    Yields the list the frame's warnings are recorded in (complete once the block is left), for its log row."""
     raised = []
     try:
         with warnings.catch_warnings(record=True) as raised:
@@ -395,12 +397,19 @@ def _frame_warnings(shown: set):
             last = warnings.defaultaction  # for a warning no filter matches
             warnings.simplefilter("always" if last in now_and_then else last, append=True)
             warnings.simplefilter("ignore", TimeRangeWarning)
-            yield
+            yield raised
     finally:
         for w in raised:
             if (str(w.message), w.category) not in shown:
                 shown.add((str(w.message), w.category))
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+
+
+def frame_warnings(messages) -> list[str]:
+    """The ``warnings`` of a frame's log row: each message the frame raised, once, in order. On screen a warning is
+    said once per run, without its frame (a camera skipped at frame 6 alone, NaN instances at frame 7: nothing said
+    which frame); the rows say which frames gave it."""
+    return list(dict.fromkeys(messages))
 
 
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
@@ -465,7 +474,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
 
     Returns:
         The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``seconds``
-        (render and encode) and ``finished_at`` (``time.time()``), in the order the frames finished. A frame whose
+        (render and encode), ``finished_at`` (``time.time()``) and ``warnings`` (:func:`frame_warnings`), in the
+        order the frames finished. A frame whose
         stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) gets an error row
         (:func:`frame_error_row`) and no file, and the other frames go on; other errors (bad options, an unwritable
         file, Ctrl-C), the same for every frame, stop the run.
@@ -495,7 +505,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             for frame, file in jobs:
                 start = _time.perf_counter()
                 try:
-                    with _frame_warnings(shown):
+                    with _frame_warnings(shown) as raised:
                         written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
                 except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
@@ -503,7 +513,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
                     raise
                 else:
-                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
+                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written),
+                               warnings=frame_warnings(str(w.message) for w in raised))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
                 bar.update(1)
             return rows
@@ -641,7 +652,7 @@ def _frame_writer(jobs, rows: list):
             rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
             return
         write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
-        rows.append(dict(row, output=str(file)))
+        rows.append(dict(row, output=str(file), warnings=frame_warnings(w[0] for w in result.get("warnings", ()))))
 
     return write
 
