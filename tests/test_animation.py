@@ -600,6 +600,28 @@ def test_a_bad_frame_is_an_error_row_naming_it_and_the_other_frames_render(tmp_p
         np.testing.assert_array_equal(np.load(tmp_path / "out" / f"f_{frame}.npy"), fresh.rgb)
 
 
+def test_a_bad_frame_on_dask_is_one_line_not_a_workers_traceback(tmp_path, capfd):
+    """A frame whose stage is bad at its time raised out of the Dask task, and the LocalCluster's worker logged it on
+    the user's terminal as 'distributed.worker - ERROR - Compute Failed' with the whole wrt traceback, beside wrt's
+    own one-line report of the frame. The frame is still an error row; the worker logs nothing."""
+    pytest.importorskip("distributed")
+    from pxr import Usd, UsdGeom
+
+    from wrt.animation import render_frames_on_dask
+
+    path = nan_at_frame_2(tmp_path)
+    stage = Usd.Stage.Open(str(path))
+    points = UsdGeom.Mesh(stage.GetPrimAtPath("/Quad")).GetPointsAttr()
+    bad = [t for t in (1.0, 2.0, 3.0) if not np.isfinite(np.array(points.Get(t), np.float64)).all()]
+    jobs = pending_frames([1.0, 2.0, 3.0], tmp_path / "out" / "f_#.npy", resume=False)
+    rows = render_frames_on_dask(path, jobs, n_workers=1, **SIZE)
+    failed = [row for row in rows if "error" in row]
+    assert [row["frame"] for row in failed] == bad == [2.0]
+    assert failed[0]["error"].startswith("SceneError: ") and failed[0]["device"] == "cpu"
+    err = capfd.readouterr().err
+    assert "Compute Failed" not in err and "Traceback" not in err, err[-2000:]
+
+
 @pytest.mark.parametrize("where", ["serial", "two devices", "dask"])
 def test_frames_outside_the_time_range_warn_once_naming_them(tmp_path, where):
     """--frames 0:8 of a stage authored over [1, 3] warned once per frame outside it (6 warnings here, 1000 for a

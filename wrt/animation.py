@@ -631,13 +631,17 @@ def _stop_pool(pool) -> None:
 
 def _frame_writer(jobs, rows: list):
     """``write(result)`` for results of :func:`render_frame_task`: writes the encoded image to its frame's file
-    (from ``jobs``) and appends the frame's log row, with ``output``, to ``rows``."""
+    (from ``jobs``) and appends the frame's log row, with ``output``, to ``rows`` (an error row for a frame that
+    failed)."""
     files = {float(frame): Path(file) for frame, file in jobs}
     said = set()  # the warnings shown: by what a Renderer says each once by (its key), else by their words
 
     def write(result: dict) -> None:
         row = result["row"]
         file = files[row["frame"]]
+        if "error" in result:  # the frame's stage is bad at its time (render_frame_task)
+            rows.append(frame_error_row(row["frame"], file, result["error"], row.get("device")))
+            return
         try:
             for message, category, key in result.get("warnings", ()):
                 # Shown here once, however many workers and frames raised it, in its own class: all came back as
@@ -698,7 +702,10 @@ def render_frame_task(job: dict) -> dict:
         "warnings": ``(message, "module:ClassName", key)`` of each warning the frame raised, ``key`` what the
         Renderer says it once by (:func:`wrt.errors.warn_keyed`) or None}``: the client shows each once over all its
         workers, in its own class (:func:`warning_class`), where each worker printed them to its own log in Python's
-        format, glued to the client's progress bar.
+        format, glued to the client's progress bar. For a frame whose stage is bad at its time, ``{"error": the
+        wrt.SceneError (its ``device`` set), "row": {"frame", "device"}}``: returned, not raised, as the frame is
+        reported in one line and an error row; raised, Dask's worker logged it as "Compute Failed" with its whole
+        traceback, on the client's terminal for a LocalCluster.
     """
     import tempfile
 
@@ -717,7 +724,7 @@ def render_frame_task(job: dict) -> dict:
             image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
         except SceneError as e:
             e.device = device  # for the frame's error row, written by the client (it travels with the pickled error)
-            raise
+            return {"error": e, "row": {"frame": job["frame"], "device": device}}
     with tempfile.TemporaryDirectory() as tmp:
         written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
         data = Path(written).read_bytes()
