@@ -1801,3 +1801,36 @@ def test_int64_face_counts_over_weaker_int_samples_are_no_faces_at_the_default_t
     with pytest.warns(UserWarning, match="int64\\[\\] faceVertexCounts.*/World/Mesh"):
         scene = wrt.load_usd(path)
     assert scene.meshes == []
+
+
+def test_a_mesh_primvar_blocked_at_one_time_sample_is_read_as_unauthored_there_without_a_warning(tmp_path):
+    """A time sample of None (a value block: the primvar has no value at that time, ``Get`` gives None) was read as
+    a primvar of 0 values and warned about as one that does not fit its prim ('displayOpacity has 0 values; constant
+    interpolation needs 1') at every frame past it. It is read as USD reads it there, no value: the mesh is drawn as
+    one without the primvar, silently, as Hydra draws it (and as gprims' colours already were)."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "blocked_primvars.usda"
+    path.write_text("""#usda 1.0
+def Mesh "M"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    color3f[] primvars:displayColor.timeSamples = { 1: [(1, 0, 0)], 2: None }
+    float[] primvars:displayOpacity.timeSamples = { 1: [0.5], 2: None }
+}
+""")
+    stage = Usd.Stage.Open(str(path))
+    primvars = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/M"))
+    for time in (1.0, 2.0):
+        color, opacity = (primvars.GetPrimvar(name).Get(time) for name in ("displayColor", "displayOpacity"))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            (mesh,) = wrt.load_usd(path, time=time).meshes
+        assert not [str(w.message) for w in caught], [str(w.message) for w in caught]
+        if color is None:  # USD: no value at this time
+            assert mesh.colors is None and mesh.opacities is None
+        else:
+            np.testing.assert_array_equal(mesh.colors[0], np.tile(np.array(color, np.float32), (3, 1)))
+            np.testing.assert_array_equal(mesh.opacities[0], np.full(3, opacity[0], np.float32))

@@ -160,7 +160,9 @@ class MeshPrimvarReading:
         counts, face_indices, tri_corners, face_ids, n_points, refinement = topology
         name = attr.GetName()
         raw = one_value_as_array(value_at(attr, self.time), attr, interpolation)
-        values = np.asarray(raw) if raw is not None else np.zeros((0, components))
+        if raw is None:  # blocked at this time (a time sample of None): no value, read as unauthored, as Hydra and
+            return None  # gprims' colours read it; it was warned about as a primvar of 0 values that did not fit
+        values = np.asarray(raw)
         if components == 1 and values.ndim == 1:  # float[]: one-number elements
             values = values[:, None]
         if values.ndim != 2 or values.shape[1] != components or values.dtype.kind not in "fiu":
