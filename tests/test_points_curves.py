@@ -831,3 +831,34 @@ def test_a_point_instancer_widths_primvar_sizes_the_points_of_each_instance(tmp_
     drawn = {tuple(np.round(m[:3, 3], 6)): float(np.linalg.norm(m[:3, 0])) for m in spheres}
     assert drawn.keys() == expected.keys()
     np.testing.assert_allclose([drawn[c] for c in expected], list(expected.values()), rtol=1e-6)
+
+
+def test_points_primvars_blocked_at_one_time_sample_are_read_as_unauthored_there_without_a_warning(tmp_path):
+    """A time sample of None (a value block: no value at that time, USD's ``Get`` gives None) of a Points prim's
+    widths and displayColor was read as 0 values and warned about as not fitting the prim ('widths has 0 values;
+    vertex interpolation needs 2'). It is read as USD reads it there, no value, as if unauthored: the points drawn
+    as those without widths or colour are, without that warning."""
+    blocked = tmp_path / "blocked.usda"
+    blocked.write_text("""#usda 1.0
+def Points "P"
+{
+    point3f[] points = [(0, 0, 0), (1, 0, 0)]
+    float[] widths.timeSamples = { 1: [0.2, 0.2], 2: None }
+    color3f[] primvars:displayColor.timeSamples = { 1: [(1, 0, 0)], 2: None }
+}
+""")
+    unauthored = tmp_path / "unauthored.usda"
+    unauthored.write_text('#usda 1.0\ndef Points "P"\n{\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n}\n')
+    stage = Usd.Stage.Open(str(blocked))
+    prim = stage.GetPrimAtPath("/P")
+    assert prim.GetAttribute("widths").Get(2.0) is None and prim.GetAttribute("primvars:displayColor").Get(2.0) is None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(blocked, time=2.0)
+    assert not [str(w.message) for w in caught if "do not fit" in str(w.message)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = wrt.load_usd(unauthored, time=2.0)
+    assert len(scene.instances) == len(expected.instances) == 2
+    np.testing.assert_array_equal(scene.instances.to_world, expected.instances.to_world)  # radius 0.5: no widths
+    np.testing.assert_array_equal(scene.instances.colors, expected.instances.colors)

@@ -216,7 +216,9 @@ class FieldReader:
         coordinates), as meshes drop one
         (:meth:`wrt.usd_mesh_primvars.MeshPrimvarReading._read_primvar`): it stopped the whole load with SceneError.
         """
-        values = np.asarray(raw if raw is not None else np.zeros((0, components)))
+        if raw is None:  # blocked at this time (a time sample of None): no value, read as unauthored, as Hydra
+            return None  # reads it; it was warned about as a primvar of 0 values that did not fit
+        values = np.asarray(raw)
         name = attr.GetName()
         # Colours: 3- or 4-vectors (the rgb); texture coordinates: 2-, 3- or 4-vectors (the first two, as meshes).
         shape = {1: (1,), 2: (2, 3, 4)}.get(components, (3, 4))
