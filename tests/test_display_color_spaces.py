@@ -114,3 +114,17 @@ def test_a_display_color_in_an_unknown_colour_space_is_named_and_drawn_as_linear
     if where == "ancestor":
         assert "UsdColorSpaceAPI on /World" in named[0]
     np.testing.assert_allclose(albedo, COLOR, rtol=1e-3)
+
+
+def test_a_display_colors_empty_colour_space_of_its_own_is_not_inherited_through(tmp_path):
+    """``colorSpace = ""`` authored on displayColor under an ``srgb_rec709_scene`` ``/World``: USD's resolution
+    (ComputeColorSpaceName) stops at the attribute's own, empty, one (linear Rec.709); it was drawn as sRGB."""
+    path = display_stage(tmp_path, "mesh", "srgb_rec709_scene", "ancestor")
+    stage = Usd.Stage.Open(path)
+    attr = stage.GetPrimAtPath("/World/Group/Thing").GetAttribute("primvars:displayColor")
+    attr.SetColorSpace("")
+    stage.Save()
+    resolved = Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) or Gf.ColorSpaceNames.LinearRec709
+    albedo, messages = rendered_albedo(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo, usd_linear_rec709(resolved, COLOR), rtol=1e-3, atol=1e-4)

@@ -125,3 +125,18 @@ def test_a_white_plane_under_a_light_in_a_colour_space_renders_its_converted_col
     pixel = np.asarray(rgb, np.float64).reshape(-1, 3).mean(axis=0)
     expected = usd_linear_rec709(space, COLOR)
     np.testing.assert_allclose(pixel / pixel[1], expected / expected[1], rtol=1e-3)
+
+
+def test_an_empty_colour_space_of_its_own_is_not_inherited_through(tmp_path):
+    """``colorSpace = ""`` authored on the colour under an ``srgb_rec709_scene`` ``/Rig``: USD resolves an attribute
+    with a ``colorSpace`` of its own to that one, the empty one (linear Rec.709) too, without asking its prims. It
+    was decoded by /Rig's sRGB."""
+    path = light_stage(tmp_path, "srgb_rec709_scene", "ancestor")
+    stage = Usd.Stage.Open(path)
+    color = UsdLux.DistantLight(stage.GetPrimAtPath("/Rig/Sun")).GetColorAttr()
+    color.SetColorSpace("")
+    stage.Save()
+    resolved = Usd.ColorSpaceAPI.ComputeColorSpaceName(color, None) or Gf.ColorSpaceNames.LinearRec709
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.lights[0].color, usd_linear_rec709(resolved, COLOR), rtol=1e-5, atol=1e-6)

@@ -93,11 +93,14 @@ def inherited_color_space(attr) -> tuple[str, str]:
     """``(name, prim path)``: the colour space attribute ``attr`` (with no ``colorSpace`` of its own) takes from
     ``UsdColorSpaceAPI`` on its prim or its nearest ancestor with one whose ``colorSpace:name`` is authored, as USD's
     ``UsdColorSpaceAPI::ComputeColorSpaceName`` resolves it; ``("", "")`` where none has one (USD's default, linear
-    Rec.709). The path names the prim that carries it, for a warning."""
+    Rec.709), and where ``attr`` has an empty ``colorSpace`` authored: USD resolves an attribute with one authored to
+    that one, an empty one too, without asking its prims (an srgb_rec709_scene ``/World`` decoded a displayColor below
+    it authored ``colorSpace = ""``, which USD reads as linear). The path names the prim that carries it, for a
+    warning."""
     from pxr import Usd
 
     api = getattr(Usd, "ColorSpaceAPI", None)  # USD 25.05 and later
-    prim = attr.GetPrim() if api is not None and attr else None
+    prim = attr.GetPrim() if api is not None and attr and not attr.HasColorSpace() else None
     while prim:
         if prim.HasAPI(api):
             name = str(api(prim).GetColorSpaceNameAttr().Get() or "")
