@@ -128,3 +128,57 @@ def test_a_display_colors_empty_colour_space_of_its_own_is_not_inherited_through
     albedo, messages = rendered_albedo(path)
     assert not messages, messages
     np.testing.assert_allclose(albedo, usd_linear_rec709(resolved, COLOR), rtol=1e-3, atol=1e-4)
+
+
+def instanced_asset_stage(tmp_path, where: str) -> tuple[str, list]:
+    """Instanceable references ``/World/Group/Thing`` (and ``/World/Other/Thing``) to an asset ``/Proto`` whose quad
+    has its own displayColor of :data:`COLOR`, no ``colorSpace``; ``srgb_rec709_scene`` through ``UsdColorSpaceAPI``
+    on ``/World`` (``above``), on the asset's root ``/Proto`` (``asset``), or on ``/World/Group`` alone (``one``, the
+    other instance under none). Returns the path and the colour spaces USD resolves for the displayColor of the
+    quad of each instance proxy (ComputeColorSpaceName)."""
+    path = str(tmp_path / "instanced.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    world = UsdGeom.Xform.Define(stage, "/World").GetPrim()
+    stage.CreateClassPrim("/Proto")
+    quad = add_quad(stage, "/Proto/Quad", size=4.0)
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                            UsdGeom.Tokens.constant).Set([Gf.Vec3f(*COLOR)])
+    holder = {"above": world, "asset": stage.GetPrimAtPath("/Proto")}.get(where)
+    for group in ("/World/Group", "/World/Other"):
+        instance = UsdGeom.Xform.Define(stage, f"{group}/Thing")
+        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
+        instance.GetPrim().SetInstanceable(True)
+        if group == "/World/Other":
+            instance.AddTranslateOp().Set(Gf.Vec3d(100.0, 0.0, 0.0))  # out of the render's view
+    if holder is None:
+        holder = UsdGeom.Xform.Define(stage, "/World/Group").GetPrim()
+    Usd.ColorSpaceAPI.Apply(holder).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    stage.Save()
+    proxies = [stage.GetPrimAtPath(f"{group}/Thing/Quad").GetAttribute("primvars:displayColor")
+               for group in ("/World/Group", "/World/Other")]
+    return path, [str(Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None)) for attr in proxies]
+
+
+@pytest.mark.parametrize("where", ["above", "asset"])
+def test_a_native_prototypes_colour_takes_the_colour_space_its_instances_inherit(tmp_path, where):
+    """USD resolves the colour of an instance proxy's quad (ComputeColorSpaceName walks up through the instance to
+    its ancestors; the prototype's root carries no opinion of the instance, not even the asset root's
+    ``colorSpace:name``) to ``srgb_rec709_scene``, as for the asset referenced plainly; wrt read the prototype's quad,
+    whose walk ended at the prototype's root, as linear Rec.709."""
+    path, resolved = instanced_asset_stage(tmp_path, where)
+    assert resolved == ["srgb_rec709_scene"] * 2
+    albedo, messages = rendered_albedo(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo, usd_linear_rec709("srgb_rec709_scene", COLOR), rtol=1e-3, atol=1e-4)
+
+
+def test_a_native_prototype_whose_instances_inherit_different_colour_spaces_is_named(tmp_path):
+    """One prototype, one instance under ``srgb_rec709_scene`` and one under none (USD resolves their proxies apart):
+    its colours are read once for both, as linear, with a warning naming the prims that carry the spaces."""
+    path, resolved = instanced_asset_stage(tmp_path, "one")
+    assert resolved == ["srgb_rec709_scene", ""]
+    albedo, messages = rendered_albedo(path)
+    named = [m for m in messages if "primvars:displayColor" in m and "/World/Group" in m]
+    assert len(named) == 1, messages
+    np.testing.assert_allclose(albedo, COLOR, rtol=1e-3)

@@ -95,19 +95,58 @@ def inherited_color_space(attr) -> tuple[str, str]:
     ``UsdColorSpaceAPI::ComputeColorSpaceName`` resolves it; ``("", "")`` where none has one (USD's default, linear
     Rec.709), and where ``attr`` has an empty ``colorSpace`` authored: USD resolves an attribute with one authored to
     that one, an empty one too, without asking its prims (an srgb_rec709_scene ``/World`` decoded a displayColor below
-    it authored ``colorSpace = ""``, which USD reads as linear). The path names the prim that carries it, for a
-    warning."""
+    it authored ``colorSpace = ""``, which USD reads as linear). Inside a native prototype the walk goes on through
+    its instances (:func:`_instances_space`). The path names the prim that carries it, for a warning."""
     from pxr import Usd
 
     api = getattr(Usd, "ColorSpaceAPI", None)  # USD 25.05 and later
     prim = attr.GetPrim() if api is not None and attr and not attr.HasColorSpace() else None
+    return _prim_space(prim, api) if prim else ("", "")
+
+
+# Native prototype (Usd.Prim) -> what its instances inherit (_instances_space), kept over one load: each instance is
+# walked once, not once per colour inside. Emptied by forget_instance_spaces at the end of each load.
+_INSTANCE_SPACES: dict = {}
+DIFFERING = "differing per instance"  # the name (unknown: read as linear, named) where the instances disagree
+
+
+def forget_instance_spaces() -> None:
+    """Empties the colour spaces kept per native prototype (a stage edited and loaded again may give others)."""
+    _INSTANCE_SPACES.clear()
+
+
+def _prim_space(prim, api) -> tuple[str, str]:
+    """``(name, prim path)`` UsdColorSpaceAPI gives ``prim``: its own authored ``colorSpace:name``, else its nearest
+    ancestor's; at a native prototype's root, that of its instances."""
     while prim:
         if prim.HasAPI(api):
             name = str(api(prim).GetColorSpaceNameAttr().Get() or "")
             if name:
                 return name, str(prim.GetPath())
+        if prim.IsPrototype():
+            return _instances_space(prim, api)
         prim = prim.GetParent()
     return "", ""
+
+
+def _instances_space(prototype, api) -> tuple[str, str]:
+    """The colour space the instances of native prototype ``prototype`` give the prims inside it, as USD resolves it
+    for their instance proxies (ComputeColorSpaceName walks a proxy up through its instance and the instance's
+    ancestors; a prototype's own root carries none of the instance's opinions, not even an asset's root
+    ``colorSpace:name`` the instance references): the one they agree on, else :data:`DIFFERING` (read as linear and
+    named, with the prims that carry them). A prototype's colours are read once for all its instances; the walk
+    stopped at the prototype's root, and an instanced asset lost the colour space it has referenced plainly."""
+    if prototype not in _INSTANCE_SPACES:
+        spaces = {instance.GetPath(): _prim_space(instance, api) for instance in prototype.GetInstances()}
+        found = sorted(set(spaces.values()))
+        names = {name for name, _ in found}
+        if len(names) <= 1:
+            _INSTANCE_SPACES[prototype] = (found[0][0], ", ".join(path for _, path in found)) if names else ("", "")
+        else:  # the prims that carry each, or the first instance under none
+            none = next(str(path) for path, (name, _) in sorted(spaces.items()) if not name)
+            _INSTANCE_SPACES[prototype] = DIFFERING, ", ".join(
+                f"{name!r} on {path}" if name else f"none above {none}" for name, path in found)
+    return _INSTANCE_SPACES[prototype]
 
 
 def attribute_color_space(attrs) -> tuple[str, str]:
@@ -121,6 +160,8 @@ def attribute_color_space(attrs) -> tuple[str, str]:
 
 
 UNKNOWN_SPACE = "colour values in a colour space wrt does not know were read as linear Rec.709"
+DIFFERING_SPACES = ("colour values inside a native prototype whose instances inherit different colour spaces "
+                    "(UsdColorSpaceAPI) were read once for all of them, as linear Rec.709")
 
 
 def unknown_space_words(name: str, attr, holder: str = "") -> str:
@@ -138,6 +179,9 @@ def linear_colors(values, attrs, prim, skip) -> np.ndarray:
     attrs = [attr for attr in attrs if attr]
     name, holder = attribute_color_space(attrs)
     if not name or reads_as_stored(name):
+        return np.asarray(values, np.float64)
+    if name == DIFFERING:
+        skip(DIFFERING_SPACES, prim, f"{attrs[0].GetName()}: {holder}")
         return np.asarray(values, np.float64)
     if name not in COLOR_SPACES:
         skip(UNKNOWN_SPACE, prim, unknown_space_words(name, attrs[0], holder))

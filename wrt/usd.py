@@ -100,6 +100,7 @@ import warnings
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 
+from .color_spaces import forget_instance_spaces
 from .errors import SceneError, prim_path, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
@@ -222,6 +223,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         scene._variants = variants  # to open the stage as it was read again: what_is_at (a camera it lacks)
         return scene
     finally:
+        forget_instance_spaces()
         # The material reader, the skeleton poser and the transforms hold the stage reader's skip method: a cycle that
         # kept the stage and its layers open until the next garbage collection, so a file edited and loaded again in
         # that time read as before.
