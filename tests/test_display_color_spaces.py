@@ -182,3 +182,23 @@ def test_a_native_prototype_whose_instances_inherit_different_colour_spaces_is_n
     named = [m for m in messages if "primvars:displayColor" in m and "/World/Group" in m]
     assert len(named) == 1, messages
     np.testing.assert_allclose(albedo, COLOR, rtol=1e-3)
+
+
+@pytest.mark.parametrize("kind", ["mesh", "sphere", "points"])
+def test_a_display_color_past_float32_after_its_conversion_is_named_and_drawn_grey(tmp_path, kind):
+    """ACEScg red 3e38 (a float32) in ``lin_ap1_scene`` is 5.1e38 in linear Rec.709, past float32 (USD's own
+    conversion, in float32, gives no finite red): it is named and drawn grey 0.5, as a non-finite displayColor is.
+    The conversion kept it finite in float64, past the readers' checks: a gprim's or Points prim's load failed (a
+    shape's colour must be finite), and a mesh's cast warned numpy's "overflow encountered in cast"."""
+    big = (3e38, 0.0, 0.0)
+    assert not np.isfinite(usd_linear_rec709("lin_ap1_scene", big)).all()
+    path = str(tmp_path / "big.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    attr = colored(stage, kind)
+    attr.Set([Gf.Vec3f(*big)])
+    attr.SetColorSpace("lin_ap1_scene")
+    stage.Save()
+    albedo, messages = rendered_albedo(path)
+    assert len(messages) == 1 and "displayColor" in messages[0] and "/World/Group/Thing" in messages[0], messages
+    np.testing.assert_allclose(albedo, 0.5, rtol=1e-6)

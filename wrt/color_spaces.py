@@ -67,7 +67,11 @@ def gamut_matrix(primaries: str) -> np.ndarray:
 def linear_rec709(values, name: str) -> np.ndarray:
     """``values`` (``(..., 3)`` or more channels, the rest kept, such as alpha) in known colour space ``name``
     (:data:`COLOR_SPACES`) as float64 linear Rec.709: decoded by its transfer function, then converted from its
-    primaries. Values past float32's range after the decode are inf (the caller names them)."""
+    primaries. Values past float32's range after the decode or the conversion are +-inf (the caller names them): the
+    conversion takes ACEScg's 3e38 red to 5.1e38, finite in float64 alone, which passed the readers' checks for
+    values that are not finite and failed the load of a gprim or Points prim (a Shape's colour must be finite)."""
+    from .usd_primvars import past_float32_as_inf  # that module imports this one
+
     transfer, primaries = COLOR_SPACES[name]
     out = np.array(values, np.float64)
     decode = decode_curve(transfer)
@@ -76,6 +80,7 @@ def linear_rec709(values, name: str) -> np.ndarray:
             out[..., :3] = decode(out[..., :3])
         if primaries is not None:
             out[..., :3] = out[..., :3] @ gamut_matrix(primaries).T
+    out[..., :3] = past_float32_as_inf(out[..., :3])
     return out
 
 
