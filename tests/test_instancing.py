@@ -1228,6 +1228,7 @@ def test_prim_lookup_is_made_once_per_scene_state(np_rng, monkeypatch):
     paths.append("/Mine")
     assert "/Mine" not in scene.prim_paths()
     scene.meshes[0] = Mesh("/Floor", scene.meshes[0].points, scene.meshes[0].indices, scene.meshes[0].face_ids)
+    hits = wrt.trace(scene, *camera_rays(scene, width=32, height=32))  # those from before the edit are refused
     assert scene.prim_paths()[0] == "/Floor" and "/Floor" in scene.hit_paths(hits)[0] and len(made) == 2
 
 

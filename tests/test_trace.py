@@ -583,8 +583,9 @@ def test_compare_takes_the_zero_and_nan_directions_that_trace_takes_without_a_wa
 def test_hit_paths_refuses_hits_that_are_not_of_the_scene(tmp_path):
     """hit_paths of another scene's hits (or of this one's before an edit) named no prim, as for a miss: a ray that hit
     triangle 1 of a two-mesh stage read as a miss of a one-triangle one, without a word; hits.prim given for the
-    hits raised "'numpy.ndarray' object has no attribute 'local_prim'". Both are refused, naming what is wrong; the
-    scene's own hits are named by the prim paths the stage authors."""
+    hits raised "'numpy.ndarray' object has no attribute 'local_prim'". Both are refused, naming what is wrong (the
+    scene the hits were traced in; ids out of range for hits made by hand, which name none); the scene's own hits
+    are named by the prim paths the stage authors."""
     tri = '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
     (tmp_path / "two.usda").write_text(
         '#usda 1.0\n' + "".join(f'def Mesh "{name}"\n{{\n{tri}    point3f[] points = [(-1, -1, {z}), (1, -1, {z}), '
@@ -596,8 +597,11 @@ def test_hit_paths_refuses_hits_that_are_not_of_the_scene(tmp_path):
     hits = wrt.trace(two, origins, np.tile(np.float32([0, 0, -1]), (3, 1)))
     assert list(hits.prim) == [0, 1, -1]
     assert [list(p) for p in two.hit_paths(hits)] == [["/Near", "/Far", ""], ["", "", ""]]
-    with pytest.raises(ValueError, match=r"^hit_paths: hits.local_prim\[1\] = 1 is no id of this scene \(-1 to 0\)"):
+    with pytest.raises(ValueError, match=r"^hit_paths: these hits were traced in scene '.*two\.usda', not in this one"):
         one.hit_paths(hits)
+    by_hand = wrt.Hits(hits.t, hits.u, hits.v, hits.prim, hits.nodes_visited, hits.triangles_tested)  # no scene
+    with pytest.raises(ValueError, match=r"^hit_paths: hits.local_prim\[1\] = 1 is no id of this scene \(-1 to 0\)"):
+        one.hit_paths(by_hand)
     with pytest.raises(TypeError, match="^hit_paths takes the Hits of wrt.trace .*, got ndarray$"):
         two.hit_paths(hits.prim)
 

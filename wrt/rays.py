@@ -15,6 +15,7 @@ from .primitives import SHAPE_KINDS, shape_surface
 from .ray_batch import host_array
 from .render import check_sides, resolve_view
 from .scene import DistantLight, Scene
+from .traced_in import check_traced_in
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
@@ -201,6 +202,9 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
                          "shadow, diffuse")
     seed = check_count(0, seed)[1]
     origins, directions = _traced_rays(origins, directions, hits)
+    # Their rows index scene.triangles(): another scene's, or this one's before an edit, started rays on other
+    # triangles' planes without a word.
+    check_traced_in(scene, hits, "secondary_rays")
     position, normal = _surface_points(scene, origins, directions, hits)
     if kind == "shadow":
         out = np.broadcast_to(shadow_target(scene)[0], position.shape)

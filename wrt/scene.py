@@ -50,6 +50,7 @@ from .instancing import (
 )
 from .light_links import LinkCollection, drawn_ids
 from .render_settings import RenderSettings
+from .traced_in import TracedIn, check_traced_in, new_token
 from .transforms import mat34
 from .wording import counted
 
@@ -662,6 +663,7 @@ class Scene:
         self.warn_vanishing_shapes()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
+        self._identity, self._version = new_token(), new_token()  # what Hits are stamped with (wrt.traced_in)
         self._recheck = False  # check every object again at the next drop_stale_caches (set by invalidate)
         self.check_instances()
         self._flat_checked = None  # the instances.to_world that _thicken_flat_instances looked at last
@@ -764,6 +766,7 @@ class Scene:
         constructors do. Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
         self._cache.clear()
         self._generation += 1
+        self._version = new_token()  # hits traced before name prims by the ids of the scene as it was
         self._recheck = True  # arrays may be edited in place from here on: check every object again (_settle)
         held = [array for array in (ref() for ref in self._frozen) if array is not None]
         self._frozen, self._frozen_parts = [], False
@@ -811,6 +814,12 @@ class Scene:
         """Changes whenever the caches are dropped, so that a holder of device copies (a :class:`wrt.Renderer`)
         knows to make them again."""
         return self._generation
+
+    @property
+    def traced_in(self) -> TracedIn:
+        """What :func:`wrt.trace` stamps its hits with: this scene (its copies and pickles too) as it is now, until the
+        next edit (:meth:`invalidate`, which a replaced mesh or instance array calls); see :mod:`wrt.traced_in`."""
+        return TracedIn(self._identity, self._version, self.source)
 
     def drop_stale_caches(self) -> None:
         """Clears the caches when a mesh, shape, prototype, instance array, material or texture has been replaced
@@ -1196,7 +1205,7 @@ class Scene:
         prim id ``k`` of :meth:`hit_prims`."""
         return list(self._prim_table()[0])  # a copy: the table is the scene's cache
 
-    def hit_prims(self, geometry_ids, instances) -> tuple[np.ndarray, np.ndarray]:
+    def hit_prims(self, geometry_ids, instances=None) -> tuple[np.ndarray, np.ndarray]:
         """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
         miss. A prim id is an index into :meth:`prim_paths`; an element is the face of a mesh (``Mesh.face_ids``:
         the USD face, the control face of a subdivided mesh), the point or curve of a Points or curves prim
@@ -1205,12 +1214,44 @@ class Scene:
 
         Args:
             geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
-                for a miss.
+                for a miss; or the :class:`wrt.Hits` of :func:`wrt.trace` alone, whose ids are read after checking
+                that they were traced in this scene as it is now (as :meth:`hit_paths` checks them). Raw ids are
+                checked to be ids of this scene only: those of another scene in range name its prims.
             instances: ``(N,)`` int instance ids (``Hits.instance``), -1 for non-instanced geometry: a prototype's
                 part is a prim of each instance (prototype geometry without its instance has prim id -1).
         """
+        labels = ("geometry_ids", "instances")
+        if instances is None:
+            self._check_hits(geometry_ids, "hit_prims", "(geometry_ids, instances) or the Hits of wrt.trace")
+            geometry_ids, instances = geometry_ids.local_prim, geometry_ids.instance
+            labels = ("hits.local_prim", "hits.instance")
+        prim, instance = self._hit_ids(geometry_ids, instances, "hit_prims", labels)
+        return self._prims_of(prim, instance)
+
+    def _check_hits(self, hits, what: str, takes: str = "the Hits of wrt.trace") -> None:
+        """Raises ``TypeError`` unless ``hits`` has a ``local_prim`` and an ``instance`` (``hits.prim`` given raised
+        an AttributeError), and ``ValueError`` for hits traced in another scene or before an edit of this one
+        (:func:`wrt.traced_in.check_traced_in`)."""
+        if not (hasattr(hits, "local_prim") and hasattr(hits, "instance")):
+            raise TypeError(f"{what} takes {takes} (its local_prim and instance are read), got {type(hits).__name__}")
+        check_traced_in(self, hits, what)
+
+    def _hit_ids(self, geometry_ids, instances, what: str, labels: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """``(geometry ids, instances)`` as ``(N,)`` int64, refused with ``ValueError`` where one is no id of this
+        scene: another scene's (or this one's before an edit) named no prim, as misses do, without a word."""
         prim = np.asarray(geometry_ids, np.int64).reshape(-1)
         instance = np.asarray(instances, np.int64).reshape(-1)
+        _, own, _, starts_geometry, *_ = self._prim_table()
+        ids = int(starts_geometry[-1]) + len(own) - len(starts_geometry)  # triangles, then an id per shape
+        for name, values, count in zip(labels, (prim, instance), (ids, len(self.instances))):
+            bad = np.flatnonzero((values < -1) | (values >= count))
+            if len(bad):
+                raise ValueError(f"{what}: {name}[{bad[0]}] = {values[bad[0]]} is no id of this scene (-1 to "
+                                 f"{count - 1}): hits of another scene, or of this one before an edit?")
+        return prim, instance
+
+    def _prims_of(self, prim: np.ndarray, instance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`hit_prims` of checked int64 ids."""
         _, own, part, starts_geometry, face_ids, starts, parts = self._prim_table()
         meshes_end = len(starts_geometry) - 1  # geometry sources: the meshes, then the shapes, then one for none
         # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
@@ -1268,20 +1309,10 @@ class Scene:
         Args:
             hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).
         """
-        if not (hasattr(hits, "local_prim") and hasattr(hits, "instance")):  # hits.prim given: an AttributeError
-            raise TypeError(f"hit_paths takes the Hits of wrt.trace (its local_prim and instance are read), got "
-                            f"{type(hits).__name__}")
-        prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
-        instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        paths, own, _, starts_geometry, *_ = self._prim_table()
-        ids = int(starts_geometry[-1]) + len(own) - len(starts_geometry)  # triangles, then an id per shape
-        # Another scene's hits (or this one's before an edit) named no prim, as misses do, without a word.
-        for name, values, count in (("local_prim", prim, ids), ("instance", instance, len(self.instances))):
-            bad = np.flatnonzero((values < -1) | (values >= count))
-            if len(bad):
-                raise ValueError(f"hit_paths: hits.{name}[{bad[0]}] = {values[bad[0]]} is no id of this scene (-1 to "
-                                 f"{count - 1}): hits of another scene, or of this one before an edit?")
-        prims = np.array([*paths, ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
+        self._check_hits(hits, "hit_paths")
+        prim, instance = self._hit_ids(hits.local_prim, hits.instance, "hit_paths", ("hits.local_prim",
+                                                                                      "hits.instance"))
+        prims = np.array([*self._prim_table()[0], ""], object)[self._prims_of(prim, instance)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]

@@ -36,6 +36,7 @@ from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
 from .scene import Scene
+from .traced_in import TracedIn
 
 # No floating-point contraction (FMA) in the trace kernels: the watertight triangle test relies on an edge shared by
 # two triangles giving exactly opposite edge functions (``cx * by - cy * bx``), which a fused multiply-add breaks;
@@ -586,6 +587,10 @@ class Hits:
             geometry.
         local_prim: int32 geometry id of the hit triangle (row of ``Scene.geometry()``: the prototype's triangle
             for an instance, equal to ``prim`` for non-instanced geometry), -1 on a miss.
+        traced_in: the scene, and the state of it, that :func:`trace` traced the hits in
+            (:class:`wrt.traced_in.TracedIn`; ``None`` for hits made by hand): the ids above are that scene's, and
+            ``Scene.hit_paths`` and ``hit_prims`` refuse them in another scene or after an edit of this one. Kept by
+            copies and pickles; not compared by ``==``.
     """
 
     t: np.ndarray
@@ -596,6 +601,7 @@ class Hits:
     triangles_tested: np.ndarray
     instance: np.ndarray | None = None
     local_prim: np.ndarray | None = None
+    traced_in: TracedIn | None = dataclasses.field(default=None, kw_only=True, compare=False, repr=False)
 
     def __post_init__(self):
         if self.instance is None:
@@ -609,7 +615,8 @@ class Hits:
         ``hits in results`` raised ValueError."""
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in dataclasses.fields(self))
+        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name))
+                   for f in dataclasses.fields(self) if f.compare)
 
     __hash__ = None  # equal by value, and its arrays are mutable
 
@@ -671,7 +678,7 @@ def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
     t = hits.t.numpy() + np.float32(0.0)
     u, v, prim = hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
     if not len(scene.instances) and not scene.prototypes:
-        return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy())
+        return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy(), traced_in=scene.traced_in)
     # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there. Prototypes count
     # even without instances: their triangles are geometry ids but no rows, so shape ids shift down.
     instance = hits.instance.numpy()
@@ -679,7 +686,8 @@ def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
     swap[swap] = scene.instances.mirrored_rows(instance[swap])
     u, v = np.where(swap, v, u), np.where(swap, u, v)
     rows = scene.expanded_ids(prim, instance)
-    return Hits(t, u, v, rows, cost[:, 0].copy(), cost[:, 1].copy(), instance=instance, local_prim=prim)
+    return Hits(t, u, v, rows, cost[:, 0].copy(), cost[:, 1].copy(), instance=instance, local_prim=prim,
+                traced_in=scene.traced_in)
 
 
 def occluded(
