@@ -189,3 +189,18 @@ def test_hits_from_before_an_edit_are_refused(stages):
     with pytest.raises(ValueError, match="^hit_paths: " + edited):
         scene.hit_paths(hits)
     assert list(scene.hit_paths(wrt.trace(scene, origins, DOWN))[1]) == instances
+
+
+def test_raw_ids_out_of_range_are_refused_by_hit_prims(stages):
+    """``hit_prims(geometry_ids, instances)`` of ids that are no ids of the scene (another scene's, past its
+    triangles or instances) gave them prim id -1, a miss, without a word; ``hit_paths`` refused them already. Raw ids
+    carry no scene: in range they are the caller's to vouch for, out of range they are refused naming the array."""
+    a, _ = stages
+    scene = wrt.load_usd(a)  # geometry ids 0-3 (Left, Right's two triangles, the prototype's), instances 0-1
+    assert scene.hit_prims([3], [1])[0].tolist() == [scene.prim_paths().index("/World/PI/Protos/Tri")]
+    with pytest.raises(ValueError, match=r"^hit_prims: geometry_ids\[1\] = 4 is no id of this scene \(-1 to 3\)"):
+        scene.hit_prims([0, 4], [-1, -1])
+    with pytest.raises(ValueError, match=r"^hit_prims: instances\[0\] = 2 is no id of this scene \(-1 to 1\)"):
+        scene.hit_prims([3], [2])
+    with pytest.raises(TypeError, match=r"^hit_prims takes \(geometry_ids, instances\) or the Hits of wrt.trace"):
+        scene.hit_prims(np.array([0]))
