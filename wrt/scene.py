@@ -1225,8 +1225,8 @@ class Scene:
             self._check_hits(geometry_ids, "hit_prims", "(geometry_ids, instances) or the Hits of wrt.trace")
             geometry_ids, instances = geometry_ids.local_prim, geometry_ids.instance
             labels = ("hits.local_prim", "hits.instance")
-        prim, instance = self._hit_ids(geometry_ids, instances, "hit_prims", labels)
-        return self._prims_of(prim, instance)
+        table, prim, instance = self._hit_ids(geometry_ids, instances, "hit_prims", labels)
+        return self._prims_of(table, prim, instance)
 
     def _check_hits(self, hits, what: str, takes: str = "the Hits of wrt.trace") -> None:
         """Raises ``TypeError`` unless ``hits`` has a ``local_prim`` and an ``instance`` (``hits.prim`` given raised
@@ -1236,23 +1236,25 @@ class Scene:
             raise TypeError(f"{what} takes {takes} (its local_prim and instance are read), got {type(hits).__name__}")
         check_traced_in(self, hits, what)
 
-    def _hit_ids(self, geometry_ids, instances, what: str, labels: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """``(geometry ids, instances)`` as ``(N,)`` int64, refused with ``ValueError`` where one is no id of this
-        scene: another scene's (or this one's before an edit) named no prim, as misses do, without a word."""
+    def _hit_ids(self, geometry_ids, instances, what: str, labels: tuple) -> tuple:
+        """``(prim table, geometry ids, instances)``: the :meth:`_prim_table` (fetched once: each fetch checks the
+        scene for edits) and the ids as ``(N,)`` int64, refused with ``ValueError`` where one is no id of this scene:
+        another scene's (or this one's before an edit) named no prim, as misses do, without a word."""
         prim = np.asarray(geometry_ids, np.int64).reshape(-1)
         instance = np.asarray(instances, np.int64).reshape(-1)
-        _, own, _, starts_geometry, *_ = self._prim_table()
+        table = self._prim_table()
+        _, own, _, starts_geometry, *_ = table
         ids = int(starts_geometry[-1]) + len(own) - len(starts_geometry)  # triangles, then an id per shape
         for name, values, count in zip(labels, (prim, instance), (ids, len(self.instances))):
             bad = np.flatnonzero((values < -1) | (values >= count))
             if len(bad):
                 raise ValueError(f"{what}: {name}[{bad[0]}] = {values[bad[0]]} is no id of this scene (-1 to "
                                  f"{count - 1}): hits of another scene, or of this one before an edit?")
-        return prim, instance
+        return table, prim, instance
 
-    def _prims_of(self, prim: np.ndarray, instance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`hit_prims` of checked int64 ids."""
-        _, own, part, starts_geometry, face_ids, starts, parts = self._prim_table()
+    def _prims_of(self, table: tuple, prim: np.ndarray, instance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`hit_prims` of checked int64 ids, looked up in ``table`` (:meth:`_prim_table`)."""
+        _, own, part, starts_geometry, face_ids, starts, parts = table
         meshes_end = len(starts_geometry) - 1  # geometry sources: the meshes, then the shapes, then one for none
         # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
         source = np.where(prim < starts_geometry[-1], np.searchsorted(starts_geometry, prim, side="right") - 1,
@@ -1310,9 +1312,9 @@ class Scene:
             hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).
         """
         self._check_hits(hits, "hit_paths")
-        prim, instance = self._hit_ids(hits.local_prim, hits.instance, "hit_paths", ("hits.local_prim",
-                                                                                      "hits.instance"))
-        prims = np.array([*self._prim_table()[0], ""], object)[self._prims_of(prim, instance)[0]]  # -1: the last, ""
+        table, prim, instance = self._hit_ids(hits.local_prim, hits.instance, "hit_paths",
+                                              ("hits.local_prim", "hits.instance"))
+        prims = np.array([*table[0], ""], object)[self._prims_of(table, prim, instance)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
