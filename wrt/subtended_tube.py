@@ -77,9 +77,9 @@ def angle_density(reach: float, spread: float, rho: float, delta: float):
 
 @wp.func
 def subtended_density(ra: float, rb: float, H: float, reach: float, spread: float, rho: float, z: float,
-                      delta: float, qz: float):
+                      delta: float, along: float):
     """Density by area with which :func:`sample_subtended` draws the side's point at angle ``delta`` from p's and
-    height ``qz``."""
+    ``along`` its line from the bottom (0) to the top (1)."""
     p_angle = angle_density(reach, spread, rho, delta)
     if p_angle <= 0.0:
         return 0.0
@@ -87,10 +87,10 @@ def subtended_density(ra: float, rb: float, H: float, reach: float, spread: floa
     span, below_top, above_bottom = sine_span(h, -s_p, length - s_p)
     if span <= 0.0:
         return 0.0
-    along = wp.clamp((qz + H) / (2.0 * H), 0.0, 1.0)
-    s = along * length - s_p
+    t = wp.clamp(along, 0.0, 1.0)
+    s = t * length - s_p
     d = wp.sqrt(h * h + s * s)
-    radius = ra + (rb - ra) * along
+    radius = ra + (rb - ra) * t
     if d <= 0.0 or radius <= 0.0:
         return 0.0
     # ds density h^2 / (d^3 span), over the radius (the side's area element is radius d(delta) ds)
