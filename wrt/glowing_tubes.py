@@ -14,10 +14,11 @@ its half axis) into [1, 2): the area in world units squared overflowed float32 f
 import warp as wp
 
 from .floats import largest_magnitude, power_scales
-from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE, GLOW_TAPERED_CAPSULE
+from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE, GLOW_OPEN_CYLINDER, GLOW_TAPERED_CAPSULE
 from .sampling import PI, basis_x, basis_y, sample_uniform_sphere
 from .subtended_tube import sample_subtended, subtended_density
 
+TUBE_OPEN = wp.constant(GLOW_OPEN_CYLINDER)  # also a UsdLux CylinderLight's (wrt.light_sampling)
 TUBE_CAPPED = wp.constant(GLOW_CAPPED_CYLINDER)
 TUBE_CAPSULE = wp.constant(GLOW_CAPSULE)
 TUBE_TAPERED = wp.constant(GLOW_TAPERED_CAPSULE)

@@ -6,8 +6,9 @@ Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 
 times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
 that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
 :mod:`wrt.spherical_rect`); triangles by solid angle unless they look tiny (:mod:`wrt.spherical_triangle`); other
-disk lights, rect lights and triangles that look tiny, and cylinder lights uniformly by area (cylinders: the half
-facing the shading point); ellipsoids and elliptic tubes (sphere and cylinder lights under
+disk lights, rect lights and triangles that look tiny uniformly by area; cylinder lights as open glowing tubes
+(:mod:`wrt.glowing_tubes`: uniformly by area over the half facing the shading point and by the angles their side
+subtends, mixed); ellipsoids and elliptic tubes (sphere and cylinder lights under
 a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
 soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
@@ -30,7 +31,7 @@ from .affine_lights import (
 )
 from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
-from .glowing_tubes import sample_tube, tube_pdf
+from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf
 from .ies import ies_factor
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
@@ -38,8 +39,6 @@ from .materials import DeviceMaterials, cut_out, eval_emission
 from .sampling import (
     INV_PI,
     PI,
-    basis_x,
-    basis_y,
     cdf_remainder,
     sample_cdf,
     sample_concentric_disk,
@@ -285,6 +284,15 @@ def light_scales(lights: DeviceLights, k: int):
 
 
 @wp.func
+def cylinder_tube(lights: DeviceLights, k: int):
+    """``(row, half)``: cylinder light ``k`` as :mod:`wrt.glowing_tubes` takes an open tube: (centre, radius) and
+    (half axis, ``TUBE_OPEN``)."""
+    c = lights.position[k]
+    half = 0.5 * lights.axis_u[k]
+    return wp.vec4(c[0], c[1], c[2], lights.params[k][0]), wp.vec4(half[0], half[1], half[2], float(TUBE_OPEN))
+
+
+@wp.func
 def intersect_sphere_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
     """:func:`wrt.affine_lights.intersect_sphere` of sphere light ``k`` and the ray ``(o, unit d)``, in its scaled
     lengths (:func:`light_scales`): its squares overflowed for a sphere 1e19 wide."""
@@ -483,9 +491,14 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     if kind == LIGHT_ELLIPTIC_TUBE:
         return elliptic_tube_pdf(lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up,
                                  (p + dist * d) * down, dist * down, cos_l)
-    area = lights.params[k][2]  # times down^2
     if kind == LIGHT_CYLINDER:
-        area = 0.5 * area  # sampling covers the half facing the shading point
+        if cos_l <= 0.0:
+            return 0.0
+        row, half = cylinder_tube(lights, k)
+        w = wp.normalize(lights.axis_u[k] * down)
+        rel = (p - lights.position[k]) * down + d * (dist * down)
+        return tube_pdf(row, half, 1.0, 1, p, d, dist, wp.normalize(rel - wp.dot(rel, w) * w))
+    area = lights.params[k][2]  # times down^2
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
@@ -879,16 +892,10 @@ def sample_light(
             q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
         L = wp.cw_mul(L, light_texture(lights, k, q))
     elif kind == LIGHT_CYLINDER:
-        # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
-        axis = lights.axis_u[k]
-        along = wp.normalize(axis * down)
-        to_p = p - lights.position[k]
-        phi0 = wp.atan2(wp.dot(to_p, basis_y(along)), wp.dot(to_p, basis_x(along)))
-        phi = phi0 + (u2 - 0.5) * PI
-        radial = wp.cos(phi) * basis_x(along) + wp.sin(phi) * basis_y(along)
-        q = lights.position[k] + (u1 - 0.5) * axis + lights.params[k][0] * radial
-        ln = radial
-        area = 0.5 * lights.params[k][2]
+        # An open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p and by the angles
+        # its side subtends, mixed; "area" is one over the mixture's density, in the tube's own lengths (down).
+        row, half = cylinder_tube(lights, k)
+        q, ln, area, down = sample_tube(row, half, 1.0, p, 1, u1, u2)
         L = lights.radiance[k]
     elif kind == LIGHT_GLOWING_TUBE:
         # Uniform by area over the part of the tube p can see the front of (the whole of a double-sided one) and by
