@@ -10,9 +10,12 @@ is preserved):
 - ellipsoid: a direction uniform in the cone the unit sphere subtends at ``A (p - c)``, mapped to the world by
   ``M``; a linear map turns solid angle by ``|det A| / |A w|^3`` at world direction ``w``, so its pdf is
   ``1 / (2 pi (1 - cos_max) (g |A w|)^3)`` with ``g = |det M|^(1/3)``;
-- tube: a point uniform by area on the canonical half facing ``A (p - c)`` (area ``pi``), mapped by ``M``, whose
-  area element there stretches by ``J = |M X x M t|`` (``t`` the canonical tangent around the tube): area pdf
-  ``1 / (pi J)``.
+- tube: a point of the canonical tube drawn for ``A (p - c)`` as :mod:`wrt.glowing_tubes` draws an open round tube
+  (uniformly by area on the half facing it, mixed with the draw by the angles the side subtends, so that points
+  near the tube are not noisy), mapped by ``M``, whose area element there stretches by ``J = |M X x M t|`` (``t``
+  the canonical tangent around the tube): world area density the canonical one over ``J``. The draw is not
+  uniform by world solid angle, but near the tube the map is nearly affine on the patch that matters, and the
+  density is exact whatever the map.
 
 The emitting area, which ``normalize`` divides by and light selection weighs, is integrated on the host in float64
 (:func:`ellipsoid_area`, :func:`elliptic_tube_area`): an ellipsoid's has no elementary closed form.
@@ -26,7 +29,12 @@ import math
 import numpy as np
 import warp as wp
 
+from .glowing_tubes import TUBE_OPEN, sample_tube, tube_point_density
 from .sampling import PI, sample_uniform_cone, to_world
+
+# The canonical tube as wrt.glowing_tubes takes an open one: (centre, radius) and (half axis, code).
+UNIT_TUBE = wp.constant(wp.vec4(0.0, 0.0, 0.0, 1.0))
+UNIT_TUBE_AXIS = wp.constant(wp.vec4(0.5, 0.0, 0.0, float(TUBE_OPEN)))
 
 # A light's linear map whose smallest singular value is below this share of its largest is flat (a disk, a ribbon):
 # it cannot be inverted in float32, and the round light of the mean scale stands in for it (wrt.usd_lights warns).
@@ -146,28 +154,29 @@ def intersect_elliptic_tube(c: wp.vec3, a: wp.mat33, o: wp.vec3, d: wp.vec3):
 
 
 @wp.func
-def elliptic_tube_pdf(c: wp.vec3, m: wp.mat33, a: wp.mat33, q: wp.vec3, dist: float, cos_l: float):
-    """Solid-angle pdf with which :func:`sample_elliptic_tube` draws point ``q`` on the tube (at ``dist``, cosine
-    ``cos_l`` there) from a point that sees it."""
+def elliptic_tube_pdf(c: wp.vec3, m: wp.mat33, a: wp.mat33, p: wp.vec3, q: wp.vec3, dist: float, cos_l: float):
+    """Solid-angle pdf with which :func:`sample_elliptic_tube` from ``p`` draws point ``q`` on the tube (at
+    ``dist``, cosine ``cos_l`` there), for a point ``p`` sees the front of."""
     qc = a * (q - c)
     rho = wp.sqrt(qc[1] * qc[1] + qc[2] * qc[2])
     if cos_l <= 0.0 or rho <= 0.0:
         return 0.0
-    stretch = tube_stretch(m, wp.vec3(0.0, qc[1], qc[2]) / rho)
+    radial = wp.vec3(0.0, qc[1], qc[2]) / rho
+    stretch = tube_stretch(m, radial)
     if stretch <= 0.0:
         return 0.0
-    return dist * dist / (cos_l * PI * stretch)
+    density = tube_point_density(UNIT_TUBE, UNIT_TUBE_AXIS, 1.0, 1, a * (p - c), qc, radial)  # canonical, by area
+    return dist * dist * density / (cos_l * stretch)
 
 
 @wp.func
 def sample_elliptic_tube(c: wp.vec3, m: wp.mat33, a: wp.mat33, p: wp.vec3, u1: float, u2: float):
-    """A point on the half of the tube that faces ``p`` in the canonical frame, uniform there by area; with its unit
-    world normal and ``pi`` times its area stretch (the reciprocal of its world area pdf)."""
-    pc = a * (p - c)
-    phi = wp.atan2(pc[2], pc[1]) + (u2 - 0.5) * PI
-    radial = wp.vec3(0.0, wp.cos(phi), wp.sin(phi))
-    q = c + m * (radial + wp.vec3(u1 - 0.5, 0.0, 0.0))
-    return q, tube_normal(a, radial), PI * tube_stretch(m, radial)
+    """A point on the tube drawn for ``p`` in the canonical frame as :func:`wrt.glowing_tubes.sample_tube` draws an
+    open single-sided round tube (uniformly by area over the half facing ``A (p - c)``, and by the angles the side
+    subtends from there), mapped by ``M``; with its unit world normal and the reciprocal of its world area density:
+    the canonical one's (the unit tube's ``down`` is 1) times the area stretch (0: nothing drawn)."""
+    qc, radial, area, down = sample_tube(UNIT_TUBE, UNIT_TUBE_AXIS, 1.0, a * (p - c), 1, u1, u2)
+    return c + m * qc, tube_normal(a, radial), area * tube_stretch(m, radial)
 
 
 def flat(m: np.ndarray) -> bool:

@@ -323,21 +323,17 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
 
 
 @wp.func
-def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3, d: wp.vec3, dist: float,
-             n: wp.vec3):
-    """Solid-angle pdf of :func:`sample_tube` (``taper`` and ``facing`` as there) from ``p`` drawing the point
-    ``dist`` along unit ``d`` whose unit normal is ``n`` (either side), for a point the ray can hit:
-    ``dist^2 density / |cos|`` (:func:`tube_density`), lengths times the tube's ``down``. The point is on the side
-    unless it lies past the side's ends (a capsule's hemispheres, a tapered capsule's zones) or, capped, its normal
-    is the axis."""
+def tube_point_density(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, to_p: wp.vec3, q_rel: wp.vec3,
+                       n: wp.vec3):
+    """Density by area (lengths times the tube's ``down``) with which :func:`sample_tube` (``taper`` and ``facing``
+    as there) draws the point ``q_rel`` from the centre (times ``down``) whose unit normal is ``n`` (either side), for
+    the shading point ``to_p`` from the centre (times ``down``): :func:`tube_density`. The point is on the side unless
+    it lies past the side's ends (a capsule's hemispheres, a tapered capsule's zones) or, capped, its normal is the
+    axis."""
     down, up = tube_scales(row, axis)
-    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
     area, side, arc = tube_area(row, axis, taper, down, facing, to_p)
-    cos_l = wp.abs(wp.dot(d, n))
-    if cos_l <= 0.0 or area <= 0.0:
+    if area <= 0.0:
         return 0.0
-    scaled = dist * down
-    q_rel = to_p + d * scaled
     w, h = tube_axis(axis, down)
     code = int(axis[3])
     r = row[3] * down
@@ -348,5 +344,19 @@ def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3,
         on_side = wp.where(wp.abs(wp.dot(n, w)) < 0.5 * (1.0 + lean), 1, 0)
     elif code == TUBE_CAPSULE or code == TUBE_TAPERED:
         on_side = wp.where(wp.abs(wp.dot(q_rel, w) - mid) < h_side, 1, 0)
-    density = tube_density(r, r * taper, h, code, w, to_p, facing, area, arc, q_rel, on_side)
-    return scaled * scaled * density / cos_l
+    return tube_density(r, r * taper, h, code, w, to_p, facing, area, arc, q_rel, on_side)
+
+
+@wp.func
+def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3, d: wp.vec3, dist: float,
+             n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_tube` (``taper`` and ``facing`` as there) from ``p`` drawing the point
+    ``dist`` along unit ``d`` whose unit normal is ``n`` (either side), for a point the ray can hit:
+    ``dist^2 density / |cos|`` (:func:`tube_point_density`), lengths times the tube's ``down``."""
+    down, up = tube_scales(row, axis)
+    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
+    cos_l = wp.abs(wp.dot(d, n))
+    if cos_l <= 0.0:
+        return 0.0
+    scaled = dist * down
+    return scaled * scaled * tube_point_density(row, axis, taper, facing, to_p, to_p + d * scaled, n) / cos_l

@@ -490,7 +490,7 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
                              p * down, d)
     if kind == LIGHT_ELLIPTIC_TUBE:
         return elliptic_tube_pdf(lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up,
-                                 (p + dist * d) * down, dist * down, cos_l)
+                                 p * down, (p + dist * d) * down, dist * down, cos_l)
     if kind == LIGHT_CYLINDER:
         if cos_l <= 0.0:
             return 0.0
@@ -909,7 +909,7 @@ def sample_light(
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
         L = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
     elif kind == LIGHT_ELLIPTIC_TUBE:
-        # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
+        # Drawn in the tube's canonical frame as an open round tube (wrt.affine_lights; "area" = 1 / its area pdf).
         q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
                                                 lights.shape_inverses[k] * up, p * down, u1, u2)
         q = q_down * up
