@@ -80,8 +80,9 @@ def test_a_point_near_an_elliptic_tube_estimates_its_irradiance_unbiased_and_qui
     """From 0.01, 0.1 and 1 radii off the side, 40,000 draws estimate the quadrature's irradiance within four
     standard errors plus 0.1%, and within 0.1 radii with a relative noise per draw under 8 (drawn by area alone: 318
     and 77 at 0.01 radii, 23 and 11 at 0.1; now 6.4 and 2.0, 5.6 and 1.7: the draw is close to uniform by solid
-    angle in the canonical frame, less so in the world, where the elliptic tube's section is an ellipse of axes 5 : 1); the pdf a ray along each draw reads back is the one drawn
-    with (but for grazing draws of next to no light)."""
+    angle in the canonical frame, less so in the world, where the elliptic tube's section is an ellipse of axes
+    5 : 1); the pdf a ray along each draw reads back is the one drawn with (but for grazing draws of next to no
+    light)."""
     p, n_p = off_side(name, gap)
     expected = irradiance(name, p, n_p)
     count = 40_000
