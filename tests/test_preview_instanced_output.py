@@ -131,3 +131,43 @@ def test_preview_draws_usds_world_triangles_in_their_display_colours(scene_path)
         plotter.close()
     np.testing.assert_allclose(drawn, corners, rtol=0, atol=1e-5)
     np.testing.assert_array_equal(drawn_colours, colours)
+
+
+def naive_clustering(points, triangles, resolution: int):
+    """Vertex clustering (Rossignac and Borrel 1993) written plainly: each point snapped to the mean of the points
+    in its cell of a ``resolution``^3 grid over their bounds, triangles of fewer than three cells dropped, a repeat
+    of the same three cells dropped, each kept one wound to face as its source. ``{(corner points): source row}``."""
+    lower = points.min(axis=0)
+    extent = (points.max(axis=0) - lower).max()
+    cells = [tuple(np.minimum(((p - lower) * (resolution / extent)).astype(int), resolution - 1)) for p in points]
+    members = {}
+    for p, cell in zip(points, cells):
+        members.setdefault(cell, []).append(p)
+    means = {cell: np.mean(ps, axis=0) for cell, ps in members.items()}
+    drawn, seen = {}, set()
+    for row, tri in enumerate(triangles):
+        corner_cells = [cells[k] for k in tri]
+        if len(set(corner_cells)) < 3 or frozenset(corner_cells) in seen:
+            continue
+        seen.add(frozenset(corner_cells))
+        a, b, c = (means[cell] for cell in corner_cells)
+        source = np.cross(points[tri[1]] - points[tri[0]], points[tri[2]] - points[tri[0]])
+        if np.dot(np.cross(b - a, c - a), source) < 0:
+            b, c = c, b
+        drawn[tuple(np.round(np.concatenate([a, b, c]), 9))] = row
+    return drawn
+
+
+def test_cluster_vertices_is_vertex_clustering_at_one_grid():
+    """A wavy sheet of 1,800 triangles simplified to 400: the soup is the plain vertex clustering of one grid."""
+    from wrt.preview import cluster_vertices
+
+    u, v = np.meshgrid(np.linspace(0, 3, 31), np.linspace(0, 2, 31), indexing="ij")
+    points = np.column_stack([u.ravel(), v.ravel(), 0.3 * np.sin(2 * u.ravel()) * np.cos(3 * v.ravel())])
+    k = (np.arange(30)[:, None] * 31 + np.arange(30)[None]).ravel()
+    triangles = np.concatenate([np.column_stack([k, k + 31, k + 1]), np.column_stack([k + 1, k + 31, k + 32])])
+    rows = np.arange(len(triangles))
+    p, i, r = cluster_vertices(points, triangles.astype(np.int32), rows[:, None], 400)
+    assert 0 < len(i) <= 400
+    drawn = {tuple(np.round(p[t].ravel(), 9)): int(row) for t, row in zip(i, r[:, 0])}
+    assert any(naive_clustering(points, triangles, resolution) == drawn for resolution in range(2, 64))
