@@ -171,3 +171,21 @@ def test_cluster_vertices_is_vertex_clustering_at_one_grid():
     assert 0 < len(i) <= 400
     drawn = {tuple(np.round(p[t].ravel(), 9)): int(row) for t, row in zip(i, r[:, 0])}
     assert any(naive_clustering(points, triangles, resolution) == drawn for resolution in range(2, 64))
+
+
+def test_triangle_colors_of_runs_of_equal_colours_follow_each_rows_colour_and_material():
+    """Rows of one colour in a row, broken by a NaN (no colour), a material or a colour that differs only in a
+    corner: each row shows its own display colour (sRGB formula in float64)."""
+    import types
+
+    from wrt.preview import triangle_colors
+
+    a, b = [0.2, 0.6, 0.01], [0.2, 0.6, 0.011]
+    corners = [[a] * 3, [a] * 3, [[np.nan] * 3] * 3, [[np.nan] * 3] * 3, [a] * 3, [a] * 3, [a, a, b], [a] * 3]
+    scene = wrt.Scene.from_triangles(np.eye(3), [[0, 1, 2]] * len(corners))
+    scene.meshes[0].colors = np.array(corners, np.float32)
+    scene.meshes[0].material_ids = np.array([-1, -1, -1, -1, 0, -1, -1, -1], np.int32)
+    scene.materials = [types.SimpleNamespace(diffuse_color=np.array([1.0, 0.0, 0.0]), diffuse_from_display_color=False)]
+    mean_ab = np.mean(np.array([a, a, b], np.float32), axis=0)
+    expected = [a, a, [0.5] * 3, [0.5] * 3, [1, 0, 0], a, mean_ab, a]
+    np.testing.assert_array_equal(triangle_colors(scene), srgb8(np.array(expected, np.float32)))

@@ -250,7 +250,7 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     # Converted once per geometry triangle, then copied to its instances' rows: converting every expanded row took
     # most of a preview of a scene of many instances (4.5 s of 19 at 2.5M triangles). display_colors and to_srgb8
     # work row by row, so the copies are the colours a per-row conversion gives.
-    srgb = to_srgb8(display_colors(own, ids, np.full_like(own, np.nan), materials))
+    srgb = _run_colors(own, ids, materials)
     tints = getattr(getattr(scene, "instances", None), "colors", ())
     if not len(tints) or not len(own):
         return _expand_rows(scene, srgb)
@@ -264,6 +264,20 @@ def triangle_colors(scene: Scene) -> np.ndarray:
         rows = prim[tinted]
         colors[tinted] = to_srgb8(display_colors(own[rows], ids[rows], tints[instance[tinted]], materials))
     return colors
+
+
+def _run_colors(own, material_ids, materials) -> np.ndarray:
+    """``(N, 3)`` uint8 sRGB of :func:`display_colors` (no instance colours), converted once per run of equal rows
+    (same colour, NaN alike, and material): a mesh's triangles mostly share one colour, and converting each of the
+    4M triangles of a scene of one colour took a second. Row by row as the conversion is, the result is the same."""
+    if not len(own):
+        return to_srgb8(display_colors(own, material_ids, own.copy(), materials))
+    same = material_ids[1:] == material_ids[:-1]
+    same &= ((own[1:] == own[:-1]) | (np.isnan(own[1:]) & np.isnan(own[:-1]))).all(axis=1)
+    starts = np.flatnonzero(np.concatenate([[True], ~same]))
+    first = own[starts]
+    converted = to_srgb8(display_colors(first, material_ids[starts], np.full_like(first, np.nan), materials))
+    return np.repeat(converted, np.diff(np.append(starts, len(own))), axis=0)
 
 
 def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
