@@ -38,10 +38,10 @@ def off_side(gap):
 def draws(r, p, n_p, count):
     """``(estimates, pdf_ratio)`` float64: each draw's irradiance estimate (radiance 1) from ``p`` with normal ``n_p``
     (tube frame), and ``area_light_pdf`` at the point drawn over the pdf the draw reported."""
-    out = [wp.zeros(count, dtype=float, device="cpu") for _ in range(3)]
+    out = [wp.zeros(count, dtype=float, device=r.device) for _ in range(3)]
     wp.launch(sample_and_hit_kernel, count, inputs=[r.device_lights, r.device_scene, r.materials, r.surfaces,
                                                     wp.vec3(*(CENTRE + FRAME @ p)), wp.vec3(*(FRAME @ n_p))],
-              outputs=out, device="cpu")
+              outputs=out, device=r.device)
     return out[0].numpy().astype(np.float64), out[1].numpy().astype(np.float64)
 
 
@@ -86,10 +86,11 @@ def test_the_cylinder_light_density_integrates_to_one_over_its_facing_half(lit, 
     the point (what the draw by area takes points of; the subtended draw's lie inside it), is 1 within 0.5%."""
     p = np.asarray(p)
     q, nq, dA = surface(TUBE, p, single_sided=True)
-    densities = wp.zeros(len(q), dtype=float, device="cpu")
+    device = lit.device  # the renderer's (cuda:0 under benchmarks/render_on_cuda.py)
+    densities = wp.zeros(len(q), dtype=float, device=device)
     wp.launch(density_kernel, len(q), inputs=[lit.device_lights, wp.vec3(*(CENTRE + FRAME @ p)),
-                                              wp.array(CENTRE + q @ FRAME.T, dtype=wp.vec3, device="cpu"),
-                                              wp.array(nq @ FRAME.T, dtype=wp.vec3, device="cpu")],
-              outputs=[densities], device="cpu")
+                                              wp.array(CENTRE + q @ FRAME.T, dtype=wp.vec3, device=device),
+                                              wp.array(nq @ FRAME.T, dtype=wp.vec3, device=device)],
+              outputs=[densities], device=device)
     total = float((densities.numpy().astype(np.float64) * dA).sum())
     assert abs(total - 1.0) < 5e-3, total

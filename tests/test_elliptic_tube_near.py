@@ -86,11 +86,11 @@ def test_a_point_near_an_elliptic_tube_estimates_its_irradiance_unbiased_and_qui
     p, n_p = off_side(name, gap)
     expected = irradiance(name, p, n_p)
     count = 40_000
-    out = [wp.zeros(count, dtype=float, device="cpu") for _ in range(3)]
     r = lit[name]
+    out = [wp.zeros(count, dtype=float, device=r.device) for _ in range(3)]
     wp.launch(sample_and_hit_kernel, count, inputs=[r.device_lights, r.device_scene, r.materials, r.surfaces,
                                                     wp.vec3(*(p + to_world(np.eye(3))[:3, 3])), wp.vec3(*n_p)],
-              outputs=out, device="cpu")
+              outputs=out, device=r.device)
     values, pdf_ratio = out[0].numpy().astype(np.float64), out[1].numpy().astype(np.float64)
     se = values.std() / math.sqrt(count)
     assert abs(values.mean() - expected) < 4.0 * se + 1e-3 * expected, (values.mean(), expected, se)
@@ -120,10 +120,11 @@ def test_the_elliptic_tube_density_integrates_to_one_over_its_facing_half(lit, n
     centre = to_world(np.eye(3))[:3, 3]
     for p in (off_side(name, 0.02)[0], tube_map(name) @ np.array([0.9, 0.1, -0.2]), np.array([3.0, -2.0, 1.0])):
         q, nq, dA = elements(name, p, half_only=True)
-        densities = wp.zeros(len(q), dtype=float, device="cpu")
+        device = lit[name].device  # the renderer's (cuda:0 under benchmarks/render_on_cuda.py)
+        densities = wp.zeros(len(q), dtype=float, device=device)
         wp.launch(density_kernel, len(q), inputs=[lit[name].device_lights, wp.vec3(*(p + centre)),
-                                                  wp.array(q + centre, dtype=wp.vec3, device="cpu"),
-                                                  wp.array(nq, dtype=wp.vec3, device="cpu")],
-                  outputs=[densities], device="cpu")
+                                                  wp.array(q + centre, dtype=wp.vec3, device=device),
+                                                  wp.array(nq, dtype=wp.vec3, device=device)],
+                  outputs=[densities], device=device)
         total = float((densities.numpy().astype(np.float64) * dA).sum())
         assert abs(total - 1.0) < 5e-3, (p, total)
