@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import warp as wp
 from test_affine_lights import SHEAR, renderer, sample_and_hit_kernel, to_world, turned
+from test_cylinder_light_near import density_kernel
 from test_subtended_tube import sinh_grid
 
-from wrt.light_sampling import DeviceLights, area_light_pdf
 from wrt.lights import CylinderLight
 
 # name: (world 3x3, length, radius): a tube 1.5 long of semi-axes 0.6 and 0.12, and a sheared one
@@ -98,19 +98,6 @@ def test_a_point_near_an_elliptic_tube_estimates_its_irradiance_unbiased_and_qui
         assert values.std() < 8.0 * expected, values.std() / expected
     off = np.abs(pdf_ratio - 1.0) > 2e-3
     assert values[off].sum() <= 1e-3 * values.sum(), off.mean()
-
-
-@wp.kernel
-def density_kernel(lights: DeviceLights, p: wp.vec3, qs: wp.array[wp.vec3], ns: wp.array[wp.vec3],
-                   # outputs
-                   densities: wp.array[float]):
-    """``area_light_pdf`` of light 0 at ``qs[i]`` (normal ``ns[i]``) from ``p`` as a density by area."""
-    i = wp.tid()
-    to = qs[i] - p
-    dist = wp.length(to)
-    wi = to / dist
-    cos_l = wp.abs(wp.dot(wi, ns[i]))  # the facing half's back-facing points are drawn too (and dropped)
-    densities[i] = area_light_pdf(lights, 0, p, wp.vec3(0.0), wi, dist, cos_l) * cos_l / (dist * dist)
 
 
 @pytest.mark.parametrize("name", TUBES)
