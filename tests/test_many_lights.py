@@ -396,7 +396,7 @@ def reference_input_reader(prim, time):
     from wrt.usd_lights import INPUTS_PREFIX
     from wrt.usd_values import value_at
 
-    legacy = []
+    legacy, read_from = [], {}
 
     def get(attr, default):
         name = attr.GetName() if attr is not None else ""
@@ -406,10 +406,12 @@ def reference_input_reader(prim, time):
                 if old.GetName() not in legacy:
                     legacy.append(old.GetName())
                 attr = old
+        if attr and attr.HasAuthoredValue():
+            read_from[name] = attr  # the attribute whose colorSpace the value takes
         value = value_at(attr, time) if attr else None
         return default if value is None else value
 
-    return get, legacy, [], []
+    return get, legacy, [], [], read_from
 
 
 def test_plain_lights_are_the_lights_the_reference_reader_reads(tmp_path, monkeypatch):
