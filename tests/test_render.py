@@ -109,6 +109,33 @@ def test_empty_stage_renders_background_with_a_warning(tmp_path):
     assert (img.aovs["prim"] == -1).all()
 
 
+def test_a_stage_whose_triangles_all_have_zero_area_is_warned_of_as_nothing_to_render(tmp_path):
+    """Triangles with collinear or repeated corners cannot be hit: the image was background without a word, while
+    wrt bench refused the same scene. The warning names the file and the triangle count (from USD's face counts)."""
+    from pxr import UsdGeom
+
+    path = tmp_path / "flat.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    line = UsdGeom.Mesh.Define(stage, "/Line")  # a quad whose corners lie on one line
+    line.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)])
+    line.CreateFaceVertexCountsAttr([4])
+    line.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    dot = UsdGeom.Mesh.Define(stage, "/Dot")  # two triangles whose corners repeat
+    dot.CreatePointsAttr([(0, 1, 0), (0, 1, 0), (1, 1, 1)])
+    dot.CreateFaceVertexCountsAttr([3, 3])
+    dot.CreateFaceVertexIndicesAttr([0, 1, 2, 2, 2, 0])
+    stage.Save()
+    triangles = sum(n - 2 for prim in stage.Traverse() for n in UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get())
+    scene = wrt.load_usd(path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        img = wrt.render(scene, width=16, height=8, device="cpu")
+    said = [str(w.message) for w in caught if "nothing to render" in str(w.message)]
+    assert len(said) == 1, [str(w.message) for w in caught]
+    assert "flat.usda" in said[0] and f"{triangles} triangles all have zero area" in said[0], said
+    assert (img.aovs["prim"] == -1).all()
+
+
 def test_stage_without_camera_is_framed(tmp_path):
     scene = wrt.load_usd(warp_assets("bunny.usd"))
     assert not scene.cameras

@@ -48,7 +48,7 @@ from .errors import SceneError, did_you_mean, flag, not_a_file
 from .image import write_atomically
 from .rays import RAY_KINDS, ray_set, shadow_target
 from .resources import check_host_memory
-from .scene import Scene
+from .scene import Scene, has_area
 from .strict_json import strict_json
 from .trace import (
     WARP_BUILDERS,
@@ -789,7 +789,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     if not triangles:  # rows of an empty stage timed rays that meet nothing: 0 % hits, 100 % agreement, any Mrays/s
         raise ValueError("the scene has no triangles to trace (no meshes, gprims, points or curves are rendered)")
     points, indices = scene.triangles()
-    if not _has_area(points, indices):  # as an empty stage: rays that can meet nothing, '0 % hits' at any Mrays/s
+    if not has_area(points, indices):  # as an empty stage: rays that can meet nothing, '0 % hits' at any Mrays/s
         raise ValueError(f"the scene's {triangles} triangles all have zero area (collinear or repeated corners): "
                          "no ray can hit one")
     origins, directions = ray_set(scene, kind, grid.n_rays, seed=1)
@@ -846,16 +846,6 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
             row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
             row["traceback"] = traceback.format_exc(limit=3)
         emit(row)
-
-
-def _has_area(points: np.ndarray, indices: np.ndarray, chunk: int = 1 << 16) -> bool:
-    """Whether any of the ``(T, 3)`` triangles ``indices`` into ``(V, 3)`` ``points`` has a nonzero area (in float64);
-    read a chunk at a time, so that a real scene answers after its first chunk, without a copy of every triangle."""
-    for start in range(0, len(indices), chunk):
-        corners = np.asarray(points)[np.asarray(indices[start:start + chunk])].astype(np.float64)
-        if np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]).any():
-            return True
-    return False
 
 
 def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> None:

@@ -49,7 +49,7 @@ from .materials import emission_estimates, upload_materials, wholly_cut_out
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, parts_changed
+from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, has_area, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
     FIRST_ON_LENS,
@@ -643,14 +643,19 @@ class Renderer:
         self._asked_ao_radius = ao_radius  # None: the scene's, measured again at each build (_build)
         self.timers = {}
         stats = scene.stats()
-        if stats["rendered_triangles"] == 0 and stats.get("rendered_shapes", 0) == 0:
+        triangles = stats["rendered_triangles"]
+        # Triangles that all have zero area (collinear or repeated corners) can no more be hit than none at all.
+        flat = triangles and not any(has_area(m.points, m.indices) for m in scene._geometry_meshes())
+        if (triangles == 0 or flat) and stats.get("rendered_shapes", 0) == 0:
             # A dome, a soft sun or an area light alone is what the camera sees (an HDRI or light preview): said only
             # where nothing at all can appear.
             lit = integrator in LIGHT_SAMPLING_INTEGRATORS
             if not (lit and any(map(seen_by_camera, scene.lights))):
                 lights = ("" if not scene.lights else f", and the {integrator} integrator shows no light" if not lit
                           else ", and no light a camera ray sees")
-                warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles{lights}); the image is "
+                what = (f"its {counted(triangles, 'triangle')} all have zero area (collinear or repeated corners), so "
+                        "no ray can hit one" if flat else "no triangles")
+                warnings.warn(f"{scene.source or 'scene'}: nothing to render ({what}{lights}); the image is "
                               "background only", stacklevel=user_stacklevel())
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)

@@ -497,6 +497,16 @@ def dataclass_field_names(cls: type) -> tuple | None:
 TRACED_REACH = 2.0**126  # Scene.warn_past_traced_reach: coordinates beyond it can overflow the triangle test
 
 
+def has_area(points: np.ndarray, indices: np.ndarray, chunk: int = 1 << 16) -> bool:
+    """Whether any of the ``(T, 3)`` triangles ``indices`` into ``(V, 3)`` ``points`` has a nonzero area (in float64);
+    read a chunk at a time, so that a real scene answers after its first chunk, without a copy of every triangle."""
+    for start in range(0, len(indices), chunk):
+        corners = np.asarray(points)[np.asarray(indices[start:start + chunk])].astype(np.float64)
+        if np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]).any():
+            return True
+    return False
+
+
 def _reaches_past(mesh: Mesh, reach: float) -> bool:
     """True when a point that ``mesh``'s triangles use has a coordinate past ``reach``. The points alone are looked
     at first: gathering the corners of every triangle took 2.2 s for 2M triangles, at every accelerator build."""
