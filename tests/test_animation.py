@@ -1418,3 +1418,36 @@ def test_a_far_camera_flying_through_the_frames_of_a_run_is_warned_of_once(tmp_p
     said = [str(w.message) for w in caught if "/Far" in str(w.message) and "float32" in str(w.message)]
     assert sum("is so far from the scene" in m for m in said) == 1, said
     assert sum("sees analytic shapes from so far" in m for m in said) == 1, said
+
+
+def test_cli_frames_of_mixed_sizes_from_a_time_sampled_aperture_warn_once_naming_the_camera(tmp_path, capsys):
+    """--width alone takes the height from the camera's aperture aspect at each frame (each frame is the image a fresh
+    render of its time gives); an aperture that is time-sampled gave frames of different sizes in one sequence
+    without a word. One warning names the camera and each size; the sizes are checked against USD's apertures."""
+    from pxr import Usd, UsdGeom
+
+    from wrt.cli import main
+
+    path = tmp_path / "zoom.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(8)
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    camera = UsdGeom.Camera.Define(stage, "/Cam")
+    UsdGeom.XformCommonAPI(camera).SetTranslate((0, 0, 10))
+    camera.CreateVerticalApertureAttr(15.0)
+    aperture = camera.CreateHorizontalApertureAttr()
+    aperture.Set(20.0, 1)
+    aperture.Set(40.0, 8)
+    stage.Save()
+    width = 40
+    heights = [round(width * camera.GetVerticalApertureAttr().Get(t) / aperture.Get(t)) for t in (1, 8)]
+    assert heights[0] != heights[1]
+    argv = ["render", str(path), "--frames", "1:8:7", "-o", str(tmp_path / "f_#.npy"), "-q", "--width", str(width)]
+    assert main(argv + ["--device", "cpu", "--spp", "1"]) == 0
+    assert [np.load(tmp_path / f"f_{t}.npy").shape[:2] for t in (1, 8)] == [(h, width) for h in heights]
+    err = capsys.readouterr().err
+    said = [line for line in err.splitlines() if "image sizes" in line]
+    assert len(said) == 1, err
+    assert "zoom.usda" in said[0] and "camera /Cam" in said[0], said
+    assert f"{width}x{heights[0]} from frame 1" in said[0] and f"{width}x{heights[1]} from frame 8" in said[0], said

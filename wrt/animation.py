@@ -287,7 +287,8 @@ class FrameRenderer:
         log: one dict per rendered frame: ``frame``, ``change`` (what the BVH did), ``rebuilt_trees`` (trees built
             anew: all of them on a ``build``, those past the refit limit on a ``refit``), ``load_ms``, ``update_ms``
             (build, refit or TLAS rebuild), ``render_ms``, ``dropped_samples`` (the frame's samples left out as not
-            finite: :attr:`wrt.Renderer.dropped_samples`; their warning is said once over the frames).
+            finite: :attr:`wrt.Renderer.dropped_samples`; their warning is said once over the frames),
+            ``image_size`` (``[width, height]``) and ``drawn_camera`` (``camera /Path``: :func:`warn_mixed_sizes`).
     """
 
     def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, variants=None,
@@ -352,9 +353,39 @@ class FrameRenderer:
                 "render_ms": renderer.timers["render"][0],
                 # The frame's own count: its warning is said once over the frames (Renderer._warn_once).
                 "dropped_samples": renderer.dropped_samples,
+                # The frame's size and camera: one side given, a camera's time-sampled aperture sizes each frame
+                # anew (warn_mixed_sizes).
+                # Named apart from the options' width, height and camera in --log rows (as given, null: the default),
+                # which --resume compares.
+                "image_size": [image.width, image.height],
+                "drawn_camera": _camera_label(scene, self.camera),
             }
         )
         return image
+
+
+def _camera_label(scene, camera) -> str:
+    """``camera /Path`` of the stage camera a frame was drawn through, or words for the one wrt frames a scene with."""
+    from .render import camera_source
+
+    source = camera_source(scene, camera)
+    return source.label() if source is not None else "the camera wrt frames the scene with"
+
+
+def warn_mixed_sizes(path, rows) -> None:
+    """One warning where the frames of a run have images of different sizes (one side given, the other from a camera
+    aperture that is time-sampled): each frame is the image a fresh render of its time gives, as documented, but a
+    sequence of mixed sizes does not play or encode as one, and nothing said so. Names the camera and each size with
+    its first frame."""
+    first = {}
+    for row in sorted((row for row in rows if "image_size" in row), key=lambda row: row["frame"]):
+        first.setdefault(tuple(row["image_size"]), row)
+    if len(first) > 1:
+        cameras = " and ".join(dict.fromkeys(row["drawn_camera"] for row in first.values()))
+        sizes = ", ".join(f"{w}x{h} from frame {row['frame']:g}" for (w, h), row in first.items())
+        warnings.warn(f"{os.path.basename(path)}: the frames have {len(first)} image sizes ({sizes}): the size not "
+                      f"given follows {cameras}'s aperture aspect at each frame; give both --width and --height (or "
+                      "width and height) for one size", UserWarning, stacklevel=3)
 
 
 def warn_frames_outside_range(path, frames) -> None:
@@ -806,4 +837,5 @@ __all__ = [
     "render_frames_on_dask",
     "topology_key",
     "warn_frames_outside_range",
+    "warn_mixed_sizes",
 ]

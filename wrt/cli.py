@@ -1032,6 +1032,9 @@ def _run_frames(args, paths: list, progress) -> int:
         rows = render_frames_on_dask(paths[0], jobs, address=args.dask or None, n_workers=args.workers, **common)
     else:
         rows = render_frames(paths[0], jobs, devices=devices, **common)
+    from .animation import warn_mixed_sizes
+
+    warn_mixed_sizes(paths[0], rows)
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
