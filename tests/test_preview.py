@@ -1240,13 +1240,37 @@ def test_to_pyvista_makes_at_most_its_budget_of_instance_blocks(monkeypatch):
     to_world[:, :3, 3] = rng.normal(size=(10, 3)) * 10
     scene = wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms(np.zeros(10, int), to_world))
     for kwargs, shown in (({}, 4), ({"max_instances": 7}, 7), ({"max_instances": 0}, 0)):
-        blocks = to_pyvista(scene, **kwargs)
+        with pytest.warns(UserWarning, match=f"left out {10 - shown} of 10 instances"):
+            blocks = to_pyvista(scene, **kwargs)
         assert blocks.n_blocks == shown, kwargs
         assert blocks.field_data["instances_left_out"][0] == 10 - shown
         for block, matrix in zip(blocks, to_world):
             np.testing.assert_allclose(block.points, local @ matrix[:3, :3].T + matrix[:3, 3], rtol=1e-5, atol=1e-5)
     with pytest.raises(ValueError, match="max_instances"):
         to_pyvista(scene, max_instances=-1)
+
+
+def test_to_pyvista_warns_once_of_the_instances_past_its_budget_naming_the_file_count_and_budget(tmp_path):
+    """Past its instance budget to_pyvista kept the first instances and only counted the others in field_data: the
+    blocks looked like the whole scene. One warning names the file, how many of how many (USD's protoIndices) were
+    left out, and the budget to raise."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    stage = Usd.Stage.Open(str(path))
+    instances = len(UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Tets")).GetProtoIndicesAttr().Get())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        blocks = to_pyvista(str(path), max_instances=1)
+    said = [str(w.message) for w in caught if "left out" in str(w.message)]
+    assert len(said) == 1, [str(w.message) for w in caught]
+    assert "instanced.usda" in said[0] and f"left out {instances - 1} of {instances} instances" in said[0], said
+    assert "max_instances=1" in said[0] and "max_triangles" in said[0], said
+    assert blocks.field_data["instances_left_out"][0] == instances - 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # all of them fit: nothing said
+        assert to_pyvista(str(path)).field_data["instances_left_out"][0] == 0
 
 
 @pytest.mark.parametrize("budget", [-3, 0, 2.5, True])

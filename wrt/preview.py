@@ -69,7 +69,7 @@ from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
 from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_device
-from .wording import counted
+from .wording import counted, counted_of
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
 EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only instances within the budget, spread
@@ -326,9 +326,10 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
     ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
     id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face
     (``Mesh.elements``: 0 on a tessellated gprim, as its ``elementId``). Instances are added in order while the total
-    stays within ``max_triangles`` and they number at most ``max_instances``; the others are left out, and the
-    MultiBlock's ``field_data["instances_left_out"]`` counts them. Analytic shapes (spheres, cubes, ... and those
-    of prototypes) are not among the blocks: :func:`shape_meshes` tessellates them.
+    stays within ``max_triangles`` and they number at most ``max_instances``; the others are left out, a warning
+    says how many and which budget, and the MultiBlock's ``field_data["instances_left_out"]`` counts them. Analytic
+    shapes (spheres, cubes, ... and those of prototypes) are not among the blocks: :func:`shape_meshes` tessellates
+    them.
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
@@ -393,7 +394,15 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
             path = drawn.instances.path(i)
             poly.field_data["path"] = [path]
             add(poly, path, i)
-    blocks.field_data["instances_left_out"] = [len(scene.instances) - shown]
+    left_out = len(scene.instances) - shown
+    blocks.field_data["instances_left_out"] = [left_out]
+    if left_out:  # only counted in field_data, the blocks looked like the whole scene
+        limits = [f"max_triangles={max_triangles:,}"] if shown == _instances_within(scene, max_triangles) else []
+        limits += [f"max_instances={max_instances:,}"] if shown == max_instances else []
+        warnings.warn(f"{scene.source or 'scene'}: to_pyvista left out "
+                      f"{counted_of(left_out, len(scene.instances), 'instance')} (the first {shown:,} in order fill "
+                      f"{' and '.join(limits)}); pass a larger max_triangles or max_instances to include them",
+                      stacklevel=2)
     return blocks
 
 
