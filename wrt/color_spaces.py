@@ -84,6 +84,12 @@ def linear_rec709(values, name: str) -> np.ndarray:
     return out
 
 
+def input_attrs(inp) -> list:
+    """The attribute of shader input ``inp``, then those its value comes from (the interface input it connects to):
+    the attributes :func:`own_color_space` and :func:`attribute_color_space` read; none for no input."""
+    return [inp.GetAttr(), *inp.GetValueProducingAttributes()] if inp else []
+
+
 def own_color_space(attrs) -> str:
     """The first non-empty ``colorSpace`` metadata of attributes ``attrs`` (an input, then the interface input it
     reads), ``""`` where none has one (an empty one is none, as hdMtlx passes it on)."""
@@ -206,7 +212,7 @@ def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.nd
     grey it is. ``decoded`` is None where the conversion passes float32's range."""
     if value.size not in (1, 3, 4) or not inp or not color:
         return value, None
-    name, holder = attribute_color_space([inp.GetAttr(), *inp.GetValueProducingAttributes()])
+    name, holder = attribute_color_space(input_attrs(inp))
     if name and name not in COLOR_SPACES:
         return value, f"{what} colour space {name!r}{_inherited(holder)} is read as linear Rec.709 (unknown to wrt)"
     if not name or reads_as_stored(name):
@@ -227,8 +233,7 @@ def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str
     know or MaterialX has no transform for (read as ``raw``), or one whose primaries it does not convert in images,
     naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as stored: a
     ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
-    attrs = [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []
-    name, holder = attribute_color_space(attrs)
+    name, holder = attribute_color_space(input_attrs(file_input))
     if not name:
         return None, None
     named = f"{what} colour space {name!r}{_inherited(holder)}"

@@ -1550,11 +1550,9 @@ class MaterialReader:
         ``scale`` or ``bias`` (``name``) carries: they are ``float4`` in its Sdr definition, no colours, so their
         numbers are read as authored (a scale or bias is applied to decoded texels). It was left out without a word.
         A linear Rec.709 or data space, which reads alike, is not named."""
-        from .color_spaces import inherited_color_space, own_color_space, reads_as_stored
+        from .color_spaces import attribute_color_space, input_attrs, reads_as_stored
 
-        inp = tex.GetInput(name)
-        attrs = [inp.GetAttr(), *inp.GetValueProducingAttributes()] if inp else []
-        space = own_color_space(attrs) or (inherited_color_space(inp.GetAttr())[0] if inp else "")
+        space = attribute_color_space(input_attrs(tex.GetInput(name)))[0]
         if space and not reads_as_stored(space):
             self.skip(f"material {material_path}: a UsdUVTexture's fallback, scale and bias are float4 in its "
                       "definition, no colours: they are read as authored, the colour space they carry is not read",
@@ -1744,10 +1742,10 @@ class MaterialReader:
         materialNetwork reads no colour space metadata for it), and so does wrt, so ``sourceColorSpace = raw``
         beside ``colorSpace = "srgb_rec709_scene"`` reads the file raw. Only MaterialX's image nodes (and its
         ``ND_UsdUVTexture``) take the file's colorSpace. It was left out without a word."""
-        from .color_spaces import inherited_color_space, own_color_space, reads_as_stored
+        from .color_spaces import inherited_color_space, input_attrs, own_color_space, reads_as_stored
 
         file_input = tex.GetInput("file")
-        name = own_color_space([file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else [])
+        name = own_color_space(input_attrs(file_input))
         if name:
             self.skip(f"material {material_path}: a UsdUVTexture file's colorSpace is not read (Storm reads "
                       f"sourceColorSpace alone); the file is decoded as sourceColorSpace {color_space}",
