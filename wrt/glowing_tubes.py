@@ -242,7 +242,7 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
     r = row[3]
     w, h_down = tube_axis(axis, down)
     code = int(axis[3])
-    mid, h_side, r_side, top_side, sin_lat = tube_side(r * down, r * down * taper, h_down, code)
+    _, _, _, _, sin_lat = tube_side(r * down, r * down * taper, h_down, code)  # the rest: side_view's below
     bx = basis_x(w)
     by = basis_y(w)
     above = wp.where(wp.dot(to_p, w) >= 0.0, 1.0, -1.0)  # the side of the centre p lies on, along the axis
