@@ -255,7 +255,7 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     if not len(tints) or not len(own):
         return _expand_rows(scene, srgb)
     geometry = own[: getattr(scene, "num_geometry_triangles", len(own))]
-    prim, instance = scene.split_ids(np.arange(scene.stats()["rendered_triangles"], dtype=np.int64))
+    prim, instance = _expanded_ids(scene)
     colors = srgb[prim]
     # An instance's colour shows only on its triangles without a colour of their own: those are converted again.
     tinted = np.flatnonzero(instance >= 0)
@@ -286,8 +286,12 @@ def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
     if not len(getattr(scene, "instances", ())):
         # The rows are the non-instanced triangles: prototypes without instances (none fit the budget) draw nothing.
         return values[: getattr(scene, "num_flat_triangles", len(values))]
-    rows = np.arange(scene.stats()["rendered_triangles"], dtype=np.int64)
-    return values[scene.split_ids(rows)[0]]
+    return values[_expanded_ids(scene)[0]]
+
+
+def _expanded_ids(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """``(geometry id, instance)`` of each row of ``Scene.triangles()`` (instances expanded)."""
+    return scene.split_ids(np.arange(scene.stats()["rendered_triangles"], dtype=np.int64))
 
 
 def world_triangles(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
