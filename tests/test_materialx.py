@@ -613,14 +613,16 @@ def test_a_colour_image_without_a_colour_space_is_read_as_stored(tmp_path, node)
 
 
 # The MaterialX Specification's colour spaces (1.39) other than srgb_texture and lin_rec709: each one's transfer
-# function to linear as MaterialX's colour transforms decode it (a power of max(x, 0), or sRGB's curve), and whether
-# its primaries are other than Rec.709's (a gamut conversion wrt does not make, to be named).
-TRANSFERS = {"g22_rec709": (lambda x: x**2.2, False), "g18_rec709": (lambda x: x**1.8, False),
-             "rec709_display": (lambda x: x**2.4, False),
-             "lin_srgb": (lambda x: x, False), "g22_ap1": (lambda x: x**2.2, True),
-             "g18_ap1": (lambda x: x**1.8, True), "adobergb": (lambda x: x ** (563 / 256), True),
-             "srgb_displayp3": (lambda x: srgb_decoded(x, 1.0), True), "lin_displayp3": (lambda x: x, True),
-             "acescg": (lambda x: x, True), "lin_ap1": (lambda x: x, True), "lin_adobergb": (lambda x: x, True)}
+# function to linear as MaterialX's colour transforms decode it (a power of max(x, 0), or sRGB's curve), and the USD
+# name of the linear space of its primaries where they are other than Rec.709's (None), converted from as USD does.
+TRANSFERS = {"g22_rec709": (lambda x: x**2.2, None), "g18_rec709": (lambda x: x**1.8, None),
+             "rec709_display": (lambda x: x**2.4, None),
+             "lin_srgb": (lambda x: x, None), "g22_ap1": (lambda x: x**2.2, "lin_ap1_scene"),
+             "g18_ap1": (lambda x: x**1.8, "lin_ap1_scene"),
+             "adobergb": (lambda x: x ** (563 / 256), "lin_adobergb_scene"),
+             "srgb_displayp3": (lambda x: srgb_decoded(x, 1.0), "lin_p3d65_scene"),
+             "lin_displayp3": (lambda x: x, "lin_p3d65_scene"), "acescg": (lambda x: x, "lin_ap1_scene"),
+             "lin_ap1": (lambda x: x, "lin_ap1_scene"), "lin_adobergb": (lambda x: x, "lin_adobergb_scene")}
 
 
 def colour_image_stage(tmp_path, image_path, space, node):
@@ -648,27 +650,29 @@ def colour_image_stage(tmp_path, image_path, space, node):
 
 @pytest.mark.parametrize("space, mode", [(space, "RGB") for space in TRANSFERS] + [
     ("g22_rec709", "LA"), ("g22_rec709", "ND_UsdUVTexture"), ("g22_rec709", "interface input"),
-    ("srgb_displayp3", "interface input")])
+    ("srgb_displayp3", "interface input"), ("g22_ap1", "LA"), ("g22_ap1", "ND_UsdUVTexture")])
 def test_a_colour_image_is_decoded_by_its_colour_spaces_transfer_function(tmp_path, space, mode):
     """An ``ND_image_color3`` (or ``ND_UsdUVTexture``) whose ``file`` is in one of the MaterialX colour spaces other
     than ``srgb_texture`` and ``lin_rec709`` reads an 8-bit PNG's samples through that space's transfer function
     (``g22_rec709``: ``(s / 255)^2.2``; of a grey + alpha file the alpha the node lays into g too, as MaterialX
-    transforms the node's output), and names the spaces whose primaries are not Rec.709's, which wrt does not
-    convert; the colour space may be that of the Material input the ``file`` connects to. Every one was read as
-    stored, named as read linear: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220, and ``lin_srgb``,
-    the same space as ``lin_rec709``, was named."""
+    transforms the node's output), then converts the colour of a space of other primaries to Rec.709's as
+    ``Gf.ColorSpace.Convert`` converts it from the linear space of those primaries, as MaterialX's colour transforms
+    convert to its working space; the colour space may be that of the Material input the ``file`` connects to.
+    Every one was read as stored, named as read linear: a ``g22_rec709`` texel of 128 read 0.502 for MaterialX's
+    0.220, and ``lin_srgb``, the same space as ``lin_rec709``, was named; then the spaces of other
+    primaries were decoded alone, named."""
     samples = np.array([51, 204]) if mode == "LA" else np.array([51, 102, 153])
     png = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
     node = mode if mode in ("ND_UsdUVTexture", "interface input") else "ND_image_color3"
     scene, messages = load(colour_image_stage(tmp_path, png, space, node))
-    decode, other_primaries = TRANSFERS[space]
-    if other_primaries:
-        assert any(repr(space) in m and "no gamut conversion" in m for m in messages), messages
-    else:
-        assert not messages, messages
+    decode, primaries = TRANSFERS[space]
+    assert not messages, messages
     (mat,) = scene.materials
     texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
     expected = np.append(decode(samples / 255.0), [0.0] * (3 - len(samples)))  # (c, a, 0) of grey + alpha
+    if primaries is not None:
+        rec709 = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+        expected = np.array(rec709.Convert(Gf.ColorSpace(primaries), Gf.Vec3f(*expected)).GetRGB(), np.float64)
     np.testing.assert_allclose(texels, np.broadcast_to(expected, texels.shape), rtol=1e-5, atol=1e-6)
 
 

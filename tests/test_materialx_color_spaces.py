@@ -6,12 +6,16 @@ has no transform for is read as stored. The expected values are computed in floa
 itself declares for the name (``Gf.ColorSpace``'s gamma and linear bias), and the primaries that need a note from
 ``Gf.ColorSpace``'s primaries."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 from test_materials import add_quad, bind, materialx_preview_stage, new_stage, textured_stage
 from test_materialx import base_color_image, colour_image_stage, load, mtlx_material, write_png
 from test_texture_files import srgb_decoded, write_exr
+
+import wrt
 
 # The canonical names MaterialX 1.39's DefaultColorManagementSystem remaps to one of its colour transforms.
 MATERIALX_DECODES = ("srgb_rec709_scene", "lin_rec709_scene", "g22_rec709_scene", "g18_rec709_scene",
@@ -36,6 +40,15 @@ def usd_decoded(name: str, x: np.ndarray) -> np.ndarray:
     return np.where(x > breakpoint_, ((x + bias) / (1.0 + bias)) ** gamma, x / slope)
 
 
+REC709 = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
+
+
+def usd_converted(space: str, values) -> np.ndarray:
+    """``(3,)`` float64: ``values`` in USD colour space ``space`` in linear Rec.709 as USD converts them
+    (``Gf.ColorSpace.Convert``: the transfer function decoded, then the primaries converted)."""
+    return np.array(REC709.Convert(Gf.ColorSpace(space), Gf.Vec3f(*values)).GetRGB(), np.float64)
+
+
 def other_primaries(name: str) -> bool:
     """Whether colour space ``name``'s primaries or white point differ from linear Rec.709's (Gf's)."""
     mine = Gf.ColorSpace(name).GetPrimariesAndWhitePoint()
@@ -56,10 +69,11 @@ def test_the_names_are_usds_own():
 def test_a_colour_image_in_a_usd_colour_space_is_decoded_as_materialx_decodes_it(tmp_path, space, kind, node):
     """A colour image whose ``file`` carries a USD canonical colour space reads its samples through that space's
     transfer function where MaterialX 1.39 has a transform for it (``srgb_rec709_scene`` as ``srgb_texture``,
-    ``g22_rec709_scene`` as ``g22_rec709``, ...; a space of other primaries named, no gamut conversion), as stored
-    and named where it has none (``srgb_ap1_scene``, ``lin_ap0_scene``, ...), and as stored without a word for USD's
-    data spaces (``data``, ``raw``, ``identity``, ``unknown``). Every one but ``raw`` was read as stored and named as
-    an unknown colour space: an ``srgb_rec709_scene`` texel of 102 read 0.4 for MaterialX's 0.133."""
+    ``g22_rec709_scene`` as ``g22_rec709``, ...; a space of other primaries converted to Rec.709's as USD converts
+    it, ``Gf.ColorSpace.Convert``), as stored and named where it has none (``srgb_ap1_scene``, ``lin_ap0_scene``,
+    ...), and as stored without a word for USD's data spaces (``data``, ``raw``, ``identity``, ``unknown``). Every
+    one but ``raw`` was read as stored and named as an unknown colour space: an ``srgb_rec709_scene`` texel of 102
+    read 0.4 for MaterialX's 0.133; then the spaces of other primaries were decoded alone, named."""
     if kind == "png":
         samples = np.array([51, 102, 153])
         image = write_png(tmp_path / "colour.png", np.tile(samples, (2, 2, 1)))
@@ -68,9 +82,9 @@ def test_a_colour_image_in_a_usd_colour_space_is_decoded_as_materialx_decodes_it
         stored = np.array([0.2, 0.5, 0.9])
         image = write_exr(tmp_path / "colour.exr", {c: np.full((2, 2), v, np.float32) for c, v in zip("RGB", stored)})
     scene, messages = load(colour_image_stage(tmp_path, image, space, node))
-    if space in MATERIALX_DECODES:
-        expected = usd_decoded(space, stored)
-        named = other_primaries(space)
+    if space in MATERIALX_DECODES:  # decoded, then converted from its primaries, as USD converts it
+        expected = usd_converted(space, stored) if other_primaries(space) else usd_decoded(space, stored)
+        named = False
     else:
         expected, named = stored, space in MATERIALX_UNKNOWN
     if named:
@@ -185,10 +199,9 @@ def test_a_colour_image_default_authored_as_float3_is_decoded_by_its_colour_spac
 def test_a_colour_space_inherited_through_usd_colour_space_api_is_read(tmp_path, inherited):
     """A colour space applied with ``UsdColorSpaceAPI`` on an ancestor of the material, which USD's resolution
     (``UsdColorSpaceAPI::ComputeColorSpaceName``) gives an image file and a constant colour without a ``colorSpace``
-    of their own, is read as their own would be: the file decoded by the space's transfer function (one of other
-    primaries named: images get no gamut conversion), the emission_color converted as USD converts it
+    of their own, is read as their own would be: the file and the emission_color converted as USD converts them
     (``Gf.ColorSpace.Convert``); a linear Rec.709 or data one reads as stored, without a word. Both were read as
-    stored, the space named as not read."""
+    stored, the space named as not read; then the file of other primaries was decoded alone, named."""
     png = write_png(tmp_path / "colour.png", np.tile([51, 102, 153], (2, 2, 1)))
     stage, path = new_stage(tmp_path)
     looks = stage.DefinePrim("/Looks", "Scope")
@@ -203,17 +216,13 @@ def test_a_colour_space_inherited_through_usd_colour_space_api_is_read(tmp_path,
         assert not attr.HasColorSpace()
         assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == inherited
     scene, messages = load(path)
-    if not Gf.ColorSpace(inherited).IsData() and other_primaries(inherited):
-        assert any(repr(inherited) in m and "no gamut conversion" in m and "/Looks" in m for m in messages), messages
-    else:
-        assert not messages, messages
+    assert not messages, messages
     stored = np.array([0.2, 0.4, 0.6])
     (mat,) = scene.materials
     texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
-    decoded = stored if Gf.ColorSpace(inherited).IsData() else usd_decoded(inherited, stored)
+    decoded = stored if Gf.ColorSpace(inherited).IsData() else usd_converted(inherited, stored)
     np.testing.assert_allclose(texels, np.broadcast_to(decoded, texels.shape), rtol=1e-5, atol=1e-6)
-    target = Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
-    converted = target.Convert(Gf.ColorSpace(inherited), Gf.Vec3f(0.2, 0.5, 0.8)).GetRGB()
+    converted = usd_converted(inherited, (0.2, 0.5, 0.8))
     np.testing.assert_allclose(mat.emissive_color, converted, rtol=1e-5, atol=1e-6)
 
 
@@ -266,3 +275,65 @@ def test_a_nodes_constant_is_decoded_by_the_type_its_definition_gives_it(tmp_pat
     (mat,) = scene.materials
     value = np.array([0.2, 0.5, 0.8])
     np.testing.assert_allclose(mat.diffuse_color, srgb64(value) if decoded else value, rtol=1e-5)
+
+
+@pytest.mark.parametrize("node, space", [("ND_image_color3", "acescg"), ("ND_UsdUVTexture", "lin_ap1_scene")])
+def test_an_acescg_texture_renders_its_texels_converted_to_rec709_as_usd_converts_them(tmp_path, node, space):
+    """A flat quad whose diffuse colour is an ACEScg image (MaterialX's ``acescg``, USD's ``lin_ap1_scene``: AP1
+    primaries, linear) shows in the ``albedo`` AOV the texel converted to linear Rec.709 as
+    ``Gf.ColorSpace.Convert`` converts it: ACEScg (0.5, 0.4, 0.3) is Rec.709 (0.579, 0.388, 0.282). The texels were
+    read as if they were Rec.709's, (0.5, 0.4, 0.3), with a warning that said so."""
+    stored = np.array([0.5, 0.4, 0.3])
+    exr = write_exr(tmp_path / "ap1.exr", {c: np.full((2, 2), v, np.float32) for c, v in zip("RGB", stored)})
+    path = colour_image_stage(tmp_path, exr, space, node)
+    if node == "ND_image_color3":  # the albedo is base times base_color
+        stage = Usd.Stage.Open(path)
+        UsdShade.Shader.Get(stage, "/Looks/Colour/Surface").CreateInput("base", Sdf.ValueTypeNames.Float).Set(1.0)
+        stage.Save()
+    scene, messages = load(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    albedo = wrt.render(scene, camera=cam, width=2, height=2, device="cpu").aovs["albedo"]
+    expected = usd_converted("lin_ap1_scene", stored)
+    assert np.all(expected > 0.25)  # inside Rec.709's gamut: no channel clamped
+    np.testing.assert_allclose(albedo, np.broadcast_to(expected, albedo.shape), rtol=1e-3)
+    assert not messages, messages
+
+
+@pytest.mark.parametrize("node, rgb", [("ND_image_color3", (0.5, 0.4, 0.3)),  # R G A laid out as r g b
+                                       ("ND_UsdUVTexture", (0.5, 0.4, 0.0))])  # R, G in place, B missing: 0
+def test_an_image_of_other_primaries_missing_a_colour_channel_is_converted_as_each_node_lays_it_out(tmp_path, node,
+                                                                                                   rgb):
+    """An ACEScg EXR of channels ``R G A`` (no blue) is converted to Rec.709 as each node lays its channels out: a
+    MaterialX image node's colour is the file's first three channels (``R, G, A``), UsdUVTexture's has ``R`` and ``G``
+    in their places and blue 0; the conversion applies to that colour (MaterialX transforms the node's output),
+    ``Gf.ColorSpace.Convert``'s."""
+    exr = write_exr(tmp_path / "rga.exr", {c: np.full((2, 2), v, np.float32) for c, v in zip("RGA", (0.5, 0.4, 0.3))})
+    scene, messages = load(colour_image_stage(tmp_path, exr, "lin_ap1_scene", node))
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    expected = usd_converted("lin_ap1_scene", rgb)
+    np.testing.assert_allclose(texels, np.broadcast_to(expected, texels.shape), rtol=1e-5, atol=1e-6)
+    assert not messages, messages
+
+
+@pytest.mark.parametrize("node", ["ND_image_color3", "ND_UsdUVTexture"])
+def test_a_grey_image_of_other_primaries_is_laid_out_and_converted_once_over_the_frames(tmp_path, monkeypatch,
+                                                                                       node):
+    """A grey PNG in ACEScg, whose colour each node lays out anew (an image node's ``(c, 0, 0)``, UsdUVTexture's
+    ``(c, c, c)``) and converts, keeps its converted texels with the file's over the frames of a kept stage: the
+    material is read once, every frame equal to a fresh load."""
+    from test_stage_frames import counted_frames
+
+    png = write_png(tmp_path / "grey.png", np.full((2, 2), 128))
+    path = colour_image_stage(tmp_path, png, "acescg", node)
+    stage = Usd.Stage.Open(path)
+    mover = UsdGeom.Xformable(stage.GetPrimAtPath("/Quad")).AddTranslateOp()  # something varies: frames differ
+    mover.Set(Gf.Vec3d(0, 0, 0), 1), mover.Set(Gf.Vec3d(0, 0, 1), 3)
+    stage.Save()
+    frames, counts = counted_frames(Path(path), (1, 2, 3), monkeypatch)
+    assert list(counts.values()) == [1], counts
+    (mat,) = frames.load(2).materials
+    texels = frames.load(2).textures[mat.textures["diffuseColor"].image][..., :3].astype(np.float64)
+    c = 128 / 255
+    expected = usd_converted("lin_ap1_scene", (c, 0.0, 0.0) if node == "ND_image_color3" else (c, c, c))
+    np.testing.assert_allclose(texels, np.broadcast_to(expected, texels.shape), rtol=1e-5, atol=1e-6)

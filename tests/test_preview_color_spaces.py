@@ -10,7 +10,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdShade
 from test_materials import add_quad, bind, new_stage, preview_material, textured_stage
 from test_materialx import load, write_png
-from test_materialx_color_spaces import usd_decoded
+from test_materialx_color_spaces import usd_converted, usd_decoded
 
 COLOR = (0.2, 0.5, 0.8)
 
@@ -47,12 +47,6 @@ def test_a_preview_colour_in_a_linear_or_data_colour_space_is_kept(tmp_path, spa
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_allclose(scene.materials[0].diffuse_color, COLOR, rtol=1e-6)
-
-
-def usd_converted(space: str, rgb) -> np.ndarray:
-    """``rgb`` in colour space ``space`` converted to linear Rec.709 by USD itself (``Gf.ColorSpace.Convert``)."""
-    source, target = Gf.ColorSpace(space), Gf.ColorSpace(Gf.ColorSpaceNames.LinearRec709)
-    return np.array(target.Convert(source, Gf.Vec3f(*rgb)).GetRGB(), np.float64)
 
 
 @pytest.mark.parametrize("space", ["lin_ap1_scene", "g22_ap1_scene", "srgb_p3d65_scene", "lin_adobergb_scene",

@@ -8,7 +8,7 @@ then its primaries converted (a ``(3, 3)`` matrix from USD's own ``Gf.ColorSpace
 points are adapted to D65 as ``Gf.ColorSpace.Convert`` converts: ``lin_ap1_scene``, ACEScg, ``(1, 0, 0)`` is
 ``(1.705, -0.130, -0.024)``). Names are USD's canonical ones (``GfColorSpaceNames``) and MaterialX's
 (:data:`COLOR_SPACES`); ``data``, ``raw``, ``identity`` and ``unknown`` are read as stored. An image file (a
-MaterialX image node's) is decoded by the transfer function alone (:func:`file_color_space` says so in its note).
+MaterialX image node's) is decoded and converted alike, its texels once at load (:func:`file_color_space`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import functools
 
 import numpy as np
 
-from .textures import decode_curve
+from .textures import PRIMARIES_SEPARATOR, decode_curve
 
 # Colour space name -> (wrt's transfer function, as wrt.textures.decode_curve takes it; the USD name of the linear
 # space of its primaries, None for Rec.709's). MaterialX's (Specification 1.39) as its colour transforms decode them:
@@ -226,22 +226,22 @@ def decoded_color(inp, value: np.ndarray, what: str, color: bool) -> tuple[np.nd
 
 
 def file_color_space(file_input, what: str = "texture") -> tuple[str | None, str | None]:
-    """``(space, note)``: wrt's transfer function (``sRGB``, ``raw`` or ``gamma <g>``: :data:`COLOR_SPACES`) for a
-    MaterialX image node's ``file`` input, from the ``colorSpace`` metadata of the input or of the interface input
-    it connects to, else ``UsdColorSpaceAPI`` on its prim or an ancestor (:func:`attribute_color_space`; None where
-    there is none), and the note to give, None but for a colour space wrt does not
-    know or MaterialX has no transform for (read as ``raw``), or one whose primaries it does not convert in images,
-    naming it as ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as stored: a
-    ``g22_rec709`` texel of 128 read 0.502 for MaterialX's 0.220."""
+    """``(space, note)``: wrt's colour space for a MaterialX image node's ``file`` input (its transfer function:
+    ``sRGB``, ``raw`` or ``gamma <g>``, :data:`COLOR_SPACES`; ``<transfer> in <primaries>`` for a space of other
+    primaries than Rec.709's, its texels converted from them at load, :func:`wrt.textures.convert_primaries`), from
+    the ``colorSpace`` metadata of the input or of the interface input it connects to, else ``UsdColorSpaceAPI`` on
+    its prim or an ancestor (:func:`attribute_color_space`; None where there is none), and the note to give, None
+    but for a colour space wrt does not know or MaterialX has no transform for (read as ``raw``), naming it as
+    ``what``'s (``texture``: a file's). The spaces of other transfer functions were read as stored: a ``g22_rec709``
+    texel of 128 read 0.502 for MaterialX's 0.220; then those of other primaries were decoded alone, ACEScg's
+    (0.5, 0.4, 0.3) read for Rec.709's (0.579, 0.388, 0.282)."""
     name, holder = attribute_color_space(input_attrs(file_input))
     if not name:
         return None, None
-    named = f"{what} colour space {name!r}{_inherited(holder)}"
     if name not in COLOR_SPACES or name in NO_MATERIALX_TRANSFORM:
-        return "raw", f"{named} is read as linear (no gamut conversion)"
+        return "raw", f"{what} colour space {name!r}{_inherited(holder)} is read as linear (no gamut conversion)"
     space, primaries = COLOR_SPACES[name]
-    return space, (f"{named} is decoded by its transfer function, its primaries taken for Rec.709's (no gamut "
-                   "conversion)" if primaries is not None else None)
+    return (space if primaries is None else f"{space}{PRIMARIES_SEPARATOR}{primaries}"), None
 
 
 def _inherited(holder: str) -> str:

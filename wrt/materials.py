@@ -73,9 +73,11 @@ from .textures import (
     nearest_texel,
     outside_to_fallback,
     pack_images,
+    preview_texels,
     read_image,
     reads_in_place,
     sample_image,
+    split_color_space,
     stored_texels,
     udim_tile,
 )
@@ -1888,7 +1890,7 @@ class MaterialReader:
                                                  None)
                 self._images[key] = -1
             else:
-                texels = pixels if layout == "preview" else self._materialx_texels(file_key, pixels, channels)
+                texels = self._laid_out(file_key, pixels, channels, layout)
                 self._images[key] = self._texture_index(texels, file_key)
                 unpacked = _unpacked_texels(texels, resolved) if self._images[key] == len(self.textures) - 1 else ""
                 if unpacked:  # pack_images stores float16: they were changed without a word
@@ -1926,15 +1928,23 @@ class MaterialReader:
         self._channels[file_key] = channels
         return pixels, channels
 
-    def _materialx_texels(self, file_key: tuple[str, str], pixels: np.ndarray, channels: tuple) -> np.ndarray:
-        """:func:`wrt.textures.materialx_texels` of a file's ``pixels``, kept with them by the memo (a kept
-        material's replay finds the same array). Colour space ``sRGB`` (``srgb_texture``) and the ``gamma`` ones
-        decode the alpha that a grey + alpha file lays into a colour channel too; ``auto`` decodes only what
-        :func:`read_image` decoded."""
-        decode = decode_curve(file_key[1])
-        if self.memo is None or reads_in_place(channels):
-            return materialx_texels(pixels, channels, decode)
-        return self.memo.derived(*file_key, pixels, "materialx", lambda: materialx_texels(pixels, channels, decode))
+    def _laid_out(self, file_key: tuple[str, str], pixels: np.ndarray, channels: tuple, layout: str) -> np.ndarray:
+        """A file's ``pixels`` laid out as ``layout`` reads them (:func:`wrt.textures.preview_texels`,
+        :func:`wrt.textures.materialx_texels`), kept with them by the memo (a kept material's replay finds the same
+        array); ``pixels`` themselves where they lie so. Colour space ``sRGB`` (``srgb_texture``) and the ``gamma``
+        ones decode the alpha that a grey + alpha file lays into a colour channel too; ``auto`` decodes only what
+        :func:`read_image` decoded. A colour space of other primaries (``raw in lin_ap1_scene``) converts the colour
+        laid out, as MaterialX transforms the image node's output."""
+        transfer, primaries = split_color_space(file_key[1])
+        if layout == "preview":
+            def make():
+                return preview_texels(pixels, channels, primaries)
+        else:
+            def make():
+                return materialx_texels(pixels, channels, decode_curve(transfer), primaries)
+        if self.memo is None or reads_in_place(channels) or (layout == "preview" and primaries is None):
+            return make()
+        return self.memo.derived(*file_key, pixels, layout, make)
 
     def _texture_index(self, texels: np.ndarray, file_key: tuple[str, str]) -> int:
         """Index of ``texels`` (of the file of ``file_key``) in :attr:`textures`: the one a read of the file in the

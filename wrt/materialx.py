@@ -62,7 +62,8 @@ channel 0 where a ``convert`` widens it; :func:`wrt.textures.materialx_texels`),
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded (the node's output r, g and b,
 whichever file channels they hold, as MaterialX transforms the output), ``g22_rec709`` and kin decoded by their
 transfer function (wrt.color_spaces, USD's canonical names such as ``srgb_rec709_scene`` as MaterialX remaps
-them; other primaries noted, not converted), ``lin_rec709``/``raw`` and other linear spaces kept (USD's ``data``,
+them; the colour of other primaries then converted to Rec.709's at load, as USD converts it),
+``lin_rec709``/``raw`` and other linear spaces kept (USD's ``data``,
 ``identity`` and ``unknown`` too), none kept too (MaterialX's default working space is ``none``, no colour
 management, and Storm reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
@@ -602,8 +603,8 @@ class _Graph:
         return "linear"
 
     def _color_space(self, file_input) -> str:
-        """wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``) for an image's ``file`` input
-        (:func:`file_color_space`); an unknown one, or one of other primaries, is noted. None authored is ``raw``:
+        """wrt's colour space (``sRGB``, ``raw`` or ``gamma <g>``, ``<transfer> in <primaries>`` for other primaries)
+        for an image's ``file`` input (:func:`file_color_space`); an unknown one is noted. None authored is ``raw``:
         MaterialX's working colour space defaults to ``none`` (no colour management) and Storm hands MaterialX its
         textures raw, so an 8-bit colour file read as UsdUVTexture's ``auto`` was decoded as sRGB where MaterialX
         reads it as stored."""

@@ -19,7 +19,13 @@ Conventions, stated once:
   read as grey ``L`` -> ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour),
   as UsdUVTexture reads them; a MaterialX image node takes a file's channels in order instead
   (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
-- No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
+- ``"<transfer> in <primaries>"`` (:data:`PRIMARIES_SEPARATOR`; a MaterialX image's ``acescg`` is ``raw in
+  lin_ap1_scene``): decoded by ``<transfer>``, then its colour converted from the linear space of USD colour space
+  ``<primaries>`` to linear Rec.709 (:func:`convert_primaries`), once per image at load: lookups are linear in the
+  texels, so converting before filtering is exact. The colour converted is the one the texture reads (MaterialX
+  transforms the image node's output): :func:`read_image` converts where the file's colour lies in places 0 to 2,
+  :func:`materialx_texels` and :func:`preview_texels` the texels they lay out of other files. Other images get no
+  gamut conversion (UsdUVTexture's ``sourceColorSpace`` names no primaries).
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
   resolves); :func:`udim_tile` finds the tile of a coordinate.
@@ -62,6 +68,7 @@ EXR_CHANNEL_ROLES = {"r": "R", "red": "R", "g": "G", "green": "G", "b": "B", "bl
                      "y": "Y"}
 EXR_CHROMA_ROLES = {"ry": "RY", "by": "BY"}  # the chroma beside Y of a luminance-chroma EXR (OpenEXR's RgbaYca)
 GAMMA_PREFIX = "gamma "  # wrt's colour space "gamma <g>": samples decoded to linear as max(x, 0)^g (decode_curve)
+PRIMARIES_SEPARATOR = " in "  # "<transfer> in <USD colour space>": decoded, then converted from its primaries
 UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
@@ -94,6 +101,33 @@ def decode_curve(color_space: str):
         gamma = float(color_space[len(GAMMA_PREFIX):])
         return lambda x: np.power(np.maximum(np.asarray(x, np.float32), 0.0), gamma, dtype=np.float32)
     return None
+
+
+def split_color_space(color_space: str) -> tuple[str, str | None]:
+    """``(transfer, primaries)`` of wrt's colour space ``color_space``: the transfer function :func:`decode_curve`
+    takes, and the USD colour space whose primaries its colour is converted from (:func:`convert_primaries`), None
+    for Rec.709's (no ``" in "``)."""
+    transfer, _, primaries = color_space.partition(PRIMARIES_SEPARATOR)
+    return transfer, primaries or None
+
+
+def convert_primaries(rgba: np.ndarray, primaries: str | None) -> np.ndarray:
+    """``rgba`` (``(H, W, 4)`` float32, converted in place and returned), its colour linear in the primaries of USD
+    colour space ``primaries``, with its colour in linear Rec.709: times :func:`wrt.color_spaces.gamut_matrix`
+    (``Gf.ColorSpace``'s, as ``Gf.ColorSpace.Convert`` converts), in float64, in slices of rows of about
+    :data:`PACK_TEXELS` texels (no image-sized temporaries); alpha kept. Nothing for None. Colours outside Rec.709's
+    gamut get negative channels, as USD's conversion gives them."""
+    if primaries is None:
+        return rgba
+    from .color_spaces import gamut_matrix  # it imports decode_curve from here
+
+    matrix = gamut_matrix(primaries).T
+    rows = max(1, PACK_TEXELS // max(rgba.shape[1], 1))
+    with np.errstate(over="ignore", invalid="ignore"):  # past float32: inf, named where the texels are packed
+        for start in range(0, rgba.shape[0], rows):
+            part = rgba[start : start + rows, :, :3]
+            part[...] = part.astype(np.float64) @ matrix
+    return rgba
 
 
 def read_asset_bytes(resolved_path: str) -> bytes:
@@ -142,12 +176,16 @@ def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarra
         (rgba, channels), auto_srgb = _read_exr(data, resolved_path), False
     else:
         rgba, channels, auto_srgb = _read_pillow(data, resolved_path, color_space == "auto")
-    decode = decode_curve(("sRGB" if auto_srgb else "raw") if color_space == "auto" else color_space)
+    transfer, primaries = split_color_space(color_space)
+    decode = decode_curve(("sRGB" if auto_srgb else "raw") if color_space == "auto" else transfer)
     if rgba.dtype == np.uint8:
-        return _decode_8bit(rgba, decode), channels
-    if decode is not None:
-        rgba[..., :3] = decode(rgba[..., :3])
-    return np.ascontiguousarray(rgba, dtype=np.float32), channels
+        pixels = _decode_8bit(rgba, decode)
+    else:
+        if decode is not None:
+            rgba[..., :3] = decode(rgba[..., :3])
+        pixels = np.ascontiguousarray(rgba, dtype=np.float32)
+    # Colour in its places is the colour both layouts read; the others convert the colour they lay out.
+    return (convert_primaries(pixels, primaries) if reads_in_place(channels) else pixels), channels
 
 
 def reads_in_place(channels: tuple[int, ...]) -> bool:
@@ -156,7 +194,7 @@ def reads_in_place(channels: tuple[int, ...]) -> bool:
     return tuple(channels[:3]) == (0, 1, 2)
 
 
-def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], decode=None) -> np.ndarray:
+def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], decode=None, primaries=None) -> np.ndarray:
     """``pixels`` (:func:`read_image`'s, the file's channels at RGBA places ``channels``) as a MaterialX image node
     reads its file: the file's channels first, in its order, 0 past them but for a fourth of 1, as the Standard
     Nodes specification has it and MaterialX's GLSL, MSL and OSL implementations sample (MaterialX pull requests
@@ -166,14 +204,26 @@ def materialx_texels(pixels: np.ndarray, channels: tuple[int, ...], decode=None)
     ``pixels`` itself where they lie so already (colour in its places). ``decode``: the :func:`decode_curve` the
     ``pixels`` were decoded by (:func:`read_image` decodes places 0 to 2, not alpha), and MaterialX's colour
     transform, applied to the node's output, decodes all of its colour channels: a file's alpha laid into r, g or b
-    is decoded there too."""
+    is decoded there too. ``primaries``: the USD colour space whose primaries that output is converted from
+    (:func:`convert_primaries`, as :func:`read_image` converted ``pixels`` that lie in place); a grey file's
+    ``(c, 0, 0)`` is converted as the colour it is, as MaterialX's transform takes it."""
     if reads_in_place(channels):
         return pixels
     texels = np.zeros(pixels.shape, np.float32)
     texels[..., 3] = 1.0
     for k, place in enumerate(channels):
         texels[..., k] = decode(pixels[..., place]) if decode is not None and k < 3 <= place else pixels[..., place]
-    return texels
+    return convert_primaries(texels, primaries)
+
+
+def preview_texels(pixels: np.ndarray, channels: tuple[int, ...], primaries=None) -> np.ndarray:
+    """``pixels`` (:func:`read_image`'s) as UsdUVTexture reads them (grey ``(c, c, c)``, colour channels in their
+    places, a missing one 0) with that colour converted from the primaries of USD colour space ``primaries``
+    (:func:`convert_primaries`): ``pixels`` itself where :func:`read_image` converted them (colour in its places) or
+    there is nothing to convert, else a converted copy."""
+    if primaries is None or reads_in_place(channels):
+        return pixels
+    return convert_primaries(np.array(pixels, np.float32, order="C"), primaries)
 
 
 def _decode_8bit(rgba: np.ndarray, decode=None) -> np.ndarray:
