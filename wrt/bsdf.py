@@ -285,7 +285,10 @@ def ggx_reflection_pdf(cos_o: float, cos_h: float, sin2_h: float, alpha: float):
 
 @wp.func
 def surface_f0(s: Surface):
-    """Specular reflectance at normal incidence (see the module docstring)."""
+    """Specular reflectance at normal incidence (see the module docstring). The specification fixes metallic 0 and 1
+    and says "In between, we interpolate": linearly here. Storm's ``previewSurface.glslfx`` (and MaterialX's
+    UsdPreviewSurface graph) interpolates ``R^2 s`` and ``s``, ``s = mix(1, diffuseColor, metallic)``, which for a
+    dark half metal leaves the interval between the ends (black, metallic 0.5: 0.26 for ends 0.04 and 0)."""
     if s.specular_workflow == 1:
         return s.specular_color
     r = (1.0 - s.ior) / (1.0 + s.ior)
