@@ -133,9 +133,9 @@ def test_a_display_colors_empty_colour_space_of_its_own_is_not_inherited_through
 def instanced_asset_stage(tmp_path, where: str) -> tuple[str, list]:
     """Instanceable references ``/World/Group/Thing`` (and ``/World/Other/Thing``) to an asset ``/Proto`` whose quad
     has its own displayColor of :data:`COLOR`, no ``colorSpace``; ``srgb_rec709_scene`` through ``UsdColorSpaceAPI``
-    on ``/World`` (``above``), on the asset's root ``/Proto`` (``asset``), or on ``/World/Group`` alone (``one``, the
-    other instance under none). Returns the path and the colour spaces USD resolves for the displayColor of the
-    quad of each instance proxy (ComputeColorSpaceName)."""
+    on ``/World`` (``above``), on the asset's root ``/Proto`` (``asset``), on ``/World/Group`` alone (``one``, the
+    other instance under none), or there with ``lin_ap1_scene`` on ``/World/Other`` (``two``). Returns the path and
+    the colour spaces USD resolves for the displayColor of the quad of each instance proxy (ComputeColorSpaceName)."""
     path = str(tmp_path / "instanced.usda")
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -154,6 +154,8 @@ def instanced_asset_stage(tmp_path, where: str) -> tuple[str, list]:
     if holder is None:
         holder = UsdGeom.Xform.Define(stage, "/World/Group").GetPrim()
     Usd.ColorSpaceAPI.Apply(holder).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    if where == "two":
+        Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/World/Other")).CreateColorSpaceNameAttr("lin_ap1_scene")
     stage.Save()
     proxies = [stage.GetPrimAtPath(f"{group}/Thing/Quad").GetAttribute("primvars:displayColor")
                for group in ("/World/Group", "/World/Other")]
@@ -173,13 +175,16 @@ def test_a_native_prototypes_colour_takes_the_colour_space_its_instances_inherit
     np.testing.assert_allclose(albedo, usd_linear_rec709("srgb_rec709_scene", COLOR), rtol=1e-3, atol=1e-4)
 
 
-def test_a_native_prototype_whose_instances_inherit_different_colour_spaces_is_named(tmp_path):
-    """One prototype, one instance under ``srgb_rec709_scene`` and one under none (USD resolves their proxies apart):
-    its colours are read once for both, as linear, with a warning naming the prims that carry the spaces."""
-    path, resolved = instanced_asset_stage(tmp_path, "one")
-    assert resolved == ["srgb_rec709_scene", ""]
+@pytest.mark.parametrize("where", ["one", "two"])
+def test_a_native_prototype_whose_instances_inherit_different_colour_spaces_is_named(tmp_path, where):
+    """One prototype, one instance under ``srgb_rec709_scene`` and one under none or ``lin_ap1_scene`` (USD resolves
+    their proxies apart): its colours are read once for both, as linear, with a warning naming the prims that carry
+    the spaces. With a space above every instance the load raised StopIteration (the words sought one under none)."""
+    path, resolved = instanced_asset_stage(tmp_path, where)
+    assert resolved == ["srgb_rec709_scene", "" if where == "one" else "lin_ap1_scene"]
     albedo, messages = rendered_albedo(path)
-    named = [m for m in messages if "primvars:displayColor" in m and "/World/Group" in m]
+    named = [m for m in messages if "primvars:displayColor" in m and "/World/Group" in m
+             and (where == "one" or "/World/Other" in m)]
     assert len(named) == 1, messages
     np.testing.assert_allclose(albedo, COLOR, rtol=1e-3)
 

@@ -153,8 +153,8 @@ def _instances_space(prototype, api) -> tuple[str, str]:
         names = {name for name, _ in found}
         if len(names) <= 1:
             _INSTANCE_SPACES[prototype] = (found[0][0], ", ".join(path for _, path in found)) if names else ("", "")
-        else:  # the prims that carry each, or the first instance under none
-            none = next(str(path) for path, (name, _) in sorted(spaces.items()) if not name)
+        else:  # the prims that carry each, and the first instance under none (where one is: all may be under one)
+            none = next((str(path) for path, (name, _) in sorted(spaces.items()) if not name), "")
             _INSTANCE_SPACES[prototype] = DIFFERING, ", ".join(
                 f"{name!r} on {path}" if name else f"none above {none}" for name, path in found)
     return _INSTANCE_SPACES[prototype]
