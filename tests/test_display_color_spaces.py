@@ -207,3 +207,30 @@ def test_a_display_color_past_float32_after_its_conversion_is_named_and_drawn_gr
     albedo, messages = rendered_albedo(path)
     assert len(messages) == 1 and "displayColor" in messages[0] and "/World/Group/Thing" in messages[0], messages
     np.testing.assert_allclose(albedo, 0.5, rtol=1e-6)
+
+
+def test_a_nested_native_prototypes_colour_takes_the_colour_space_of_the_asset_that_instances_it(tmp_path):
+    """An instanced asset ``/Inner`` (a quad with its own displayColor, no colorSpace) instanced inside another
+    instanced asset ``/Outer`` whose root carries ``g22_rec709_scene`` through ``UsdColorSpaceAPI``: the walk from
+    the inner prototype's quad goes through its instance inside the outer prototype, then the outer prototype's
+    instance, as USD resolves the doubly proxied quad (``ComputeColorSpaceName``). Guard for the prototype walk."""
+    path = str(tmp_path / "nested.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.Xform.Define(stage, "/World")
+    stage.CreateClassPrim("/Inner")
+    quad = add_quad(stage, "/Inner/Quad", size=4.0)
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                            UsdGeom.Tokens.constant).Set([Gf.Vec3f(*COLOR)])
+    outer = stage.CreateClassPrim("/Outer")
+    Usd.ColorSpaceAPI.Apply(outer).CreateColorSpaceNameAttr("g22_rec709_scene")
+    for instance, asset in (("/Outer/In", "/Inner"), ("/World/Thing", "/Outer")):
+        prim = UsdGeom.Xform.Define(stage, instance).GetPrim()
+        prim.GetReferences().AddInternalReference(asset)
+        prim.SetInstanceable(True)
+    stage.Save()
+    proxy = stage.GetPrimAtPath("/World/Thing/In/Quad").GetAttribute("primvars:displayColor")
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(proxy, None) == "g22_rec709_scene"
+    albedo, messages = rendered_albedo(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo, usd_linear_rec709("g22_rec709_scene", COLOR), rtol=1e-3, atol=1e-4)
