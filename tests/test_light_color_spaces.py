@@ -140,3 +140,43 @@ def test_an_empty_colour_space_of_its_own_is_not_inherited_through(tmp_path):
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_allclose(scene.lights[0].color, usd_linear_rec709(resolved, COLOR), rtol=1e-5, atol=1e-6)
+
+
+SHADOW = (0.6, 0.5, 0.2)  # a tint inside Rec.709's gamut from each space below
+
+
+@pytest.mark.parametrize("where", ["own", "ancestor"])
+@pytest.mark.parametrize("space", ["srgb_rec709_scene", "lin_ap1_scene", "g22_rec709_scene"])
+def test_a_shadow_colour_is_read_in_its_colour_space(tmp_path, space, where):
+    """ShadowAPI's ``inputs:shadow:color`` (color3f, a colour value as ``inputs:color`` is) of (0.6, 0.5, 0.2) in
+    ``space``, its own or through ``UsdColorSpaceAPI`` on ``/Rig``: the light's shadow tint is that colour as USD
+    resolves its space (``ComputeColorSpaceName``) and converts it to linear Rec.709 (``Gf.ColorSpace``). It was read
+    as linear Rec.709 whatever its space, while the light's own colour beside it was converted."""
+    path = light_stage(tmp_path, space, where)
+    stage = Usd.Stage.Open(path)
+    shadow = stage.GetPrimAtPath("/Rig/Sun").CreateAttribute("inputs:shadow:color", Sdf.ValueTypeNames.Color3f)
+    shadow.Set(Gf.Vec3f(*SHADOW))
+    if where == "own":
+        shadow.SetColorSpace(space)
+    stage.Save()
+    resolved = Usd.ColorSpaceAPI.ComputeColorSpaceName(shadow, None)
+    assert resolved == space
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.lights[0].shadow_color, usd_linear_rec709(resolved, SHADOW), rtol=1e-5,
+                               atol=1e-6)
+
+
+def test_a_shadow_colour_outside_rec709s_gamut_is_clamped_with_a_warning(tmp_path):
+    """ACEScg (0.9, 0.5, 0.2) as a shadow tint has a negative blue in linear Rec.709 (USD's conversion): clamped to 0
+    with a warning naming the light, as a light colour's is, the rest of the tint kept."""
+    path = light_stage(tmp_path, "g22_ap1_scene", "ancestor")
+    stage = Usd.Stage.Open(path)
+    shadow = stage.GetPrimAtPath("/Rig/Sun").CreateAttribute("inputs:shadow:color", Sdf.ValueTypeNames.Color3f)
+    shadow.Set(Gf.Vec3f(0.9, 0.5, 0.2))
+    stage.Save()
+    expected = usd_linear_rec709("g22_ap1_scene", (0.9, 0.5, 0.2))
+    assert expected[2] < 0.0 < expected[:2].min()
+    scene, messages = load(path)
+    assert any("shadow" in m and "gamut" in m and "/Rig/Sun" in m for m in messages), messages
+    np.testing.assert_allclose(scene.lights[0].shadow_color, np.maximum(expected, 0.0), rtol=1e-5, atol=1e-6)

@@ -307,7 +307,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures, read_fr
         return None
     # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
     shadows = flag(get, prim.GetAttribute("inputs:shadow:enable"), True, warn_flag)
-    shadow_color, shadow_distance, falloff = _shadow_api(prim, get, skip) if shadows else (None, -1.0, (-1.0, 1.0))
+    shadow_color, shadow_distance, falloff = (_shadow_api(prim, get, skip, read_from) if shadows
+                                              else (None, -1.0, (-1.0, 1.0)))
     try:
         shaping = read_shaping(prim, get, skip, textures.profiles)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
@@ -530,11 +531,13 @@ def _warn_shader_ids(prim, skip, authored):
                  f"{name} = {shader_id}")
 
 
-def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float, tuple[float, float]]:
+def _shadow_api(prim, get, skip, read_from) -> tuple[np.ndarray | None, float, tuple[float, float]]:
     """``(shadow colour, shadow distance, (falloff, falloff gamma))`` of a light that casts shadows (ShadowAPI's
     inputs, read whether or not the API is applied, as Hydra reads them): the colour None where it is black (plain
     shadows, most lights), the distance negative for none. A value of the wrong type, a negative colour or a negative
-    gamma reads as the fallback, with a warning."""
+    gamma reads as the fallback, with a warning. The colour is read in its colour space as ``inputs:color`` is
+    (``read_from``: :func:`input_reader`'s; it was read as linear Rec.709 whatever its space); channels a conversion
+    from other primaries makes negative are clamped to 0, named."""
     wrong = []
 
     def read(name, fallback, convert):
@@ -554,6 +557,16 @@ def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float, tuple[float,
     if color is not None and np.any(color < 0.0):
         wrong.append(f"inputs:shadow:color = {tuple(color.tolist())}")
         color = None
+    source = read_from.get("inputs:shadow:color")
+    if color is not None and source is not None:  # authored: in its colour space (the fallback, black, is linear)
+        color = linear_colors(color, [prim.GetAttribute("inputs:shadow:color"), source], prim, skip)
+        if not np.all(np.isfinite(color)):
+            wrong.append("inputs:shadow:color past float32's range in linear Rec.709")
+            color = None
+        elif np.any(color < 0.0):
+            skip("shadow colours outside Rec.709's gamut (negative channels once converted from their colour space) "
+                 "were clamped to 0", prim, f"inputs:shadow:color = {tuple(np.round(color, 4).tolist())}")
+            color = np.maximum(color, 0.0)
     distance = read("distance", -1.0, float)
     falloff, gamma = read("falloff", -1.0, float), read("falloffGamma", 1.0, float)
     if gamma < 0.0:  # the schema's validator asks for >= 0: a negative power would sharpen the fade into a step
