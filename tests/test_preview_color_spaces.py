@@ -175,3 +175,36 @@ def test_a_preview_colour_authored_as_a_string_keeps_its_default_with_a_warning(
     default = node.GetShaderInput("diffuseColor").GetDefaultValue()
     np.testing.assert_allclose(scene.materials[0].diffuse_color, tuple(default), rtol=1e-6)
     assert any("is not a number; its default is used" in m and "diffuseColor" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("shader_kind", ["gltf_pbr", "OmniPBR"])
+@pytest.mark.parametrize("where", ["own", "inherited"])
+def test_an_unsupported_shaders_fallback_colour_is_read_in_its_colour_space(tmp_path, shader_kind, where):
+    """A shader wrt does not read (MaterialX ``gltf_pbr``'s ``base_color``, OmniPBR's ``diffuse_color_constant``,
+    both colour typed) falls back to a Lambertian surface of its base colour: (0.2, 0.5, 0.8) in
+    ``srgb_rec709_scene``, its own ``colorSpace`` or through ``UsdColorSpaceAPI`` on ``/Looks``, is drawn as USD
+    converts it to linear Rec.709 (``Gf.ColorSpace``), as every other colour constant is. It was drawn as authored."""
+    stage, path = new_stage(tmp_path)
+    material = UsdShade.Material.Define(stage, "/Looks/Other")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Other/Surface")
+    if shader_kind == "gltf_pbr":
+        shader.CreateIdAttr("ND_gltf_pbr_surfaceshader")
+        name, context = "base_color", "mtlx"
+    else:
+        shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+        shader.SetSourceAssetSubIdentifier("OmniPBR", "mdl")
+        name, context = "diffuse_color_constant", "mdl"
+    attr = shader.CreateInput(name, Sdf.ValueTypeNames.Color3f).GetAttr()
+    attr.Set(Gf.Vec3f(*COLOR))
+    material.CreateSurfaceOutput(context).ConnectToSource(shader.ConnectableAPI(), "out")
+    if where == "own":
+        attr.SetColorSpace("srgb_rec709_scene")
+    else:
+        Usd.ColorSpaceAPI.Apply(stage.GetPrimAtPath("/Looks")).CreateColorSpaceNameAttr("srgb_rec709_scene")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    assert Usd.ColorSpaceAPI.ComputeColorSpaceName(attr, None) == "srgb_rec709_scene"
+    scene, messages = load(path)
+    assert any("falls back to a Lambertian surface" in m for m in messages), messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, usd_converted("srgb_rec709_scene", COLOR),
+                               rtol=1e-5)

@@ -1266,14 +1266,24 @@ class MaterialReader:
     def _fallback_color(self, material) -> tuple[str, np.ndarray] | None:
         """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
         does not support (OmniPBR, OmniSurface, MaterialX gltf_pbr, ...), from any render context; None
-        when none is authored. Without it an OmniPBR car of a red ``diffuse_color_constant`` was drawn grey."""
+        when none is authored. Without it an OmniPBR car of a red ``diffuse_color_constant`` was drawn grey. The
+        colour, and a colour-typed weight (OmniPBR's ``diffuse_tint``), in linear Rec.709 from its colour space
+        (:meth:`_decoded_color`), as every other colour constant: an ``srgb_rec709_scene`` base colour was drawn as
+        authored."""
+        path = str(material.GetPath())
         for shader in _surface_shaders(material):
             for name, weights, replaced_by in FALLBACK_COLOR_INPUTS:
                 color = _rgb(self._constant(shader, name))
                 if color is None or (replaced_by and getattr(self._constant(shader, replaced_by), "path", "")):
                     continue
+                color = self._decoded_color(shader, name, color, path)
+                if color is None:  # past float32's range once decoded (named): not this one
+                    continue
                 for weight in weights:
                     w = _rgb(self._constant(shader, weight))
+                    inp = shader.GetInput(weight)
+                    if w is not None and inp and inp.GetTypeName().role == "Color":
+                        w = self._decoded_color(shader, weight, w, path)
                     color = color if w is None else color * w
                 if not np.all(np.abs(color) <= np.finfo(np.float32).max):  # each finite, their product not
                     continue
