@@ -115,3 +115,24 @@ def test_instance_row_finds_each_instance_by_its_usd_path(stage_path):
                  "/N1[0]", "/N", "/Outer", "/Outer/Kit", "/PI[\u0667]"):
         with pytest.raises(ValueError, match="names no instance"):
             instance_row(scene, name)
+
+
+def test_an_instance_root_below_minus_one_is_refused():
+    """``root`` holds -1 (no root) or a row of ``roots``: -2 was taken, and since the (prototype, root) pairs are
+    keyed by one int64, an instance of /P1 under root -2 was named as /P0's part under the last root, /R0/m (and one of
+    /P0 as the last prototype's): both instances' prims were /R0/m, not /P0/m and /P1/m."""
+    def prototype(path):
+        points, indices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+        return wrt.Prototype(path, [wrt.Mesh(f"{path}/m", points, indices)])
+
+    def instances(root):
+        return wrt.Instances(np.array([0, 1], np.int32), np.stack([np.eye(4)] * 2), np.zeros(2, np.int32),
+                             np.arange(2, dtype=np.int32), ["/PI"], roots=["/R0"], root=np.array(root, np.int32))
+
+    with pytest.raises(ValueError, match=r"root must hold one index into roots \(1\), or -1 for none"):
+        instances([-2, -2])
+    scene = wrt.Scene(prototypes=[prototype("/P0"), prototype("/P1")], instances=instances([-1, 0]))
+    assert scene.prim_paths() == ["/P0/m", "/R0/m"]  # -1: the prototype's own path; 0: under /R0
+    scene.instances.root = np.array([-2, 0], np.int32)  # assigned later: refused at the next lookup or trace
+    with pytest.raises(ValueError, match="root must hold"):
+        scene.prim_paths()

@@ -195,8 +195,11 @@ class Instances(CountsAssignments):
                 raise ValueError(f"Instances arrays must all have one entry per instance: {name} has "
                                  f"{len(getattr(self, name))}, prototype {n}")
         self.check_sources()
-        if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
-            raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}) per instance ({n})")
+        # -1 or a row of roots: light_links keys each (prototype, root) pair as one int64, where -2 read as another
+        # prototype's instance under the last root (and an index past roots as the next prototype's).
+        if len(self.roots) and (len(self.root) != n or np.any((self.root < -1) | (self.root >= len(self.roots)))):
+            raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}), or -1 for none, per "
+                             f"instance ({n})")
         self.check_colors()
         self.check_opacities()
         self.check_affine()
