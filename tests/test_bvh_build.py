@@ -236,6 +236,30 @@ def test_stats_of_a_tree_whose_child_links_loop_is_an_error_not_a_runaway():
         tree.validate()
 
 
+def reachable_slots(tree) -> set:
+    """The slots a traversal from the root can reach, walked node by node (the oracle of the test below)."""
+    slots, stack = set(), [0]
+    while stack:
+        node = stack.pop()
+        if tree.prim_count[node] > 0:
+            slots.update(range(tree.left_first[node], tree.left_first[node] + tree.prim_count[node]))
+        else:
+            stack += [int(tree.left_first[node]), int(tree.left_first[node]) + 1]
+    return slots
+
+
+def test_validate_refuses_nodes_the_root_does_not_reach():
+    # Node 3's children are nodes 3 and 4: each node is some node's child once, every slot in one leaf and every box
+    # inside its parent's, so validate() passed, yet no traversal from the root reaches node 4's slot: triangle 2 can
+    # never be hit.
+    tree = wrt.bvh.FlatBvh(lowers=np.zeros((5, 3), np.float32), uppers=np.ones((5, 3), np.float32),
+                           left_first=np.int32([1, 0, 1, 3, 2]), prim_count=np.int32([0, 1, 1, 0, 1]),
+                           prim_ids=np.int32([0, 1, 2]))
+    assert reachable_slots(tree) == {0, 1}
+    with pytest.raises(AssertionError, match=r"^node 3: not reached from the root"):
+        tree.validate()
+
+
 def test_validate_still_checks_under_python_dash_o(tmp_path):
     # ``assert`` statements vanish under ``python -O``: validate() passed every corrupted tree there.
     import os

@@ -173,10 +173,11 @@ class FlatBvh:
         ``python -O`` (which strips those and let every corrupted tree through).
 
         Every slot sits in exactly one leaf, every triangle in at least one slot (exactly one unless the tree was
-        built with pre-splits, ``presplit.py``), every node is reached exactly once, no box is inverted, child boxes
-        lie inside their parent's, no inner node is empty, no leaf is deeper than ``max_depth - 1`` (the traversal
-        stack), and, where the tree holds the triangles it was built over, every leaf box holds its triangles' boxes
-        (meets them, for a tree built with pre-splits, whose slots hold pieces of triangles).
+        built with pre-splits, ``presplit.py``), every node is reached from the root exactly once, no box is
+        inverted, child boxes lie inside their parent's, no inner node is empty, no leaf is deeper than
+        ``max_depth - 1`` (the traversal stack), and, where the tree holds the triangles it was built over, every leaf
+        box holds its triangles' boxes (meets them, for a tree built with pre-splits, whose slots hold pieces of
+        triangles).
         """
         from .common import MAX_DEPTH
 
@@ -227,6 +228,9 @@ class FlatBvh:
         if self.points is not None and self.indices is not None:
             self._validate_leaf_boxes(leaf, first, count)
         depth = self.depths()
+        # Each node being one node's child does not make it the root's descendant: a node that is its own child heads a
+        # loop apart from the tree, whose leaves' triangles no traversal reaches (depths() leaves them at -1).
+        _require_each(depth >= 0, "node", "not reached from the root (its chain of parents loops)")
         _require(depth.max() <= max_depth - 1, f"depth {depth.max()} exceeds the traversal stack ({max_depth})")
 
     def _validate_leaf_boxes(self, leaf: np.ndarray, first: np.ndarray, count: np.ndarray) -> None:
