@@ -191,6 +191,10 @@ def test_pending_frames_resume_is_a_flag(tmp_path):
     ([(1.0, "f.npy"), ("2", "g.npy")], TypeError, r"jobs\[1\]: the frame must be a number \(a time code\), got str"),
     ([(1.0, "f.npy"), (2.0, "g.jpg")], ValueError, "cannot write g.jpg: supported image formats are"),
     ([(1.0, 5)], TypeError, "image path must be a str or os.PathLike, got int 5"),
+    # Frame 1.0 was rendered and written, then the load of NaN or inf stopped the run naming no job.
+    ([(1.0, "f.npy"), (float("nan"), "g.npy")], ValueError, r"jobs\[1\]: the frame must be a finite number.*nan"),
+    ([(1.0, "f.npy"), (np.float32(-np.inf), "g.npy")], ValueError, r"jobs\[1\]: the frame must be a finite number"),
+    ([(10**400, "f.npy")], ValueError, r"jobs\[0\]: the frame must be a finite number"),
 ])
 def test_render_frames_checks_its_jobs_before_a_frame(shot, tmp_path, monkeypatch, jobs, error, match):
     monkeypatch.chdir(tmp_path)

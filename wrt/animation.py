@@ -457,7 +457,9 @@ def check_jobs(jobs) -> list[tuple]:
     Raises:
         TypeError: naming the job that is no ``(frame number, file path)`` pair; a generator or a dict failed in
             ``len()`` or unpacking ('cannot unpack non-iterable int object'), a text frame in a comparison.
-        ValueError: a file whose format :meth:`wrt.Image.save` cannot write, found only at the first frame's save.
+        ValueError: a file whose format :meth:`wrt.Image.save` cannot write, found only at the first frame's save, or
+            a frame that is NaN or infinite, which stopped the run at its load (``time must be a finite time code``)
+            naming no job, after the frames before it.
     """
     from collections.abc import Mapping
 
@@ -476,6 +478,13 @@ def check_jobs(jobs) -> list[tuple]:
         if isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, float, np.integer, np.floating)):
             raise TypeError(f"render_frames: jobs[{k}]: the frame must be a number (a time code), got "
                             f"{type(frame).__name__} {frame!r}")
+        try:
+            finite = math.isfinite(frame)
+        except OverflowError:  # an int past float's range
+            finite = False
+        if not finite:  # no time code: the frames before it were rendered, then the load stopped the run
+            raise ValueError(f"render_frames: jobs[{k}]: the frame must be a finite number (a time code), got "
+                             f"{frame!r}")
         checked.append((frame, check_image_path(file)))
     return checked
 
