@@ -769,7 +769,7 @@ def test_a_frame_warning_keeps_its_category_over_devices(tmp_path, monkeypatch):
         serial = render_frames(path, jobs, devices=["cpu"], **SIZE)
         result = render_frame_task(_task(str(path), 1.0, jobs[0][1], 1, 0, 0.0, SIZE))
         rows = []
-        _frame_writer(jobs, rows)(result)
+        _frame_writer(rows)(result, jobs[0][1])
     assert serial[0]["error"] == "RuntimeWarning: frame 1 drew a NaN"
     assert [row.get("error") for row in rows] == [serial[0]["error"]]
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
@@ -882,6 +882,20 @@ def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path, cap
     ]
 
 
+def test_two_jobs_of_one_frame_on_two_devices_write_both_files(animated, tmp_path):
+    """A frame asked for as .npy and as .png: the workers' results were matched to files by frame, so both went to the
+    last job's file (f_1.png never written, the rows naming f_1.npy twice), where a serial run writes each."""
+    from PIL import Image as PilImage
+
+    jobs = [(1.0, tmp_path / "f_1.png"), (1.0, tmp_path / "f_1.npy")]
+    rows = render_frames(animated, jobs, devices=["cpu", "cpu"], **SIZE)
+    assert sorted(row["output"] for row in rows) == sorted(str(file) for _, file in jobs)
+    serial = FrameRenderer(animated, **SIZE).render(1.0)
+    np.testing.assert_array_equal(np.load(tmp_path / "f_1.npy"), serial.rgb)
+    with PilImage.open(tmp_path / "f_1.png") as png:
+        assert png.format == "PNG" and png.size == (SIZE["width"], SIZE["height"])
+
+
 def test_worker_warnings_reach_the_caller_once(tmp_path):
     """A stage that warns when loaded, its frames spread over two worker processes: each worker printed the warning
     to its own stderr in Python's format (across the progress bar); now the caller gets it as a warning, once."""
@@ -927,7 +941,7 @@ def test_a_worker_frames_warning_reaches_the_caller_in_its_own_class(tmp_path, m
                 render_frames(stage, [(1.0, file)], **size)
             else:
                 job = animation._task(os.fspath(stage), 1.0, file, 1, 0, 0.0, size)
-                animation._frame_writer([(1.0, file)], [])(animation.render_frame_task(job))
+                animation._frame_writer([])(animation.render_frame_task(job), file)
         shown[run] = [w.category for w in caught if "own RuntimeWarning" in str(w.message)]
     assert shown["serial"] == [RuntimeWarning]
     assert shown["worker"] == shown["serial"]
@@ -978,13 +992,13 @@ def test_cli_frames_on_dask_log_the_frames_ctrl_c_cut_short(animated, tmp_path, 
 
     frame_writer = animation._frame_writer
 
-    def interrupted_at_frame_2(jobs, rows):
-        write = frame_writer(jobs, rows)
+    def interrupted_at_frame_2(rows):
+        write = frame_writer(rows)
 
-        def cut(result):
+        def cut(result, file):
             if result["row"]["frame"] == 2.0:
                 raise KeyboardInterrupt  # as Ctrl-C while the frame is written
-            write(result)
+            write(result, file)
 
         return cut
 

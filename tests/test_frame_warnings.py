@@ -317,9 +317,9 @@ def test_the_frames_of_two_worker_processes_warn_of_dropped_samples_once(tmp_pat
     assert [len(each) for each in sent] == [1, 1], sent  # each worker said it
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        write = animation._frame_writer(jobs, rows := [])
-        for result in results:
-            write(result)
+        write = animation._frame_writer(rows := [])
+        for result, (_, file) in zip(results, jobs):
+            write(result, file)
     assert len(_said(caught, "were not finite")) == 1
     assert [row["frame"] for row in rows] == [1.0, 2.0] and all(file.is_file() for _, file in jobs[:2])
 

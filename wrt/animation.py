@@ -565,7 +565,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             claims = multiprocessing.get_context("spawn").Manager().Queue()
         for device in devices:
             claims.put(str(device))
-        write = _frame_writer(jobs, rows)
+        write = _frame_writer(rows)
         pool = concurrent.futures.ProcessPoolExecutor(
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         )
@@ -576,7 +576,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                            (frame, file) for frame, file in jobs}
             for future in concurrent.futures.as_completed(futures):
                 try:
-                    write(future.result())
+                    write(future.result(), futures[future][1])
                 except SceneError as e:
                     rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
                 bar.update(1)
@@ -669,16 +669,15 @@ def _stop_pool(pool) -> None:
     pool.shutdown(wait=True, cancel_futures=True)  # returns at once: no worker is left to finish a frame
 
 
-def _frame_writer(jobs, rows: list):
-    """``write(result)`` for results of :func:`render_frame_task`: writes the encoded image to its frame's file
-    (from ``jobs``) and appends the frame's log row, with ``output``, to ``rows`` (an error row for a frame that
-    failed)."""
-    files = {float(frame): Path(file) for frame, file in jobs}
+def _frame_writer(rows: list):
+    """``write(result, file)`` for results of :func:`render_frame_task`: writes the encoded image to ``file``, its
+    job's, and appends the frame's log row, with ``output``, to ``rows`` (an error row for a frame that failed). By
+    its job, not its frame: two jobs of one frame (a .png and an .exr of it) were both written to the last one's
+    file, the other never written, where a serial run writes both."""
     said = set()  # the warnings shown: by what a Renderer says each once by (its key), else by their words
 
-    def write(result: dict) -> None:
-        row = result["row"]
-        file = files[row["frame"]]
+    def write(result: dict, file) -> None:
+        row, file = result["row"], Path(file)
         if "error" in result:  # the frame's stage is bad at its time (render_frame_task)
             rows.append(frame_error_row(row["frame"], file, result["error"], row.get("device")))
             return
@@ -721,8 +720,8 @@ def _claim_device(claims) -> None:
 
 
 def _task(path, frame, file, spp, seed, exposure, options) -> dict:
-    return {"path": path, "frame": float(frame), "suffix": Path(file).suffix.lower(), "spp": spp, "seed": seed,
-            "exposure": exposure, "options": options}
+    return {"path": path, "frame": float(frame), "file": os.fspath(file), "suffix": Path(file).suffix.lower(),
+            "spp": spp, "seed": seed, "exposure": exposure, "options": options}
 
 
 _WORKER_RENDERERS: dict = {}  # FrameRenderers kept by a Dask worker process, so its frames share a BVH
@@ -734,8 +733,8 @@ def render_frame_task(job: dict) -> dict:
     exactly the bytes a serial run writes.
 
     Args:
-        job: ``path``, ``frame``, ``suffix`` (``.png``, ``.exr``, ``.npy``), ``spp``, ``seed``, ``exposure`` and
-            ``options`` (:class:`FrameRenderer` options without ``device``).
+        job: ``path``, ``frame``, ``file`` (written by the client), ``suffix`` (``.png``, ``.exr``, ``.npy``), ``spp``,
+            ``seed``, ``exposure`` and ``options`` (:class:`FrameRenderer` options without ``device``).
 
     Returns:
         ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode),
@@ -808,13 +807,12 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = LogRows(log, log_row)
-    write = _frame_writer(jobs, rows)
-    files = {float(frame): file for frame, file in jobs}
+    write = _frame_writer(rows)
     others = []
 
     def failed(job, error):
         if isinstance(error, SceneError):
-            rows.append(frame_error_row(job["frame"], files[job["frame"]], error, getattr(error, "device", None)))
+            rows.append(frame_error_row(job["frame"], job["file"], error, getattr(error, "device", None)))
         else:
             others.append(error)
 
@@ -822,10 +820,11 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
         logged = {row["frame"] for row in rows}
         for job in sorted(cut_short, key=lambda job: job["frame"]):
             if job["frame"] not in logged:
-                rows.append(frame_interrupted_row(job["frame"], files[job["frame"]]))
+                rows.append(frame_interrupted_row(job["frame"], job["file"]))
 
-    run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=lambda _, result: write(result),
-              on_error=failed, on_interrupt=interrupted, progress=progress, desc="wrt frames")
+    run_tasks(task, tasks, address=address, n_workers=n_workers,
+              on_result=lambda job, result: write(result, job["file"]), on_error=failed, on_interrupt=interrupted,
+              progress=progress, desc="wrt frames")
     if others:
         raise others[0]
     return rows
