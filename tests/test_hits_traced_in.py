@@ -204,3 +204,26 @@ def test_raw_ids_out_of_range_are_refused_by_hit_prims(stages):
         scene.hit_prims([3], [2])
     with pytest.raises(TypeError, match=r"^hit_prims takes \(geometry_ids, instances\) or the Hits of wrt.trace"):
         scene.hit_prims(np.array([0]))
+
+
+def test_raw_ids_pairing_an_instance_with_another_prototypes_geometry_are_refused():
+    """Geometry id 2 (/P1/c) with instance 0 (of /P0) read the part of that index among instance 0's parts, or the
+    next instance's: it was named /I1/b, a prim of another instance and another mesh, without a word (as
+    ``Hits.prim``, rows of ``Scene.triangles()``, given for ``Hits.local_prim`` pairs them). Ids of unequal counts
+    failed in numpy's words."""
+    points, indices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+    p0 = wrt.Prototype("/P0", [wrt.Mesh("/P0/a", points, indices)])
+    p1 = wrt.Prototype("/P1", [wrt.Mesh("/P1/b", points, indices), wrt.Mesh("/P1/c", points, indices)])
+    instances = wrt.Instances(np.int32([0, 1]), np.stack([np.eye(4)] * 2), np.zeros(2, np.int32), np.int32([-1, -1]),
+                              ["/PI"], roots=["/I0", "/I1"], root=np.int32([0, 1]))
+    scene = wrt.Scene(prototypes=[p0, p1], instances=instances)
+    paths = scene.prim_paths()
+    assert paths == ["/I0/a", "/I1/b", "/I1/c"]
+    # Each instance with its own prototype's geometry (geometry ids 0: /P0/a; 1, 2: /P1/b, /P1/c).
+    assert [paths[k] for k in scene.hit_prims([0, 1, 2, -1], [0, 1, 1, -1])[0][:3]] == ["/I0/a", "/I1/b", "/I1/c"]
+    for geometry in (1, 2):
+        with pytest.raises(ValueError, match=rf"^hit_prims: geometry_ids\[1\] = {geometry} is geometry of prototype "
+                                             r"/P1, not of instance 0's \(/P0\)"):
+            scene.hit_prims([0, geometry], [0, 0])
+    with pytest.raises(ValueError, match=r"geometry_ids and instances must have one entry per hit each, got 2 and 1"):
+        scene.hit_prims([0, 1], [0])

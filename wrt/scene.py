@@ -634,6 +634,18 @@ def read_only_throughout(array) -> bool:
     return False
 
 
+def _geometry_sources(table: tuple, prim: np.ndarray) -> np.ndarray:
+    """The geometry source (a row of the :meth:`Scene._prim_table` arrays ``own``, ``part`` and ``prototype_of``) of
+    each geometry id ``prim``: the mesh holding the triangle (side="right" skips meshes without triangles), else the
+    shape, else the last row (none: a miss)."""
+    own, starts_geometry = table[1], table[3]
+    meshes_end = len(starts_geometry) - 1  # geometry sources: the meshes, then the shapes, then one for none
+    source = np.where(prim < starts_geometry[-1], np.searchsorted(starts_geometry, prim, side="right") - 1,
+                      meshes_end + prim - starts_geometry[-1])
+    source[(prim < 0) | (source >= len(own) - 1)] = len(own) - 1
+    return source
+
+
 @dataclasses.dataclass
 class Scene:
     """Everything that is rendered, as host arrays.
@@ -1251,7 +1263,8 @@ class Scene:
             geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
                 for a miss; or the :class:`wrt.Hits` of :func:`wrt.trace` alone, whose ids are read after checking
                 that they were traced in this scene as it is now (as :meth:`hit_paths` checks them). Raw ids are
-                checked to be ids of this scene only: those of another scene in range name its prims.
+                checked to be ids of this scene, an instance's of its own prototype (``ValueError`` otherwise), no
+                more: those of another scene that pass name its prims.
             instances: ``(N,)`` int instance ids (``Hits.instance``), -1 for non-instanced geometry: a prototype's
                 part is a prim of each instance (prototype geometry without its instance has prim id -1).
         """
@@ -1280,21 +1293,33 @@ class Scene:
         table = self._prim_table()
         _, own, _, starts_geometry, *_ = table
         ids = int(starts_geometry[-1]) + len(own) - len(starts_geometry)  # triangles, then an id per shape
+        if len(prim) != len(instance):  # numpy's boolean index error named neither
+            raise ValueError(f"{what}: {labels[0]} and {labels[1]} must have one entry per hit each, got {len(prim)} "
+                             f"and {len(instance)}")
         for name, values, count in zip(labels, (prim, instance), (ids, len(self.instances))):
             bad = np.flatnonzero((values < -1) | (values >= count))
             if len(bad):
                 raise ValueError(f"{what}: {name}[{bad[0]}] = {values[bad[0]]} is no id of this scene (-1 to "
                                  f"{count - 1}): hits of another scene, or of this one before an edit?")
+        # An instance's geometry is its prototype's: another prototype's id read the part of that index among this
+        # instance's parts, or the next instance's, naming another prim without a word (Hits.prim, the rows of
+        # Scene.triangles(), given for Hits.local_prim do that).
+        owner = table[7][_geometry_sources(table, prim)]
+        placed = np.flatnonzero((instance >= 0) & (owner >= 0))
+        wrong = placed[owner[placed] != self.instances.prototype[instance[placed]]]
+        if len(wrong):
+            i = int(wrong[0])
+            raise ValueError(f"{what}: {labels[0]}[{i}] = {prim[i]} is geometry of prototype "
+                             f"{self.prototypes[owner[i]].path}, not of instance {instance[i]}'s "
+                             f"({self.prototypes[self.instances.prototype[instance[i]]].path}): give each hit's "
+                             "geometry id (Hits.local_prim, not Hits.prim) with its instance")
         return table, prim, instance
 
     def _prims_of(self, table: tuple, prim: np.ndarray, instance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`hit_prims` of checked int64 ids, looked up in ``table`` (:meth:`_prim_table`)."""
-        _, own, part, starts_geometry, face_ids, starts, parts = table
+        _, own, part, starts_geometry, face_ids, starts, parts, _ = table
         meshes_end = len(starts_geometry) - 1  # geometry sources: the meshes, then the shapes, then one for none
-        # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
-        source = np.where(prim < starts_geometry[-1], np.searchsorted(starts_geometry, prim, side="right") - 1,
-                          meshes_end + prim - starts_geometry[-1])
-        source[(prim < 0) | (source >= len(own) - 1)] = len(own) - 1
+        source = _geometry_sources(table, prim)
         ids = own[source]
         drawn = (part[source] >= 0) & (instance >= 0) & (instance < len(starts))
         ids[drawn] = parts[starts[instance[drawn]] + part[source[drawn]]]
@@ -1310,10 +1335,11 @@ class Scene:
     def _prim_table(self) -> tuple:
         """What :meth:`prim_paths`, :meth:`hit_prims` and :meth:`hit_paths` look prims up in, made once per scene
         state and cached (for 40k parts it took 0.4 s, and a render product with ids asked for it per layer):
-        ``(paths, own, part, starts_geometry, face_ids, starts, parts)``. ``paths``, ``starts`` and ``parts`` are
-        :func:`wrt.light_links.drawn_ids`'; per geometry source (meshes, then shapes, in geometry order, then one for
-        none) ``own`` is the prim id of a non-instanced one (-1 for a prototype's) and ``part`` the part index in
-        its prototype of a prototype's (else -1); ``starts_geometry`` is the geometry id of each mesh's first
+        ``(paths, own, part, starts_geometry, face_ids, starts, parts, prototype_of)``. ``paths``, ``starts`` and
+        ``parts`` are :func:`wrt.light_links.drawn_ids`'; per geometry source (meshes, then shapes, in geometry order,
+        then one for none) ``own`` is the prim id of a non-instanced one (-1 for a prototype's), ``part`` the part
+        index in its prototype of a prototype's (else -1) and ``prototype_of`` that prototype (else -1);
+        ``starts_geometry`` is the geometry id of each mesh's first
         triangle (and the triangle count last), ``face_ids`` every mesh's ``face_ids`` in geometry order (0 on a
         tessellated gprim: its element)."""
         self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
@@ -1327,9 +1353,15 @@ class Scene:
             part_of += [np.full(len(self.shapes), -1)]
             part_of += [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
             part = np.concatenate([*part_of, [-1]]).astype(np.int64)
+            # The prototype each geometry source belongs to (-1: the world's, or none), in the order of part.
+            protos = list(enumerate(self.prototypes))
+            owner = [np.full(len(self.meshes), -1)] + [np.full(len(p.meshes), k) for k, p in protos]
+            owner += [np.full(len(self.shapes), -1)] + [np.full(len(p.shapes), k) for k, p in protos]
+            prototype_of = np.concatenate([*owner, [-1]]).astype(np.int64)
             starts_geometry = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes], dtype=np.int64)])
             face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.elements() for m in meshes])
-            self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts)
+            self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts,
+                                prototype_of)
         return self._cache[key]
 
     def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
