@@ -223,6 +223,130 @@ def test_sampled_directions_follow_the_reported_pdf(surface, cos_o):
     np.testing.assert_allclose(weight[drawn], f_s * (wi[drawn, 2] / pdf_s)[:, None], rtol=1e-4, atol=1e-7)
 
 
+@wp.kernel
+def sample_bent_kernel(
+    p: wp.array[float],
+    tables: GgxAlbedo,
+    n: wp.vec3,
+    wo: wp.vec3,
+    front: int,
+    u: wp.array2d[float],
+    # outputs
+    wi: wp.array[wp.vec3],
+    weight: wp.array[wp.vec3],
+    pdf: wp.array[float],
+    delta: wp.array[wp.int32],
+):
+    """Sample ``i`` of :func:`sample_bsdf` about the geometric normal +Z at shading normal ``n`` turned by
+    :func:`keep_reflection_above` (as the shading points' are), viewer ``wo`` on the side ``front``."""
+    i = wp.tid()
+    s = surface_from(p)
+    ng = wp.vec3(0.0, 0.0, 1.0)
+    ns = keep_reflection_above(n, ng, wo)
+    lobes = lobe_albedos(s, tables, wp.dot(ns, wo))
+    b = sample_bsdf(s, tables, lobes, ns, ng, wo, front, u[i, 0], u[i, 1], u[i, 2], u[i, 3])
+    wi[i] = b.wi
+    weight[i] = b.weight
+    pdf[i] = b.pdf
+    delta[i] = b.delta
+
+
+@wp.kernel
+def eval_bent_kernel(
+    p: wp.array[float],
+    tables: GgxAlbedo,
+    n: wp.vec3,
+    wo: wp.vec3,
+    wi: wp.array[wp.vec3],
+    # outputs
+    f: wp.array[wp.vec3],
+    pdf: wp.array[float],
+    cos_i: wp.array[float],
+):
+    """``(f, pdf)`` of :func:`eval_bsdf` for ``wo, wi[i]`` at the shading normal of :func:`sample_bent_kernel`, and
+    ``wi[i]``'s cosine to that normal."""
+    i = wp.tid()
+    s = surface_from(p)
+    ng = wp.vec3(0.0, 0.0, 1.0)
+    ns = keep_reflection_above(n, ng, wo)
+    fi, pi = eval_bsdf(s, tables, lobe_albedos(s, tables, wp.dot(ns, wo)), ns, ng, wo, wi[i])
+    f[i] = fi
+    pdf[i] = pi
+    cos_i[i] = wp.dot(ns, wi[i])
+
+
+def sphere_directions(n_theta, n_phi, sub):
+    """``(directions, solid angles)`` float64 of the midpoints of a ``(n_theta sub) x (n_phi sub)`` grid over the
+    sphere in (theta from +Z, phi), row-major so that ``reshape(n_theta, sub, n_phi, sub)`` gathers each bin."""
+    t = (np.arange(n_theta * sub) + 0.5) * (np.pi / (n_theta * sub))
+    ph = (np.arange(n_phi * sub) + 0.5) * (2 * np.pi / (n_phi * sub))
+    tt, pp = np.meshgrid(t, ph, indexing="ij")
+    dirs = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], -1).reshape(-1, 3)
+    return dirs, np.sin(tt).ravel() * (np.pi / (n_theta * sub)) * (2 * np.pi / (n_phi * sub))
+
+
+@pytest.mark.parametrize(
+    "surface, tilt, cos_o, front",
+    [
+        # A dielectric under a rough clearcoat of its own index, the shading normal 30 degrees off the face.
+        (dict(roughness=0.5, clearcoat=0.7, clearcoat_roughness=0.4, ior=1.3, clearcoat_ior=1.3), (0.5, 0.2), 0.6, 1),
+        # The specular workflow, the normal leaning away from the viewer (kept so that the mirror direction is above).
+        (dict(base=(0.3, 0.5, 0.2), specular=0.6, roughness=0.35), (-0.9, 0.3), 0.3, 1),
+        # Gold over glass of index 0.7 seen from inside: a third of the draws are delta events.
+        (dict(base=(1.0, 0.71, 0.29), metallic=1.0, roughness=0.8, opacity=0.6, ior=0.7), (0.3, -0.4), 0.45, 0),
+        # A thin-walled sheet behind a smooth (delta) clearcoat, from the back side.
+        (dict(roughness=0.3, opacity=0.5, thin_walled=True, clearcoat=1.0, clearcoat_roughness=0.0), (0.0, 0.6),
+         0.8, 0),
+        # Roughness 1 everywhere, seen head-on about a tilted normal.
+        (dict(metallic=0.5, roughness=1.0, clearcoat=1.0, clearcoat_roughness=1.0), (0.4, 0.4), 1.0, 1),
+        # A mirror (delta) dielectric lobe of index 1 (F0 0, white edge) over diffuse, a rough coat of index 2.
+        (dict(roughness=0.0, ior=1.0, clearcoat=0.5, clearcoat_roughness=0.5, clearcoat_ior=2.0), (-0.3, 0.0), 0.2, 1),
+    ],
+)
+def test_bent_normals_draw_directions_by_the_pdf_that_integrates_to_their_share(surface, tilt, cos_o, front):
+    """At shading normals off the geometric one (as interpolated and mapped normals are), from either side, with glass,
+    thin sheets, delta lobes, the specular workflow and indices below 1: the non-delta directions ``sample_bsdf`` draws
+    follow ``eval_bsdf``'s pdf (chi-square on (theta, phi) bins about the face normal, the pdf integrated over each
+    bin in float64), the pdf integrates to the share of the draws that are neither delta events nor lost below the
+    surface (at most 1), and each draw's weight and pdf are ``f cos / pdf`` and the pdf ``eval_bsdf`` gives there."""
+    count, n_theta, n_phi, sub = 100_000, 32, 64, 10
+    p = params(**surface)
+    n = np.array([tilt[0], tilt[1], 1.0]) / math.hypot(1.0, *tilt)
+    phi = 2.3  # the viewer's azimuth, away from the tilt's
+    wo = np.array([math.sqrt(1.0 - cos_o**2) * math.cos(phi), math.sqrt(1.0 - cos_o**2) * math.sin(phi), cos_o])
+    u = wp.array(np.random.default_rng(5).random((count, 4)).astype(np.float32), dtype=float, device="cpu")
+    outs = [wp.empty(count, dtype=t, device="cpu") for t in (wp.vec3, wp.vec3, float, wp.int32)]
+    tables = ggx_albedo_tables("cpu")
+    wp.launch(sample_bent_kernel, count, inputs=[p, tables, wp.vec3(*n), wp.vec3(*wo), front, u], outputs=outs,
+              device="cpu")
+    wi, weight, pdf, delta = (o.numpy() for o in outs)
+
+    def evaluate_bent(directions):
+        out = [wp.empty(len(directions), dtype=t, device="cpu") for t in (wp.vec3, float, float)]
+        wp.launch(eval_bent_kernel, len(directions), inputs=[p, tables, wp.vec3(*n), wp.vec3(*wo), vec3s(directions)],
+                  outputs=out, device="cpu")
+        return [o.numpy().astype(np.float64) for o in out]
+
+    assert np.isfinite(weight).all() and (weight >= 0.0).all() and np.isfinite(pdf).all()
+    drawn = (delta == 0) & (pdf > 0.0)
+    assert not weight[(delta == 0) & (pdf <= 0.0)].any()  # a draw lost below the surface carries nothing
+    theta = np.arccos(np.clip(wi[drawn, 2], -1.0, 1.0))
+    phis = np.arctan2(wi[drawn, 1], wi[drawn, 0]) % (2 * np.pi)
+    observed = np.histogram2d(theta, phis, bins=[n_theta, n_phi], range=[[0, np.pi], [0, 2 * np.pi]])[0]
+    dirs, cells = sphere_directions(n_theta, n_phi, sub)
+    _, density, _ = evaluate_bent(dirs)
+    probability = (density * cells).reshape(n_theta, sub, n_phi, sub).sum(axis=(1, 3))
+    share = drawn.mean()
+    assert probability.sum() <= 1.0 + 3e-3
+    assert abs(probability.sum() - share) <= 4.0 * math.sqrt(share * (1.0 - share) / count) + 3e-3, share
+    p_value, x2, dof = chi2_test(observed, probability * count)
+    assert p_value > 1e-3, (x2, dof)
+
+    f_s, pdf_s, cos_s = evaluate_bent(wi[drawn])
+    np.testing.assert_allclose(pdf[drawn], pdf_s, rtol=1e-5)
+    np.testing.assert_allclose(weight[drawn], f_s * (cos_s / pdf_s)[:, None], rtol=1e-4, atol=1e-7)
+
+
 def ggx_reference(n, wo, wi, alpha):
     """Float64 ``(f, pdf)`` of a white metal (``F = 1``): ``D G2 / (4 cos_o cos_i)`` and ``G1 D / (4 cos_o)``. The
     vectors are made unit first: ``1 - cos_h^2`` is near ``a^2`` = 1.6e-7, so the 4e-8 by which a float32 unit vector
