@@ -208,13 +208,18 @@ def ggx_lobe(alpha, f0, f90, wo, wi):
     return (f0 + (f90 - f0) * (1.0 - wo @ h) ** 5) * d * g2 / (4.0 * wo[2] * wi[2])
 
 
-def preview_surface_bsdf(wo, wi, base, metallic, roughness, clearcoat=0.0, clearcoat_roughness=0.01, ior=1.5):
+def preview_surface_bsdf(wo, wi, base, metallic, roughness, clearcoat=0.0, clearcoat_roughness=0.01, ior=1.5,
+                         specular=None, opacity=1.0):
     """The BSDF README's Shading section states (local frame, normal +Z), in float64: Lambert under GGX under a
-    clearcoat, ``F0 = mix(((1-ior)/(1+ior))^2, diffuseColor, metallic)``, ``F90 = mix(1, diffuseColor, metallic)``,
-    Kulla and Conty's multiple-scattering lobe, each layer keeping what the lobes above do not reflect at ``wo``."""
+    clearcoat, ``F0 = mix(((1-ior)/(1+ior))^2, diffuseColor, metallic)``, ``F90 = mix(1, diffuseColor, metallic)``
+    (with ``specular``, the specular workflow: ``F0 = specularColor``, ``F90`` white, the diffuse lobe
+    ``diffuseColor`` whole), the clearcoat's ``F0`` of the same ``ior``, Kulla and Conty's multiple-scattering lobe,
+    each layer keeping what the lobes above do not reflect at ``wo``; ``opacity`` of it where the rest is glass."""
     base = np.asarray(base, float)
     r0 = ((1.0 - ior) / (1.0 + ior)) ** 2
     f0, f90 = r0 + (base - r0) * metallic, 1.0 + (base - 1.0) * metallic
+    if specular is not None:
+        f0, f90, metallic = np.asarray(specular, float), np.ones(3), 0.0
     alpha = roughness**2
     (e_o, b_o), (e_i, _), e_avg = albedo(alpha, wo[2]), albedo(alpha, wi[2]), ggx_average_albedo(alpha)
     f_avg = f0 + (f90 - f0) / 21.0
@@ -226,7 +231,7 @@ def preview_surface_bsdf(wo, wi, base, metallic, roughness, clearcoat=0.0, clear
         coat_e, coat_b = albedo(clearcoat_roughness**2, wo[2])
         kept = 1.0 - clearcoat * (r0 * coat_e + (1.0 - r0) * coat_b)
         f = kept * f + clearcoat * ggx_lobe(clearcoat_roughness**2, r0, 1.0, wo, wi)
-    return f
+    return f * opacity
 
 
 def unit(theta_deg, phi_deg):
@@ -258,3 +263,60 @@ def test_a_plane_under_a_delta_sun_shows_the_documented_bsdf_times_the_cosine(in
                          max_depth=1).rgb.mean((0, 1))
         np.testing.assert_allclose(got, preview_surface_bsdf(wo, wi, **inputs) * wi[2], rtol=3e-3,
                                    err_msg=f"view {view}, light {light}")
+
+
+def preview_surface_plane(path, inputs: dict, wi):
+    """Writes a stage at ``path``: a 400-unit plane through the origin facing +Z bound to a UsdPreviewSurface of
+    ``inputs`` (name -> (type, value)), under a delta DistantLight of intensity 1 arriving along ``-wi``."""
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    mesh = UsdGeom.Mesh.Define(stage, "/Plane")
+    mesh.CreatePointsAttr([(-200, -200, 0), (200, -200, 0), (200, 200, 0), (-200, 200, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    shader = UsdShade.Shader.Define(stage, "/Looks/M/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    for name, (value_type, value) in inputs.items():
+        shader.CreateInput(name, value_type).Set(value)
+    look = UsdShade.Material.Define(stage, "/Looks/M")
+    look.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(look)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(1.0)
+    sun.CreateAngleAttr(0.0)
+    axis = np.cross((0.0, 0.0, 1.0), wi)  # turns the light's +Z (towards it) onto wi
+    angle = math.degrees(math.atan2(np.linalg.norm(axis), wi[2]))
+    turn = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(*(axis / np.linalg.norm(axis))), angle))
+    UsdGeom.Xformable(sun).AddTransformOp().Set(turn)
+    stage.Save()
+
+
+T = Sdf.ValueTypeNames
+
+
+@pytest.mark.parametrize("inputs, model", [
+    ({"useSpecularWorkflow": (T.Int, 1), "specularColor": (T.Color3f, Gf.Vec3f(0.3, 0.2, 0.1)),
+      "diffuseColor": (T.Color3f, Gf.Vec3f(0.5, 0.4, 0.2)), "roughness": (T.Float, 0.4)},
+     dict(base=(0.5, 0.4, 0.2), metallic=0.0, roughness=0.4, specular=(0.3, 0.2, 0.1))),
+    ({"diffuseColor": (T.Color3f, Gf.Vec3f(0.2, 0.6, 0.3)), "roughness": (T.Float, 0.5), "ior": (T.Float, 0.7),
+      "clearcoat": (T.Float, 0.6), "clearcoatRoughness": (T.Float, 0.3)},
+     dict(base=(0.2, 0.6, 0.3), metallic=0.0, roughness=0.5, ior=0.7, clearcoat=0.6, clearcoat_roughness=0.3)),
+    ({"diffuseColor": (T.Color3f, Gf.Vec3f(0.7, 0.5, 0.3)), "roughness": (T.Float, 0.3), "metallic": (T.Float, 0.5),
+      "opacity": (T.Float, 0.6), "ior": (T.Float, 2.2)},
+     dict(base=(0.7, 0.5, 0.3), metallic=0.5, roughness=0.3, opacity=0.6, ior=2.2)),
+])
+def test_preview_surfaces_read_from_a_stage_show_the_documented_bsdf_in_both_integrators(tmp_path, inputs, model):
+    """UsdPreviewSurface inputs authored on a stage (the specular workflow's ``useSpecularWorkflow`` and
+    ``specularColor``; an ``ior`` below 1, which the clearcoat's ``F0`` follows; ``opacity`` below 1 over a half
+    metal) read by ``load_usd`` and rendered by ``path`` and ``whitted`` with ``max_depth = 1`` under a delta sun of
+    illuminance 1: ``f(wo, wi) cos_i`` of the README's model written out in float64 (:func:`preview_surface_bsdf`)."""
+    for view, light in [((30, 0), (30, 180)), ((60, 0), (20, 90)), ((75, 0), (75, 180)), ((10, 0), (70, 200))]:
+        wo, wi = unit(*view), unit(*light)
+        preview_surface_plane(tmp_path / "plane.usda", inputs, wi)
+        scene = wrt.load_usd(tmp_path / "plane.usda")
+        cam = wrt.Camera.orthographic(eye=3 * wo, target=(0, 0, 0), up=(0, 0, 1), height=0.1)
+        expected = preview_surface_bsdf(wo, wi, **model) * wi[2]
+        for integrator in ("path", "whitted"):
+            got = wrt.render(scene, camera=cam, width=2, height=2, spp=1, device="cpu", integrator=integrator,
+                             max_depth=1).rgb.mean((0, 1))
+            np.testing.assert_allclose(got, expected, rtol=3e-3, err_msg=f"{integrator}: view {view}, light {light}")
