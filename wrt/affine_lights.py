@@ -92,8 +92,27 @@ def ellipsoid_pdf(c: wp.vec3, a: wp.mat33, g: float, p: wp.vec3, w: wp.vec3):
     one_minus = unit_sphere_cone(a * (p - c))
     if one_minus <= 0.0:
         return 0.0
-    s = g * wp.length(a * w)  # |A w| scaled near 1, so that its cube stays in float32 range
+    return mapped_cone_pdf(a, g, one_minus, w)
+
+
+@wp.func
+def mapped_cone_pdf(a: wp.mat33, g: float, one_minus: float, w: wp.vec3):
+    """Solid-angle pdf of world direction ``w`` drawn uniformly in a canonical cone of ``1 - cos`` ``one_minus`` (2:
+    every direction) and mapped to the world by ``M``, the inverse of ``a``; ``g``, the cube root of ``|det M|``,
+    scales ``|A w|`` near 1, so that its cube stays in float32 range. A linear map turns solid angle by
+    ``|det A| / |A w|^3``."""
+    s = g * wp.length(a * w)
     return 1.0 / (2.0 * PI * one_minus * s * s * s)
+
+
+@wp.func
+def sample_mapped_cone(m: wp.mat33, pc: wp.vec3, one_minus: float, u1: float, u2: float):
+    """A unit world direction uniform in the canonical cone of ``1 - cos`` ``one_minus`` about ``-pc`` (canonical
+    point ``pc`` looking at the origin; 2: every direction), mapped to the world by ``m``."""
+    axis = wp.vec3(0.0, 0.0, 1.0)
+    if wp.length_sq(pc) > 0.0:
+        axis = -wp.normalize(pc)
+    return wp.normalize(m * to_world(sample_uniform_cone(u1, u2, one_minus), axis))
 
 
 @wp.func
@@ -104,14 +123,12 @@ def sample_ellipsoid(c: wp.vec3, m: wp.mat33, a: wp.mat33, g: float, p: wp.vec3,
     one_minus = unit_sphere_cone(pc)
     if one_minus <= 0.0:
         return wp.vec3(0.0, 0.0, 1.0), float(wp.inf), 0.0
-    canonical = to_world(sample_uniform_cone(u1, u2, one_minus), -wp.normalize(pc))
-    w = wp.normalize(m * canonical)
+    w = sample_mapped_cone(m, pc, one_minus, u1, u2)
     aw = a * w
     t = intersect_sphere(wp.vec3(0.0), 1.0, pc, aw)
     if t == wp.inf:
         t = -wp.dot(pc, aw) / wp.dot(aw, aw)  # grazing: rounding missed the ellipsoid by a hair
-    s = g * wp.length(aw)
-    return w, t, 1.0 / (2.0 * PI * one_minus * s * s * s)
+    return w, t, mapped_cone_pdf(a, g, one_minus, w)
 
 
 @wp.func
