@@ -29,11 +29,13 @@ from .geometry import stable_length
 from .glowing_tubes import tube_axis, tube_scales
 from .light_links import lit_by
 from .light_sampling import (
+    LIGHT_GLOWING_HULL,
     LIGHT_GLOWING_SPHERE,
     LIGHT_GLOWING_TUBE,
     DeviceLights,
     cone_of_sphere,
     emitter_triangle,
+    hull_frame,
     light_kind,
     lit_bsdf,
     pick_in_group,
@@ -71,6 +73,8 @@ def seen_emitter(lights: DeviceLights, scene: DeviceScene, double_sided: wp.arra
         return seen_sphere(lights, k, p, n)
     if kind == LIGHT_GLOWING_TUBE:
         return seen_tube(lights, k, p, n)
+    if kind == LIGHT_GLOWING_HULL:
+        return seen_hull(lights, k, p, n)
     prim = lights.prims[k]
     a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
     area2 = stable_length(cr)  # twice the area, times down^2
@@ -119,6 +123,21 @@ def seen_tube(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
     c = wp.vec3(row[0], row[1], row[2])
     ball, cos_r, towards = ball_cone(c, row[3] + wp.length(wp.vec3(axis[0], axis[1], axis[2])), p, n, 2.0 * wp.pi)
     return wp.min(ball, tube_solid_angle(row, axis, lights.glowing_tapers[j], p)) * cos_r, towards
+
+
+@wp.func
+def seen_hull(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3):
+    """:func:`seen_emitter` of glowing hull ``k``: the cone of the ball around its ellipsoid (2 pi inside it), at
+    most the ellipsoid's shadow over the squared distance to its centre (the shadow of ``M B`` along unit ``v`` is
+    ``pi |det M| |A v|``), times the largest cosine at ``p`` over the ball's cone, so that every point the shape can
+    light keeps a weight; the ball alone weighed a long thin box as if it filled the ball."""
+    row = lights.glowing_spheres[k - lights.first_glowing_sphere]
+    ball, cos_r, towards = ball_cone(wp.vec3(row[0], row[1], row[2]), row[3], p, n, 2.0 * wp.pi)
+    c, m, a, g, down = hull_frame(lights, k)
+    d2 = wp.length_sq(c - p * down)
+    if d2 > 0.0:
+        ball = wp.min(ball, wp.pi * g * g * g * wp.length(a * towards) / d2)
+    return ball * cos_r, towards
 
 
 @wp.func

@@ -10,20 +10,25 @@ its two spheres, and their zones beyond it) uniformly by area over the part whos
 mixed with a draw of the side by the angles it subtends (:mod:`wrt.glowing_tubes`): the mixture's density, in closed
 form, is the one a ray that hits the shape reads back for MIS.
 
-A shape is sampled where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
-keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a cylinder or
-cone one scale across its axis and any along it (an unevenly scaled sphere is an ellipsoid, a cylinder squeezed
-across an elliptic tube: they stay unsampled); the shapes of an instance are sampled all or none, the first instances
-whose shapes fit in the cap on instanced emitter entries. Boxes and other glowing shapes are not sampled
-(:attr:`GlowingSpheres.left_out` counts them).
+A shape is sampled so where it emits outwards (``orientation`` rightHanded, or double-sided) and its world
+transform keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a
+cylinder or cone one scale across its axis and any along it. Every other glowing shape (boxes, planes, disks; an
+unevenly scaled sphere, an ellipsoid; a cylinder squeezed across, an elliptic tube; a shape that glows inwards) is a
+hull row (``GLOW_HULL``, :mod:`wrt.glowing_hulls`): drawn in the cone of an ellipsoid around it, the light point its
+first hit. Only a shape squashed flat by its transform is left out (:attr:`GlowingSpheres.left_out` counts them).
+The shapes of an instance are sampled all or none, the first instances whose shapes fit in the cap on instanced
+emitter entries.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
+
+from .primitives import SHAPE_KINDS, Shape, local_boxes, tessellate
 
 # Largest departure of A^T A from s^2 I, over s^2, for a sphere's world transform (linear part A) to count as a
 # similarity: float32 transforms of Points widths round near 1e-7.
@@ -35,7 +40,17 @@ GLOW_OPEN_CYLINDER = 1  # the side of a cylinder or cone (centre, bottom radius,
 GLOW_CAPPED_CYLINDER = 2  # its side and both caps, uniformly by area
 GLOW_CAPSULE = 3  # the side of radius r between the centres +-axis, and a hemisphere of radius r on each
 GLOW_TAPERED_CAPSULE = 4  # spheres of radius r at centre - axis and taper r at centre + axis, and the cone between
-SAMPLED_KINDS = ("sphere", "cylinder", "cone", "capsule", "tapered")  # the wrt.Shape kinds that may be sampled
+# Any other glowing shape (a box, plane or disk; a shape its transform does not keep round; one that glows inwards):
+# drawn in the cone of an ellipsoid around it, the light point the shape's first hit along the direction
+# (wrt.glowing_hulls). Its row holds the ellipsoid's (world centre, largest semi-axis), its axes row (index of its
+# maps in GlowingSpheres.hulls, cube root of the map's |det|, 0, code).
+GLOW_HULL = 5
+ROUND_KINDS = ("sphere", "cylinder", "cone", "capsule", "tapered")  # the wrt.Shape kinds sampled as round shapes
+# The canonical shape lies in the ellipsoid of its box's centre and half extents times this: a box's corners at
+# sqrt(3), a cylinder's rims (and a capsule's, a plane's corners) at sqrt(2), a sphere and a disk on their own.
+HULL_FACTORS = {"box": math.sqrt(3.0), "sphere": 1.0, "disk": 1.0}
+HULL_THICKNESS = 1e-3  # a flat shape's (plane, disk) ellipsoid is this share of its width thick
+HULL_SEGMENTS = 16  # the tessellation a hull's area (its selection weight) is summed over; boxes and planes exact
 
 
 @dataclasses.dataclass
@@ -49,13 +64,16 @@ class GlowingSpheres:
         power: ``(S,)`` float64 selection weights: pi times area times the material's glow.
         instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
         slots: ``(S,)`` int32 each row's place among its instance's rows (0 for world shapes).
-        left_out: glowing shapes not sampled (counted once per instance that draws them): boxes and other kinds,
-            shapes that emit inwards or are scaled unevenly.
+        left_out: glowing shapes not sampled (counted once per instance that draws them): those squashed flat by
+            their transform, whose ellipsoid cannot be inverted.
         past_cap: glowing shapes of instances past the cap (once per instance).
         axes: ``(S, 4)`` float64 world half axis (from the centre to a cap's centre, or to a capsule's hemisphere's;
-            zero for a sphere) and the row's ``GLOW_*`` code.
+            zero for a sphere) and the row's ``GLOW_*`` code; a hull's (index into ``hulls``, cube root of its map's
+            ``|det|``, 0, ``GLOW_HULL``), its ``spheres`` row its ellipsoid's centre and largest semi-axis.
         tapers: ``(S,)`` float64 a cone's radius at ``centre + half axis`` over its radius (the row's, at ``centre -
             half axis``), a tapered capsule's spheres' radii's ratio alike, in [0, 1]; 1 for every other row.
+        hulls: ``(H, 2, 3, 3)`` float64 each hull row's map from the unit sphere to its world ellipsoid, and the
+            inverse.
     """
 
     ids: np.ndarray
@@ -68,6 +86,7 @@ class GlowingSpheres:
     past_cap: int = 0
     axes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
     tapers: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    hulls: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2, 3, 3)))
 
 
 def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -79,34 +98,42 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (s2 > 0.0) & np.isfinite(s2) & (off <= SIMILARITY_TOLERANCE * s2), np.sqrt(np.maximum(s2, 0.0))
 
 
-def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """``(indices, kinds, others)``: the glowing ``shapes`` (``materials`` their device materials) that may be
-    sampled: spheres, cylinders, cones and (tapered) capsules that emit outwards; their ``(K, 3)`` float64
-    ``(GLOW_* code, capsule's H, taper)`` (a cone is a cylinder of taper rho, a tapered capsule's rho, every other
-    shape's 1); and how many other glowing
-    shapes there are."""
-    glowing = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
-    take = [k for k in glowing
-            if shapes[k].kind in SAMPLED_KINDS and (shapes[k].params[3] >= 0.0 or shapes[k].double_sided)]
-    kinds = np.zeros((len(take), 3))
+def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(indices, kinds)``: the glowing ``shapes`` (``materials`` their device materials) and their ``(K, 12)``
+    float64 rows: ``(GLOW_* code, capsule's H, taper)`` (a cone is a cylinder of taper rho, a tapered capsule's rho,
+    every other shape's 1; ``GLOW_HULL`` for boxes, planes, disks and shapes that glow inwards), the shape's
+    ``SHAPE_KINDS`` code and ``params[0:2]``, and the centre and semi-axes of the canonical ellipsoid around it
+    (:data:`HULL_FACTORS`; a flat shape's third semi-axis 0)."""
+    take = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
+    kinds = np.zeros((len(take), 12))
     kinds[:, 2] = 1.0
+    if not len(take):
+        return take, kinds
+    lowers, uppers = local_boxes([shapes[k] for k in take])
+    kinds[:, 6:9] = 0.5 * (lowers + uppers)
     for row, k in enumerate(take):
         shape = shapes[k]
-        if shape.kind in ("cylinder", "cone"):
+        kinds[row, 3:6] = SHAPE_KINDS[shape.kind], shape.params[0], shape.params[1]
+        kinds[row, 9:12] = 0.5 * (uppers[row] - lowers[row]) * HULL_FACTORS.get(shape.kind, math.sqrt(2.0))
+        if shape.kind not in ROUND_KINDS or not (shape.params[3] >= 0.0 or shape.double_sided):
+            kinds[row, 0] = GLOW_HULL
+        elif shape.kind in ("cylinder", "cone"):
             kinds[row, 0] = GLOW_CAPPED_CYLINDER if shape.params[0] > 0.0 else GLOW_OPEN_CYLINDER
             if shape.kind == "cone":
                 kinds[row, 2] = float(shape.params[1])
         elif shape.kind == "capsule":
             kinds[row, :2] = GLOW_CAPSULE, float(shape.params[0])
         elif shape.kind == "tapered":
-            kinds[row] = GLOW_TAPERED_CAPSULE, float(shape.params[0]), float(shape.params[1])
-    return np.asarray(take, np.int64), kinds, len(glowing) - len(take)
+            kinds[row, :3] = GLOW_TAPERED_CAPSULE, float(shape.params[0]), float(shape.params[1])
+    return take, kinds
 
 
-def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(round, rows, axes)`` of canonical shapes ``kinds`` (``(..., 3)``, :func:`_candidates`) under ``(..., 4, 4)``
-    world transforms: whether each stays round in the world (see the module docstring), its world ``(centre,
-    radius)`` and ``(half axis, code)`` rows (``(..., 4)``)."""
+def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
+    """``(ok, rows, axes, (maps, areas))`` of canonical shapes ``kinds`` (``(..., 12)``, :func:`_candidates`) under
+    ``(..., 4, 4)`` world transforms: whether each can be sampled, its world ``(centre, radius)`` and ``(half axis,
+    code)`` rows (``(..., 4)``), and the ellipsoid maps and areas (:func:`_hulls`) of the rows drawn as hulls, in
+    row order, which their axes rows index. A round shape stays round in the world (see the module docstring); one
+    its transform does not keep round becomes a hull."""
     linear = to_world[..., :3, :3]
     code = np.broadcast_to(kinds[..., 0], linear.shape[:-2])
     similar, scale = _similar(linear)
@@ -120,7 +147,7 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.nda
     with np.errstate(invalid="ignore", over="ignore"):
         round_tube = ((r2 > 0.0) & (h2 > 0.0) & np.isfinite(r2) & np.isfinite(h2)
                       & (across <= SIMILARITY_TOLERANCE * r2) & (along <= SIMILARITY_TOLERANCE * np.sqrt(r2 * h2)))
-    ok = np.where(cylinder, round_tube, similar)
+    hull = (code == GLOW_HULL) | ~np.where(cylinder, round_tube, similar)
     radius = np.where(cylinder, np.sqrt(np.maximum(r2, 0.0)), scale)
     # The half axis: a cylinder's canonical Z column (a cone's, towards its narrow top), a capsule's times H (its
     # hemispheres' centres; a tapered capsule's spheres'), a sphere's 0.
@@ -128,7 +155,68 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray) -> tuple[np.ndarray, np.nda
     factor = np.where(cylinder, 1.0, np.where(capsule, kinds[..., 1], 0.0))
     axis = linear[..., :, 2] * factor[..., None]
     rows = np.concatenate([to_world[..., :3, 3], radius[..., None]], axis=-1)
-    return ok, rows, np.concatenate([axis, code[..., None]], axis=-1)
+    axes = np.concatenate([axis, code[..., None]], axis=-1)
+    maps, areas, fine, centres, radii, roots = _hulls(linear[hull], to_world[..., :3, 3][hull],
+                                                      np.broadcast_to(kinds, (*linear.shape[:-2], 12))[hull])
+    rows[hull] = np.concatenate([centres, radii[:, None]], axis=1)
+    axes[hull] = np.stack([np.arange(len(maps)), roots, np.zeros(len(maps)), np.full(len(maps), GLOW_HULL)], axis=1)
+    ok = np.ones(linear.shape[:-2], bool)
+    ok[hull] = fine
+    return ok, rows, axes, (maps, areas)
+
+
+def _hulls(linear: np.ndarray, origin: np.ndarray, kinds: np.ndarray) -> tuple:
+    """``(maps, areas, fine, centres, radii, roots)`` of ``H`` shapes drawn as hulls (``(H, 3, 3)`` linear parts and
+    ``(H, 3)`` origins of their world transforms, ``(H, 12)`` :func:`_candidates` rows): ``(H, 2, 3, 3)`` float64
+    maps from the unit sphere to the world ellipsoid around each shape and their inverses, the shapes' world areas,
+    whether the map can be inverted in float32 (a shape squashed flat cannot), the ellipsoids' world centres, largest
+    semi-axes and the cube roots of the maps' ``|det|``. A plane's or disk's ellipsoid is :data:`HULL_THICKNESS` of
+    its width thick along its normal."""
+    from .affine_lights import FLAT_RATIO  # (affine_lights imports this module through wrt.glowing_tubes)
+
+    m = linear * kinds[:, None, 9:12]
+    flat = np.isin(kinds[:, 3], (SHAPE_KINDS["plane"], SHAPE_KINDS["disk"]))
+    if flat.any():
+        normal = np.cross(m[flat, :, 0], m[flat, :, 1])
+        width = np.maximum(np.linalg.norm(m[flat, :, 0], axis=1), np.linalg.norm(m[flat, :, 1], axis=1))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m[flat, :, 2] = normal * (HULL_THICKNESS * width / np.linalg.norm(normal, axis=1))[:, None]
+    finite = np.isfinite(m).all(axis=(1, 2))
+    sizes = np.zeros((len(m), 3))
+    if finite.any():
+        sizes[finite] = np.linalg.svd(m[finite], compute_uv=False)
+    fine = finite & (sizes[:, 2] > FLAT_RATIO * sizes[:, 0]) & (sizes[:, 0] < np.finfo(np.float32).max)
+    inverses = np.zeros_like(m)
+    inverses[fine] = np.linalg.inv(m[fine])
+    centres = origin + np.einsum("nij,nj->ni", linear, kinds[:, 6:9])
+    roots = np.cbrt(np.abs(np.where(fine, np.linalg.det(np.where(fine[:, None, None], m, 0.0)), 0.0)))
+    return np.stack([m, inverses], axis=1), _hull_areas(linear, kinds), fine, centres, sizes[:, 0], roots
+
+
+@functools.lru_cache(maxsize=64)
+def _facets(kind: str, p0: float, p1: float) -> np.ndarray:
+    """``(F, 3)`` float64 area vectors (normal times area) of the canonical shape's tessellation
+    (:data:`HULL_SEGMENTS`)."""
+    points, triangles, _ = tessellate(Shape("/hull", kind, np.eye(4), params=np.array([p0, p1, 0.0, 1.0])),
+                                      HULL_SEGMENTS)
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    return 0.5 * np.cross(b - a, c - a)
+
+
+def _hull_areas(linear: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """``(H,)`` world areas of canonical shapes ``kinds`` (:func:`_candidates` rows) under ``linear`` maps: their
+    tessellations' facets, each area vector ``v`` taken to ``|cof(L) v|`` (exact for boxes and planes)."""
+    cofactor = np.stack([np.cross(linear[:, :, 1], linear[:, :, 2]), np.cross(linear[:, :, 2], linear[:, :, 0]),
+                         np.cross(linear[:, :, 0], linear[:, :, 1])], axis=-1)
+    names = {code: name for name, code in SHAPE_KINDS.items()}
+    areas = np.zeros(len(linear))
+    keys = kinds[:, 3:6]
+    for key in np.unique(keys, axis=0):
+        rows = np.flatnonzero((keys == key).all(axis=1))
+        facets = _facets(names[int(key[0])], float(key[1]), float(key[2]))
+        for chunk in np.array_split(rows, 1 + len(rows) * len(facets) // 1_000_000):
+            areas[chunk] = np.linalg.norm(np.einsum("nij,fj->nfi", cofactor[chunk], facets), axis=2).sum(axis=1)
+    return areas
 
 
 def _areas(spheres: np.ndarray, axes: np.ndarray, tapers: np.ndarray) -> np.ndarray:
@@ -157,20 +245,31 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     materials = scene.triangle_materials()
     first_shape = scene.num_geometry_triangles
     ids, insts, spheres, axes, tapers, slots = [], [], [], [], [], []
+    maps, hull_areas = [], []  # the hull rows' (wrt.glowing_hulls), which their axes rows index from 0 on
     left_out = 0
+
+    def add_hulls(shape_axes, hulls, shape_tapers):
+        """Numbers the hull rows of ``shape_axes`` after those added before and keeps their maps and areas; the
+        rows' tapers (``shape_tapers``, a hull's 1)."""
+        hull = shape_axes[..., 3] == GLOW_HULL
+        shape_axes[hull, 0] += sum(len(m) for m in maps)
+        maps.append(hulls[0])
+        hull_areas.append(hulls[1])
+        return np.where(hull, 1.0, shape_tapers)
+
     world = list(scene.shapes)
-    take, kinds, others = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
-    left_out += others
+    take, kinds = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
     if len(take):
         to_world = np.stack([np.asarray(world[k].to_world, np.float64) for k in take])
-        ok, rows, shape_axes = _placed(to_world, kinds)
+        ok, rows, shape_axes, hulls = _placed(to_world, kinds)
+        shape_tapers = add_hulls(shape_axes, hulls, kinds[:, 2])
         left_out += int((~ok).sum())
         take = take[ok]
         ids.append(first_shape + take)
         insts.append(np.full(len(take), -1))
         spheres.append(rows[ok])
         axes.append(shape_axes[ok])
-        tapers.append(kinds[ok, 2])
+        tapers.append(shape_tapers[ok])
         slots.append(np.zeros(len(take), np.int64))
 
     n = len(scene.instances)
@@ -178,25 +277,24 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     past_cap = 0
     if n:
         ranges = scene.prototype_shape_ranges()
-        per_proto = {}  # prototype -> (geometry ids of its candidate shapes, their local transforms, kinds, others)
+        per_proto = {}  # prototype -> (geometry ids of its glowing shapes, their local transforms, kinds)
         for p, proto in enumerate(scene.prototypes):
             shapes = list(getattr(proto, "shapes", []))
             if not shapes:
                 continue
             first = int(ranges[p, 0])
-            take, kinds, others = _candidates(shapes, materials[first : first + len(shapes)], glow)
-            if len(take) or others:
-                local = np.stack([np.asarray(shapes[k].to_world, np.float64) for k in take]) if len(take) else None
-                per_proto[p] = (first + take, local, kinds, others)
+            take, kinds = _candidates(shapes, materials[first : first + len(shapes)], glow)
+            if len(take):
+                local = np.stack([np.asarray(shapes[k].to_world, np.float64) for k in take])
+                per_proto[p] = (first + take, local, kinds)
         by_prototype = scene.instances.rows_of_prototypes(len(ranges)) if per_proto else []
         visible = scene.instance_inverses()[1]
         counts = np.zeros(n, np.int64)
         usable = np.zeros(n, bool)
         to_world = scene.instances.to_world
-        for p, (p_ids, local, kinds, others) in per_proto.items():
+        for p, (p_ids, local, kinds) in per_proto.items():
             rows = by_prototype[p][visible[by_prototype[p]]]
-            left_out += others * len(rows)
-            if local is None or not len(rows):
+            if not len(rows):
                 continue
             m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, shapes, 4, 4)
             ok = _placed(m, kinds)[0].all(axis=1)
@@ -208,19 +306,20 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
         past_cap = int(counts[usable & ~sampled].sum())
         start = sum(len(i) for i in ids)
         instance_first[sampled] = (ends - counts)[sampled] + start
-        for p, (p_ids, local, kinds, _) in per_proto.items():
+        for p, (p_ids, local, kinds) in per_proto.items():
             rows = by_prototype[p][sampled[by_prototype[p]]]
-            if local is None or not len(rows):
+            if not len(rows):
                 continue
             order = np.argsort(instance_first[rows], kind="stable")
             rows = rows[order]
             m = np.einsum("nij,sjk->nsik", to_world[rows].astype(np.float64), local)  # (instances, shapes, 4, 4)
-            _, placed, shape_axes = _placed(m, kinds)
+            _, placed, shape_axes, hulls = _placed(m, kinds)
+            shape_tapers = add_hulls(shape_axes, hulls, kinds[:, 2])
             ids.append(np.tile(p_ids, len(rows)))
             insts.append(np.repeat(rows, len(p_ids)))
             spheres.append(placed.reshape(-1, 4))
             axes.append(shape_axes.reshape(-1, 4))
-            tapers.append(np.tile(kinds[:, 2], len(rows)))
+            tapers.append(shape_tapers.reshape(-1))
             slots.append(np.tile(np.arange(len(p_ids)), len(rows)))
     if not ids:
         empty = np.zeros(0, np.int32)
@@ -237,6 +336,14 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     order = np.lexsort((slots_all, key))
     ids_all, insts_all, slots_all = ids_all[order], insts_all[order], slots_all[order]
     spheres_all, axes_all, tapers_all = spheres_all[order], axes_all[order], tapers_all[order]
-    power = math.pi * _areas(spheres_all, axes_all, tapers_all) * glow[materials[ids_all]]
+    # The hull rows' maps in row order (those of rows left out dropped), numbered again.
+    hull = axes_all[:, 3] == GLOW_HULL
+    used = axes_all[hull, 0].astype(np.int64)
+    hull_maps = np.concatenate(maps)[used] if maps else np.zeros((0, 2, 3, 3))
+    areas = _areas(spheres_all, axes_all, tapers_all)
+    if maps:
+        areas[hull] = np.concatenate(hull_areas)[used]
+    axes_all[hull, 0] = np.arange(len(used))
+    power = math.pi * areas * glow[materials[ids_all]]
     return GlowingSpheres(ids_all, insts_all, spheres_all, power, instance_first, slots_all, left_out, past_cap,
-                          axes_all, tapers_all)
+                          axes_all, tapers_all, hull_maps)

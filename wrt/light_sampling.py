@@ -10,6 +10,8 @@ disk lights, rect lights and triangles that look tiny uniformly by area; cylinde
 (:mod:`wrt.glowing_tubes`: uniformly by area over the half facing the shading point and by the angles their side
 subtends, mixed); ellipsoids and elliptic tubes (sphere and cylinder lights under
 a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
+glowing analytic shapes that are not round (boxes, planes, disks, ellipsoids, squeezed tubes, inward shapes) in the
+cone of an ellipsoid around them, the light point their first hit (:mod:`wrt.glowing_hulls`);
 soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
 luminance of its filtered texture averaged over each texel (piecewise-constant 2D distribution, Pharr et al., PBRT
@@ -31,6 +33,8 @@ from .affine_lights import (
 )
 from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
+from .glowing_hulls import hull_pdf, sample_hull
+from .glowing_spheres import GLOW_HULL
 from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf
 from .ies import ies_factor
 from .light_links import DeviceLinks
@@ -70,6 +74,11 @@ LIGHT_GLOWING_SPHERE = wp.constant(11)
 # A glowing round tube (wrt.glowing_spheres: a cylinder, cone or capsule): among the same entries, its glowing_axes
 # row's code not GLOW_SPHERE; sampled by area and by the angles its side subtends, mixed (wrt.glowing_tubes).
 LIGHT_GLOWING_TUBE = wp.constant(12)
+# Any other glowing analytic shape (wrt.glowing_spheres: a box, plane or disk, an ellipsoid, an elliptic tube, a shape
+# that glows inwards): among the same entries, its glowing_axes row's code GLOW_HULL; drawn in the cone of an
+# ellipsoid around it, the light point its first hit (wrt.glowing_hulls).
+LIGHT_GLOWING_HULL = wp.constant(13)
+GLOWING_HULL = wp.constant(float(GLOW_HULL))
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -133,6 +142,8 @@ class DeviceLights:
     glowing_spheres: wp.array[wp.vec4]  # (count - first_glowing_sphere, or 1) world centre and radius
     glowing_axes: wp.array[wp.vec4]  # (as glowing_spheres) a tube's world half axis and GLOW_* code; 0: a sphere
     glowing_tapers: wp.array[float]  # (as glowing_spheres) a cone's top radius over its bottom one, 1 for the rest
+    hull_maps: wp.array[wp.mat33]  # (2 H, or 2) each glowing hull's map from the unit ball to its ellipsoid, then
+    # its inverse (a hull's glowing_axes row: (its index, cube root of the map's |det|, 0, GLOW_HULL))
     instance_glowing_spheres: wp.array[wp.int32]  # (N,) each instance's first glowing sphere entry, -1: none
     first_shape_id: int  # the geometry id of the first analytic shape (Scene.num_geometry_triangles)
     dome: int  # index of the dome light, -1 without one
@@ -251,7 +262,10 @@ def light_kind(lights: DeviceLights, k: int):
     """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles, then glowing spheres and
     tubes (``kinds`` holds the analytic lights' alone)."""
     if k >= lights.first_glowing_sphere:
-        if lights.glowing_axes[k - lights.first_glowing_sphere][3] > 0.0:
+        code = lights.glowing_axes[k - lights.first_glowing_sphere][3]
+        if code == GLOWING_HULL:
+            return LIGHT_GLOWING_HULL
+        if code > 0.0:
             return LIGHT_GLOWING_TUBE
         return LIGHT_GLOWING_SPHERE
     if k >= lights.num_analytic:
@@ -638,6 +652,29 @@ def glowing_tube_pdf(lights: DeviceLights, k: int, double_sided: int, p: wp.vec3
 
 
 @wp.func
+def hull_frame(lights: DeviceLights, k: int):
+    """``(c, m, a, g, down)``: glowing hull ``k``'s ellipsoid (wrt.glowing_hulls): its centre, its map from the unit
+    ball, the inverse and the cube root of the map's ``|det|``, in lengths times ``down``, the power of two that
+    brings its largest semi-axis into [1, 2) (in world units its squares overflowed for a shape 1e19 wide)."""
+    j = k - lights.first_glowing_sphere
+    row = lights.glowing_spheres[j]
+    axis = lights.glowing_axes[j]
+    h = int(axis[0])
+    down, up = power_scales(row[3])
+    return (wp.vec3(row[0], row[1], row[2]) * down, lights.hull_maps[2 * h] * down, lights.hull_maps[2 * h + 1] * up,
+            axis[1] * down, down)
+
+
+@wp.func
+def glowing_hull_pdf(lights: DeviceLights, scene: DeviceScene, k: int, p: wp.vec3, d: wp.vec3, dist: float,
+                     n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing hull ``k`` from ``p`` along unit ``d``, whose
+    first hit of the shape lies ``dist`` away with unit normal ``n`` (:func:`wrt.glowing_hulls.hull_pdf`)."""
+    c, m, a, g, down = hull_frame(lights, k)
+    return hull_pdf(scene, lights.prims[k], c, m, a, g, down, p, d, dist, n)
+
+
+@wp.func
 def triangle_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, st: wp.vec2):
     """Radiance that triangle light ``k`` (of material ``m``) emits at ``st``: its radiance factor times the
     material's ``emissiveColor``, or the factor alone for a mesh light whose light does not follow its material
@@ -848,6 +885,18 @@ def sample_light(
         prim = lights.prims[k]
         # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
         out.value = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) * (2.0 * PI * g_one_minus)
+        return out
+    if kind == LIGHT_GLOWING_HULL:
+        # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls).
+        prim = lights.prims[k]
+        h_c, h_m, h_a, h_g, h_down = hull_frame(lights, k)
+        wi, t, pdf = sample_hull(scene, prim, lights.instances[k], tri_double_sided[prim], h_c, h_m, h_a, h_g, h_down,
+                                 p, u1, u2)
+        if pdf > 0.0:
+            out.wi = wi
+            out.dist = t
+            out.pdf = pdf
+            out.value = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) / pdf
         return out
     if kind == LIGHT_ELLIPSOID:
         ell_down, ell_up = light_scales(lights, k)

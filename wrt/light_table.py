@@ -161,7 +161,7 @@ class UnsampledEmitters:
     triangles: int = 0
     cap: int = 0
     sources: list = dataclasses.field(default_factory=list)
-    shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: cones, ...)
+    shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: squashed flat)
     spheres_past_cap: int = 0  # glowing spheres and tubes of instances past the cap (once per instance)
 
     MAX_NAMED: ClassVar[int] = 4  # sources named in :meth:`describe`; the rest are counted
@@ -610,6 +610,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
                               dtype=wp.vec4, device=device)
     d.glowing_tapers = wp.array((spheres.tapers if len(spheres.ids) else np.ones(1)).astype(np.float32), dtype=float,
                                 device=device)
+    hulls = spheres.hulls.reshape(-1, 3, 3) if len(spheres.hulls) else np.tile(np.eye(3), (2, 1, 1))
+    d.hull_maps = wp.array(hulls.astype(np.float32), dtype=wp.mat33, device=device)
     # Each instance's first sphere entry (4 bytes an instance), only where some instance has one: read only for the
     # slot of a prototype sphere (light_sampling.hit_emitter), which none has without them.
     first = np.where(spheres.instance_first >= 0, spheres.instance_first + first_sphere, -1)

@@ -888,9 +888,10 @@ class Renderer:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
         triangles and glowing spheres and tubes of instances past the cap on sampled instanced emitters
         (``unsampled``: :class:`wrt.light_table.UnsampledEmitters`), under every integrator that samples lights, and
-        under whitted its ``shapes``, emissive analytic shapes that are not sampled (boxes, ellipsoids, elliptic
-        tubes, shapes that glow inwards: wrt.glowing_spheres; a stage's emissive gprims are drawn as triangles,
-        wrt.usd), which path finds by the rays that hit them."""
+        under whitted its ``shapes``, emissive analytic shapes that are not sampled (those a transform squashes flat,
+        whose ellipsoid has no float32 inverse: wrt.glowing_spheres; boxes, ellipsoids, elliptic tubes and shapes
+        that glow inwards are sampled as hulls, wrt.glowing_hulls; a stage's emissive gprims are drawn as
+        triangles, wrt.usd), which path finds by the rays that hit them."""
         parts = [text for text in [unsampled.describe()] if text]
         if self.integrator == "whitted" and unsampled.shapes:
             parts.append(f"{int(unsampled.shapes)} emissive analytic primitive(s)")

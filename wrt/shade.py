@@ -174,6 +174,21 @@ def corner_err(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 
 @wp.func
+def shape_ray(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3):
+    """``(origin, direction)``: the world ray ``(o, d)`` in analytic shape ``prim``'s canonical space (drawn by
+    ``instance``, -1: a world shape), moved there as :func:`shape_frame` moves a point, relative to the shape's
+    origin; the ray parameter stays the world one."""
+    j = prim - scene.num_prims
+    m = scene.shape_to_local[j]
+    if instance >= 0:
+        mi = scene.world_to_local[instance]
+        w = scene.shape_offsets[scene.shape_offset_firsts[j] + scene.instance_shape_ranks[instance]]
+        return (linear_part(m) * (linear_part(mi) * ((o - translation(mi)) - w)),
+                linear_part(m) * (linear_part(mi) * d))
+    return linear_part(m) * (o - translation(m)), linear_part(m) * d
+
+
+@wp.func
 def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
     """World-space point, front normal (not normalised), reach (``HitPoint.reach``: the point's distance from the
     shape's centre, the scale of the canonical test's rounding) and ``HitPoint.err`` of the hit at ``t`` on analytic

@@ -25,10 +25,12 @@ from ..geometry import offset_ray_origin, stable_length
 from ..hidden_hits import any_hit_t_max
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
+    LIGHT_GLOWING_HULL,
     LIGHT_GLOWING_SPHERE,
     LIGHT_GLOWING_TUBE,
     DeviceLights,
     LightSample,
+    glowing_hull_pdf,
     glowing_sphere_pdf,
     glowing_tube_pdf,
     hit_emitter,
@@ -220,6 +222,8 @@ def shade_path_kernel(
                     pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
                 elif e_kind == LIGHT_GLOWING_TUBE:
                     pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], o, d, t_hit, h.ng)
+                elif e_kind == LIGHT_GLOWING_HULL:
+                    pdf_l = lights.pmf[e] * glowing_hull_pdf(lights, scene, e, o, d, t_hit, wp.normalize(h.ng))
                 else:
                     pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
                                                                o, d, t_hit)

@@ -1,0 +1,177 @@
+"""Glowing analytic shapes that are not round spheres or tubes (boxes, ellipsoids, planes, squeezed cylinders, shapes
+that glow inwards) are sampled as lights (wrt.glowing_hulls): a white floor under a glowing box or ellipsoid shows
+the irradiance float64 quadrature over the shape's surface gives, under whitted (which lit nothing with them before)
+and path (MIS against BSDF-sampled hits: a pdf read back wrong would bias it), within a few standard errors over
+seeds; the warning about emitters left unsampled no longer names them."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import wrt
+
+RADIANCE = 3.0  # of the glowing shape
+RES = 4  # pixels per side of the floor patch seen
+PATCH = 1.0  # side of the patch, centred under the shape
+SUB = 6  # quadrature points per pixel side
+UNSAMPLED = "emissive analytic primitive"  # how render.py's warning counts glowing shapes it does not sample
+
+
+def floor_and_materials():
+    """A 40 x 40 white Lambertian floor (albedo 1, no specular lobe) at z = 0, and ``[white, glow]`` materials."""
+    points = np.array([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)], np.float32)
+    floor = wrt.Mesh("/Floor", points, np.array([[0, 1, 2], [0, 2, 3]]), np.array([0, 0]),
+                     material_ids=np.zeros(2, np.int32))
+    bare = dict(ior=1.0, specular_edge=0.0)
+    return floor, [wrt.Material("/White", diffuse_color=(1.0, 1.0, 1.0), **bare),
+                   wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(RADIANCE,) * 3, **bare)]
+
+
+def rotation(x_degrees, z_degrees):
+    """A turn about X, then about Z."""
+    a, b = np.radians(x_degrees), np.radians(z_degrees)
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    rz = np.array([[np.cos(b), -np.sin(b), 0], [np.sin(b), np.cos(b), 0], [0, 0, 1]])
+    return rz @ rx
+
+
+def placed(linear, centre):
+    to_world = np.eye(4)
+    to_world[:3, :3] = linear
+    to_world[:3, 3] = centre
+    return to_world
+
+
+BOX = placed(rotation(15, 30) @ np.diag([0.8, 0.6, 0.3]), (0.1, 0.0, 0.55))  # low over the patch, turned
+ELLIPSOID = placed(rotation(-20, 40) @ np.diag([0.7, 0.25, 0.4]), (0.0, 0.1, 0.8))
+
+
+def patch_points():
+    """``(RES * SUB, RES * SUB, 3)`` floor points: SUB x SUB midpoints of each pixel's square (row 0 at +Y)."""
+    xs = ((np.arange(RES * SUB) + 0.5) / (RES * SUB) - 0.5) * PATCH
+    gx, gy = np.meshgrid(xs, -xs)
+    return np.stack([gx, gy, np.zeros_like(gx)], axis=-1)
+
+
+def floor_radiance(surface):
+    """``(RES, RES)`` float64 radiance of the white floor, E / pi averaged over each pixel, where ``surface`` gives
+    ``(points (Q, 3), outward unit normals (Q, 3), area weights (Q,))`` of the glowing shape: the irradiance is
+    L times the sum of cos_floor cos_shape / d^2 over the surface points that face the floor point."""
+    q, normals, weights = surface
+    p = patch_points().reshape(-1, 3)
+    out = np.empty(len(p))
+    for i, point in enumerate(p):
+        d = q - point
+        dist = np.linalg.norm(d, axis=1)
+        cos_shape = np.clip(-(d * normals).sum(axis=1) / dist, 0.0, None)
+        cos_floor = np.clip(d[:, 2] / dist, 0.0, None)
+        out[i] = RADIANCE * np.sum(weights * cos_shape * cos_floor / dist**2) / np.pi
+    return out.reshape(RES, SUB, RES, SUB).mean(axis=(1, 3))
+
+
+def box_surface(to_world, n=48):
+    """Gauss-Legendre points of the six faces of the box ``to_world [-1, 1]^3``."""
+    x, wx = np.polynomial.legendre.leggauss(n)
+    u, v = (g.reshape(-1) for g in np.meshgrid(x, x))
+    w = np.outer(wx, wx).reshape(-1)
+    linear, centre = to_world[:3, :3], to_world[:3, 3]
+    sign = np.sign(np.linalg.det(linear))
+    parts = []
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        cross = np.cross(linear[:, j], linear[:, k]) * sign  # along the face's outward normal for s = +1
+        for s in (-1.0, 1.0):
+            q = centre + s * linear[:, i] + u[:, None] * linear[:, j] + v[:, None] * linear[:, k]
+            normal = s * cross / np.linalg.norm(cross)
+            parts.append((q, np.tile(normal, (len(q), 1)), w * np.linalg.norm(cross)))
+    return tuple(np.concatenate(p) for p in zip(*parts))
+
+
+def ellipsoid_surface(to_world, n=300):
+    """Midpoints of the unit sphere's (theta, phi) grid mapped onto the ellipsoid ``to_world`` B: area elements
+    ``|cof(M) u| sin(theta)``, normals along ``M^-T u``."""
+    theta = (np.arange(n) + 0.5) * np.pi / n
+    phi = (np.arange(2 * n) + 0.5) * np.pi / n
+    t, f = (g.reshape(-1) for g in np.meshgrid(theta, phi))
+    u = np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], axis=1)
+    linear, centre = to_world[:3, :3], to_world[:3, 3]
+    cofactor = np.linalg.det(linear) * np.linalg.inv(linear).T
+    stretched = u @ cofactor.T
+    area = np.linalg.norm(stretched, axis=1)
+    return centre + u @ linear.T, stretched / area[:, None], area * np.sin(t) * (np.pi / n) ** 2
+
+
+def render_patch(shapes, integrator, spp, seed):
+    """``(RES, RES)`` radiance of the floor patch seen from below the shapes and the warnings the render gave."""
+    floor, materials = floor_and_materials()
+    scene = wrt.Scene(meshes=[floor], shapes=shapes, materials=materials)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.05), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=spp, seed=seed, integrator=integrator)
+    return img.rgb.mean(axis=-1).astype(np.float64), [str(w.message) for w in caught]
+
+
+def assert_within_standard_errors(shape, expected, integrator, seeds=12, spp=256):
+    """The patch's mean over ``seeds`` renders is the quadrature's within 4 standard errors of that mean."""
+    means = []
+    for seed in range(seeds):
+        rendered, messages = render_patch([shape], integrator, spp, seed)
+        assert not [m for m in messages if UNSAMPLED in m], messages
+        means.append(rendered.mean())
+    means = np.array(means)
+    error = means.std(ddof=1) / np.sqrt(seeds)
+    assert abs(means.mean() - expected.mean()) < 4.0 * error, (means.mean(), expected.mean(), error)
+    assert error < 0.02 * expected.mean(), error  # (a test that says something)
+
+
+def test_the_box_quadrature_is_the_closed_form_of_a_square_over_a_point():
+    """The oracle itself: a square of side 2 a facing down at height h (a box of no height) sends a point on its
+    axis E / L = 4 (a / s) arctan(a / s), s = sqrt(a^2 + h^2): four times a corner's form factor in closed form."""
+    a, h = 0.5, 0.7
+    to_world = placed(np.diag([a, a, 1e-9]), (0.0, 0.0, h))
+    q, normals, weights = box_surface(to_world, n=64)
+    d = q
+    dist = np.linalg.norm(d, axis=1)
+    e = np.sum(weights * np.clip(-(d * normals).sum(axis=1) / dist, 0, None) * np.clip(d[:, 2] / dist, 0, None)
+               / dist**2)
+    s = np.hypot(a, h)
+    assert e == pytest.approx(4.0 * (a / s) * np.arctan(a / s), rel=1e-6)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_glowing_box_lights_the_floor_as_quadrature_gives(integrator):
+    """A turned glowing box low over the floor (the floor partly inside its ellipsoid, so drawn both ways)."""
+    shape = wrt.Shape("/Box", "box", BOX, material_id=1)
+    assert_within_standard_errors(shape, floor_radiance(box_surface(BOX)), integrator)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_glowing_ellipsoid_lights_the_floor_as_quadrature_gives(integrator):
+    """A sphere scaled unevenly and turned: an ellipsoid, drawn in its own cone."""
+    shape = wrt.Shape("/Ellipsoid", "sphere", ELLIPSOID, material_id=1)
+    assert_within_standard_errors(shape, floor_radiance(ellipsoid_surface(ELLIPSOID)), integrator)
+
+
+def test_whitted_lights_the_floor_under_a_glowing_box():
+    """Whitted drew the floor under a glowing box black (the box lit nothing, with a warning)."""
+    rendered, messages = render_patch([wrt.Shape("/Box", "box", BOX, material_id=1)], "whitted", 16, 0)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    assert rendered.min() > 0.0
+    assert abs(rendered.mean() / floor_radiance(box_surface(BOX)).mean() - 1.0) < 0.3
+
+
+def test_the_unsampled_warning_names_no_box_ellipsoid_plane_squeezed_or_inward_shape():
+    """Every glowing shape below is sampled now: the warning that counted them (whitted showed them, lighting
+    nothing) is not given."""
+    down = placed(rotation(180, 0) * 0.3, (0.0, 0.0, 1.5))  # a plane facing the floor
+    squeezed = placed(np.diag([0.3, 0.1, 0.4]), (0.5, 0.0, 1.0))  # an elliptic capped cylinder
+    inward = wrt.Shape("/Inward", "sphere", placed(np.eye(3) * 0.2, (-0.5, 0.0, 1.0)), material_id=1,
+                       params=np.array([0.0, 0.0, 0.0, -1.0]))
+    shapes = [wrt.Shape("/Box", "box", BOX, material_id=1), wrt.Shape("/Ellipsoid", "sphere", ELLIPSOID, material_id=1),
+              wrt.Shape("/Plane", "plane", down, material_id=1), wrt.Shape("/Disk", "disk", down, material_id=1),
+              wrt.Shape("/Tube", "cylinder", squeezed, material_id=1), inward]
+    rendered, messages = render_patch(shapes, "whitted", 4, 0)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    assert rendered.min() > 0.0
