@@ -102,10 +102,11 @@ def ellipsoid_surface(to_world, n=300):
     return centre + u @ linear.T, stretched / area[:, None], area * np.sin(t) * (np.pi / n) ** 2
 
 
-def render_patch(shapes, integrator, spp, seed):
-    """``(RES, RES)`` radiance of the floor patch seen from below the shapes and the warnings the render gave."""
+def render_patch(shapes, integrator, spp, seed, **scene_fields):
+    """``(RES, RES)`` radiance of the floor patch seen from below the shapes (and the ``prototypes`` and ``instances``
+    of ``scene_fields``) and the warnings the render gave."""
     floor, materials = floor_and_materials()
-    scene = wrt.Scene(meshes=[floor], shapes=shapes, materials=materials)
+    scene = wrt.Scene(meshes=[floor], shapes=shapes, materials=materials, **scene_fields)
     cam = wrt.Camera.orthographic(eye=(0, 0, 0.05), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -113,11 +114,11 @@ def render_patch(shapes, integrator, spp, seed):
     return img.rgb.mean(axis=-1).astype(np.float64), [str(w.message) for w in caught]
 
 
-def assert_within_standard_errors(shape, expected, integrator, seeds=12, spp=256):
+def assert_within_standard_errors(shapes, expected, integrator, seeds=12, spp=256, **scene_fields):
     """The patch's mean over ``seeds`` renders is the quadrature's within 4 standard errors of that mean."""
     means = []
     for seed in range(seeds):
-        rendered, messages = render_patch([shape], integrator, spp, seed)
+        rendered, messages = render_patch(shapes, integrator, spp, seed, **scene_fields)
         assert not [m for m in messages if UNSAMPLED in m], messages
         means.append(rendered.mean())
     means = np.array(means)
@@ -144,14 +145,38 @@ def test_the_box_quadrature_is_the_closed_form_of_a_square_over_a_point():
 def test_a_glowing_box_lights_the_floor_as_quadrature_gives(integrator):
     """A turned glowing box low over the floor (the floor partly inside its ellipsoid, so drawn both ways)."""
     shape = wrt.Shape("/Box", "box", BOX, material_id=1)
-    assert_within_standard_errors(shape, floor_radiance(box_surface(BOX)), integrator)
+    assert_within_standard_errors([shape], floor_radiance(box_surface(BOX)), integrator)
 
 
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
 def test_a_glowing_ellipsoid_lights_the_floor_as_quadrature_gives(integrator):
     """A sphere scaled unevenly and turned: an ellipsoid, drawn in its own cone."""
     shape = wrt.Shape("/Ellipsoid", "sphere", ELLIPSOID, material_id=1)
-    assert_within_standard_errors(shape, floor_radiance(ellipsoid_surface(ELLIPSOID)), integrator)
+    assert_within_standard_errors([shape], floor_radiance(ellipsoid_surface(ELLIPSOID)), integrator)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_instanced_glowing_boxes_light_the_floor_as_quadrature_gives(integrator):
+    """A prototype of a glowing unit box and a glowing sphere inside it, in two instances: one places the box as
+    BOX (its sphere, an ellipsoid there, hidden inside it), the other under the floor. Each instance's rows find
+    their own maps (two hull rows each), and the floor shows the one box's light."""
+    proto = wrt.Prototype("/Lamp", shapes=[wrt.Shape("/Lamp/Ball", "sphere", np.eye(4) * [0.5, 0.5, 0.5, 1.0],
+                                                     material_id=1),
+                                           wrt.Shape("/Lamp/Box", "box", np.eye(4), material_id=1)])
+    below = placed(np.eye(3), (0.0, 0.0, -5.0))
+    instances = wrt.Instances.from_transforms([0, 0], np.stack([BOX, below]))
+    assert_within_standard_errors([], floor_radiance(box_surface(BOX)), integrator, prototypes=[proto],
+                                  instances=instances)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_floor_inside_an_inward_glowing_sphere_shows_its_radiance(integrator):
+    """A sphere glowing inwards (leftHanded) around the floor patch: every direction above the floor sees radiance
+    L, so the white floor shows L (E = pi L); whitted showed it black (the sphere was not sampled). Drawn from
+    inside the hull's ellipsoid, over every direction."""
+    inward = wrt.Shape("/Sky", "sphere", placed(np.eye(3) * 3.0, (0.0, 0.0, 0.0)), material_id=1,
+                       params=np.array([0.0, 0.0, 0.0, -1.0]))
+    assert_within_standard_errors([inward], np.full((RES, RES), RADIANCE), integrator, seeds=8, spp=64)
 
 
 def test_whitted_lights_the_floor_under_a_glowing_box():
