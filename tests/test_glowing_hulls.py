@@ -200,3 +200,24 @@ def test_the_unsampled_warning_names_no_box_ellipsoid_plane_squeezed_or_inward_s
     rendered, messages = render_patch(shapes, "whitted", 4, 0)
     assert not [m for m in messages if UNSAMPLED in m], messages
     assert rendered.min() > 0.0
+
+
+@pytest.mark.parametrize("scale", [1e-20, 1e30])
+def test_a_glowing_box_scaled_far_from_one_lights_the_floor_as_the_unscaled_one(scale):
+    """The scene (floor, box, camera) scaled by 1e-20 or 1e30 renders as the unscaled one: the light's lengths are
+    taken times a power of two near the box's size. The world normal at a box 1e-19 wide, A^T n, squared past
+    float32 when normalised, and whitted lit nothing."""
+    floor, materials = floor_and_materials()
+    images = []
+    for s in (1.0, scale):
+        scaled = wrt.Mesh("/Floor", floor.points * np.float32(s), floor.indices, np.array([0, 0]),
+                          material_ids=np.zeros(2, np.int32))
+        to_world = BOX.copy()
+        to_world[:3, :] *= s
+        scene = wrt.Scene(meshes=[scaled], shapes=[wrt.Shape("/Box", "box", to_world, material_id=1)],
+                          materials=materials)
+        cam = wrt.Camera.orthographic(eye=(0, 0, 0.05 * s), target=(0, 0, 0), up=(0, 1, 0), height=PATCH * s,
+                                      clipping_range=(0.01 * s, 1e6 * s))
+        images.append(wrt.render(scene, camera=cam, width=RES, height=RES, spp=16, seed=2, integrator="whitted").rgb)
+    assert images[0].min() > 0.0
+    np.testing.assert_allclose(images[1], images[0], rtol=1e-3)

@@ -20,6 +20,7 @@ Lengths are taken times the power of two ``down`` that brings the ellipsoid's la
 import warp as wp
 
 from .affine_lights import mapped_cone_pdf, sample_mapped_cone, unit_sphere_cone
+from .geometry import stable_length
 from .primitives import SHAPE_BOX, intersect_shape
 from .scene import DeviceScene
 from .shade import shape_frame, shape_ray
@@ -63,7 +64,12 @@ def first_hit(scene: DeviceScene, prim: int, instance: int, p: wp.vec3, w: wp.ve
     if t == wp.inf:
         return t, wp.vec3(0.0)
     q, n, reach, err = shape_frame(scene, prim, instance, p, w, t)
-    return t, wp.normalize(n)
+    # The world normal A^T n is as long as the shape is small: normalised by its squares, which overflowed float32
+    # for a box 1e-19 wide, it lit nothing (stable_length scales them as shading does).
+    length = stable_length(n)
+    if length <= 0.0:
+        return float(wp.inf), wp.vec3(0.0)
+    return t, n / length
 
 
 @wp.func
