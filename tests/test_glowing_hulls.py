@@ -221,3 +221,26 @@ def test_a_glowing_box_scaled_far_from_one_lights_the_floor_as_the_unscaled_one(
         images.append(wrt.render(scene, camera=cam, width=RES, height=RES, spp=16, seed=2, integrator="whitted").rgb)
     assert images[0].min() > 0.0
     np.testing.assert_allclose(images[1], images[0], rtol=1e-3)
+
+
+def test_hull_selection_weights_are_the_shapes_areas():
+    """A hull's selection weight is pi times its world area times its glow: a turned box's exactly (its faces'
+    parallelograms in float64), an ellipsoid's within the 16-segment tessellation's 4% (quadrature of its surface),
+    a sheared plane's exactly, for world shapes and for the rows of instances alike."""
+    from wrt.glowing_spheres import glowing_spheres
+
+    floor, materials = floor_and_materials()
+    sheared = placed(np.array([[1.0, 0.5, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]]), (0.0, 0.0, 3.0))
+    shapes = [wrt.Shape("/Box", "box", BOX, material_id=1), wrt.Shape("/Ellipsoid", "sphere", ELLIPSOID, material_id=1),
+              wrt.Shape("/Plane", "plane", sheared, material_id=1)]
+    proto = wrt.Prototype("/Lamp", shapes=[wrt.Shape("/Lamp/Box", "box", np.eye(4), material_id=1)])
+    scene = wrt.Scene(meshes=[floor], shapes=shapes, materials=materials, prototypes=[proto],
+                      instances=wrt.Instances.from_transforms([0], BOX[None]))
+    rows = glowing_spheres(scene, np.array([0.0, 0.0, 1.0]), 10)
+    box = sum(2.0 * 4.0 * np.linalg.norm(np.cross(BOX[:3, i], BOX[:3, (i + 1) % 3])) for i in range(3))
+    ellipsoid = ellipsoid_surface(ELLIPSOID)[2].sum()
+    plane = 4.0 * np.linalg.norm(np.cross(sheared[:3, 0], sheared[:3, 1]))
+    areas = rows.power / np.pi
+    assert len(areas) == 4 and rows.left_out == 0
+    np.testing.assert_allclose(areas[[0, 2, 3]], [box, plane, box], rtol=1e-9)
+    assert abs(areas[1] / ellipsoid - 1.0) < 0.04, (areas[1], ellipsoid)
