@@ -162,7 +162,7 @@ class UnsampledEmitters:
     cap: int = 0
     sources: list = dataclasses.field(default_factory=list)
     shapes: int = 0  # glowing analytic shapes not sampled, once per instance (wrt.glowing_spheres: squashed flat)
-    spheres_past_cap: int = 0  # glowing spheres and tubes of instances past the cap (once per instance)
+    spheres_past_cap: int = 0  # glowing spheres, tubes and hulls of instances past the cap (once per instance)
 
     MAX_NAMED: ClassVar[int] = 4  # sources named in :meth:`describe`; the rest are counted
 
@@ -181,8 +181,8 @@ class UnsampledEmitters:
         return text + (f" and {self._spheres_text()}" if self.spheres_past_cap else "")
 
     def _spheres_text(self) -> str:
-        return (f"{self.spheres_past_cap:,} glowing sphere(s) or tube(s) of instances past the first {self.cap:,} "
-                "instanced emitters sampled")
+        return (f"{self.spheres_past_cap:,} glowing sphere(s), tube(s) or other shape(s) of instances past the first "
+                f"{self.cap:,} instanced emitters sampled")
 
 
 def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
@@ -512,8 +512,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
     _drop_unbounded(tris, mesh_lights)
-    # Glowing analytic spheres and round tubes after them (wrt.glowing_spheres), within what the cap leaves of
-    # instanced entries.
+    # Glowing analytic spheres, round tubes and other shapes (hulls) after them (wrt.glowing_spheres), within what the
+    # cap leaves of instanced entries.
     first_sphere = num_analytic + len(tris.ids)
     lum = np.asarray(material_emission, np.float64).reshape(-1, 3) @ LUMINANCE
     spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())))

@@ -886,7 +886,7 @@ class Renderer:
 
     def _warn_unsampled(self, unsampled) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
-        triangles and glowing spheres and tubes of instances past the cap on sampled instanced emitters
+        triangles and glowing spheres, tubes and hulls of instances past the cap on sampled instanced emitters
         (``unsampled``: :class:`wrt.light_table.UnsampledEmitters`), under every integrator that samples lights, and
         under whitted its ``shapes``, emissive analytic shapes that are not sampled (those a transform squashes flat,
         whose ellipsoid has no float32 inverse: wrt.glowing_spheres; boxes, ellipsoids, elliptic tubes and shapes
