@@ -289,6 +289,8 @@ class FrameRenderer:
             (build, refit or TLAS rebuild), ``render_ms``, ``dropped_samples`` (the frame's samples left out as not
             finite: :attr:`wrt.Renderer.dropped_samples`; their warning is said once over the frames),
             ``image_size`` (``[width, height]``) and ``drawn_camera`` (``camera /Path``: :func:`warn_mixed_sizes`).
+        last_warnings: the ``warnings.WarningMessage`` of every warning the last frame rendered (or tried) gave, in
+            order, those said at an earlier frame and so not shown again included.
     """
 
     def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, variants=None,
@@ -302,12 +304,20 @@ class FrameRenderer:
         self.log = []
         self._scene = None
         self._frames = None  # the StageFrames that loads every frame: the stage and unchanged meshes kept
-        # Warnings said once over the frames (wrt.far_views.shown_set): far-view ones name the camera's distance, a
-        # camera that sees nothing the scene's extent, each image's its own counts, so every frame said them again.
+        # Warnings said once over the frames (said_as): far-view ones name the camera's distance, a camera that sees
+        # nothing the scene's extent, each image's its own counts, so every frame said them again.
         self._said_once = set()
+        self.last_warnings = []  # every warning of the last frame, those said at earlier frames too
 
     def render(self, frame: float, spp: int = 1, seed: int = 0):
-        """The :class:`wrt.Image` of time code ``frame``."""
+        """The :class:`wrt.Image` of time code ``frame``. Each warning is said once over the frames; every one the
+        frame gave, said before or not, is in :attr:`last_warnings` (for its log row: a camera that sees nothing at
+        frames 2 and 3 was in frame 2's row alone, as the frames' Renderers shared what was said)."""
+        with _frame_warnings(self._said_once, leave_out=()) as raised:
+            self.last_warnings = raised  # the list the frame's warnings are recorded in
+            return self._render(frame, spp, seed)
+
+    def _render(self, frame: float, spp: int, seed: int):
         from .render import Renderer
         from .usd_frames import StageFrames
 
@@ -335,7 +345,9 @@ class FrameRenderer:
             if change == "build":
                 for key in accels:
                     scene._cache.pop(key, None)
-        with shown_across_renderers(self._said_once):  # said once over the frames, not once per frame
+        # A Renderer of its own for what was said: each warning that applies to this frame is given (once), for its
+        # log row; render() says each once over the frames.
+        with shown_across_renderers(set()):
             renderer = Renderer(scene, camera=self.camera, **self.options)
         if change == "build":
             renderer.accel.built_sah = tree_costs(renderer.accel)
@@ -410,16 +422,18 @@ def warn_frames_outside_range(path, frames) -> None:
 
 
 @contextlib.contextmanager
-def _frame_warnings(shown: set):
-    """Leaves out the :class:`TimeRangeWarning` of each frame's load inside (the run gave one for all of them) and
-    gives each other warning once per run, its message kept in ``shown``: every frame makes a new Renderer, whose
-    warnings (a camera that sees nothing, no light) came again at every frame, as the multi-device run does not.
+def _frame_warnings(shown: set, leave_out=(TimeRangeWarning,)):
+    """Leaves out the warnings of the classes ``leave_out`` inside (by default the :class:`TimeRangeWarning` of each
+    frame's load: the run gave one for all of them) and gives each other warning once per run, what it is said by
+    (:func:`said_as`) kept in ``shown``: every frame makes a new Renderer, whose warnings (a camera that sees
+    nothing, no light) came again at every frame, as the multi-device run does not.
 
     The caller's filters still decide inside, only those that show a warning now and then showing it every time (to
     be recorded): one they make an error raises where it is given, failing the frame. Under an "always" filter for
     all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run.
 
-    Yields the list the frame's warnings are recorded in (complete once the block is left), for its log row."""
+    Yields the list the frame's warnings are recorded in (complete once the block is left), for its log row: all of
+    them, those said before included."""
     raised = []
     try:
         with warnings.catch_warnings(record=True) as raised:
@@ -427,13 +441,22 @@ def _frame_warnings(shown: set):
             warnings.filters[:] = [("always" if f[0] in now_and_then else f[0], *f[1:]) for f in warnings.filters]
             last = warnings.defaultaction  # for a warning no filter matches
             warnings.simplefilter("always" if last in now_and_then else last, append=True)
-            warnings.simplefilter("ignore", TimeRangeWarning)
+            for category in leave_out:
+                warnings.simplefilter("ignore", category)
             yield raised
     finally:
         for w in raised:
-            if (str(w.message), w.category) not in shown:
-                shown.add((str(w.message), w.category))
+            said = said_as(str(w.message), w.category, getattr(w.message, "said_once_key", None))
+            if said not in shown:
+                shown.add(said)
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+
+
+def said_as(message: str, category, key) -> tuple:
+    """What a run says a warning once by: its ``key`` where it has one (``said_once_key`` of
+    :func:`wrt.errors.warn_keyed`: its words name a frame's own counts or distances), else its words and
+    ``category``."""
+    return ("key", key) if key is not None else ("words", message, category)
 
 
 def frame_warnings(messages) -> list[str]:
@@ -553,8 +576,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
                     raise
                 else:
+                    said = [*renderer.last_warnings, *raised]  # the frame's, and its save's
                     row = dict(renderer.log[-1], device=str(devices[0]), output=str(written),
-                               warnings=frame_warnings(str(w.message) for w in raised))
+                               warnings=frame_warnings(str(w.message) for w in said))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
                 bar.update(1)
             return rows
@@ -687,7 +711,7 @@ def _frame_writer(rows: list):
                 # UserWarning, which the caller's filters of another class (ignore, error) then missed. By its key
                 # where it has one: each worker's Renderers say it once, in words of their own frame (a count, a
                 # distance), so N workers showed it N times.
-                as_said = ("key", key) if key is not None else ("words", message, category)
+                as_said = said_as(message, category, key)
                 if as_said not in said:
                     warnings.warn(message, warning_class(category), stacklevel=2)
                     said.add(as_said)  # after: one the caller's filters make an error fails each frame that gives it
@@ -769,7 +793,7 @@ def render_frame_task(job: dict) -> dict:
         data = Path(written).read_bytes()
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
     named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}",
-              getattr(w.message, "said_once_key", None)) for w in raised)
+              getattr(w.message, "said_once_key", None)) for w in [*renderer.last_warnings, *raised])
     return {"data": data, "row": row, "warnings": list(dict.fromkeys(named))}
 
 

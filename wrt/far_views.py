@@ -41,8 +41,10 @@ _SHARED_SHOWN: contextvars.ContextVar[set | None] = contextvars.ContextVar("wrt_
 @contextlib.contextmanager
 def shown_across_renderers(shown: set):
     """Renderers made inside take ``shown`` as the far-view warnings said (:func:`shown_set`), so that each is said
-    once over all of them: :class:`wrt.animation.FrameRenderer` makes one per frame, and the warnings name the
-    camera's distance, so a run's deduplication by message said them again at every frame of a moving camera."""
+    once over all of them: a loop of :func:`wrt.render` calls makes one per call, and the warnings name the camera's
+    distance, so a deduplication by message said them again at every frame of a moving camera.
+    (:class:`wrt.animation.FrameRenderer` gives each frame a new set, so that a frame's log row lists every warning
+    of that frame, and says each once over the frames itself, by the warnings' keys.)"""
     token = _SHARED_SHOWN.set(shown)
     try:
         yield

@@ -680,8 +680,10 @@ class Renderer:
         self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
         # Warnings said once, by key: the far-view and clipped-away ones (wrt.far_views, warn_clipped_away), which
         # every camera upload (set_cameras each step of a simulation, a rebuild) repeated, and those of each image
-        # (_warn_once), which a loop of frames gave at every frame. Shared by the Renderers of a FrameRenderer, one
-        # per frame: their words name the scene's extent, a camera's distance or a count, which change each frame.
+        # (_warn_once), which a loop of frames gave at every frame. Shared by the Renderers of a loop of wrt.render
+        # calls (shown_for_scene): their words name the scene's extent, a camera's distance or a count, which change
+        # each frame. A FrameRenderer gives each frame's Renderer a set of its own (every warning of the frame is in
+        # its log row) and says each once over the frames itself, by the same keys.
         self._said_once = shown_set()
         self._build()
         self._camera_key = self._camera_sources_key()

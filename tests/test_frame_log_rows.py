@@ -1,0 +1,89 @@
+"""The log rows of a frame run (``render_frames``, over ``--devices`` and on Dask): each frame's row lists every
+warning that frame gave, however often the run said it before, and the rows of a run cut short by Ctrl-C name each
+job (a frame's file), not each frame."""
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wrt.animation import pending_frames, render_frames
+
+SIZE = {"width": 8, "height": 6}
+WHERE = ["serial", "two devices", "dask"]
+FRAMES = (1.0, 2.0, 3.0, 4.0)
+
+
+def blind_at_frames_2_and_3(tmp_path) -> Path:
+    """A unit ball at the origin and a camera that moves past its far clip at frames 2 and 3."""
+    path = tmp_path / "blind.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 4
+)
+def Sphere "Ball"
+{
+}
+def Camera "Cam"
+{
+    double3 xformOp:translate.timeSamples = { 1: (0, 0, 6), 2: (0, 0, 2000000), 3: (0, 0, 2000000), 4: (0, 0, 6) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+""")
+    return path
+
+
+def blind_frames(path) -> set:
+    """Oracle, from USD's own API: the frames whose camera clipping range holds no point of the ball (radius 1 at
+    the origin, seen along the camera's -z from its place on the z axis)."""
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(path))
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))
+    blind = set()
+    for frame in FRAMES:
+        eye = camera.ComputeLocalToWorldTransform(frame).Transform(Gf.Vec3d(0, 0, 0))
+        near, far = camera.GetClippingRangeAttr().Get(frame)
+        assert eye[0] == eye[1] == 0.0
+        if eye[2] - 1.0 > far or eye[2] + 1.0 < near:
+            blind.add(frame)
+    return blind
+
+
+def run(where, path, jobs, **options) -> list[dict]:
+    if where == "dask":
+        pytest.importorskip("distributed")
+        from wrt.animation import render_frames_on_dask
+
+        return render_frames_on_dask(path, jobs, n_workers=1, **options)
+    return render_frames(path, jobs, devices=["cpu"] if where == "serial" else ["cpu", "cpu"], **options)
+
+
+@pytest.mark.parametrize("where", WHERE)
+def test_every_row_lists_a_warning_the_run_said_at_an_earlier_frame(tmp_path, where):
+    """A camera that sees nothing at frames 2 and 3: said once on screen, it was in frame 2's row alone (the
+    Renderers of a run share what was said, so frame 3's never raised it). Each row lists it where its frame gave
+    it; the parallel runs' rows list what the serial run's do."""
+    path = blind_at_frames_2_and_3(tmp_path)
+    blind = blind_frames(path)
+    assert blind == {2.0, 3.0}
+    jobs = pending_frames(FRAMES, tmp_path / where / "f_#.npy", resume=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = run(where, path, jobs, **SIZE)
+    assert len([w for w in caught if "sees nothing" in str(w.message)]) == 1  # still said once on screen
+    by_frame = {row["frame"]: row for row in rows}
+    assert sorted(by_frame) == list(FRAMES) and not any("error" in row for row in rows)
+    for frame, row in by_frame.items():
+        said = [m for m in row["warnings"] if "sees nothing" in m and "/Cam" in m]
+        assert len(said) == (frame in blind), (frame, row["warnings"])
+    if where != "serial":
+        with warnings.catch_warnings(record=True):  # rows list the warnings the caller's filters show
+            warnings.simplefilter("always")
+            serial = run("serial", path, pending_frames(FRAMES, tmp_path / "serial" / "f_#.npy", resume=False), **SIZE)
+        assert {r["frame"]: r["warnings"] for r in rows} == {r["frame"]: r["warnings"] for r in serial}
+        for frame in FRAMES:
+            name = f"f_{frame:g}.npy"
+            np.testing.assert_array_equal(np.load(tmp_path / where / name), np.load(tmp_path / "serial" / name))
