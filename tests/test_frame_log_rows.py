@@ -2,6 +2,7 @@
 warning that frame gave, however often the run said it before, and the rows of a run cut short by Ctrl-C name each
 job (a frame's file), not each frame."""
 
+import json
 import warnings
 from pathlib import Path
 
@@ -87,3 +88,64 @@ def test_every_row_lists_a_warning_the_run_said_at_an_earlier_frame(tmp_path, wh
         for frame in FRAMES:
             name = f"f_{frame:g}.npy"
             np.testing.assert_array_equal(np.load(tmp_path / where / name), np.load(tmp_path / "serial" / name))
+
+
+def one_frame_as_png_and_npy(tmp_path) -> tuple[Path, list]:
+    path = blind_at_frames_2_and_3(tmp_path)
+    return path, [(1.0, tmp_path / "out" / "f_1.png"), (1.0, tmp_path / "out" / "f_1.npy")]
+
+
+def check_ctrl_c_rows(rows, jobs) -> None:
+    """The job written has its row; the other, cut short, has an interrupted row naming its file (a serial run
+    cut short there gives it one: test_animation's ctrl-C tests)."""
+    written = [file for _, file in jobs if file.exists()]
+    assert len(written) == 1, written
+    (cut,) = [file for _, file in jobs if not file.exists()]
+    assert sorted((row["output"], row.get("status", "ok")) for row in rows) == sorted(
+        [(str(written[0]), "ok"), (str(cut), "interrupted")]), rows
+
+
+def test_ctrl_c_over_two_devices_logs_the_job_of_a_frame_cut_short_beside_its_written_twin(tmp_path, monkeypatch):
+    """Frame 1 asked for as .png and as .npy, Ctrl-C as the first of them is written: the interrupted rows were
+    matched by frame, so the other job, handed to a worker and never written, got no row (its frame was logged)."""
+    from wrt import animation
+
+    frame_writer = animation._frame_writer
+
+    def ctrl_c_after_the_first_write(rows):
+        write = frame_writer(rows)
+
+        def cut(result, file):
+            write(result, file)
+            raise KeyboardInterrupt  # as Ctrl-C right after the first image was written
+
+        return cut
+
+    monkeypatch.setattr(animation, "_frame_writer", ctrl_c_after_the_first_write)
+    path, jobs = one_frame_as_png_and_npy(tmp_path)
+    with pytest.raises(KeyboardInterrupt):
+        render_frames(path, jobs, devices=["cpu", "cpu"], log=tmp_path / "log.jsonl", **SIZE)
+    rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    check_ctrl_c_rows(rows, jobs)
+
+
+def test_ctrl_c_on_dask_logs_the_job_of_a_frame_cut_short_beside_its_written_twin(tmp_path, monkeypatch):
+    """As over devices, on Dask: run_tasks hands on_interrupt the jobs cut short (the one being written and one a
+    worker had finished); the job not written got no row, as its frame had one. run_tasks is played here by its
+    contract (wrt.distributed.run_tasks), the tasks run in this process by render_frame_task itself."""
+    import wrt.distributed
+    from wrt import animation
+
+    def run_tasks(task, tasks, *, on_result, on_interrupt, **kwargs):
+        results = [task(job) for job in tasks]
+        on_result(tasks[0], results[0])
+        on_interrupt(tasks)  # Ctrl-C while the second result waits to be handed over
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(wrt.distributed, "run_tasks", run_tasks)
+    monkeypatch.setattr(animation, "_WORKER_RENDERERS", {})
+    path, jobs = one_frame_as_png_and_npy(tmp_path)
+    with pytest.raises(KeyboardInterrupt):
+        animation.render_frames_on_dask(path, jobs, log=tmp_path / "log.jsonl", **SIZE)
+    rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    check_ctrl_c_rows(rows, jobs)

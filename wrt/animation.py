@@ -612,8 +612,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             started = [futures[f] for f in futures if f.running() or f.done()]
             _stop_pool(pool)
             if isinstance(e, KeyboardInterrupt):
-                logged = {row["frame"] for row in rows}
-                for frame, file in sorted(job for job in started if float(job[0]) not in logged):
+                logged = _logged_jobs(rows)
+                for frame, file in sorted(job for job in started if (float(job[0]), str(job[1])) not in logged):
                     rows.append(frame_interrupted_row(frame, file))
             raise
         pool.shutdown()
@@ -665,6 +665,12 @@ def frame_interrupted_row(frame: float, file, device: str | None = None, seconds
     if seconds is not None:
         row["seconds"] = seconds
     return dict(row, finished_at=_time.time())
+
+
+def _logged_jobs(rows: list) -> set:
+    """``(frame, file)`` of each job ``rows`` has a row of: by job, as a frame may have two (a .png and a .npy of
+    it), and one of them written left the other, cut short, without a row."""
+    return {(float(row["frame"]), str(row["output"])) for row in rows}
 
 
 @contextlib.contextmanager
@@ -841,9 +847,9 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
             others.append(error)
 
     def interrupted(cut_short):  # Ctrl-C: rows for the frames on a worker or sent back and not written, as --devices
-        logged = {row["frame"] for row in rows}
-        for job in sorted(cut_short, key=lambda job: job["frame"]):
-            if job["frame"] not in logged:
+        logged = _logged_jobs(rows)
+        for job in sorted(cut_short, key=lambda job: (job["frame"], job["file"])):
+            if (job["frame"], str(job["file"])) not in logged:
                 rows.append(frame_interrupted_row(job["frame"], job["file"]))
 
     run_tasks(task, tasks, address=address, n_workers=n_workers,
