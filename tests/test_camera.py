@@ -1464,3 +1464,40 @@ def test_cameras_compare_by_their_fields():
     assert cam != wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=41) and cam != "camera"
     same.to_world[0, 3] += 1.0  # an edit in place
     assert cam != same
+
+
+def test_cameras_of_equal_numbers_compare_equal_whatever_holds_them():
+    """A ``to_world`` set as a list (or as float32, or as 16 numbers), a clipping range as a list, a focal length as
+    ``np.float64``: ``Camera.__eq__`` compared the bytes of each field with its type, so these were unequal to a
+    camera of the same numbers. Oracle: float64 numpy holds the same numbers for each pair (check() makes that
+    array of them); a different number still differs."""
+    base = wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=40, clipping_range=(0.5, 100.0))
+    matrix = base.to_world.copy()
+    matrix[0, 3] = -0.0  # the look-at's 0, as a minus zero
+    base.to_world = matrix.copy()
+    variants = {
+        "to_world list": {"to_world": matrix.tolist()},
+        "to_world 16 numbers": {"to_world": matrix.ravel().tolist()},
+        "to_world plus zero": {"to_world": matrix + 0.0},
+        "clipping_range list": {"clipping_range": [0.5, 100.0]},
+        "clipping_range array": {"clipping_range": np.array([0.5, 100.0])},
+        "focal_length float64": {"focal_length": np.float64(base.focal_length)},
+        "clipping_planes list": {"clipping_planes": []},
+    }
+    for name, fields in variants.items():
+        other = wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=40, clipping_range=(0.5, 100.0))
+        for field, value in fields.items():
+            setattr(other, field, value)
+            kept = np.asarray(getattr(base, field), np.float64)
+            assert np.array_equal(np.asarray(value, np.float64).reshape(kept.shape), kept), name  # the oracle
+        assert other == base and base == other and other in [wrt.Camera(), base] and not other != base, name
+        other.check()  # as a render does: the same camera after
+        assert other == base, name
+    exact = base.to_world.astype(np.float32)  # a look-at's numbers are not all float32's
+    differs = wrt.Camera.look_at((0, 1, 5), (0, 0, 0), fov_y_deg=40, clipping_range=(0.5, 100.0))
+    differs.to_world = exact
+    assert not np.array_equal(exact.astype(np.float64), base.to_world) and differs != base
+    differs.to_world = matrix.tolist()
+    differs.to_world[0][3] = 1e-300
+    assert differs != base
+    assert wrt.Camera(clipping_range=[0.5, 100.0]) != wrt.Camera(clipping_range=(0.5, 101.0))

@@ -332,12 +332,17 @@ class Camera:
         self.clipping_planes = planes
 
     def __eq__(self, other) -> bool:
-        """Whether ``other`` is a camera of the same field values (:meth:`snapshot`). The dataclass compared
-        ``to_world`` with numpy's ``==``, whose answer has no truth value: ``cam == other`` and ``cam in cameras``
-        raised ValueError."""
+        """Whether ``other`` is a camera of the same field values: numbers by value, whatever holds them
+        (:func:`_compared`). The dataclass compared ``to_world`` with numpy's ``==``, whose answer has no truth value:
+        ``cam == other`` and ``cam in cameras`` raised ValueError; then :meth:`snapshot`'s bytes and types told a
+        ``to_world`` set as a list, or a clipping range given as one, from the equal array or tuple."""
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return self.snapshot() == other.snapshot()
+        return self._compared() == other._compared()
+
+    def _compared(self) -> tuple:
+        strays = tuple(sorted(name for name in vars(self) if name not in CAMERA_FIELDS))  # for check() to refuse
+        return (*(_compared(name, self.__dict__.get(name)) for name in CAMERA_FIELDS), strays)
 
     __hash__ = None  # equal by value, and its fields are set after construction
 
@@ -526,6 +531,24 @@ class Camera:
 
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
+
+
+def _compared(name: str, value):
+    """The value of the :class:`Camera` field ``name`` as ``==`` compares it: numbers (a scalar, or an array, list
+    or tuple of them) as their float64 values, in the shape :meth:`Camera.check` gives them (16 numbers a ``(4, 4)``
+    ``to_world``, no clipping planes ``(0, 4)``) and with -0.0 as 0.0; text as it is; anything else (a ragged list)
+    equal to nothing, so that check() names it."""
+    if value is None or isinstance(value, (str, bytes)):  # "50" is no focal length, though numpy reads it as one
+        return value
+    try:
+        values = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return object()
+    if name == "to_world" and values.size == 16:
+        values = values.reshape(4, 4)
+    elif name == "clipping_planes" and values.size == 0:
+        values = values.reshape(0, 4)
+    return values.shape, (values + 0.0).tobytes()
 IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
 
 
