@@ -149,3 +149,28 @@ def test_ctrl_c_on_dask_logs_the_job_of_a_frame_cut_short_beside_its_written_twi
         animation.render_frames_on_dask(path, jobs, log=tmp_path / "log.jsonl", **SIZE)
     rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
     check_ctrl_c_rows(rows, jobs)
+
+
+def test_a_worker_frames_row_lists_the_warning_of_its_save_as_the_serial_rows_do(tmp_path, monkeypatch):
+    """A normals image saved as PNG with an exposure warns that exposure does not scale it. The worker task saved
+    the image after its warnings were recorded: the warning went to the worker's own stderr (past the client's
+    filters and its once per run) and was missing from the frame's row, which the serial run's lists. The task is
+    run here as a worker runs it; the oracle is the serial run's row."""
+    from wrt import animation
+
+    monkeypatch.setattr(animation, "_WORKER_RENDERERS", {})
+    path = blind_at_frames_2_and_3(tmp_path)
+    options = dict(SIZE, integrator="normals")
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        (serial,) = render_frames(path, [(1.0, tmp_path / "serial.png")], exposure=1.0, **options)
+        job = animation._task(str(path), 1.0, tmp_path / "worker.png", 1, 0, 1.0, options)
+        result = animation.render_frame_task(job)
+    assert any("exposure does not scale this image" in m for m in serial["warnings"]), serial["warnings"]
+    rows = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        animation._frame_writer(rows)(result, tmp_path / "worker.png")
+    assert [row["warnings"] for row in rows] == [serial["warnings"]]
+    assert [str(w.message) for w in caught] == serial["warnings"]  # said by the client, in its filters
+    assert (tmp_path / "worker.png").read_bytes() == (tmp_path / "serial.png").read_bytes()

@@ -794,9 +794,11 @@ def render_frame_task(job: dict) -> dict:
         except SceneError as e:
             e.device = device  # for the frame's error row, written by the client (it travels with the pickled error)
             return {"error": e, "row": {"frame": job["frame"], "device": device}}
-    with tempfile.TemporaryDirectory() as tmp:
-        written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
-        data = Path(written).read_bytes()
+        # Its save's warnings are the frame's too (the serial run's row lists them): saved past the recording, they
+        # went to the worker's own stderr, past the client's filters, and were missing from the row.
+        with tempfile.TemporaryDirectory() as tmp:
+            written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
+            data = Path(written).read_bytes()
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
     named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}",
               getattr(w.message, "said_once_key", None)) for w in [*renderer.last_warnings, *raised])
