@@ -549,6 +549,8 @@ def _compared(name: str, value):
     elif name == "clipping_planes" and values.size == 0:
         values = values.reshape(0, 4)
     return values.shape, (values + 0.0).tobytes()
+
+
 IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
 
 
