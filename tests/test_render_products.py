@@ -891,3 +891,21 @@ def test_camera_depth_is_camera_space_depth_under_a_sheared_and_scaled_camera(tm
             expected[i, j] = view.Transform(Gf.Vec3d(*hit))
     np.testing.assert_allclose(np.stack([exr[f"Peye.{c}"] for c in "XYZ"], -1), expected, atol=1e-4)
     np.testing.assert_allclose(exr["cameraDepth"], -expected[..., 2], rtol=1e-5)
+
+
+def test_a_layer_whose_channel_another_layer_writes_gets_a_name_of_its_own(tmp_path):
+    """RenderVars whose layers are named apart yet write one channel: the normal's layer ``N`` writes ``N.X``, and a
+    depth RenderVar named ``N.X`` (driver:parameters:aov:name) writes a channel of that name too. The depth was
+    written over the normal's X without a word; each now has channels of its own. Oracle: the hits of pxr's frustum
+    (normal +Z on the planes, depth = distance from the camera)."""
+    stage = planar_stage(tmp_path, {"normals": ("normal", "N"), "distance": ("depth", "N.X")})
+    exr = read_exr(wrt.render_products(load(stage), tmp_path / "out", device="cpu")["/Render/Shot"])
+    assert len(exr) == 4 and {"N.X", "N.Y", "N.Z"} <= set(exr)
+    depth = exr[next(name for name in exr if name not in ("N.X", "N.Y", "N.Z"))]
+    want = expected_hits(stage)
+    planes = want["clear"] & np.isin(want["prim"], ["/Strip", "/PI/Protos/Quad/Mesh"])
+    assert planes.sum() > 50
+    normals = np.stack([exr[f"N.{c}"] for c in "XYZ"], axis=-1)
+    np.testing.assert_allclose(normals[planes], np.broadcast_to([0.0, 0.0, 1.0], (planes.sum(), 3)), atol=1e-5)
+    eye = np.array([1.0, 0.5, 10.0])
+    np.testing.assert_allclose(depth[planes], np.linalg.norm(want["P"][planes] - eye, axis=-1), rtol=1e-5)

@@ -13,7 +13,8 @@ unpremultiplied by it); every other
 product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a
 warning where it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer
 named after their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one
-channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3``
+channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name
+or writes one of its channels). Two products of one file name get ``_2``, ``_3``
 suffixes, with a warning. An EXR's header places it in its shot (``displayWindow``: the whole resolution;
 ``dataWindow``: the pixels of ``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON
 object ``{id: path}`` of the ids in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId``
@@ -105,7 +106,9 @@ def product_outputs(product, where: str) -> list[_Output]:
     no output for (``where``: the file, for messages)."""
     if not product.render_vars:
         return [_Output(BEAUTY, "")]
-    outputs, layers, seen = [], TakenNames({"r", "g", "b", "a"}), set()  # layers: not the beauty's channel names
+    # Layers, and the channels they write: not the beauty's names, and no channel twice (a layer "N.X" of depth beside
+    # the normal's layer "N" wrote the channel N.X twice, the later over the earlier, without a word).
+    outputs, layers, channels, seen = [], TakenNames({"r", "g", "b", "a"}), {"r", "g", "b", "a"}, set()
     for var in product.render_vars:
         if var.path in seen:  # listed twice: written once
             continue
@@ -117,9 +120,21 @@ def product_outputs(product, where: str) -> list[_Output]:
                           f"{' and '.join(BEAUTY_LPES)}", stacklevel=3)
             continue
         beauty = kind == BEAUTY and not any(o.kind == BEAUTY and not o.layer for o in outputs)
-        layer = "" if beauty else layers.unique(var.aov_name or var.path.rsplit("/", 1)[-1])
-        outputs.append(_Output(kind, layer, alpha=kind == BEAUTY and _has_alpha(var.data_type)))
+        output = _Output(kind, "", alpha=kind == BEAUTY and _has_alpha(var.data_type))
+        if not beauty:
+            name = var.aov_name or var.path.rsplit("/", 1)[-1]
+            output = dataclasses.replace(output, layer=layers.unique(name))
+            while not channels.isdisjoint(c.casefold() for c in channel_names(output)):
+                output = dataclasses.replace(output, layer=layers.unique(name))
+        channels.update(c.casefold() for c in channel_names(output))
+        outputs.append(output)
     return outputs
+
+
+def channel_names(output: _Output) -> list[str]:
+    """The EXR channels ``output`` writes: its layer's name and each of :data:`CHANNELS` (``A`` too for alpha)."""
+    names = (*CHANNELS.get(output.kind, ("",)), *(("A",) if output.alpha else ()))
+    return [".".join(p for p in (output.layer, name) if p) for name in names]
 
 
 class TakenNames:
@@ -229,14 +244,14 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
                           "float32 channels of EXR", stacklevel=3)
         if out.kind in NAMED_IDS:
             attributes[f"{out.layer}/paths"] = _paths(out.kind, value, scene)
-        names = CHANNELS.get(out.kind, ("",))
-        value = np.asarray(value, np.float32).reshape(*value.shape[:2], len(names))
+        names = channel_names(out)
+        value = np.asarray(value, np.float32).reshape(*value.shape[:2], len(names) - out.alpha)
         if out.alpha:
             # Coverage, not the pixel centre's hit: the colour is the mean of every sample, so an edge pixel's
             # colour over its alpha is the surface's (premultiplied, as OpenEXR's RGBA is).
-            value, names = np.concatenate([value, image.aovs["coverage"][..., None]], axis=-1), (*names, "A")
+            value = np.concatenate([value, image.aovs["coverage"][..., None]], axis=-1)
         for k, name in enumerate(names):
-            channels[".".join(p for p in (out.layer, name) if p)] = value[..., k]
+            channels[name] = value[..., k]
     return channels, attributes
 
 
