@@ -195,6 +195,8 @@ def test_pending_frames_resume_is_a_flag(tmp_path):
     ([(1.0, "f.npy"), (float("nan"), "g.npy")], ValueError, r"jobs\[1\]: the frame must be a finite number.*nan"),
     ([(1.0, "f.npy"), (np.float32(-np.inf), "g.npy")], ValueError, r"jobs\[1\]: the frame must be a finite number"),
     ([(10**400, "f.npy")], ValueError, r"jobs\[0\]: the frame must be a finite number"),
+    # Frame 2 replaced frame 1 in f.npy without a word.
+    ([(1.0, "f.npy"), (2.0, "./f.npy")], ValueError, r"jobs\[1\] \(frame 2.0\) writes f.npy, as jobs\[0\]"),
 ])
 def test_render_frames_checks_its_jobs_before_a_frame(shot, tmp_path, monkeypatch, jobs, error, match):
     monkeypatch.chdir(tmp_path)

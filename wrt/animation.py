@@ -480,9 +480,11 @@ def check_jobs(jobs) -> list[tuple]:
     Raises:
         TypeError: naming the job that is no ``(frame number, file path)`` pair; a generator or a dict failed in
             ``len()`` or unpacking ('cannot unpack non-iterable int object'), a text frame in a comparison.
-        ValueError: a file whose format :meth:`wrt.Image.save` cannot write, found only at the first frame's save, or
-            a frame that is NaN or infinite, which stopped the run at its load (``time must be a finite time code``)
-            naming no job, after the frames before it.
+        ValueError: a file whose format :meth:`wrt.Image.save` cannot write, found only at the first frame's save; a
+            frame that is NaN or infinite, which stopped the run at its load (``time must be a finite time code``)
+            naming no job, after the frames before it; a file given twice, whose later frame's image replaced the
+            earlier's without a word. A frame may be given twice (its ``.png`` and its ``.npy``): each job writes
+            its own file.
     """
     from collections.abc import Mapping
 
@@ -509,6 +511,12 @@ def check_jobs(jobs) -> list[tuple]:
             raise ValueError(f"render_frames: jobs[{k}]: the frame must be a finite number (a time code), got "
                              f"{frame!r}")
         checked.append((frame, check_image_path(file)))
+    files = {}
+    for k, (frame, file) in enumerate(checked):
+        j = files.setdefault(file.resolve(), k)
+        if j != k:
+            raise ValueError(f"render_frames: jobs[{k}] (frame {frame!r}) writes {file}, as jobs[{j}] (frame "
+                             f"{checked[j][0]!r}) does; give each job a file of its own")
     return checked
 
 
