@@ -270,6 +270,23 @@ def test_product_names_stay_in_the_output_folder(tmp_path):
             "RenderVar; written as aovs.exr") in messages
 
 
+def test_a_product_name_too_long_for_a_file_system_is_shortened_before_any_render(tmp_path):
+    """A productName past the 255 bytes a file name may have (here 200 two-byte letters) failed the write with "File
+    name too long" after the render, the other products written; it is shortened to fit, whole letters, with a
+    warning naming the product, and a second product of that name still gets a name of its own."""
+    long_name = "\u00e9" * 200
+    products = (product("Ok", ["color"], "ok.png") + product("Long", ["color"], long_name + ".png")
+                + product("Again", ["Ci"], long_name + ".png"))
+    scene = load(write_stage(tmp_path, products, ["Ok", "Long", "Again"]))
+    with pytest.warns(UserWarning, match="/Render/Long productName .*: its file name is longer than the 255 bytes"):
+        written = wrt.render_products(scene, tmp_path / "out", device="cpu")
+    for prim in ("/Render/Long", "/Render/Again"):
+        name = written[prim].name
+        assert len(name.encode()) <= 255 and name.startswith("\u00e9" * 100) and name.endswith(".png"), prim
+        assert PilImage.open(written[prim]).size == (32, 16)
+    assert written["/Render/Again"].name == written["/Render/Long"].stem + "_2.png"
+
+
 def test_a_png_product_of_one_data_channel_is_said_to_be_no_beauty(tmp_path):
     """productName 'depth.png' of the depth RenderVar alone is written as EXR: the warning said 'wrt writes several
     channels as EXR', of a product of one channel; what keeps it from PNG is that it is not the beauty."""

@@ -9,16 +9,15 @@ has no output for is left out with one warning naming it; a product left with no
 Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the caller's,
 never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the beauty alone
 may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV, the colour
-unpremultiplied by it); every other
-product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a
-warning where it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer
-named after their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one
-channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name
-or writes one of its channels). Two products of one file name get ``_2``, ``_3``
-suffixes, with a warning. An EXR's header places it in its shot (``displayWindow``: the whole resolution;
-``dataWindow``: the pixels of ``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON
-object ``{id: path}`` of the ids in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId``
-(:meth:`wrt.instancing.Instances.path`).
+unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the
+name's extension replaced with a warning where it is another, and a name past 255 bytes shortened. The first beauty
+RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
+``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X, N.Y,
+N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name or writes one of its
+channels). Two products of one file name get ``_2``, ``_3`` suffixes, with a warning. An EXR's header places it in
+its shot (``displayWindow``: the whole resolution; ``dataWindow``: the pixels of ``dataWindowNDC``) and names the
+prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids in the image, for ``primId``
+(:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
 """
 
 from __future__ import annotations
@@ -33,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .animation import MAX_NAME_BYTES
 from .image import (
     DATA_EXPOSURE_WARNING,
     check_exposure,
@@ -76,6 +76,7 @@ CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", 
             "cost": ("nodes", "triangles")}
 NAMED_IDS = ("primId", "instance")  # ids whose prim paths the EXR header names (attribute "<layer>/paths")
 EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
+NUMBER_BYTES = 8  # room left in a long file name for the "_k" that tells products of one name apart
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,6 +180,14 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
                           f"written as {stem}{wanted}", stacklevel=3)
             name = stem
         name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
+    stem, suffix = os.path.splitext(name)
+    # Room for the suffix and a _k of unique(): a longer name failed the write after every render, other products
+    # written, as "File name too long".
+    room = MAX_NAME_BYTES - len(os.fsencode(suffix)) - NUMBER_BYTES
+    if len(os.fsencode(stem)) > room:
+        name = os.fsencode(stem)[:room].decode(errors="ignore") + suffix
+        warnings.warn(f"{where}: {product.product} productName {product.product_name!r}: its file name is longer "
+                      f"than the {MAX_NAME_BYTES} bytes a file system takes; written as {name}", stacklevel=3)
     unique = taken.unique(name)
     if unique != name:
         warnings.warn(f"{where}: {product.product} writes {name}, as an earlier product does; written as {unique}",
