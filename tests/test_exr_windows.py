@@ -97,3 +97,34 @@ def test_batch_exrs_of_a_crop_are_placed_in_their_shots(tmp_path):
     renderer = wrt.Renderer(scene, cameras=["/Cam"], device="cpu")
     renderer.set_cameras(["/Cam", "/Cam"])  # new cameras, their windows with them
     assert box2i_attributes(renderer.render().image(1).save(tmp_path / "set.exr")) == box2i_attributes(single)
+
+
+@pytest.mark.parametrize("field, value, error, match", [
+    # A NaN or negative ratio failed the write in OpenEXR's words ("Invalid pixel aspect ratio in image header"),
+    # naming the temporary file; a window of two numbers failed unpacking; a fractional x0 was cut to 1, placing
+    # the crop a pixel off in its shot; data="no" stored the colour as data, by its truth.
+    ("pixel_aspect_ratio", float("nan"), ValueError, "pixel_aspect_ratio must be a finite positive number"),
+    ("pixel_aspect_ratio", -2.0, ValueError, "pixel_aspect_ratio must be a finite positive number"),
+    ("pixel_aspect_ratio", "2", ValueError, "pixel_aspect_ratio must be a finite positive number"),
+    ("window", (8, 4), ValueError, r"window must be None or \(shot width, shot height, x0, y0\) integers"),
+    ("window", (8, 4, 1.5, 0), ValueError, r"window must be None or \(shot width, shot height, x0, y0\) integers"),
+    ("window", (0, 4, 1, 0), ValueError, "the shot at least 1x1"),
+    ("data", "no", TypeError, "wrt.Image: data must be True or False"),
+])
+def test_image_settings_that_no_file_can_state_are_refused_naming_the_field(tmp_path, field, value, error, match):
+    rgb = np.zeros((2, 3, 3), np.float32)
+    with pytest.raises(error, match=match):
+        wrt.Image(rgb=rgb, **{field: value})
+    image = wrt.Image(rgb=rgb)
+    setattr(image, field, value)  # set after the image was made: refused at the save, before a file is written
+    with pytest.raises(error, match=match):
+        image.save(tmp_path / "x.exr")
+    assert not list(tmp_path.iterdir())
+
+
+def test_image_settings_of_numpy_types_are_kept_as_python_numbers(tmp_path):
+    image = wrt.Image(rgb=np.zeros((2, 3, 3), np.float32), pixel_aspect_ratio=np.float32(2.0),
+                      window=(np.int64(8), 4, np.int32(1), 2), data=np.True_)
+    assert (image.pixel_aspect_ratio, image.window, image.data) == (2.0, (8, 4, 1, 2), True)
+    assert box2i_attributes(image.save(tmp_path / "x.exr")) == {"displayWindow": ((0, 0), (7, 3)),
+                                                                "dataWindow": ((1, 2), (3, 3))}

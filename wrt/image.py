@@ -365,6 +365,29 @@ class Image:
     def __post_init__(self):
         self.rgb = checked_rgb(self.rgb)
         self.aovs = Aovs(self.aovs)
+        self._check_settings()
+
+    def _check_settings(self) -> None:
+        """Makes :attr:`pixel_aspect_ratio` a float, :attr:`window` a tuple of ints and :attr:`data` a bool, or raises
+        naming the field: a NaN or negative ratio failed the EXR write in OpenEXR's words, naming the temporary file;
+        a fractional x0 was cut to an int, placing the crop elsewhere in its shot; ``data="no"`` stored the colour as
+        data by its truth."""
+        ratio = self.pixel_aspect_ratio
+        if isinstance(ratio, (bool, np.bool_)) or not isinstance(ratio, (int, float, np.integer, np.floating)) or not (
+            math.isfinite(ratio) and ratio > 0
+        ):
+            raise ValueError(f"wrt.Image: pixel_aspect_ratio must be a finite positive number (the width / height "
+                             f"of one pixel), got {ratio!r}")
+        self.pixel_aspect_ratio = float(ratio)
+        window = self.window
+        if window is not None:
+            ints = (not isinstance(window, (str, bytes)) and hasattr(window, "__len__") and len(window) == 4
+                    and all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)) for v in window))
+            if not ints or min(window[:2]) < 1:
+                raise ValueError(f"wrt.Image: window must be None or (shot width, shot height, x0, y0) integers, the "
+                                 f"shot at least 1x1, got {window!r}")
+            self.window = tuple(int(v) for v in window)
+        self.data = flag(self.data, "wrt.Image: data")
 
     def __eq__(self, other) -> bool:
         """Whether ``other`` is an Image of the same arrays (the very objects, as :class:`wrt.BatchImage`'s
@@ -416,6 +439,7 @@ class Image:
         """
         path = check_image_path(path)  # a directory too: else the error would name the temporary file beside it
         exposure = check_exposure(exposure)
+        self._check_settings()  # set after the image was made, too
         suffix = path.suffix.lower()
         if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
             warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
