@@ -926,3 +926,27 @@ def test_a_layer_whose_channel_another_layer_writes_gets_a_name_of_its_own(tmp_p
     np.testing.assert_allclose(normals[planes], np.broadcast_to([0.0, 0.0, 1.0], (planes.sum(), 3)), atol=1e-5)
     eye = np.array([1.0, 0.5, 10.0])
     np.testing.assert_allclose(depth[planes], np.linalg.norm(want["P"][planes] - eye, axis=-1), rtol=1e-5)
+
+
+def test_layers_of_names_too_long_for_exr_keep_their_channels_and_paths(tmp_path):
+    """OpenEXR cuts channel names to 255 bytes and drops longer attribute names, without a word: two RenderVars named
+    by one 300-letter driver:parameters:aov:name wrote one channel (the later over the earlier), and the primId
+    layer's ``<layer>/paths`` was missing. Long names are shortened, with a warning naming the RenderVar; every
+    channel is read back with its values (pxr's frustum hits), and the paths name the prims drawn."""
+    long_name = "p" * 300
+    stage = planar_stage(tmp_path, {"ids": ("primId", long_name), "distance": ("depth", long_name)})
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        written = wrt.render_products(load(stage), tmp_path / "out", device="cpu")
+    exr, header = read_exr(written["/Render/Shot"]), read_header(written["/Render/Shot"])
+    assert len(exr) == 2 and all(len(name) <= 255 for name in exr)
+    assert any("RenderVar /Render/Vars/ids: its layer name is longer than the 255 bytes" in str(w.message)
+               for w in record)
+    ids, depth = (exr[name] for name in sorted(exr, key=len))  # the second layer of one name has a _2 more
+    want = expected_hits(stage)
+    clear = want["clear"] & (want["prim"] != "")
+    prims = json.loads(header[f"{sorted(exr, key=len)[0]}/paths"])
+    named = np.array([prims.get(str(int(i)), "") for i in ids.ravel()], object).reshape(want["prim"].shape)
+    np.testing.assert_array_equal(named[clear], want["prim"][clear])
+    np.testing.assert_allclose(depth[clear], np.linalg.norm(want["P"][clear] - [1.0, 0.5, 10.0], axis=-1),
+                               rtol=1e-5)

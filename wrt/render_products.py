@@ -14,10 +14,11 @@ name's extension replaced with a warning where it is another, and a name past 25
 RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
 ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X, N.Y,
 N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name or writes one of its
-channels). Two products of one file name get ``_2``, ``_3`` suffixes, with a warning. An EXR's header places it in
-its shot (``displayWindow``: the whole resolution; ``dataWindow``: the pixels of ``dataWindowNDC``) and names the
-prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids in the image, for ``primId``
-(:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
+channels; shortened past 237 bytes). Two products of one file name get ``_2``, ``_3`` suffixes, with a warning. An
+EXR's header places it in its shot (``displayWindow``: the whole resolution; ``dataWindow``: the pixels of
+``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
+in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId``
+(:meth:`wrt.instancing.Instances.path`).
 """
 
 from __future__ import annotations
@@ -77,6 +78,9 @@ CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", 
 NAMED_IDS = ("primId", "instance")  # ids whose prim paths the EXR header names (attribute "<layer>/paths")
 EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
 NUMBER_BYTES = 8  # room left in a long file name for the "_k" that tells products of one name apart
+# Longest layer name: its channels (".triangles" the longest) and its "/paths" attribute within the 255 bytes of an
+# EXR name, where OpenEXR cut channel names (two long layers wrote one channel) and dropped attributes without a word.
+MAX_LAYER_BYTES = MAX_NAME_BYTES - len(".triangles") - NUMBER_BYTES
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,6 +128,11 @@ def product_outputs(product, where: str) -> list[_Output]:
         output = _Output(kind, "", alpha=kind == BEAUTY and _has_alpha(var.data_type))
         if not beauty:
             name = var.aov_name or var.path.rsplit("/", 1)[-1]
+            if len(name.encode()) > MAX_LAYER_BYTES:  # OpenEXR cuts longer channel names, and drops such attributes
+                name = name.encode()[:MAX_LAYER_BYTES].decode(errors="ignore")
+                warnings.warn(f"{where}: RenderVar {var.path}: its layer name is longer than the {MAX_NAME_BYTES} "
+                              f"bytes an EXR channel or attribute name may have with its channel; written as {name}",
+                              stacklevel=3)
             output = dataclasses.replace(output, layer=layers.unique(name))
             while not channels.isdisjoint(c.casefold() for c in channel_names(output)):
                 output = dataclasses.replace(output, layer=layers.unique(name))
