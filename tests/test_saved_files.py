@@ -1,0 +1,53 @@
+"""What ``Image.save`` writes, read back by decoders of its own (numpy, OpenEXR, Pillow): ``.npy`` and ``.exr`` hold
+the very float32 array, NaN, infinities and extremes included; ``.png`` is 8-bit RGB tagged sRGB of
+``rgb * 2^exposure`` through the IEC 61966-2-1 curve, NaN as 0 and +inf as white, as the module docstring states."""
+
+import numpy as np
+import pytest
+from PIL import Image as PilImage
+
+import wrt
+
+OpenEXR = pytest.importorskip("OpenEXR")
+
+EXTREMES = [np.nan, np.inf, -np.inf, 3.4e38, -1.0, 0.0, 1e-45, 0.5, 1.0, 2.0, 0.0031308, 0.04]
+
+
+def image_of(width: int, height: int, seed: int = 0) -> np.ndarray:
+    """A ``(height, width, 3)`` float32 image whose first values are :data:`EXTREMES`, the rest random in [0, 1.5)."""
+    rgb = np.random.default_rng(seed).uniform(0.0, 1.5, (height, width, 3)).astype(np.float32)
+    flat = rgb.reshape(-1)
+    count = min(len(EXTREMES), flat.size)
+    flat[:count] = np.array(EXTREMES[:count], np.float32)
+    return rgb
+
+
+def srgb8(linear: np.ndarray) -> np.ndarray:
+    """8-bit sRGB of linear values in float64 (IEC 61966-2-1), clipped to [0, 1] first, NaN as 0."""
+    x = np.clip(np.nan_to_num(np.asarray(linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    encoded = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    return np.round(encoded * 255.0).astype(np.uint8)
+
+
+@pytest.mark.parametrize("size", [(1, 1), (3, 1), (1, 5), (7, 5)])
+def test_npy_and_exr_hold_the_very_array(tmp_path, size):
+    rgb = image_of(*size)
+    image = wrt.Image(rgb=rgb)
+    saved = np.load(image.save(tmp_path / "x.npy"))
+    assert saved.dtype == np.float32 and saved.tobytes() == rgb.tobytes()
+    with OpenEXR.File(str(image.save(tmp_path / "x.exr")), separate_channels=True) as f:
+        channels = {name: np.array(c.pixels) for name, c in f.channels().items()}
+    assert sorted(channels) == ["B", "G", "R"]
+    exr = np.stack([channels[c] for c in "RGB"], axis=-1)
+    assert exr.dtype == np.float32 and exr.tobytes() == rgb.tobytes()
+
+
+@pytest.mark.parametrize("exposure", [0.0, 1.5, -150.0, 150.0])
+def test_png_is_8_bit_srgb_of_the_exposed_image(tmp_path, exposure):
+    rgb = image_of(5, 3, seed=1)
+    with PilImage.open(wrt.Image(rgb=rgb).save(tmp_path / "x.png", exposure=exposure)) as png:
+        assert png.mode == "RGB" and png.size == (5, 3)
+        assert png.info["srgb"] == 0 and png.info["gamma"] == pytest.approx(1 / 2.2, abs=1e-5)
+        pixels = np.asarray(png)
+    np.testing.assert_array_equal(pixels, srgb8(rgb.astype(np.float64) * 2.0**exposure))
+    assert pixels.reshape(-1)[0] == 0  # NaN, at any exposure
