@@ -955,3 +955,29 @@ def test_layers_of_names_too_long_for_exr_keep_their_channels_and_paths(tmp_path
     np.testing.assert_array_equal(named[clear], want["prim"][clear])
     np.testing.assert_allclose(depth[clear], np.linalg.norm(want["P"][clear] - [1.0, 0.5, 10.0], axis=-1),
                                rtol=1e-5)
+
+
+def test_an_overscanned_product_is_placed_in_its_shot_past_its_edges(tmp_path):
+    """dataWindowNDC (-0.25, -0.25, 0.75, 0.75) of 48x24 reaches past the left and bottom edges (overscan): the EXR's
+    data window starts at negative columns and ends past the last row, counted from the rule (centres in the window,
+    NDC y up), the display window is the shot, and each pixel inside the shot holds the hit of that pixel of the full
+    image (pxr's frustum)."""
+    window = (-0.25, -0.25, 0.75, 0.75)
+    stage = planar_stage(tmp_path, {"P": ("P", None)}, window)
+    written = wrt.render_products(load(stage), tmp_path / "out", device="cpu")
+    header, exr = read_header(written["/Render/Shot"]), read_exr(written["/Render/Shot"])
+    columns = [j for j in range(-48, 96) if window[0] <= (j + 0.5) / 48 < window[2]]
+    rows = [i for i in range(-24, 48) if window[1] <= 1 - (i + 0.5) / 24 < window[3]]
+    assert columns[0] < 0 and rows[-1] > 23  # past the edges indeed
+    assert [list(v) for v in header["displayWindow"]] == [[0, 0], [47, 23]]
+    assert [list(v) for v in header["dataWindow"]] == [[columns[0], rows[0]], [columns[-1], rows[-1]]]
+    got = np.stack([exr[f"P.{c}"] for c in "XYZ"], axis=-1)
+    assert got.shape == (len(rows), len(columns), 3)
+    inside_rows = [k for k, i in enumerate(rows) if 0 <= i < 24]
+    inside_columns = [k for k, j in enumerate(columns) if 0 <= j < 48]
+    inside = got[np.ix_(inside_rows, inside_columns)]
+    want = expected_hits(stage)
+    shot = np.ix_([rows[k] for k in inside_rows], [columns[k] for k in inside_columns])
+    clear = want["clear"][shot] & (want["prim"][shot] != "")
+    assert clear.sum() > 20
+    np.testing.assert_allclose(inside[clear], want["P"][shot][clear], atol=2e-4)
