@@ -767,6 +767,34 @@ def test_summary_of_the_top_level_tree_counts_its_entries_and_leaves_as_they_are
     assert "a leaf per instance or shape" not in line, line
 
 
+def test_summary_of_the_top_level_tree_says_what_its_entries_are():
+    """The TLAS line said its entries were 'an instance or shape each, one for the other meshes' whatever they were:
+    three instances and nothing else read as two instances and a mesh entry. The counts are those of the scene as
+    built here: an entry per instance of a prototype with triangles, per analytic shape (an instanced one once per
+    instance) and one for all the non-instanced meshes where there are any."""
+    triangle = wrt.Mesh("/P/M", np.float32([[-1, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), [0])
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    to_world[:, 0, 3] = [0.0, 4.0, 8.0]
+    only_instances = wrt.Scene(prototypes=[Prototype("/P", [triangle])],
+                               instances=Instances.from_transforms([0, 0, 0], to_world))
+    with_shape = Prototype("/Q", [triangle], [ball(0.0, "/Q")])
+    floor = quad((-5, -2, -5), (10, 0, 0), (0, 0, 10), name="/floor")
+    mixed = wrt.Scene(meshes=[floor], prototypes=[with_shape],
+                      instances=Instances.from_transforms([0, 0], to_world[:2]))
+    cases = ((only_instances, 3, "3 entries: 3 instances;"),
+             (mixed, 5, "5 entries: 2 instances, 2 analytic shapes, 1 for the non-instanced meshes;"))
+    for scene, entries, words in cases:
+        assert get_accelerator(scene, "wrt", "sah", "cpu").num_entries == entries
+        plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48))
+        try:
+            line = next(x for x in summary_text(plotter).splitlines() if x.startswith("TLAS"))
+        finally:
+            plotter.close()
+        assert words in line, line
+        if scene is only_instances:
+            assert "meshes" not in line, line
+
+
 def test_to_pyvista_gives_meshes_and_instances_without_triangles_empty_blocks(tmp_path):
     """A Points prim is read as instances of a sphere prototype, which has no triangles: to_pyvista raised pyvista's
     "Empty arrays are not allowed" for its blocks (usd-wg's simpleAssetScene too), and a mesh of points without faces

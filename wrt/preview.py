@@ -825,9 +825,8 @@ def preview(
                          f"placed by the instance's transform) {summary}")
         elif hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
             # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than drawn.
-            entries = counted(accel.num_entries, "entry", "entries")
-            lines.append(f"TLAS ({builder}) {summary} ({entries}: an instance or shape each, one for the other "
-                         f"meshes; up to {TLAS_LEAF_SIZE} per leaf)")
+            lines.append(f"TLAS ({builder}) {summary} ({tlas_entries(scene, accel.num_entries)}; up to "
+                         f"{TLAS_LEAF_SIZE} per leaf)")
         else:
             lines.append(f"BVH ({builder}) {summary}")
     if ray_data is not None:
@@ -858,6 +857,22 @@ def preview(
         text = "\n".join(wrapped)
         plotter.add_text(text, position="upper_left", font_size=9, color="black", name="summary")
     return plotter
+
+
+def tlas_entries(scene: Scene, total: int) -> str:
+    """What the ``total`` entries of ``scene``'s TLAS are, counted: one per instance traced in a BLAS (of a prototype
+    with triangles and a transform that inverts), one per analytic shape (an instanced one once per instance) and one
+    for all the non-instanced meshes where there are any. 'An instance or shape each, one for the other meshes' was
+    said of every TLAS: three instances alone read as two and a mesh entry."""
+    meshes = 1 if scene.num_flat_triangles else 0
+    with_triangles = scene.prototype_ranges()[:, 1] > 0 if len(scene.prototypes) else np.zeros(0, bool)
+    traced = scene.instance_inverses()[1]
+    instances = int((with_triangles[scene.instances.prototype] & traced).sum()) if len(scene.instances) else 0
+    shapes = total - meshes - instances  # the rest: shape entries (a degenerate shape's is left out of the tree)
+    parts = [counted(instances, "instance")] if instances else []
+    parts += [counted(shapes, "analytic shape")] if shapes else []
+    parts += ["1 for the non-instanced meshes"] if meshes else []
+    return f"{counted(total, 'entry', 'entries')}: {', '.join(parts) or 'none'}"
 
 
 def check_window_size(window_size) -> None:
