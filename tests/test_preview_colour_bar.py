@@ -57,3 +57,36 @@ def test_colour_bar_labels_fit_the_window(room, size, color):
             assert len(texts) == 5, texts  # a wide window keeps pyvista's five labels
     finally:
         plotter.close()
+
+
+def test_depth_bar_labels_are_whole_depths_of_the_tree_when_it_spans_many_levels():
+    """The depth bar keeps its labels on whole depths, so that each sits on its depth's colour band; past 8 levels it
+    took five labels however they fell: leaves from depth 6 to 21 were labelled 6, 10, 14, 17, 21 at 9.75, 13.5 and
+    17.25, '17' on the edge of depth 18's band. The oracle: the leaves' depths walked down the tree's arrays."""
+    from wrt.trace import get_accelerator
+
+    rng = np.random.default_rng(0)
+    # Clusters ever smaller around one point: the tree's leaves lie at many depths.
+    centres = np.concatenate([rng.normal(0.0, 2.0**-k, (60, 3)) for k in range(12)])
+    points = (centres[:, None, :] + rng.normal(0.0, 1e-4, (len(centres), 3, 3))).reshape(-1, 3).astype(np.float32)
+    scene = wrt.Scene.from_triangles(points, np.arange(len(points)).reshape(-1, 3))
+    bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
+    leaf_depths, stack = [], [(0, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if bvh.prim_count[node] > 0:
+            leaf_depths.append(depth)
+        else:
+            stack += [(int(bvh.left_first[node]) + k, depth + 1) for k in (0, 1)]
+    assert max(leaf_depths) - min(leaf_depths) + 1 > 8  # the case at hand: more levels than labels
+    for size in ((1280, 800), (480, 360)):
+        plotter = wrt.preview(scene, bvh_leaves=True, window_size=size, show_text=False, show_lights=False)
+        try:
+            bar = plotter.scalar_bar
+            low, high = bar.GetLookupTable().GetRange()
+            values = np.linspace(low, high, bar.GetNumberOfLabels())
+        finally:
+            plotter.close()
+        assert (low, high) == (min(leaf_depths), max(leaf_depths))
+        assert len(values) >= 2
+        np.testing.assert_array_equal(values, np.round(values), err_msg=f"labels between depths in {size}")

@@ -1078,11 +1078,10 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_wi
         if color == "depth":
             levels = int(high - low) + 1
             clim = [low, high] if levels > 1 else [low - 0.5, low + 0.5]
-            # Fewer labels only where they still fall on whole depths: (levels - 1) steps split evenly.
-            # One level draws no bar (show_scalar_bar below), and is given two labels all the same.
-            counts = [k for k in range(min(levels, 8), 1, -1) if (levels - 1) % (k - 1) == 0] if levels <= 8 \
-                else [5, 3, 2]
-            counts = counts or [2]
+            # Only counts whose labels fall on whole depths, (levels - 1) steps split evenly, however many levels:
+            # five labels over depths 6 to 21 put '17' at 17.25, on the edge of depth 18's band. Two (the ends) always
+            # do; one level draws no bar (show_scalar_bar below), and is given two labels all the same.
+            counts = [k for k in range(min(levels, 8), 1, -1) if (levels - 1) % (k - 1) == 0] or [2]
             bar = fit_scalar_bar("BVH node depth", ["%.0f"], clim, counts, window_width)
             cmap = LinearSegmentedColormap.from_list("wrt_depth", DEPTH_COLORS)
             style = {"cmap": cmap, "n_colors": levels, "show_scalar_bar": levels > 1}
