@@ -1190,6 +1190,36 @@ def test_cluster_vertices_keeps_every_triangle_facing_as_its_source(bunny):
         assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0), budget
 
 
+def test_simplified_instances_far_from_the_origin_face_outwards():
+    """Instances of a single-sided ball 1e7 from the origin, drawn from float64 points, simplified for display: the
+    triangles the snap turned over were wound back by their source's normal, taken from float32 corners, which at 1e7
+    (a step of 1) are a 1-unit grid that the ball's 0.1-unit triangles collapse on; 5 % of them faced inwards, holes
+    in the culled surface. Oracle: a ball is convex, so each drawn triangle faces away from its instance's centre."""
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(500)
+    points = np.asarray(points, np.float32) / np.abs(points).max()
+    ball = Prototype("/P", [wrt.Mesh("/P/M", points, indices, np.arange(len(indices)))])
+    to_world = np.tile(np.eye(4), (30, 1, 1))
+    to_world[:, 0, 3] = 1e7 + 3.0 * np.arange(30)
+    scene = wrt.Scene(prototypes=[ball], instances=Instances.from_transforms(np.zeros(30, int), to_world))
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*float32")  # the renderer's words about a scene this far out
+        plotter = wrt.preview(scene, max_triangles=len(indices) * 10, window_size=(32, 24), show_text=False)
+    try:
+        assert "simplified for display" in plotter.title, plotter.title
+        drawn = plotter.actors["scene"].mapper.dataset
+        corners = np.asarray(drawn.points, np.float64)[drawn.regular_faces]
+    finally:
+        plotter.close()
+    facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    middle = corners.mean(axis=1)
+    centre = 1e7 + 3.0 * np.round((middle[:, 0] - 1e7) / 3.0)
+    outward = middle - np.column_stack([centre, np.zeros((len(middle), 2))])
+    inward = np.einsum("ij,ij->i", facing, outward) < 0
+    assert inward.mean() < 0.002, f"{inward.sum()} of {len(inward)} triangles face inwards"
+
+
 def test_sample_rays_of_a_film_above_the_render_pixel_limit(room):
     """--rays with --width 10000 --height 7500 failed on the renderer's pixel limit (75,000,000 pixels; at most
     67,108,864), though the film only gives the rays' aspect: 48 rays are an 8x6 grid, those of an 8x6 render."""

@@ -81,6 +81,7 @@ SHAPE_BUDGET = 20_000  # most analytic shapes drawn; more are cut to a subset sp
 CENTRE_CHUNK = 1 << 16  # instanced shapes whose centres are found at once, when choosing that subset
 MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
+NORMAL_CHUNK = 1 << 20  # triangles whose float64 corners are gathered at once (72 MB)
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
 MAX_RAYS = 1_000_000  # most sample rays: each is a drawn line (3e5 take 2 s to draw; 1e8 would need GBs)
 BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
@@ -490,8 +491,7 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         return centres, kept.astype(np.int32), np.asarray(colors)[rows]
 
     # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles.
-    corners = points.astype(np.float32)[indices]
-    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = source_normals(points, indices)
     area = 0.5 * float(np.sqrt(np.einsum("ij,ij->i", normals, normals)).sum(dtype=np.float64))
     resolution = int(np.clip(extent * math.sqrt(max_triangles / max(2.0 * area, 1e-30)), 2, MAX_CLUSTER_GRID))
     fits, too_fine = None, None  # (resolution, result) of the finest grid that fits; coarsest one that does not
@@ -523,6 +523,18 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         keep = np.linspace(0, len(indices) - 1, min(max_triangles, len(indices))).astype(np.int64)
         return points, indices[keep].astype(np.int32), np.asarray(colors)[keep]
     return placed(*fits[1])
+
+
+def source_normals(points: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` float32 ``(b - a) x (c - a)`` of each triangle, its edges taken in float64 (a chunk at a time). From
+    float32 corners, the 0.1-unit triangles of an instance 1e7 from the origin (drawn from float64 points) lay on a
+    1-unit grid: their normals were noise, and the snapped triangles wound back by them faced any way, 5 % of a
+    simplified ball's inwards, culled."""
+    normals = np.empty((len(indices), 3), np.float32)
+    for a in range(0, len(indices), NORMAL_CHUNK):
+        corners = points[indices[a : a + NORMAL_CHUNK]]
+        normals[a : a + NORMAL_CHUNK] = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return normals
 
 
 def subtree_prim_counts(bvh: FlatBvh, depths: np.ndarray | None = None) -> np.ndarray:
