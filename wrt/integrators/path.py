@@ -8,7 +8,8 @@ sampling of a light that casts no shadows or whose shadowLink leaves geometry ou
 where light sampling reaches: a bounce ray stops at occluders that the light's shadow rays pass, and lost its share
 of the light behind them). After ``rr_depth`` bounces Russian roulette ends paths with probability
 ``q = max(0.05, 1 - min(1, max(throughput)))`` (at least 5% end at every such bounce, so a path of
-throughput 1 cannot bounce on forever), dividing the survivors' throughput by their survival probability ``1 - q``. ``max_depth`` counts surface interactions: 1 gives direct lighting only.
+throughput 1 cannot bounce on forever), dividing the survivors' throughput by their survival probability ``1 - q``.
+``max_depth`` counts surface interactions: 1 gives direct lighting only.
 
 Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through by the trace before a hit gets here
 (:func:`wrt.hidden_hits.intersect_visible`, for camera and bounce rays alike), so holes use up no bounce, and the
