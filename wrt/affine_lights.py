@@ -31,6 +31,7 @@ import warp as wp
 
 from .glowing_tubes import TUBE_OPEN, sample_tube, tube_point_density
 from .sampling import PI, sample_uniform_cone, to_world
+from .sphere_cone import intersect_sphere
 
 # The canonical tube as wrt.glowing_tubes takes an open one: (centre, radius) and (half axis, code).
 UNIT_TUBE = wp.constant(wp.vec4(0.0, 0.0, 0.0, 1.0))
@@ -49,33 +50,6 @@ def unit_sphere_cone(pc: wp.vec3):
         return 0.0
     sin2 = 1.0 / rho2
     return sin2 / (1.0 + wp.sqrt(wp.max(0.0, 1.0 - sin2)))  # 1 - cos_max without cancellation
-
-
-@wp.func
-def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
-    """Nearest ``t > 0`` where ray ``o + t d`` (any length ``d``) enters the sphere of centre ``c`` and radius ``r``
-    from outside; inf if none. Round sphere lights use it as it is, ellipsoids on the unit sphere of their canonical
-    frame.
-
-    The half chord from the ray's closest approach to the centre, ``r^2 - |closest - c|^2`` (Haines et al.,
-    "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems 2019), as wrt/primitives.py does:
-    ``b^2 - c`` cancels in float32 for a sphere small next to its distance, and rays saw a light 1000 radii away 15%
-    too large."""
-    oc = o - c
-    if wp.dot(oc, oc) <= r * r:
-        return float(wp.inf)
-    dd = wp.dot(d, d)
-    if dd <= 0.0:
-        return float(wp.inf)
-    t_mid = -wp.dot(oc, d) / dd
-    closest = oc + t_mid * d
-    half2 = r * r - wp.dot(closest, closest)
-    if half2 < 0.0:
-        return float(wp.inf)
-    t = t_mid - wp.sqrt(half2 / dd)
-    if t <= 0.0:
-        return float(wp.inf)
-    return t
 
 
 @wp.func

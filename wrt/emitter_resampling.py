@@ -33,7 +33,6 @@ from .light_sampling import (
     LIGHT_GLOWING_SPHERE,
     LIGHT_GLOWING_TUBE,
     DeviceLights,
-    cone_of_sphere,
     emitter_triangle,
     hull_frame,
     light_kind,
@@ -43,6 +42,7 @@ from .light_sampling import (
 from .microfacet_albedo import GgxAlbedo
 from .sampling import luminance, rand01
 from .scene import DeviceScene
+from .sphere_cone import cone_of_sphere
 from .spherical_triangle import seen_solid_angle, unit_towards
 from .subtended_tube import sine_span
 

@@ -27,7 +27,6 @@ from .affine_lights import (
     elliptic_tube_pdf,
     intersect_ellipsoid,
     intersect_elliptic_tube,
-    intersect_sphere,
     sample_ellipsoid,
     sample_elliptic_tube,
 )
@@ -52,6 +51,7 @@ from .sampling import (
     to_world,
 )
 from .scene import DeviceScene
+from .sphere_cone import cone_of_sphere, intersect_sphere, sample_sphere_cone
 from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
 from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
@@ -388,21 +388,6 @@ def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
     """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside. Lengths
     are scaled by :func:`light_scales` (their squares over- or underflowed in scenes 1e20 or 1e-22 across)."""
     return cone_of_sphere(lights.position[k], lights.params[k][0], p)
-
-
-@wp.func
-def cone_of_sphere(c: wp.vec3, radius: float, p: wp.vec3):
-    """``(cos_max, 1 - cos_max)`` of the cone the sphere of centre ``c`` subtends at ``p`` (see
-    :func:`sphere_cone`), its lengths taken times the power of two that brings ``radius`` into [1, 2)."""
-    down, _ = power_scales(radius)
-    r = radius * down
-    d2 = wp.length_sq((c - p) * down)
-    if d2 <= r * r:
-        return 2.0, 0.0
-    sin2 = r * r / d2
-    cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
-    one_minus = sin2 / (1.0 + cos_max)  # 1 - cos_max without cancellation
-    return cos_max, one_minus
 
 
 @wp.func
@@ -854,32 +839,20 @@ def sample_light(
             out.value = dome_radiance(lights, out.wi) / out.pdf
         return out
     if kind == LIGHT_SPHERE:
-        c = lights.position[k]
-        cos_max, one_minus = sphere_cone(lights, k, p)
-        if cos_max > 1.0 or one_minus <= 0.0:
+        wi, t, one_minus = sample_sphere_cone(lights.position[k], lights.params[k][0], p, u1, u2)
+        if one_minus <= 0.0:
             return out  # inside the sphere: it emits outwards only
-        sphere_down, _ = light_scales(lights, k)
-        axis = wp.normalize((c - p) * sphere_down)  # (its squares overflowed 1e19 radii away in world units)
-        out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, one_minus), axis))
-        t = intersect_sphere_light(lights, k, p, out.wi)
-        if t == wp.inf:
-            t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
+        out.wi = wi
         out.dist = t
         out.pdf = 1.0 / (2.0 * PI * one_minus)
         out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
         return out
     if kind == LIGHT_GLOWING_SPHERE:
         row = lights.glowing_spheres[k - lights.first_glowing_sphere]
-        gc = wp.vec3(row[0], row[1], row[2])
-        g_cos, g_one_minus = cone_of_sphere(gc, row[3], p)
-        if g_cos > 1.0 or g_one_minus <= 0.0:
+        wi, t, g_one_minus = sample_sphere_cone(wp.vec3(row[0], row[1], row[2]), row[3], p, u1, u2)
+        if g_one_minus <= 0.0:
             return out  # inside the sphere: sampled from outside only (a hit inside takes MIS weight 1)
-        g_down, g_up = power_scales(row[3])
-        g_axis = wp.normalize((gc - p) * g_down)
-        out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, g_one_minus), g_axis))
-        t = intersect_sphere(gc * g_down, row[3] * g_down, p * g_down, out.wi) * g_up
-        if t == wp.inf:
-            t = wp.dot(gc - p, out.wi)  # grazing: rounding missed the sphere by a hair
+        out.wi = wi
         out.dist = t
         out.pdf = 1.0 / (2.0 * PI * g_one_minus)
         prim = lights.prims[k]
