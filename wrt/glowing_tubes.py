@@ -199,7 +199,9 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
             share = share * near_end * near_end / (near_end * near_end + to_side * to_side)
     low = float(0.0)
     high = float(0.0)
-    if (code == TUBE_CAPSULE or code == TUBE_TAPERED) and near:
+    # (From inside the capsule, the cones enter their spheres inside it: none of their draws would be kept.)
+    inside = half > 0.0 and wp.abs(z) <= half and rho < cone_reach(ra, rb, half, z)
+    if (code == TUBE_CAPSULE or code == TUBE_TAPERED) and near and not inside:
         # The rest of the guided share to a capsule's end spheres' cones, each by the square root of the share of
         # p's sky its cone fills (1 - cos_max: near all of it just off the sphere, none from inside), at most all
         # between them: by that share itself, points 0.3 to 3 radii off an end were up to 1.8 times as noisy; by
