@@ -165,8 +165,8 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
     ``spread``: its draw's arguments), p's angle about the axis from ``basis_x(w)``, and the shares of draws
     :func:`sample_tube` makes by the angles the side subtends (``share``: none where that draw has nothing to draw
     from, a single-sided tube's side p sees no front of, from inside its extension, past a cone's apex or far away)
-    and by the cones a capsule's bottom and top spheres subtend (``low``, ``high``: none from inside the sphere, far
-    away, or for a tapered capsule's top sphere inside its bottom one)."""
+    and by the cones a capsule's bottom and top spheres subtend (``low``, ``high``: none from inside the capsule, far
+    away, or for a tapered capsule's top sphere inside its bottom one; continuous in p outside the capsule)."""
     mid, half, ra, rb, sin_lat = tube_side(r, top, h, code)
     rel = to_p - mid * w
     z = wp.dot(rel, w)
