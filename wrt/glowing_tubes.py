@@ -218,6 +218,14 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
 
 
 @wp.func
+def end_sign(q_rel: wp.vec3, w: wp.vec3, mid: float, half: float, code: int):
+    """1 for a point ``q_rel`` (from the centre) of a capsule's top end, the one above the side's middle ``mid``
+    (:func:`side_view`), -1 for one of its bottom end: all of a tapered capsule's with no side (``half`` 0: its top
+    sphere inside its bottom one)."""
+    return wp.where(wp.dot(q_rel, w) >= mid and (half > 0.0 or code == TUBE_CAPSULE), 1.0, -1.0)
+
+
+@wp.func
 def end_cone_density(centre: wp.vec3, radius: float, to_p: wp.vec3, q_rel: wp.vec3):
     """Density by area with which a direction uniform in the cone the sphere of ``centre`` and ``radius`` subtends
     at p (``to_p``; all from the tube's centre, times ``down``) enters the sphere at its point ``q_rel``: the cone's
@@ -243,8 +251,7 @@ def tube_density(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp
                                                                                   arc)
     density = (1.0 - share - low - high) / area
     if on_side == 0 and low + high > 0.0:
-        # A capsule's end: its sphere's cone's, the top's where the point lies above the side's middle.
-        end = wp.where(wp.dot(q_rel, w) >= mid, 1.0, -1.0)
+        end = end_sign(q_rel, w, mid, half, code)  # a capsule's end: its sphere's cone's
         density += wp.where(end > 0.0, high, low) * end_cone_density(end * h * w, wp.where(end > 0.0, top, r), to_p,
                                                                      q_rel)
     if on_side == 1 and share > 0.0:
@@ -324,8 +331,8 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
         u_end = wp.where(end > 0.0, (u1 - by_angle - low) / high, (u1 - by_angle) / low)
         wi, t, one_minus = sample_sphere_cone(centre, ball, to_p, wp.min(u_end, 1.0), u2)
         n = wp.normalize(to_p + t * wi - centre)
-        along = wp.dot(centre + ball * n, w) - mid
-        if one_minus <= 0.0 or wp.abs(along) < h_side or wp.where(along >= 0.0, 1.0, -1.0) != end:
+        off_end = end_sign(centre + ball * n, w, mid, h_side, code) != end
+        if one_minus <= 0.0 or wp.abs(wp.dot(centre + ball * n, w) - mid) < h_side or off_end:
             return q, n, 0.0, down
         q = c + (centre + ball * n) * up
     else:
