@@ -451,3 +451,32 @@ def test_every_load_of_a_kept_stage_names_an_ambiguous_collection_binding(tmp_pa
     frames = StageFrames(path)
     for _ in range(3):
         assert _messages(lambda: frames.load(None)) == fresh
+
+
+def test_a_binding_to_no_material_is_named_in_a_warning(tmp_path):
+    """A ``material:binding`` whose target is a missing prim or no Material binds nothing (USD's
+    ``ComputeBoundMaterial`` gives its relationship and an invalid material), and the mesh is drawn as bound to no
+    material: wrt drew it so without a word (found by a mutation fuzz of USD stages: a retargeted binding). One
+    warning names the file, each binding prim and its target; an emptied binding (``material:binding = None``, no
+    target: deliberately unbound) and a binding to a Material are not named."""
+    path = str(tmp_path / "dangling.usda")
+    stage = Usd.Stage.CreateNew(path)
+    looks = preview_material(stage, "/Looks/Red", (1, 0, 0))
+    stage.DefinePrim("/World", "Xform")
+    targets = {"/World/Missing": "/Looks/Gone", "/World/Xform": "/World", "/World/Bound": str(looks.GetPath())}
+    for mesh, target in targets.items():
+        UsdShade.MaterialBindingAPI.Apply(_quads(stage, mesh, 1)).GetDirectBindingRel().SetTargets([target])
+    UsdShade.MaterialBindingAPI.Apply(_quads(stage, "/World/Unbound", 1)).GetDirectBindingRel().SetTargets([])
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    for mesh in ("/World/Missing", "/World/Xform"):  # USD: a binding found, that binds no material
+        material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(mesh)).ComputeBoundMaterial()
+        assert rel and rel.GetTargets() and not material
+    assert not UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/Unbound")).ComputeBoundMaterial()[1]
+    messages = _messages(lambda: wrt.load_usd(path))
+    named = [m for m in messages if "no Material" in m]
+    assert len(named) == 1, messages
+    assert named[0].startswith(path) and "2 prim(s)" in named[0]
+    for mesh in ("/World/Missing", "/World/Xform", "/Looks/Gone"):
+        assert mesh in named[0]
+    assert "/World/Bound" not in named[0] and "/World/Unbound" not in named[0]

@@ -759,6 +759,10 @@ def readable_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in readable), None)
 
 
+BINDING_TO_NO_MATERIAL = ("material bindings whose target is no Material (a missing prim, or a prim of another type) "
+                          "bind nothing; their prims are drawn as bound to no material")
+
+
 def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None, readable=readable_surface) -> tuple:
     """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
     ``UsdShade.Material`` when none, and the binding relationship that binds it (None for one bound above a native
@@ -984,7 +988,17 @@ class MaterialReader:
             self.memo.binding_counts["reused"] += 1
         if missing is not None:
             missing |= kept[2]
+        if kept[1] and not kept[0]:  # named at every load, as above
+            self._name_binding_to_no_material(kept[1])
         return kept[:2]
+
+    def _name_binding_to_no_material(self, rel):
+        """Names binding relationship ``rel``, which ``ComputeBoundMaterial`` found and whose target is no Material (a
+        missing prim, an Xform): it binds nothing, and its prims were drawn as bound to no material without a word. An
+        emptied binding (no target, deliberately unbound) is no binding to USD and is not named."""
+        targets = rel.GetTargets()
+        if targets:  # a collection binding targets its collection, then its material
+            self.skip(BINDING_TO_NO_MATERIAL, rel.GetPrim(), f"{rel.GetName()} -> {targets[-1]}")
 
     def _walk(self, prim, outer, missing):
         """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
@@ -1032,6 +1046,8 @@ class MaterialReader:
         entries = []
         for purpose in dict.fromkeys((*purposes, ALL_PURPOSE)):
             found = walk(purpose)
+            if found is not None and found.rel and not found.material:
+                self._name_binding_to_no_material(found.rel)
             if found is not None:
                 path = str(found.material.GetPath()) if found.material else ""
                 entries.append(OuterBinding(purpose, path, found.stronger))
