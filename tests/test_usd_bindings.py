@@ -480,3 +480,33 @@ def test_a_binding_to_no_material_is_named_in_a_warning(tmp_path):
     for mesh in ("/World/Missing", "/World/Xform", "/Looks/Gone"):
         assert mesh in named[0]
     assert "/World/Bound" not in named[0] and "/World/Unbound" not in named[0]
+
+
+def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
+    """A direct binding whose targets are not one prim (a property, two materials) or a collection binding without a
+    collection and a material is ignored by ``ComputeBoundMaterial`` (no relationship found), and the mesh is drawn
+    as bound to what is above it, here nothing: wrt drew it so without a word (found by the mutation fuzz that
+    retargets bindings to a property). One warning names the file, each binding prim and its relationship."""
+    path = str(tmp_path / "ignored.usda")
+    stage = Usd.Stage.CreateNew(path)
+    red, green = preview_material(stage, "/Looks/Red", (1, 0, 0)), preview_material(stage, "/Looks/Green", (0, 1, 0))
+    stage.DefinePrim("/World", "Xform")
+    cases = {"/World/Property": ["/World/Property.points"], "/World/Two": [red.GetPath(), green.GetPath()]}
+    for mesh, targets in cases.items():
+        UsdShade.MaterialBindingAPI.Apply(_quads(stage, mesh, 1)).GetDirectBindingRel().SetTargets(targets)
+    collection = _quads(stage, "/World/Collection", 1)
+    UsdShade.MaterialBindingAPI.Apply(collection)
+    collection.CreateRelationship("material:binding:collection:looks").SetTargets([red.GetPath()])
+    _bind(_quads(stage, "/World/Bound", 1), red)
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    for mesh in ("/World/Property", "/World/Two", "/World/Collection"):  # USD: no binding found
+        material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(mesh)).ComputeBoundMaterial()
+        assert not rel and not material
+    messages = _messages(lambda: wrt.load_usd(path))
+    named = [m for m in messages if "USD ignores" in m]
+    assert len(named) == 1, messages
+    assert named[0].startswith(path) and "3 prim(s)" in named[0]
+    for part in ("/World/Property", "/World/Two", "/World/Collection", "material:binding:collection:looks"):
+        assert part in named[0]
+    assert "/World/Bound" not in named[0]

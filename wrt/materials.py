@@ -976,7 +976,7 @@ class MaterialReader:
         key = (prim.GetPath(), outer, self.purposes)
         # Named at every load, a kept binding too: kept, its walk (which named them) was not made again, and a kept
         # stage's later loads went without the warning that a fresh load gives.
-        self._name_ambiguous_bindings(prim)
+        self._name_binding_problems(prim)
         kept = None if self.memo is None else self.memo.bindings.get(key)
         if kept is None:
             missed = set()
@@ -1005,7 +1005,7 @@ class MaterialReader:
         joined with ``outer``, or None (see :meth:`bound`)."""
         from .usd_bindings import OwnWalks, combine, outer_entry
 
-        own = OwnWalks(prim) if self._name_ambiguous_bindings(prim) else (lambda purpose: None)
+        own = OwnWalks(prim) if self._name_binding_problems(prim) else (lambda purpose: None)
         if outer is None and missing is None:
             return own
 
@@ -1017,14 +1017,13 @@ class MaterialReader:
 
         return walk
 
-    def _name_ambiguous_bindings(self, prim) -> bool:
+    def _name_binding_problems(self, prim) -> bool:
         """Whether ``prim`` or an ancestor binds anything (:attr:`bindings_above`); where one does, a warning names
-        each binding on them, not named before in this load, whose purpose USD's calls disagree on."""
-        from .usd_bindings import AMBIGUOUS_PURPOSE
-
+        each binding on them, not named before in this load, whose purpose USD's calls disagree on, or whose
+        targets USD ignores."""
         binds = self.bindings_above.any(prim)
-        for p, name in self.bindings_above.ambiguous(prim) if binds else ():
-            self.skip(AMBIGUOUS_PURPOSE, p, name)
+        for p, name, problem in self.bindings_above.problems(prim) if binds else ():
+            self.skip(problem, p, name)
         return binds
 
     def _material_at(self, path: str):

@@ -181,20 +181,25 @@ class BindingsAbove:
 
     def __init__(self):
         self.memo = AncestorMemo(_binds_here, default=False)
-        self.checked = set()  # paths of the prims ambiguous() has looked at
+        self.checked = set()  # paths of the prims problems() has looked at
 
     def any(self, prim: Usd.Prim) -> bool:
         return bool(self.memo(prim))
 
-    def ambiguous(self, prim: Usd.Prim) -> list:
-        """``[(p, name)]``: the binding relationships of ``prim`` and its ancestors not asked before whose purpose
-        USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`), each prim looked at once."""
-        from .usd_bindings import has_ambiguous_purpose
+    def problems(self, prim: Usd.Prim) -> list:
+        """``[(p, name, problem)]``: the binding relationships of ``prim`` and its ancestors not asked before whose
+        purpose USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`) or whose targets USD ignores
+        (:func:`wrt.usd_bindings.is_ignored_binding`), with the words that say which; each prim looked at once."""
+        from .usd_bindings import AMBIGUOUS_PURPOSE, IGNORED_BINDING, has_ambiguous_purpose, is_ignored_binding
 
         found = []
         p = prim
         while p and not p.IsPseudoRoot() and p.GetPath() not in self.checked:
             self.checked.add(p.GetPath())
-            found += [(p, name) for name in p.GetAuthoredPropertyNames() if has_ambiguous_purpose(name)]
+            for name in p.GetAuthoredPropertyNames():
+                if has_ambiguous_purpose(name):
+                    found.append((p, name, AMBIGUOUS_PURPOSE))
+                elif is_ignored_binding(p, name):
+                    found.append((p, name, IGNORED_BINDING))
             p = p.GetParent()
         return found

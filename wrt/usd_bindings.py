@@ -68,6 +68,25 @@ def has_ambiguous_purpose(name: str) -> bool:
     return len(parts) > 5 and parts[:3] == ["material", "binding", "collection"]
 
 
+IGNORED_BINDING = ("material bindings that USD ignores (a direct binding targets one prim; a collection binding a "
+                   "collection, then a prim) bind nothing; their prims are drawn as bound to what is bound above them")
+
+
+def is_ignored_binding(prim: Usd.Prim, name: str) -> bool:
+    """Binding relationship ``name`` of ``prim`` has targets that ``ComputeBoundMaterial`` does not take as a binding
+    (it goes on to the bindings above): a direct binding of a property or of several prims, a collection binding
+    without a collection and a prim. One without targets (deliberately unbound) is not."""
+    parts = name.split(":")
+    if parts[:2] != ["material", "binding"]:
+        return False
+    targets = prim.GetRelationship(name).GetTargets()
+    if not targets:
+        return False
+    if len(parts) > 2 and parts[2] == "collection":
+        return not (len(targets) == 2 and targets[0].IsPropertyPath() and targets[1].IsPrimPath())
+    return not (len(targets) == 1 and targets[0].IsPrimPath())
+
+
 def is_stronger(rel) -> bool:
     """Binding relationship ``rel`` says ``bindMaterialAs = strongerThanDescendants``."""
     return UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(rel) == UsdShade.Tokens.strongerThanDescendants
