@@ -95,3 +95,29 @@ def test_a_pole_axis_the_schema_does_not_allow_is_named_and_read_as_y(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         wrt.load_usd(dome_stage(tmp_path, "DomeLight_1", "Z", "Z"))
+
+
+def sphere_irradiance(normal, radiance_along, n=256):
+    """Float64 irradiance at a plane of unit ``normal`` under radiance ``radiance_along(directions)`` ``(P, 3)``:
+    midpoint rule over an ``n x 2n`` grid of polar angle from +Z and azimuth."""
+    theta = (np.arange(n) + 0.5) / n * np.pi
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2 * np.pi
+    t, p = (g.ravel() for g in np.meshgrid(theta, phi, indexing="ij"))
+    d = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    weight = np.maximum(d @ np.asarray(normal, np.float64), 0.0) * np.sin(t) * (np.pi / n) ** 2
+    return radiance_along(d).T @ weight
+
+
+@pytest.mark.parametrize("normal", [(0, 0, 1), (1, 0, 0), (0, -0.6, 0.8)])
+def test_light_sampling_draws_the_pole_axis_dome_that_rays_see(tmp_path, normal):
+    """A DomeLight_1 of poleAxis Z, turned 30 degrees about X by its prim: the irradiance estimate of light sampling
+    alone (its draws by the texture's luminance and their pdf) at planes facing its pole, its horizon and between is
+    the float64 integral of the schema's orientation of the texture (the one camera rays are checked against above)
+    times the cosine: guards the draws and their pdf against another frame than the lookup's."""
+    from test_lights import light_estimates  # (the module that compiles the sampling kernel)
+
+    (dome,) = wrt.load_usd(dome_stage(tmp_path, "DomeLight_1", "Y", "Z", rotate_x=30)).lights
+    estimates, _ = light_estimates(dome, (0.0, 0.0, 0.0), normal, count=100000)
+    expected = sphere_irradiance(normal, lambda d: expected_pixels(d, True, rotate_x=30))[0]
+    error = estimates.std() / np.sqrt(len(estimates))
+    assert abs(estimates.mean() - expected) < 4 * error + 1e-3 * expected, (estimates.mean(), expected, error)
