@@ -274,6 +274,35 @@ def test_a_disk_light_wider_than_the_scene_lights_it_evenly(device):
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
 
+@pytest.mark.parametrize("kind", ["rect", "disk"])
+def test_light_sampling_reaches_the_far_part_of_a_light_a_wall_beside_it_sees(kind):
+    """A wall facing a 2 x 2 rect light (or a disk of radius 1) 0.2 beside its edge and 1e-3 below its plane sees its
+    far part at grazing angles but head-on (the wall's normal lies in the light's plane): light sampling alone (as
+    ``whitted`` lights) averages to Lambert's closed form for the whole light, reporting the pdf a ray finds. The
+    solid-angle draw covers only the part within 256 heights (0.256) of the point's foot, which holds 1.5e-5 of the
+    light a point facing the plane gets, but most of the wall's: it got 0.0030 of its 0.0133 (the disk 0.011 of its
+    0.020)."""
+    to_world = tilted(0, (1.0, 0.0, 0.0))  # centred 1 beyond the wall's foot along x, emitting down (-z)
+    p, n = np.array([-0.2, 0.0, -1e-3]), np.array([1.0, 0.0, 0.0])
+    if kind == "disk":  # the wall inside the square around the disk (drawn through it), its normal towards the centre
+        p, n = np.array([0.2, -0.8, -1e-3]), np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    if kind == "rect":
+        light = RectLight(to_world=to_world, width=2.0, height=2.0, color=np.full(3, 2.0))
+        corners = [(0.0, -1.0, 0.0), (2.0, -1.0, 0.0), (2.0, 1.0, 0.0), (0.0, 1.0, 0.0)]
+    else:
+        light = DiskLight(to_world=to_world, radius=1.0, color=np.full(3, 2.0))
+        phi = np.arange(2048) / 2048 * 2 * np.pi
+        corners = list(np.stack([1.0 + np.cos(phi), np.sin(phi), np.zeros_like(phi)], -1))
+    expected = polygon_irradiance(p, n, corners, 2.0)
+    estimates, ratios = light_estimates(light, p, n, count=100000)
+    error = estimates.std() / math.sqrt(len(estimates))
+    assert abs(estimates.mean() - expected) < 4 * error + 2e-3 * expected, (estimates.mean(), expected, error)
+    # Draws on the rect's near edge, seen at grazing angles from 1e-3 above its plane, may round off it for the ray
+    # (float32): they must carry next to none of the light.
+    off = np.abs(ratios - 1.0) > 2e-3
+    assert estimates[off].sum() <= 1e-3 * estimates.sum(), off.mean()
+
+
 def test_cylinder_light_irradiance():
     length, radius, elevation, radiance = 3.0, 0.2, 1.0, 2.0
     to_world = np.eye(4)

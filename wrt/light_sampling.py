@@ -52,7 +52,13 @@ from .sampling import (
 )
 from .scene import DeviceScene
 from .sphere_cone import cone_of_sphere, intersect_sphere, sample_sphere_cone
-from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
+from .spherical_rect import (
+    SphericalRect,
+    sample_spherical_rect,
+    solid_angle_usable,
+    spherical_rect,
+    spherical_rect_pdf,
+)
 from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
 from .transforms import corners_to_world, normal_to_world
@@ -91,6 +97,21 @@ SHADOWS_TINTED = wp.constant(3)
 # A disk light is sampled by solid angle through the square around it, which wastes the 21% of samples that fall
 # outside the disk: worth it only where the disk looks large (sr of the square), where area sampling is noisy.
 DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
+# The share of a rect's or disk's draws made by area over the whole light, where the solid-angle draw covers only the
+# part within wrt.spherical_rect.REACH heights of the point's foot (the point lies near the light's plane), for a
+# shading normal along the plane (times 1 - |cos| to the plane's normal): what is cut off lies at grazing angles to the
+# plane, at most 1.5e-5 of the light under an endless light for a normal facing it, but a wall beside a ceiling panel
+# just below its plane sees it head on, and it can be most of the wall's light (lost to light sampling alone).
+CLIPPED_AREA_SHARE = wp.constant(0.25)
+
+
+@wp.func
+def clipped_area_share(r: SphericalRect, n: wp.vec3):
+    """The share of draws by area over the whole of a rect or disk light seen as ``r`` (:func:`seen_rect`) from a
+    point of shading normal ``n`` (zero if none), mixed with those by solid angle: 0 where the reach cut nothing off."""
+    if r.clipped == 0.0:
+        return 0.0
+    return CLIPPED_AREA_SHARE * (1.0 - wp.min(wp.abs(wp.dot(n, r.z)), 1.0))
 
 
 @wp.struct
@@ -500,12 +521,17 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     area = lights.params[k][2]  # times down^2
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
+    scaled = dist * down
+    by_area = scaled * scaled / (cos_l * area)
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
         r, by_solid_angle, rect_down, _ = seen_rect(lights, k, p)
         if by_solid_angle:
-            return spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
-    dist = dist * down
-    return dist * dist / (cos_l * area)
+            pdf = spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
+            share = clipped_area_share(r, n)
+            if share > 0.0:  # mixed with draws by area (sample_light)
+                pdf = (1.0 - share) * pdf + share * by_area
+            return pdf
+    return by_area
 
 
 @wp.func
@@ -887,6 +913,7 @@ def sample_light(
     # are taken times the light's power of two ``down`` (light_scales; triangles: scaled_cross), exact where nothing
     # over- or underflows: in world units a scene 1e20 across squared its distances past float32.
     pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
+    area_share = float(0.0)  # > 0: mixed with a draw by area (clipped_area_share), pdf_solid_angle that draw's part
     q = wp.vec3(0.0)
     ln = wp.vec3(0.0)
     area = float(0.0)  # times down^2
@@ -899,6 +926,9 @@ def sample_light(
         L = lights.radiance[k]
         seen, by_solid_angle, rect_down, rect_up = seen_rect(lights, k, p)
         if by_solid_angle:
+            area_share = clipped_area_share(seen, n)
+        if by_solid_angle and u1 >= area_share:
+            u1 = (u1 - area_share) / (1.0 - area_share)
             q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * rect_down
             if not inside:
                 return out
@@ -907,11 +937,16 @@ def sample_light(
             if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
                 if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
                     return out
-        elif kind == LIGHT_RECT:
-            q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
         else:
-            dd = sample_concentric_disk(u1, u2)
-            q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+            if area_share > 0.0:  # by area over the whole light, mixed with the draw by solid angle
+                u1 = u1 / area_share
+            if kind == LIGHT_RECT:
+                q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+            else:
+                dd = sample_concentric_disk(u1, u2)
+                q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+            if area_share > 0.0:
+                pdf_solid_angle = spherical_rect_pdf(seen, n, q * rect_down)  # 0 where the reach cut it off
         L = wp.cw_mul(L, light_texture(lights, k, q))
     elif kind == LIGHT_CYLINDER:
         # An open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p and by the angles
@@ -985,10 +1020,12 @@ def sample_light(
         return out
     out.wi = wi
     out.dist = dist * to_up
-    if pdf_solid_angle > 0.0:
+    ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
+    if area_share > 0.0:
+        out.pdf = (1.0 - area_share) * pdf_solid_angle + area_share * (d2 * ratio * ratio / (cos_l * area))
+    elif pdf_solid_angle > 0.0:
         out.pdf = pdf_solid_angle
     else:
-        ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
         out.pdf = d2 * ratio * ratio / (cos_l * area)
     if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE:  # not shaped (no row of shaping)
         L = wp.cw_mul(L, emission_shaping(lights, k, -wi))

@@ -21,9 +21,10 @@ from .sampling import INV_PI, PI, sample_cosine_hemisphere, to_world
 SOLID_ANGLE_MIN = wp.constant(1.0e-3)
 SOLID_ANGLE_MAX = wp.constant(2.0 * 3.14159265 - 1.0e-3)
 # The rectangle is clipped to the square of half-side REACH * (the point's height above its plane) around the point's
-# foot, which keeps the solid angle below SOLID_ANGLE_MAX. What is cut off lies far off to the side: it gives a
-# Lambertian point at most 1 / (1 + REACH^2) = 1.5e-5 of its irradiance, and a path tracer still reaches it by BSDF
-# sampling (the clipped part has light pdf 0 there, so MIS gives it to the BSDF strategy).
+# foot, which keeps the solid angle below SOLID_ANGLE_MAX. What is cut off lies far off to the side, at grazing angles
+# to the plane: it gives a point facing the plane at most 1 / (1 + REACH^2) = 1.5e-5 of the irradiance under an
+# endless light, but a point facing along the plane (a wall beside a ceiling panel, just below its plane) sees it head
+# on, and it may be most of that point's light: callers draw a share by area over the whole light where it was cut.
 REACH = wp.constant(256.0)
 
 
@@ -44,6 +45,7 @@ class SphericalRect:
     b1: float
     k: float
     solid_angle: float  # in steradians; 0 when o lies in the rectangle's plane
+    clipped: float  # 1 when the reach cut part of the rectangle off, else 0
 
 
 @wp.func
@@ -93,6 +95,9 @@ def spherical_rect(o: wp.vec3, corner: wp.vec3, ex: wp.vec3, ey: wp.vec3):
     r.y0 = wp.max(y0, -reach)
     r.x1 = wp.min(x0 + ex_len, reach)
     r.y1 = wp.min(y0 + ey_len, reach)
+    r.clipped = 0.0
+    if r.x0 != x0 or r.y0 != y0 or r.x1 != x0 + ex_len or r.y1 != y0 + ey_len:
+        r.clipped = 1.0
     return with_angles(r)
 
 
