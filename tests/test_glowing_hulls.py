@@ -256,3 +256,24 @@ def test_a_glowing_box_resting_on_the_floor_lights_it_as_quadrature_gives(integr
     to_world = placed(rotation(0, 30) @ np.diag([0.4, 0.3, half_height]), (1.05, 0.1, half_height))
     shape = wrt.Shape("/Box", "box", to_world, material_id=1)
     assert_within_standard_errors([shape], floor_radiance(box_surface(to_world)), integrator, seeds=16)
+
+
+@pytest.mark.parametrize("integrator, expected", [("whitted", 1.5), ("path", 2.0)])
+def test_the_inside_of_an_inward_glowing_grey_sphere_shows_its_own_light(integrator, expected):
+    """Inside a sphere that glows inwards (radiance 1) and reflects half (albedo 0.5), every direction from its wall
+    sees radiance 1: whitted (direct light only) shows the wall 1 + 0.5 and path 1 / (1 - 0.5) = 2. The draws from
+    a point on the wall met the wall itself at distance 0 (the back of its inward face: nothing drawn), and where
+    rounding put the point just outside the ellipsoid its cone of draws (a hemisphere) was not the one read back at
+    path's ray origin, moved inside (every direction): whitted showed 1.27, path 1.92."""
+    material = wrt.Material("/Grey", diffuse_color=(0.5, 0.5, 0.5), emissive_color=(1.0, 1.0, 1.0), ior=1.0,
+                            specular_edge=0.0)
+    far = wrt.Mesh("/Far", np.array([(-1, -1, -50), (1, -1, -50), (1, 1, -50)], np.float32), np.array([[0, 1, 2]]),
+                   np.array([0]), material_ids=np.zeros(1, np.int32))
+    sphere = wrt.Shape("/Sky", "sphere", placed(np.eye(3) * 3.0, (0.0, 0.0, 0.0)), material_id=0,
+                       params=np.array([0.0, 0.0, 0.0, -1.0]))
+    scene = wrt.Scene(meshes=[far], shapes=[sphere], materials=[material])
+    cam = wrt.Camera.look_at((0, 0, 0), (1, 0.3, 0.2), up=(0, 0, 1), fov_y_deg=60)
+    means = [wrt.render(scene, camera=cam, width=8, height=8, spp=64, seed=seed, integrator=integrator,
+                        max_depth=40).rgb.mean() for seed in range(8)]
+    error = np.std(means, ddof=1) / np.sqrt(len(means))
+    assert abs(np.mean(means) - expected) < 4.0 * error + 1e-3 * expected, (np.mean(means), error)

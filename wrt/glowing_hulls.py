@@ -16,7 +16,12 @@ there); mixed, 0.3 to 3.9. A face whose plane passes within :data:`FACE_PLANE_TO
 area (it is seen edge-on, and the cone covers it): path reads the pdf back at its BSDF ray's origin, the shading
 point moved off its surface, and where that surface shares the face's plane (a box standing on the floor) rounding
 put the shading point on the face's outer side and the origin on its inner one: the two pdfs differed, their MIS
-weights did not sum to 1, and the floor by the box came out 5 to 13% dark.
+weights did not sum to 1, and the floor by the box came out 5 to 13% dark. For the same reason a point within
+:data:`CONE_TOLERANCE` of the ellipsoid counts as inside it (its surface is the shape's for spheres and ellipsoids:
+on the wall of a sphere that glows inwards, rounding put half the points outside, drawn in a hemisphere, and path's
+ray origin inside, read back over every direction). The first hit is sought past :data:`SELF_HIT` of the lengths
+about (the point's and the ellipsoid's): from a point on the shape itself the draw met the shape at distance 0, the
+back of its inward face, and drew nothing (the wall of a grey inward sphere lit by itself showed half its light).
 
 Lengths are taken times the power of two ``down`` that brings the ellipsoid's largest semi-axis into [1, 2).
 """
@@ -24,6 +29,7 @@ Lengths are taken times the power of two ``down`` that brings the ellipsoid's la
 import warp as wp
 
 from .affine_lights import mapped_cone_pdf, sample_mapped_cone, unit_sphere_cone
+from .floats import largest_magnitude
 from .geometry import stable_length
 from .primitives import SHAPE_BOX, intersect_shape
 from .scene import DeviceScene
@@ -37,13 +43,19 @@ ROOT3 = wp.constant(1.7320508075688772)
 # point in the plane and past the offset of a ray's origin from a surface there (1e-6 of the surface's size:
 # REACH_OFFSET) for a box down to 1/16000 of a floor's size.
 FACE_PLANE_TOLERANCE = wp.constant(2.0**-6)
+# How far past the unit sphere, in |pc|^2, a canonical point still draws over every direction (as for the faces).
+CONE_TOLERANCE = wp.constant(2.0**-6)
+# The first hit's least distance, over the largest coordinate of the point and the ellipsoid's centre plus its size
+# (in lengths times down): past the rounding of a point on the shape (a few float32 epsilons of them).
+SELF_HIT = wp.constant(2.0**-20)
 
 
 @wp.func
 def hull_cone(pc: wp.vec3):
     """``1 - cos`` of the canonical cone directions are drawn in from canonical point ``pc``: the unit ball's, or
-    every direction (2) from inside it; 0 where the ball is too far to subtend a float32 cone."""
-    if wp.length_sq(pc) <= 1.0:
+    every direction (2) from inside it or within :data:`CONE_TOLERANCE` of it; 0 where the ball is too far to subtend
+    a float32 cone."""
+    if wp.length_sq(pc) <= 1.0 + CONE_TOLERANCE:
         return 2.0
     return unit_sphere_cone(pc)
 
@@ -64,12 +76,12 @@ def box_faces(m: wp.mat33, pb: wp.vec3):
 
 
 @wp.func
-def first_hit(scene: DeviceScene, prim: int, instance: int, p: wp.vec3, w: wp.vec3):
-    """``(t, n)``: the distance along unit ``w`` from ``p`` to analytic shape ``prim``'s first hit (drawn by
-    ``instance``; inf: none) and the unit front normal there."""
+def first_hit(scene: DeviceScene, prim: int, instance: int, p: wp.vec3, w: wp.vec3, t_min: float):
+    """``(t, n)``: the distance along unit ``w`` from ``p`` to analytic shape ``prim``'s first hit past ``t_min``
+    (drawn by ``instance``; inf: none) and the unit front normal there."""
     oc, dc = shape_ray(scene, prim, instance, p, w)
     j = prim - scene.num_prims
-    t = intersect_shape(scene.shape_kinds[j], scene.shape_params[j], oc, dc, 0.0, float(wp.inf))
+    t = intersect_shape(scene.shape_kinds[j], scene.shape_params[j], oc, dc, t_min, float(wp.inf))
     if t == wp.inf:
         return t, wp.vec3(0.0)
     q, n, reach, err = shape_frame(scene, prim, instance, p, w, t)
@@ -143,7 +155,8 @@ def sample_hull(scene: DeviceScene, prim: int, instance: int, double_sided: int,
         if one_minus <= 0.0:
             return w, float(wp.inf), 0.0
         w = sample_mapped_cone(m, pc, one_minus, (u1 - share) / (1.0 - share), u2)
-    t, n = first_hit(scene, prim, instance, p, w)
+    reach = largest_magnitude(p * down) + largest_magnitude(c) + 2.0  # the ellipsoid's semi-axes below 2
+    t, n = first_hit(scene, prim, instance, p, w, SELF_HIT * reach / down)
     if t == wp.inf:
         return w, t, 0.0
     cos_l = -wp.dot(w, n)
