@@ -76,6 +76,17 @@ def box_faces(m: wp.mat33, pb: wp.vec3):
 
 
 @wp.func
+def hit_face(qb: wp.vec3):
+    """The axis of the box's face that box coordinates ``qb`` (a point on the box) lie on: their largest."""
+    i = int(0)
+    if wp.abs(qb[1]) > wp.abs(qb[i]):
+        i = 1
+    if wp.abs(qb[2]) > wp.abs(qb[i]):
+        i = 2
+    return i
+
+
+@wp.func
 def first_hit(scene: DeviceScene, prim: int, instance: int, p: wp.vec3, w: wp.vec3, t_min: float):
     """``(t, n)``: the distance along unit ``w`` from ``p`` to analytic shape ``prim``'s first hit past ``t_min``
     (drawn by ``instance``; inf: none) and the unit front normal there."""
@@ -108,10 +119,12 @@ def hull_pdf(scene: DeviceScene, prim: int, c: wp.vec3, m: wp.mat33, a: wp.mat33
         areas = box_faces(m, ROOT3 * pc)
         total = areas[0] + areas[1] + areas[2]
         if total > 0.0:
+            d = dist * down
             cos_l = wp.abs(wp.dot(w, n))
             by_area = float(0.0)
-            if cos_l > 0.0:
-                d = dist * down
+            # Only a face the area draw takes: a point within FACE_PLANE_TOLERANCE off a face's plane sees that
+            # face (edge-on) without drawing it by area.
+            if cos_l > 0.0 and areas[hit_face(ROOT3 * (pc + a * (w * d)))] > 0.0:
                 by_area = d * d / (cos_l * total)
             pdf = BOX_AREA_SHARE * by_area + (1.0 - BOX_AREA_SHARE) * pdf
     return pdf

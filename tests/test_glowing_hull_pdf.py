@@ -1,0 +1,129 @@
+"""The pdf of a glowing hull's draw (wrt.glowing_hulls) against float64 quadrature over the sphere of directions: at
+points around turned boxes, an ellipsoid, a sheared tube and inside a sphere glowing inwards, the pdf read back as
+path reads it (at the shape's first hit along a direction) integrates to the share of draws that meet the shape's
+emitting side, and equals, at each drawn direction, the pdf the draw reported."""
+
+import numpy as np
+import pytest
+import warp as wp
+from shading_helpers import quad, top_down_camera
+
+import wrt
+from wrt.glowing_hulls import first_hit, sample_hull
+from wrt.light_sampling import DeviceLights, glowing_hull_pdf, hull_frame
+from wrt.scene import DeviceScene
+from wrt.shade import DeviceSurfaces
+
+DRAWS = 100_000
+GRID = 800  # cos(theta) rows of the direction grid (twice as many phi columns)
+
+
+@wp.func
+def read_back(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3, d: wp.vec3):
+    """Path's pdf of hull ``k`` along unit ``d`` from ``p``: at the shape's first hit, 0 where none or its back."""
+    prim = lights.prims[k]
+    t, n = first_hit(scene, prim, lights.instances[k], p, d, 0.0)
+    if t == wp.inf:
+        return 0.0
+    cos_l = -wp.dot(d, n)
+    if surf.double_sided[prim] == 1:
+        cos_l = wp.abs(cos_l)
+    if cos_l <= 0.0:
+        return 0.0
+    return glowing_hull_pdf(lights, scene, k, p, d, t, n)
+
+
+@wp.kernel
+def draw_hull_kernel(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3,
+                     # outputs
+                     pdfs: wp.array[float], read: wp.array[float]):
+    i = wp.tid()
+    state = wp.rand_init(11, i)
+    u1 = wp.randf(state)
+    u2 = wp.randf(state)
+    prim = lights.prims[k]
+    c, m, a, g, down = hull_frame(lights, k)
+    w, t, pdf = sample_hull(scene, prim, lights.instances[k], surf.double_sided[prim], c, m, a, g, down, p, u1, u2)
+    pdfs[i] = pdf
+    read[i] = 0.0
+    if pdf > 0.0:
+        read[i] = read_back(lights, scene, surf, k, p, w)
+
+
+@wp.kernel
+def hull_pdf_kernel(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3,
+                    dirs: wp.array[wp.vec3],
+                    # outputs
+                    pdfs: wp.array[float]):
+    i = wp.tid()
+    pdfs[i] = read_back(lights, scene, surf, k, p, dirs[i])
+
+
+def placed(linear, centre):
+    to_world = np.eye(4)
+    to_world[:3, :3] = linear
+    to_world[:3, 3] = centre
+    return to_world
+
+
+def turned(x_degrees, z_degrees):
+    a, b = np.radians(x_degrees), np.radians(z_degrees)
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    rz = np.array([[np.cos(b), -np.sin(b), 0], [np.sin(b), np.cos(b), 0], [0, 0, 1]])
+    return rz @ rx
+
+
+BOX = placed(turned(15, 30) @ np.diag([0.8, 0.6, 0.3]), (0.1, 0.0, 0.55))
+
+
+def box_point(b):
+    """The world point at box coordinates ``b`` (``[-1, 1]^3`` the box)."""
+    return BOX[:3, :3] @ np.asarray(b, np.float64) + BOX[:3, 3]
+
+
+CASES = {
+    "box far": ("box", BOX, {}, (3.0, 1.0, -2.0)),
+    "box near, in its ellipsoid": ("box", BOX, {}, box_point((0.3, -0.2, -1.4))),
+    "box on a face's plane": ("box", BOX, {}, box_point((1.0, 2.1, 0.4))),
+    "box on an edge's line": ("box", BOX, {}, box_point((1.0, 1.0, 2.5))),
+    # 1/128 of a half edge off a face's plane, beside that face: the area draw leaves the face out
+    "box just off a face's plane": ("box", BOX, {}, box_point((1.0078, 1.5, 0.2))),
+    "double-sided box from inside": ("box", BOX, {"double_sided": True}, box_point((0.2, 0.1, -0.3))),
+    "ellipsoid": ("sphere", placed(turned(-20, 40) @ np.diag([0.7, 0.25, 0.4]), (0.0, 0.1, 0.8)), {},
+                  (0.3, -0.2, 0.0)),
+    "sheared tube": ("cylinder", placed(np.array([[0.3, 0.2, 0.0], [0.0, 0.1, 0.3], [0.0, 0.0, 0.4]]), (0, 0, 1)), {},
+                     (0.2, 0.1, 0.0)),
+    "inward sphere from inside": ("sphere", placed(np.eye(3) * 3.0, (0, 0, 0)),
+                                  {"params": np.array([0.0, 0.0, 0.0, -1.0])}, (0.5, 0.2, 0.1)),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_hull_pdf_integrates_to_its_draws_share_and_is_read_back_as_drawn(case):
+    kind, to_world, options, p = CASES[case]
+    materials = [wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(1.0, 1.0, 1.0))]
+    scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))],
+                      shapes=[wrt.Shape("/Glow", kind, to_world, material_id=0, **options)], materials=materials)
+    r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu",
+                     integrator="path")
+    lights, k, point = r.device_lights, r.device_lights.first_glowing_sphere, wp.vec3(*np.asarray(p, np.float32))
+    pdfs, read = (wp.zeros(DRAWS, dtype=float, device="cpu") for _ in range(2))
+    wp.launch(draw_hull_kernel, DRAWS, inputs=[lights, r.device_scene, r.surfaces, k, point], outputs=[pdfs, read],
+              device="cpu")
+    drawn, read = pdfs.numpy().astype(np.float64), read.numpy().astype(np.float64)
+    met = drawn > 0.0
+    np.testing.assert_allclose(read[met], drawn[met], rtol=1e-4)
+
+    z = 1.0 - (np.arange(GRID) + 0.5) * 2.0 / GRID
+    phi = (np.arange(2 * GRID) + 0.5) * np.pi / GRID
+    zz, ff = (g.reshape(-1) for g in np.meshgrid(z, phi))
+    s = np.sqrt(1.0 - zz * zz)
+    dirs = wp.array(np.stack([s * np.cos(ff), s * np.sin(ff), zz], axis=1).astype(np.float32), dtype=wp.vec3,
+                    device="cpu")
+    grid = wp.zeros(len(zz), dtype=float, device="cpu")
+    wp.launch(hull_pdf_kernel, len(zz), inputs=[lights, r.device_scene, r.surfaces, k, point, dirs], outputs=[grid],
+              device="cpu")
+    integral = grid.numpy().astype(np.float64).sum() * 4.0 * np.pi / len(zz)
+    share = met.mean()
+    assert share > 0.5, share
+    assert integral == pytest.approx(share, abs=4.0 * np.sqrt(share * (1 - share) / DRAWS) + 0.005), (integral, share)
