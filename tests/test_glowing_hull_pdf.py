@@ -1,7 +1,8 @@
 """The pdf of a glowing hull's draw (wrt.glowing_hulls) against float64 quadrature over the sphere of directions: at
 points around turned boxes, an ellipsoid, a sheared tube and inside a sphere glowing inwards, the pdf read back as
 path reads it (at the shape's first hit along a direction) integrates to the share of draws that meet the shape's
-emitting side, and equals, at each drawn direction, the pdf the draw reported."""
+emitting side, and equals, at each drawn direction, the pdf the draw reported; whitted's pick weighs every point a
+glowing box lights."""
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ import warp as wp
 from shading_helpers import quad, top_down_camera
 
 import wrt
+from wrt.emitter_resampling import seen_hull
 from wrt.glowing_hulls import first_hit, sample_hull
 from wrt.light_sampling import DeviceLights, glowing_hull_pdf, hull_frame
 from wrt.scene import DeviceScene
@@ -127,3 +129,58 @@ def test_a_hull_pdf_integrates_to_its_draws_share_and_is_read_back_as_drawn(case
     share = met.mean()
     assert share > 0.5, share
     assert integral == pytest.approx(share, abs=4.0 * np.sqrt(share * (1 - share) / DRAWS) + 0.005), (integral, share)
+
+
+@wp.kernel
+def seen_hull_kernel(lights: DeviceLights, k: int, points: wp.array[wp.vec3], normals: wp.array[wp.vec3],
+                     # outputs
+                     weights: wp.array[float]):
+    i = wp.tid()
+    weight, towards = seen_hull(lights, k, points[i], normals[i])
+    weights[i] = weight
+
+
+def box_faces_seen(to_world, points, normals, n=12):
+    """Whether some point of the box ``to_world [-1, 1]^3`` (an n x n grid and the edges of each face) faces each
+    point from the front and lies above its horizon (float64)."""
+    grid = np.linspace(-1.0, 1.0, n)
+    u, v = (g.reshape(-1) for g in np.meshgrid(grid, grid))
+    linear, centre = to_world[:3, :3], to_world[:3, 3]
+    lit = np.zeros(len(points), bool)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        for s in (-1.0, 1.0):
+            q = centre + s * linear[:, i] + u[:, None] * linear[:, j] + v[:, None] * linear[:, k]
+            outward = s * np.linalg.inv(linear).T[:, i]  # the face's normal (A^T e_i), sign for its side
+            to_q = q[None, :, :] - points[:, None, :]
+            front = np.einsum("pqc,c->pq", to_q, outward) < 0.0
+            above = np.einsum("pqc,pc->pq", to_q, normals) > 0.0
+            lit |= (front & above).any(axis=1)
+    return lit
+
+
+@pytest.mark.parametrize("linear", [turned(15, 30) @ np.diag([0.8, 0.6, 0.3]),
+                                    turned(40, 10) @ np.diag([3.0, 0.02, 0.05]), np.diag([1e-4, 2.0, 1e-3])],
+                         ids=["box", "long thin bar", "sliver"])
+def test_whitted_weighs_every_point_a_glowing_box_lights(linear, np_rng):
+    """Whitted's pick (wrt.emitter_resampling.seen_hull) keeps a positive weight wherever the box sends light (some
+    point of it faces the shading point above its horizon): a zero weight there would be a bias."""
+    to_world = placed(linear, (0.0, 0.0, 0.0))
+    materials = [wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(1.0, 1.0, 1.0))]
+    scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))],
+                      shapes=[wrt.Shape("/Glow", "box", to_world, material_id=0)], materials=materials)
+    r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu",
+                     integrator="whitted")
+    count = 4000
+    size = np.abs(linear).sum(axis=1)
+    points = np_rng.normal(size=(count, 3)) * size * np.exp(np_rng.uniform(-1.0, 4.0, (count, 1)))
+    normals = np_rng.normal(size=(count, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    weights = wp.zeros(count, dtype=float, device="cpu")
+    wp.launch(seen_hull_kernel, count, inputs=[r.device_lights, r.device_lights.first_glowing_sphere,
+                                               wp.array(points.astype(np.float32), dtype=wp.vec3, device="cpu"),
+                                               wp.array(normals.astype(np.float32), dtype=wp.vec3, device="cpu")],
+              outputs=[weights], device="cpu")
+    lit = box_faces_seen(to_world, points, normals)
+    assert lit.mean() > 0.3
+    assert (weights.numpy()[lit] > 0.0).all()
