@@ -365,3 +365,66 @@ def test_frames_keep_working_past_two_to_the_31_camera_uploads_and_frame_buffers
         fresh.launch_frame(seed=k)
         np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), fresh.frame_image().rgb.numpy(),
                                       err_msg=f"step {k}")
+
+
+def _as_list(field):
+    return lambda cam: setattr(cam, field, np.asarray(getattr(cam, field)).tolist())
+
+
+SAME_NUMBERS = {
+    "to_world list": _as_list("to_world"),
+    "to_world 16 numbers": lambda cam: setattr(cam, "to_world", cam.to_world.ravel().tolist()),
+    "clipping_range list": _as_list("clipping_range"),
+    "clipping_planes list": _as_list("clipping_planes"),
+    "focal_length float64": lambda cam: setattr(cam, "focal_length", np.float64(cam.focal_length)),
+}
+
+
+@pytest.mark.parametrize("edit", SAME_NUMBERS)
+def test_a_camera_field_set_to_the_same_numbers_is_no_change(edit, device):
+    """``cam.to_world = cam.to_world.tolist()`` (or a clipping range as a list, a focal length as np.float64) holds
+    the numbers the renderer uploaded: frame_image refused the frame as drawn with a changed camera, and render()
+    uploaded the camera again, after which the frame was refused as drawn before the cameras last changed. Oracle:
+    the fields' numbers in float64 numpy are the same; the frame equals a fresh render; a list to_world is still
+    made the (4, 4) array that check() makes of it."""
+    scene, cam = sensor_scene(), _lens_camera()
+    cam.clipping_range = (0.5, 100.0)
+    before = {name: np.asarray(getattr(cam, name), np.float64) for name in wrt.camera.CAMERA_FIELDS
+              if name not in ("path", "projection", "fit")}
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device=device)
+    renderer.launch_frame(seed=3)
+    fresh = wrt.render(scene, camera=cam, width=8, height=6, seed=3, device=device)  # before: a render checks cam
+    SAME_NUMBERS[edit](cam)
+    for name, numbers in before.items():  # the oracle: no number changed
+        assert np.array_equal(np.asarray(getattr(cam, name), np.float64).reshape(numbers.shape), numbers), name
+    np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.rgb)
+    renderer.render(seed=3)
+    np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.rgb)  # the frame's upload is still the last
+    assert type(cam.to_world) is np.ndarray and np.array_equal(cam.to_world, before["to_world"])
+    assert type(cam.clipping_planes) is np.ndarray and cam.clipping_planes.shape == (0, 4)
+
+
+REAL_CHANGES = {
+    "to_world": lambda cam: setattr(cam, "to_world", (cam.to_world + np.eye(4)[0] * 1e-9).tolist()),
+    "clipping_range": lambda cam: setattr(cam, "clipping_range", [[cam.clipping_range[0], cam.clipping_range[1]]]),
+    "focal_length": lambda cam: setattr(cam, "focal_length", np.float64("nan")),
+}
+
+
+@pytest.mark.parametrize("field", REAL_CHANGES)
+def test_a_camera_field_of_other_numbers_or_shape_is_still_a_change(field, device):
+    """The other side of the test above: one number different (by 1e-9, as a list), a clipping range of another
+    shape, a NaN focal length are changes, named by frame_image (render refuses the last two)."""
+    scene, cam = sensor_scene(), _lens_camera()
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device=device)
+    renderer.launch_frame(seed=3)
+    REAL_CHANGES[field](cam)
+    with pytest.raises(RuntimeError, match=rf"^camera \({field}\) changed since the cameras were uploaded"):
+        renderer.frame_image()
+    if field == "to_world":
+        renderer.launch_frame(seed=3)
+        fresh = wrt.render(scene, camera=cam, width=8, height=6, seed=3, device=device)
+        np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.rgb)
+    else:
+        with pytest.raises(ValueError, match=field.replace("_", " ") if field == "clipping_range" else "focalLength"):
+            renderer.render(seed=3)

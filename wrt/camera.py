@@ -347,19 +347,21 @@ class Camera:
     __hash__ = None  # equal by value, and its fields are set after construction
 
     def snapshot(self) -> tuple:
-        """Every field's value now, arrays as their bytes (an edit in place shows too), for telling whether the
-        camera changed since (a kept :class:`wrt.Renderer` follows its cameras so)."""
-        values = list(map(self.__dict__.get, CAMERA_FIELDS))
-        values.append(tuple(name for name in vars(self) if name not in CAMERA_FIELDS))  # for check() to refuse
-        for k, v in enumerate(values):
-            if type(v) not in IMMUTABLE_TYPES:  # an array (or list) as its bytes then, so later edits in place show
-                try:
-                    a = v if type(v) is np.ndarray else np.asarray(v)
-                except (TypeError, ValueError):  # a ragged list: equal to nothing, so check() names the field
-                    values[k] = object()
-                    continue
-                values[k] = (type(v), a.shape, a.dtype.str, a.tobytes())
-        return tuple(values)
+        """Every field's value now, numbers as :func:`_compared` gives them (an array's edit in place shows too), for
+        telling whether the camera changed since (a kept :class:`wrt.Renderer` follows its cameras so). By value, as
+        ``==``: the bytes of each field with its type made ``cam.to_world = cam.to_world.tolist()`` (or a clipping
+        range set as a list) a change, which frame_image refused and render() uploaded again."""
+        return self._compared()
+
+    def hold_checked_arrays(self) -> None:
+        """Makes ``to_world`` and ``clipping_planes`` the float64 arrays :meth:`check` makes of them, where they are
+        held otherwise (a list, 16 numbers): for a camera whose numbers are unchanged since a check, so that its
+        readers may index them (``to_world[:3, 3]``) as after the upload that a snapshot by value now skips."""
+        arrays = (self.to_world, self.clipping_planes)
+        if not all(type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 2 for a in arrays) or (
+            self.to_world.shape != (4, 4)
+        ):
+            self.check()
 
     def depth_extent(self, lower, upper) -> tuple[float, float]:
         """``(nearest, farthest)`` camera-space depth (along the view, the clipping range's measure) of the corners of
@@ -541,17 +543,16 @@ def _compared(name: str, value):
     if value is None or isinstance(value, (str, bytes)):  # "50" is no focal length, though numpy reads it as one
         return value
     try:
+        if type(value) is float or type(value) is int:  # most fields: a fifth of the time of numpy's asarray
+            return (), (np.float64(value) + 0.0).tobytes()
         values = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int past float64's range
         return object()
     if name == "to_world" and values.size == 16:
         values = values.reshape(4, 4)
     elif name == "clipping_planes" and values.size == 0:
         values = values.reshape(0, 4)
     return values.shape, (values + 0.0).tobytes()
-
-
-IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
 
 
 def _unread_apertures(fit: str, horizontal, vertical) -> tuple[str, ...]:

@@ -864,6 +864,10 @@ class Renderer:
         key = self._camera_sources_key()
         edited = self._edited_views()
         if key == self._camera_key and not edited:
+            # Unchanged by value, but a field set to a list of its numbers is made the array an upload made of it.
+            sources = (camera_source(self.scene, arg) for arg in self._camera_args)
+            for cam in {id(c): c for c in (*self.cameras, *sources) if c is not None}.values():
+                cam.hold_checked_arrays()
             return
         if edited:  # said, then drawn as the sources give it: the edit of a view wrt made went unseen, unsaid
             warnings.warn(f"{edited} edited, but that is the view the Renderer resolved, not a camera it follows: the "
