@@ -234,3 +234,98 @@ def test_a_nested_native_prototypes_colour_takes_the_colour_space_of_the_asset_t
     albedo, messages = rendered_albedo(path)
     assert not messages, messages
     np.testing.assert_allclose(albedo, usd_linear_rec709("g22_rec709_scene", COLOR), rtol=1e-3, atol=1e-4)
+
+
+def prototypes_stage(path: str, space: str, count: int = 3) -> str:
+    """``count`` instanced assets ``/Proto<k>``, each of two quads with their own displayColor (no ``colorSpace``),
+    each instanced twice under groups carrying ``space`` through ``UsdColorSpaceAPI``: every quad's colour is read
+    in the space its instances inherit."""
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.Xform.Define(stage, "/World")
+    for k in range(count):
+        stage.CreateClassPrim(f"/Proto{k}")
+        for q in range(2):
+            quad = add_quad(stage, f"/Proto{k}/Quad{q}", center=(q * 3.0, 0.0, 0.0))
+            UsdGeom.PrimvarsAPI(quad).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                    UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.2 * q + 0.1, 0.5, 0.7)])
+        for j in range(2):
+            group = UsdGeom.Xform.Define(stage, f"/World/Group{k}_{j}").GetPrim()
+            Usd.ColorSpaceAPI.Apply(group).CreateColorSpaceNameAttr(space)
+            instance = UsdGeom.Xform.Define(stage, f"/World/Group{k}_{j}/Thing")
+            instance.GetPrim().GetReferences().AddInternalReference(f"/Proto{k}")
+            instance.GetPrim().SetInstanceable(True)
+            instance.AddTranslateOp().Set(Gf.Vec3d(10.0 * k, 10.0 * j, 0.0))
+    stage.Save()
+    return path
+
+
+def prototype_colors(scene) -> list:
+    """``(prototype path, mesh path, colours)`` of every prototype mesh of ``scene``, for comparing loads."""
+    return [(p.path, m.path, m.colors) for p in scene.prototypes for m in p.meshes]
+
+
+def test_two_loads_at_once_in_threads_keep_their_own_prototype_colour_spaces(tmp_path, monkeypatch):
+    """The colour spaces of native prototypes were kept in one module-global dict, emptied at the end of each load:
+    a load ending in one thread (Dask's threaded workers) while another ran in a second thread emptied the other's,
+    which then walked its prototypes' instances again (and read a KeyError where the two ran truly in parallel).
+    The loads are interleaved deterministically: the first pauses after its first colour, the second runs whole, the
+    first goes on. Oracle: each Scene equals its serial load, and each load walks each instance of the stage's
+    prototypes once (USD's Stage.GetPrototypes and Prim.GetInstances)."""
+    import threading
+
+    from wrt import color_spaces, usd_mesh_primvars
+
+    paths = [prototypes_stage(str(tmp_path / f"{space}.usda"), space) for space in ("srgb_rec709_scene", SPACES[1])]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        serial = [prototype_colors(wrt.load_usd(path)) for path in paths]
+    stages = [Usd.Stage.Open(path) for path in paths]  # held: a prototype of a stage freed has expired
+    instances = [sum(len(p.GetInstances()) for p in stage.GetPrototypes()) for stage in stages]
+    assert instances == [6, 6]
+
+    walks, walk = {}, color_spaces._prim_space
+
+    def counted_walk(prim, api):
+        if prim.IsInstance():
+            walks[threading.get_ident()] = walks.get(threading.get_ident(), 0) + 1
+        return walk(prim, api)
+
+    first_paused, second_done, read = threading.Event(), threading.Event(), usd_mesh_primvars.linear_colors
+
+    def pausing_read(*args):
+        values = read(*args)
+        if threading.current_thread().name == "first" and not first_paused.is_set():
+            first_paused.set()
+            assert second_done.wait(60)
+        return values
+
+    monkeypatch.setattr(color_spaces, "_prim_space", counted_walk)
+    monkeypatch.setattr(usd_mesh_primvars, "linear_colors", pausing_read)
+    results, counts = {}, {}
+
+    def load(name, path, after=None):
+        if after is not None:
+            assert after.wait(60)
+        try:
+            results[name] = prototype_colors(wrt.load_usd(path))
+        except Exception as error:  # a KeyError: asserted below, with the thread's name
+            results[name] = error
+        counts[name] = walks.get(threading.get_ident(), 0)
+        if name == "second":
+            second_done.set()
+
+    threads = [threading.Thread(target=load, name="first", args=("first", paths[0])),
+               threading.Thread(target=load, name="second", args=("second", paths[1], first_paused))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(120)
+    assert first_paused.is_set() and second_done.is_set()
+    for name, expected in zip(("first", "second"), serial):
+        got = results[name]
+        assert not isinstance(got, Exception), (name, got)
+        assert [(p, m) for p, m, _ in got] == [(p, m) for p, m, _ in expected], name
+        for (_, mesh, colors), (_, _, want) in zip(got, expected):
+            np.testing.assert_array_equal(colors, want, err_msg=f"{name} {mesh}")
+    assert counts == {"first": instances[0], "second": instances[1]}

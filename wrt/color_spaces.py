@@ -13,6 +13,8 @@ MaterialX image node's) is decoded and converted alike, its texels once at load 
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import functools
 
 import numpy as np
@@ -116,14 +118,22 @@ def inherited_color_space(attr) -> tuple[str, str]:
 
 
 # Native prototype (Usd.Prim) -> what its instances inherit (_instances_space), kept over one load: each instance is
-# walked once, not once per colour inside. Emptied by forget_instance_spaces at the end of each load.
-_INSTANCE_SPACES: dict = {}
+# walked once, not once per colour inside. Each load's own dict (instance_spaces_kept), in its thread's context: one
+# module dict emptied at the end of each load was shared by loads at once in threads (Dask's threaded workers), and
+# the first to end emptied the other's. None outside a load: nothing is kept.
+_INSTANCE_SPACES: contextvars.ContextVar[dict | None] = contextvars.ContextVar("instance_spaces", default=None)
 DIFFERING = "differing per instance"  # the name (unknown: read as linear, named) where the instances disagree
 
 
-def forget_instance_spaces() -> None:
-    """Empties the colour spaces kept per native prototype (a stage edited and loaded again may give others)."""
-    _INSTANCE_SPACES.clear()
+@contextlib.contextmanager
+def instance_spaces_kept():
+    """Keeps the colour spaces of native prototypes over the load inside, for it alone; dropped after it (a stage
+    edited and loaded again may give others)."""
+    token = _INSTANCE_SPACES.set({})
+    try:
+        yield
+    finally:
+        _INSTANCE_SPACES.reset(token)
 
 
 def _prim_space(prim, api) -> tuple[str, str]:
@@ -147,17 +157,20 @@ def _instances_space(prototype, api) -> tuple[str, str]:
     ``colorSpace:name`` the instance references): the one they agree on, else :data:`DIFFERING` (read as linear and
     named, with the prims that carry them). A prototype's colours are read once for all its instances; the walk
     stopped at the prototype's root, and an instanced asset lost the colour space it has referenced plainly."""
-    if prototype not in _INSTANCE_SPACES:
+    kept = _INSTANCE_SPACES.get()
+    if kept is None:
+        kept = {}
+    if prototype not in kept:
         spaces = {instance.GetPath(): _prim_space(instance, api) for instance in prototype.GetInstances()}
         found = sorted(set(spaces.values()))
         names = {name for name, _ in found}
         if len(names) <= 1:
-            _INSTANCE_SPACES[prototype] = (found[0][0], ", ".join(path for _, path in found)) if names else ("", "")
+            kept[prototype] = (found[0][0], ", ".join(path for _, path in found)) if names else ("", "")
         else:  # the prims that carry each, and the first instance under none (where one is: all may be under one)
             none = next((str(path) for path, (name, _) in sorted(spaces.items()) if not name), "")
-            _INSTANCE_SPACES[prototype] = DIFFERING, ", ".join(
+            kept[prototype] = DIFFERING, ", ".join(
                 f"{name!r} on {path}" if name else f"none above {none}" for name, path in found)
-    return _INSTANCE_SPACES[prototype]
+    return kept[prototype]
 
 
 def attribute_color_space(attrs) -> tuple[str, str]:

@@ -100,7 +100,7 @@ import warnings
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 
-from .color_spaces import forget_instance_spaces
+from .color_spaces import instance_spaces_kept
 from .errors import SceneError, prim_path, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
@@ -219,11 +219,11 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings,
                           *(() if frames is None else (frames.memo, frames.material_memo, frames.placement_memo)))
     try:
-        scene = reader.read()
+        with instance_spaces_kept():
+            scene = reader.read()
         scene._variants = variants  # to open the stage as it was read again: what_is_at (a camera it lacks)
         return scene
     finally:
-        forget_instance_spaces()
         # The material reader, the skeleton poser and the transforms hold the stage reader's skip method: a cycle that
         # kept the stage and its layers open until the next garbage collection, so a file edited and loaded again in
         # that time read as before.
