@@ -11,6 +11,7 @@ from test_transform_edge_cases import triangle
 
 import wrt
 from wrt.camera import generate_rays_kernel
+from wrt.procedural import sensor_scene
 from wrt.rays import camera_rays
 from wrt.render import resolve_camera, resolve_view
 
@@ -618,11 +619,20 @@ def test_usd_camera_errors_show_values_as_authored(tmp_path):
         dict(focal_length=INF),
         dict(f_stop=2.0, focus_distance=INF),
         dict(f_stop="2"),
+        dict(focal_length=10**400),  # an int past float64's range: math.isfinite's OverflowError escaped check()
+        dict(vertical_aperture_offset=-(10**400)),
+        dict(focal_length="50"),  # look_at's aperture from it raised "can't multiply sequence by non-int"
     ],
 )
 def test_python_camera_film_values_must_be_finite(kwargs):
     with pytest.raises(ValueError, match=r"^camera needs finite"):
         wrt.Camera.look_at((0, 0, 10), (0, 0, 0), **kwargs)
+    cam = wrt.Camera.look_at((0, 0, 10), (0, 0, 0))  # set on a kept Renderer's camera: refused at its render
+    renderer = wrt.Renderer(sensor_scene(), camera=cam, width=4, height=4, device="cpu")
+    for name, value in kwargs.items():
+        setattr(cam, name, value)
+    with pytest.raises(ValueError, match=r"^camera needs finite"):
+        renderer.render()
 
 
 @pytest.mark.parametrize("kwargs, shown", [
@@ -648,7 +658,7 @@ def test_usd_camera_of_negative_lens_value_is_skipped(tmp_path, attr):
         asked_for(path, "/C")
 
 
-@pytest.mark.parametrize("height", [INF, NAN, "2"])
+@pytest.mark.parametrize("height", [INF, NAN, "2", 10**400])
 def test_orthographic_height_must_be_finite(height):
     with pytest.raises(ValueError, match="orthographic height must be a finite positive number"):
         wrt.Camera.orthographic((0, 0, 10), (0, 0, 0), height=height)

@@ -153,10 +153,11 @@ def _normalized(v) -> np.ndarray:
 
 
 def _finite(v) -> bool:
-    """True for a finite real number; False for NaN, inf and anything that is not a number."""
+    """True for a finite real number; False for NaN, inf, an int past float64's range and anything that is not a
+    number (math.isfinite's OverflowError for 10**400 escaped check(), naming no camera)."""
     try:
         return math.isfinite(v)
-    except TypeError:
+    except (TypeError, OverflowError):
         return False
 
 
@@ -384,9 +385,11 @@ class Camera:
         _check_keywords("look_at", kwargs, "fov_y_deg", {"projection": "perspective"})
         if not (_finite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):  # a string failed in the comparison
             raise ValueError(f"fov_y_deg must lie in (0, 180), got {_show(fov_y_deg)}")
-        aperture = 2.0 * kwargs.get("focal_length", 50.0) * math.tan(math.radians(fov_y_deg) / 2.0)
-        kwargs.setdefault("vertical_aperture", aperture)
-        kwargs.setdefault("horizontal_aperture", aperture)
+        focal_length = kwargs.get("focal_length", 50.0)
+        if _finite(focal_length):  # else check() names it: 2.0 * 10**400 (or * "50") raised Python's words alone
+            aperture = 2.0 * focal_length * math.tan(math.radians(fov_y_deg) / 2.0)
+            kwargs.setdefault("vertical_aperture", aperture)
+            kwargs.setdefault("horizontal_aperture", aperture)
         kwargs.setdefault("fit", "vertical")
         return cls(to_world=_look_at_matrix(eye, target, up), **kwargs)
 
