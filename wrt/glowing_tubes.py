@@ -199,18 +199,23 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
             share = share * near_end * near_end / (near_end * near_end + to_side * to_side)
     low = float(0.0)
     high = float(0.0)
-    # (From inside the capsule, the cones enter their spheres inside it: none of their draws would be kept.)
+    # (From inside the capsule, the cones enter their spheres inside it: none of their draws would be kept. Inside
+    # the side's frustum here; inside an end sphere below.)
     inside = half > 0.0 and wp.abs(z) <= half and rho < cone_reach(ra, rb, half, z)
     if (code == TUBE_CAPSULE or code == TUBE_TAPERED) and near and not inside:
         # The rest of the guided share to a capsule's end spheres' cones, each by the square root of the share of
         # p's sky its cone fills (1 - cos_max: near all of it just off the sphere, none from inside), at most all
         # between them: by that share itself, points 0.3 to 3 radii off an end were up to 1.8 times as noisy; by
         # inverse squared distances, a third of the draws far beside a long capsule fell behind its side (dropped).
-        _, low = cone_of_sphere(-h * w, r, to_p)
+        cos_low, low = cone_of_sphere(-h * w, r, to_p)
+        cos_high = float(0.0)
         if sin_lat < 1.0 and top > 0.0:  # (else the top sphere lies inside the bottom one)
-            _, high = cone_of_sphere(h * w, top, to_p)
-        low = wp.sqrt(low)
-        high = wp.sqrt(high)
+            cos_high, high = cone_of_sphere(h * w, top, to_p)
+        # Inside an end sphere (cos_max 2) p is inside the capsule too, past the side's slab as well: the other
+        # end's cone, drawn there, lost every draw (2.5% to 8% from inside an end sphere past the side).
+        inside_end = wp.max(cos_low, cos_high) > 1.0
+        low = wp.where(inside_end, 0.0, wp.sqrt(low))
+        high = wp.where(inside_end, 0.0, wp.sqrt(high))
         rest = (SUBTENDED_SHARE - share) / wp.max(1.0, low + high)
         low = low * rest
         high = high * rest
