@@ -153,3 +153,25 @@ def test_the_solid_angle_of_needles_seen_from_near_their_plane_is_girards():
     got = got.numpy().astype(np.float64)
     error = np.abs(got / np.asarray(expected) - 1.0)
     assert error.max() < 1e-2, (error.max(), int(error.argmax()))
+
+
+NEEDLE = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1e-3, 0.0)]
+
+
+@pytest.mark.parametrize("first", [0, 1, 2])
+@pytest.mark.parametrize("p", [(0.5, 2e-4, -1e-4), (0.5, -1e-4, -1e-4)], ids=["under", "beside"])
+def test_directions_drawn_near_a_needles_long_side_give_lamberts_irradiance(p, first):
+    """A needle 1 long and 1e-3 wide seen from 1e-4 under its plane, under it or beside its long side: draws uniform
+    over its solid angle average to Lambert's irradiance (float64, of the corners and point as float32 holds them),
+    whichever corner the draw starts from. Its solid angle, their weight, was 3.7% too large (1.4% to 5% too much
+    light)."""
+    corners = np.roll(np.asarray(NEEDLE, np.float32), -first, axis=0).astype(np.float64)
+    p, n = np.asarray(p, np.float32).astype(np.float64), np.array([0.0, 0.0, 1.0])
+    count = 40000
+    irradiance = wp.zeros(count, dtype=float, device="cpu")
+    wp.launch(drawn_irradiance_kernel, count, inputs=[wp.vec3(*p), wp.vec3(*n), *(wp.vec3(*x) for x in corners)],
+              outputs=[irradiance], device="cpu")
+    estimates = irradiance.numpy().astype(np.float64)
+    expected = polygon_irradiance(p, n, corners, 1.0)
+    error = estimates.std() / math.sqrt(count)
+    assert abs(estimates.mean() - expected) < 4 * error + 2e-3 * expected, (estimates.mean(), expected, error)
