@@ -194,3 +194,21 @@ def test_a_constant_st_on_the_instancer_holding_one_value_rather_than_an_array_r
     assert not [m for m in messages if "PointInstancer st" in m], messages
     np.testing.assert_allclose(albedo_of_instances(scene), [CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255] * 3,
                                atol=2e-3)
+
+
+def test_unique_rows_groups_instance_st_as_numpy_unique_does():
+    """The instancer's st of each instance is grouped by ``wrt.unique.unique_rows`` (one lexsort: np.unique(axis=0)
+    took 1.4 s for 1M instances): the same distinct rows, in the same order, and the same group of each row as
+    ``np.unique(axis=0, return_inverse=True)``, over repeated rows, infinities (a non-finite st) and one column."""
+    from wrt.unique import unique_rows
+
+    rng = np.random.default_rng(123)
+    pool = np.array([0.0, 1.0, np.inf, -np.inf, 0.5, 2.0, -3.0, 1e-300])
+    for trial in range(100):
+        n, k = int(rng.integers(0, 200)), int(rng.integers(1, 4))
+        values = rng.choice(pool, (n, k)) if trial % 2 else rng.random((max(n // 3, 1), k))[rng.integers(0, max(
+            n // 3, 1), n)]
+        expected, expected_group = np.unique(values, axis=0, return_inverse=True)
+        distinct, group = unique_rows(values)
+        assert distinct.tobytes() == expected.tobytes() and distinct.shape == expected.shape
+        assert np.array_equal(group, expected_group.reshape(-1))
