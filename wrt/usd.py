@@ -338,6 +338,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         # for all its loads (neither answer depends on the time).
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
+        self._inheritable_kept = None  # (path, {name: primvar}) of the last prim _inheritable_primvars was asked for
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
         # native prototype path -> (whether a PointInstancer or a UsdGeomVisibilityAPI prim is in it, the purposes
         # authored in it, nested ones too, None with a PointInstancer in it): _prototype_contents
@@ -676,7 +677,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             if resets:
                 m = self._reset_in_prototype(prim, ctx.space_root, m)
         m = np.array(m, dtype=np.float64)
-        if not np.all(np.isfinite(m)):
+        if not np.isfinite(m).all():
             self._skip(NOT_FINITE_TRANSFORM, prim)
             return None
         return m

@@ -89,6 +89,16 @@ class LookReading:
                 color = np.asarray(outer[color_name], np.float32)
         return -1 if material is None else int(material[0]), primvar, color
 
+    def _inheritable_primvars(self, prim: Usd.Prim) -> dict:
+        """``{name: primvar}`` of ``UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()`` (``prim``'s constant primvars
+        and its ancestors', the nearest of each name), the last prim's kept (``_inheritable_kept``): a native instance
+        asks for its colours, its opacity and its widths, each a walk of its ancestors."""
+        path = prim.GetPath()
+        if self._inheritable_kept is None or self._inheritable_kept[0] != path:
+            found = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+            self._inheritable_kept = (path, found)
+        return self._inheritable_kept[1]
+
     def _inherited_colors(self, prim: Usd.Prim, names: list[str]) -> tuple:
         """The constant colour primvars that native instance ``prim`` hands down to its prototype's meshes lacking
         them, of ``names``: its own or its nearest ancestor's (up to the root of the prototype ``prim`` is in), as
@@ -97,7 +107,7 @@ class LookReading:
         warnings naming the prim that holds it: one that is not an array of 3- or 4-vectors, or holds no value, is
         dropped (it was taken when it held three numbers, a ``float[]`` or a single ``color3f``, and skipped without a
         word otherwise), several values are read as the first, non-finite ones as grey 0.5 (both silently before)."""
-        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        inherited = self._inheritable_primvars(prim)
         found = []
         for name in names:
             primvar = inherited.get(name)
@@ -126,8 +136,7 @@ class LookReading:
         """The constant ``displayOpacity`` native instance ``prim`` hands down to its prototype's geometry that has
         none (its own or its nearest ancestor's, as for :meth:`_inherited_colors`; the mean of its values, see
         :func:`wrt.usd_primvars.unit_opacities`), or None."""
-        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
-        primvar = inherited.get("displayOpacity")
+        primvar = self._inheritable_primvars(prim).get("displayOpacity")
         if primvar is None:
             return None
         values = self._opacity_values(primvar)

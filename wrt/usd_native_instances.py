@@ -166,8 +166,7 @@ class NativeInstanceReading:
     def _inherited_widths(self, prim: Usd.Prim) -> float | None:
         """The constant ``primvars:widths`` native instance ``prim`` hands down (its own or its nearest ancestor's, up
         to the root of the prototype ``prim`` is in; its first value), or None."""
-        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
-        primvar = inherited.get("widths")
+        primvar = self._inheritable_primvars(prim).get("widths")
         if primvar is None:
             return None
         values = flattened(primvar, self.time, primvar.GetAttr().GetPrim(), self._skip)

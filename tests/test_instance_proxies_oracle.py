@@ -1,0 +1,120 @@
+"""Rows of many native instances against what USD computes for their instance proxies: a prototype of nested
+Xforms and three meshes (one bound, two not, none coloured) placed 60 times under rotated groups, the instances
+moved, turned and scaled, some coloured, made translucent, bound to a material or hidden on the instance, one group
+bound above them. Each row's world points, material, colour and opacity, and which instances are drawn, are checked
+against ``UsdGeom.XformCache``, ``ComputeBoundMaterial``, ``FindPrimvarWithInheritance`` and ``ComputeVisibility``
+of the proxies (the loader reads an instance's transform, bindings, colours and opacity from the instance prim and
+its ancestors, and its prototype once per distinct set of them)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+pxr = pytest.importorskip("pxr")
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade  # noqa: E402
+
+import wrt  # noqa: E402
+
+N = 60  # native instances, 20 per group
+PALETTE = [(0.8, 0.1, 0.1), (0.1, 0.7, 0.2), (0.2, 0.3, 0.9)]
+
+
+def quad(stage, path, z):
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr([(0, 0, z), (1, 0, z), (1, 1, z + 0.2), (0, 1, z)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    return mesh
+
+
+def material(stage, path, rgb):
+    found = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/S")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*rgb))
+    found.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return found
+
+
+@pytest.fixture(scope="module")
+def stage_path(tmp_path_factory):
+    path = str(tmp_path_factory.mktemp("proxies") / "natives.usda")
+    stage = Usd.Stage.CreateNew(path)
+    looks = [material(stage, f"/Looks/M{k}", rgb) for k, rgb in enumerate(PALETTE)]
+    UsdGeom.Xform.Define(stage, "/Proto").GetPrim().SetSpecifier(Sdf.SpecifierClass)
+    pivot = UsdGeom.Xform.Define(stage, "/Proto/Pivot")
+    pivot.AddRotateZOp().Set(30.0)
+    pivot.AddScaleOp().Set(Gf.Vec3f(1.5, 1.0, 0.7))
+    quad(stage, "/Proto/Pivot/Body", 0.0)
+    UsdShade.MaterialBindingAPI.Apply(quad(stage, "/Proto/Lit", 1.0).GetPrim()).Bind(looks[0])
+    quad(stage, "/Proto/Plain", 2.0)
+    rng = np.random.default_rng(123)
+    for k in range(N):
+        group = f"/World/G{k // 20}"
+        if k % 20 == 0:
+            UsdGeom.Xform.Define(stage, group).AddRotateZOp().Set(17.0 * (k // 20))
+        prim = stage.DefinePrim(f"{group}/I{k}", "Xform")
+        prim.GetReferences().AddInternalReference("/Proto")
+        prim.SetInstanceable(True)
+        xform = UsdGeom.Xformable(prim)
+        xform.AddTranslateOp().Set(Gf.Vec3d(*rng.normal(0, 10, 3)))
+        xform.AddRotateZOp().Set(float(rng.uniform(0, 360)))
+        xform.AddScaleOp().Set(Gf.Vec3f(*rng.uniform(0.5, 1.5, 3)))
+        primvars = UsdGeom.PrimvarsAPI(prim)
+        if k % 3 == 0:
+            primvars.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant).Set(
+                [Gf.Vec3f(*PALETTE[k % 9 // 3])])
+        if k % 4 == 1:
+            UsdShade.MaterialBindingAPI.Apply(prim).Bind(looks[2])
+        if k % 6 == 2:
+            primvars.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.5])
+        if k % 5 == 4:
+            UsdGeom.Imageable(prim).MakeInvisible()
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/G1")).Bind(looks[1])
+    stage.Save()
+    return path
+
+
+def test_native_instance_rows_are_what_usd_computes_for_their_proxies(stage_path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing here is worth a warning
+        scene = wrt.load_usd(stage_path)
+    stage = Usd.Stage.Open(stage_path)
+    cache = UsdGeom.XformCache()
+    instances = scene.instances
+    drawn = {instances.path(i) for i in range(len(instances))}
+    shown = {f"/World/G{k // 20}/I{k}" for k in range(N)
+             if UsdGeom.Imageable(stage.GetPrimAtPath(f"/World/G{k // 20}/I{k}/Plain")).ComputeVisibility()
+             != UsdGeom.Tokens.invisible}
+    assert drawn == shown and len(instances) == len(shown)
+    for i in range(len(instances)):
+        prototype = scene.prototypes[instances.prototype[i]]
+        assert {m.path.rsplit("/", 1)[1] for m in prototype.meshes} == {"Body", "Lit", "Plain"}
+        opacity = None
+        for mesh in prototype.meshes:
+            proxy = stage.GetPrimAtPath(instances.path(i) + mesh.path[len(prototype.path):])
+            assert proxy.IsInstanceProxy()
+            usd_points = np.array(UsdGeom.Mesh(proxy).GetPointsAttr().Get(), np.float64)
+            to_world = np.array(cache.GetLocalToWorldTransform(proxy))  # row vectors
+            expected = usd_points @ to_world[:3, :3] + to_world[3, :3]
+            placed = mesh.points.astype(np.float64) @ instances.to_world[i][:3, :3].T + instances.to_world[i][:3, 3]
+            np.testing.assert_allclose(placed, expected, rtol=1e-5, atol=1e-4)
+            bound, _ = UsdShade.MaterialBindingAPI(proxy).ComputeBoundMaterial()
+            ids = np.unique(mesh.material_ids) if mesh.material_ids is not None else [-1]  # None: unbound
+            assert len(ids) == 1
+            assert (scene.materials[ids[0]].path if ids[0] >= 0 else "") == (str(bound.GetPath()) if bound else "")
+            color = UsdGeom.PrimvarsAPI(proxy).FindPrimvarWithInheritance("displayColor")
+            if color and color.HasValue():
+                assert mesh.colors is not None
+                np.testing.assert_allclose(mesh.colors.reshape(-1, 3), np.broadcast_to(color.Get()[0], (
+                    mesh.colors.size // 3, 3)), rtol=1e-6)
+            else:
+                assert mesh.colors is None
+            found = UsdGeom.PrimvarsAPI(proxy).FindPrimvarWithInheritance("displayOpacity")
+            opacity = float(found.Get()[0]) if found and found.HasValue() else None
+        # One opacity per instance (Instances.opacities; NaN or no array: opaque), the same for its three meshes.
+        got = instances.opacities[i] if len(instances.opacities) else np.nan
+        assert (np.isnan(got) and opacity is None) or got == pytest.approx(opacity)
