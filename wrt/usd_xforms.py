@@ -206,22 +206,26 @@ class Xforms:
             return True
         if len(ops) != len(order) - (order[0] == RESET):  # an op left out, or ops dropped before a late reset
             return True
-        if not all(op.GetAttr().HasValue() for op in ops):  # an op declared with no value: named where it applies
-            return True
-        # An inverted scale of a zero component has no inverse: the cache's transform is not finite (_local leaves
-        # the op out). Only inverted scales are asked (rare; pivots are inverted translates), and the ops only where
-        # the order names an inverted op at all (one string search for most prims).
-        if INVERT in " ".join(order) and any(
-                op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(op.GetAttr()))
-                for op in ops):
-            return True
-        if not self._time.IsDefault():
-            return False
-        if self._still:  # no layer holds a time sample, but a scalar op may hold a spline, which has no default
-            ops = [op for op in ops if HAS_SPLINES and op.GetOpType() in SCALAR_OPS and op.GetAttr().HasSpline()]
-        # As read_time decides (Xformable.GetTimeSamples would be faster, but hangs usd-core on stages with
-        # timeCodesPerSecond = 0, and does not see spline-valued ops).
-        return any(not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in ops)
+        # Each op asked in one pass, its attribute fetched once (each of these makes the prim resolved op by op):
+        # - declared with no value: named where it applies;
+        # - an inverted scale of a zero component, which has no inverse: the cache's transform is not finite (_local
+        #   leaves the op out). Only inverted scales are asked (rare; pivots are inverted translates);
+        # - at the default time, read at its first time sample, as read_time decides (Xformable.GetTimeSamples would be
+        #   faster, but hangs usd-core on stages with timeCodesPerSecond = 0, and does not see spline-valued ops).
+        #   Where no layer holds a time sample, only a scalar op holding a spline (which has no default) can be.
+        at_default = self._time.IsDefault()
+        for op in ops:
+            attr = op.GetAttr()
+            if not attr.HasValue():
+                return True
+            if op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(attr)):
+                return True
+            if not at_default or (self._still and not (HAS_SPLINES and op.GetOpType() in SCALAR_OPS
+                                                       and attr.HasSpline())):
+                continue
+            if not read_time(attr, DEFAULT).IsDefault():
+                return True
+        return False
 
     def _resolved_by_op(self, prim: Usd.Prim) -> bool:
         """Whether ``prim`` or an ancestor is resolved op by op (memoised, walked without recursion: hierarchies can be
