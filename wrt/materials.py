@@ -1040,10 +1040,16 @@ class MaterialReader:
 
         from .usd_bindings import ALL_PURPOSE, OuterBinding
 
-        walk = self._walk(prim, outer, missing)
         purposes = self.purposes if self.purposes is not None else (UsdShade.Tokens.full, UsdShade.Tokens.preview)
+        purposes = dict.fromkeys((*purposes, ALL_PURPOSE))
+        if outer is None and not self.bindings_above.any(prim):
+            # Nothing bound on or above it: each purpose's walk (below) finds nothing, as the walks of most of the
+            # instances of a large stage do, which asked for each purpose took a tenth of their read.
+            missing.update(purposes)
+            return None
+        walk = self._walk(prim, outer, missing)
         entries = []
-        for purpose in dict.fromkeys((*purposes, ALL_PURPOSE)):
+        for purpose in purposes:
             found = walk(purpose)
             if found is not None and found.rel and not found.material:
                 self._name_binding_to_no_material(found.rel)
