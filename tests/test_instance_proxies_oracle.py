@@ -1,10 +1,11 @@
 """Rows of many native instances against what USD computes for their instance proxies: a prototype of nested
 Xforms and three meshes (one bound, two not, none coloured) placed 60 times under rotated groups, the instances
 moved, turned and scaled, some coloured, made translucent, bound to a material or hidden on the instance, one group
-bound above them. Each row's world points, material, colour and opacity, and which instances are drawn, are checked
-against ``UsdGeom.XformCache``, ``ComputeBoundMaterial``, ``FindPrimvarWithInheritance`` and ``ComputeVisibility``
-of the proxies (the loader reads an instance's transform, bindings, colours and opacity from the instance prim and
-its ancestors, and its prototype once per distinct set of them)."""
+bound above them, another binding a collection that holds two of its instances. Each row's world points, material,
+colour and opacity, and which instances are drawn, are checked against ``UsdGeom.XformCache``,
+``ComputeBoundMaterial``, ``FindPrimvarWithInheritance`` and ``ComputeVisibility`` of the proxies (the loader reads
+an instance's transform, bindings, colours and opacity from the instance prim and its ancestors, and shares them
+among siblings that author nothing but their transform)."""
 
 from __future__ import annotations
 
@@ -74,6 +75,11 @@ def stage_path(tmp_path_factory):
         if k % 5 == 4:
             UsdGeom.Imageable(prim).MakeInvisible()
     UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/G1")).Bind(looks[1])
+    # A collection on the third group holds two of its instances: they bind unlike their siblings.
+    some = Usd.CollectionAPI.Apply(stage.GetPrimAtPath("/World/G2"), "some")
+    for k in (41, 43):
+        some.GetIncludesRel().AddTarget(f"/World/G2/I{k}")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/G2")).Bind(some, looks[2], "some")
     stage.Save()
     return path
 

@@ -110,7 +110,7 @@ from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape
 from .render_settings import RenderSettings, read_render_settings
 from .scene import Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL
-from .usd_ancestors import ComputedPurposes, InheritedPrimvars, PurposeVisibilities
+from .usd_ancestors import KEEP_LOOKING, AncestorMemo, ComputedPurposes, InheritedPrimvars, PurposeVisibilities
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_bindings import CollectionsInside
@@ -338,6 +338,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         # for all its loads (neither answer depends on the time).
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
+        self.sibling_reads = {}  # native instances' content keys shared with their siblings (_sibling_key)
+        # Whether a prim or an ancestor authors value clips (each prim's answer kept)
+        self.clips_above = AncestorMemo(lambda p: True if p.HasAuthoredMetadata("clips") else KEEP_LOOKING, False)
         self._inheritable_kept = None  # (path, {name: primvar}) of the last prim _inheritable_primvars was asked for
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
         # native prototype path -> (whether a PointInstancer or a UsdGeomVisibilityAPI prim is in it, the purposes

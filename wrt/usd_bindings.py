@@ -138,6 +138,7 @@ class CollectionsInside:
         self.stage = stage
         self.collections = {}  # prim path -> paths of the collections its collection bindings name
         self.members = {}  # collection path -> (path expansion rule map, its paths as sorted strings), or None
+        self.above = None  # AncestorMemo of bound_above
 
     def reach(self, prim: Usd.Prim) -> bool:
         path = prim.GetPath()
@@ -147,6 +148,15 @@ class CollectionsInside:
                 return True
             p = p.GetParent()
         return False
+
+    def bound_above(self, prim: Usd.Prim) -> bool:
+        """``prim`` or an ancestor binds a collection (each prim's answer kept): whether it is in the collection may
+        tell it apart from its siblings."""
+        if self.above is None:
+            from .usd_ancestors import KEEP_LOOKING, AncestorMemo
+
+            self.above = AncestorMemo(lambda p: True if self._bound_collections(p) else KEEP_LOOKING, default=False)
+        return self.above(prim)
 
     def _bound_collections(self, p: Usd.Prim) -> list:
         path = p.GetPath()
