@@ -1,7 +1,8 @@
 """Rows of many native instances against what USD computes for their instance proxies: a prototype of nested
 Xforms and three meshes (one bound, two not, none coloured) placed 60 times under rotated groups, the instances
 moved, turned and scaled, some coloured, made translucent, bound to a material or hidden on the instance, one group
-bound above them, another binding a collection that holds two of its instances. Each row's world points, material,
+bound above them, another binding a collection that holds two of its instances; and instances that author only their
+transform under a hidden group, a guide group and a plain one. Each row's world points, material,
 colour and opacity, and which instances are drawn, are checked against ``UsdGeom.XformCache``,
 ``ComputeBoundMaterial``, ``FindPrimvarWithInheritance`` and ``ComputeVisibility`` of the proxies (the loader reads
 an instance's transform, bindings, colours and opacity from the instance prim and its ancestors, and shares them
@@ -74,6 +75,18 @@ def stage_path(tmp_path_factory):
             primvars.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.5])
         if k % 5 == 4:
             UsdGeom.Imageable(prim).MakeInvisible()
+    for group, kind in (("/World/Hidden", "invisible"), ("/World/Guides", "guide"), ("/World/Shown", None)):
+        # Instances that author only their transform, under a hidden group, a guide group and a plain one.
+        UsdGeom.Xform.Define(stage, group)
+        if kind == "invisible":
+            UsdGeom.Imageable(stage.GetPrimAtPath(group)).MakeInvisible()
+        elif kind == "guide":
+            UsdGeom.Imageable(stage.GetPrimAtPath(group)).CreatePurposeAttr(UsdGeom.Tokens.guide)
+        for k in range(4):
+            prim = stage.DefinePrim(f"{group}/I{k}", "Xform")
+            prim.GetReferences().AddInternalReference("/Proto")
+            prim.SetInstanceable(True)
+            UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(3.0 * k, 40.0, 0.0))
     UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/G1")).Bind(looks[1])
     # A collection on the third group holds two of its instances: they bind unlike their siblings.
     some = Usd.CollectionAPI.Apply(stage.GetPrimAtPath("/World/G2"), "some")
@@ -92,9 +105,12 @@ def test_native_instance_rows_are_what_usd_computes_for_their_proxies(stage_path
     cache = UsdGeom.XformCache()
     instances = scene.instances
     drawn = {instances.path(i) for i in range(len(instances))}
-    shown = {f"/World/G{k // 20}/I{k}" for k in range(N)
-             if UsdGeom.Imageable(stage.GetPrimAtPath(f"/World/G{k // 20}/I{k}/Plain")).ComputeVisibility()
-             != UsdGeom.Tokens.invisible}
+    paths = [f"/World/G{k // 20}/I{k}" for k in range(N)]
+    paths += [f"{group}/I{k}" for group in ("/World/Hidden", "/World/Guides", "/World/Shown") for k in range(4)]
+    plain = [UsdGeom.Imageable(stage.GetPrimAtPath(f"{path}/Plain")) for path in paths]
+    shown = {path for path, proxy in zip(paths, plain) if proxy.ComputeVisibility() != UsdGeom.Tokens.invisible
+             and proxy.ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)}
+    assert "/World/Shown/I0" in shown and "/World/Hidden/I0" not in shown and "/World/Guides/I0" not in shown
     assert drawn == shown and len(instances) == len(shown)
     for i in range(len(instances)):
         prototype = scene.prototypes[instances.prototype[i]]

@@ -339,6 +339,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.sibling_reads = {}  # native instances' content keys shared with their siblings (_sibling_key)
+        self._transform_only_kept = (None, False)  # (path, answer) of the last prim _transform_only was asked about
+        self.sibling_states = {}  # (parent, prototype, type) -> _instance_state of its transform-only instances
         # Whether a prim or an ancestor authors value clips (each prim's answer kept)
         self.clips_above = AncestorMemo(lambda p: True if p.HasAuthoredMetadata("clips") else KEEP_LOOKING, False)
         self._inheritable_kept = None  # (path, {name: primvar}) of the last prim _inheritable_primvars was asked for
@@ -430,10 +432,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 self._read_cameras(prim, [Sdf.Path(".")], ctx)
             # An instance of guide or proxy purpose is still read: a prototype prim of authored render purpose is
             # drawn, as USD computes purpose through instance proxies.
-            if self._visible(prim, ctx.stop):
-                purpose = self._purpose(prim, ctx)
-                hidden = self._hidden_purposes(prim, ctx)
-                self._read_native_instance(prim, ctx, self._instance_purpose(prim, ctx, purpose, hidden), hidden)
+            visible, purpose, hidden = self._instance_state(prim, ctx)
+            if visible:
+                self._read_native_instance(prim, ctx, purpose, hidden)
                 if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
@@ -475,6 +476,26 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._read_cameras(prim, [Sdf.Path(".")], ctx)  # "." is the camera itself
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             self._read_lights(prim, [Sdf.Path(".")], ctx)  # "." is the light itself
+
+    def _instance_state(self, prim: Usd.Prim, ctx: Context) -> tuple:
+        """``(visible, purpose it hands down, hidden purposes)`` of native instance ``prim``
+        (:meth:`_read_native_instance`'s arguments), shared by the siblings of one prototype that author nothing but
+        their transform (:meth:`_transform_only`): their visibility, purpose and purpose visibilities are their
+        parent's (each asked of every instance was a fifth of its read)."""
+        prototype = prim.GetPrototype()
+        key = None
+        if prototype and self._transform_only(prim, ctx):
+            key = prim.GetPath().GetParentPath(), prototype.GetPath(), prim.GetTypeName()  # (its fallbacks: its type)
+            if key in self.sibling_states:
+                return self.sibling_states[key]
+        state = False, None, frozenset()
+        if self._visible(prim, ctx.stop):
+            purpose = self._purpose(prim, ctx)
+            hidden = self._hidden_purposes(prim, ctx)
+            state = True, self._instance_purpose(prim, ctx, purpose, hidden), hidden
+        if key is not None:
+            self.sibling_states[key] = state
+        return state
 
     def _prototype_lights(self, prototype: Usd.Prim) -> list:
         """Paths relative to ``prototype`` of the UsdLux lights in it and in the instances nested in it, which

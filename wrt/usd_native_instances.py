@@ -118,18 +118,29 @@ class NativeInstanceReading:
                                       prim, uv=uvs)
         return key
 
+    def _transform_only(self, prim: Usd.Prim, ctx: Context) -> bool:
+        """World-level native instance ``prim`` authors nothing but its transform, and reads all else from its parent:
+        no property but xformOpOrder and xformOp:* (its visibility, purpose, purpose visibilities, primvars and
+        bindings are none of its own: USD's walks and wrt's read authored properties), no value clips reach it (whose
+        values no property names), and it is no gprim (whose schema has primvars). Its siblings of one prototype read
+        alike (:meth:`_sibling_key`, ``Visibility._sibling_state``)."""
+        if not ctx.world:
+            return False
+        path = prim.GetPath()
+        if self._transform_only_kept[0] != path:  # (asked twice for an instance: its state, then its read)
+            found = not prim.IsA(UsdGeom.Gprim) and not self.clips_above(prim) and all(
+                name == XFORM_OP_ORDER or name.startswith("xformOp:") for name in prim.GetAuthoredPropertyNames())
+            self._transform_only_kept = path, found
+        return self._transform_only_kept[1]
+
     def _sibling_key(self, prim: Usd.Prim, prototype: Usd.Prim, ctx: Context, purpose, hidden: frozenset):
         """The key under which the world-level native instance ``prim`` shares :meth:`_instance_key`'s answer with its
         siblings (``sibling_reads``), or None where it may not. Of instances under one parent, of one prototype,
-        purpose and hidden purposes, that author nothing but their transform, each reads the same: their bindings,
-        colours, opacity, widths and texture coordinates are their ancestors' (neither a primvar nor a binding of
-        their own: FindInheritablePrimvars and the binding walks read authored properties, and no value clips reach
-        them, whose values no property names; not gprims, whose schema has primvars), and no collection is bound
-        above them (one may hold some of them and not others). 10k instances of a few prototypes in rows of 100:
-        each read its bindings and primvars again (a third of its read)."""
-        if not ctx.world or prim.IsA(UsdGeom.Gprim) or self.clips_above(prim):
-            return None
-        if not all(name == XFORM_OP_ORDER or name.startswith("xformOp:") for name in prim.GetAuthoredPropertyNames()):
+        purpose and hidden purposes, that author nothing but their transform (:meth:`_transform_only`), each reads
+        the same: their bindings, colours, opacity, widths and texture coordinates are their ancestors'; unless a
+        collection is bound above them (one may hold some of them and not others). 10k instances of a few
+        prototypes in rows of 100: each read its bindings and primvars again (a third of its read)."""
+        if not self._transform_only(prim, ctx):
             return None
         if self.materials.bindings_above.any(prim) and self.collections_inside.bound_above(prim):
             return None
