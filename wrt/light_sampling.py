@@ -58,6 +58,7 @@ from .spherical_rect import (
     solid_angle_usable,
     spherical_rect,
     spherical_rect_pdf,
+    square_around_disk,
 )
 from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
@@ -485,13 +486,11 @@ def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
         down, up = power_scales(height)
     u = lights.axis_u[k] * down
     v = lights.axis_v[k] * down
-    scale = float(1.0)  # rect: full edges; disk: radius vectors
-    least = float(0.0)
-    if lights.kinds[k] == LIGHT_DISK:
-        scale = 2.0
-        least = DISK_SOLID_ANGLE_LEAST
-    r = spherical_rect(p * down, lights.position[k] * down - 0.5 * scale * (u + v), scale * u, scale * v)
-    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least), down, up
+    if lights.kinds[k] == LIGHT_DISK:  # u, v: radius vectors
+        r = square_around_disk(p * down, lights.position[k] * down, u, v)
+        return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, DISK_SOLID_ANGLE_LEAST), down, up
+    r = spherical_rect(p * down, lights.position[k] * down - 0.5 * (u + v), u, v)  # u, v: full edges
+    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, 0.0), down, up
 
 
 @wp.func

@@ -102,6 +102,14 @@ def spherical_rect(o: wp.vec3, corner: wp.vec3, ex: wp.vec3, ey: wp.vec3):
 
 
 @wp.func
+def square_around_disk(o: wp.vec3, centre: wp.vec3, u: wp.vec3, v: wp.vec3):
+    """The square around the disk ``centre + a u + b v`` (``a^2 + b^2 <= 1``; ``u`` and ``v`` orthogonal radius
+    vectors) seen from ``o`` (:func:`spherical_rect`): a disk is drawn by solid angle through it, the draws that
+    fall off the disk dropped, and its pdf is the square's on the disk."""
+    return spherical_rect(o, centre - (u + v), 2.0 * u, 2.0 * v)
+
+
+@wp.func
 def solid_angle_usable(r: SphericalRect, least: float):
     """True when :func:`sample_spherical_rect` is accurate for ``r`` and its solid angle is at least ``least``."""
     return r.solid_angle >= wp.max(least, SOLID_ANGLE_MIN) and r.solid_angle <= SOLID_ANGLE_MAX
@@ -162,4 +170,4 @@ def spherical_rect_pdf(r: SphericalRect, n: wp.vec3, q: wp.vec3):
 
 
 __all__ = ["REACH", "SOLID_ANGLE_MAX", "SOLID_ANGLE_MIN", "SphericalRect", "sample_spherical_rect",
-           "solid_angle_usable", "spherical_rect", "spherical_rect_pdf"]
+           "solid_angle_usable", "spherical_rect", "spherical_rect_pdf", "square_around_disk"]
