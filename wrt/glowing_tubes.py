@@ -8,9 +8,11 @@ draw of each end by the cone its sphere subtends (:mod:`wrt.sphere_cone`), kept 
 sphere on that end and dropped (nothing drawn) where it enters it inside the capsule: convex, the capsule shows p an
 end point just where the sphere does, from outside, so the cone's density there is its solid-angle pdf times ``cos /
 d^2`` for a point drawn and a point a ray hits alike (by area alone, a point 0.02 radii off an end estimated its
-light with a relative noise of 20 to 210 per draw, now 0.65). The mixture's density in closed form
-(:func:`tube_density`; it sums to the share of draws kept) turns into a solid-angle pdf ``dist^2 density / |cos|``
-for both light sampling and the MIS weight of a ray that hits the tube.
+light with a relative noise of 20 to 210 per draw, now 0.65) or, for a capped tube, a draw of the cap p lies beyond
+as a disk light's (:mod:`wrt.tube_caps`: by the solid angle of the square around it, kept on the disk; by area
+alone, a point 0.02 to 0.05 radii off a cap estimated its light with a relative noise of 12 to 110, now 0.7). The
+mixture's density in closed form (:func:`tube_density`; it sums to the share of draws kept) turns into a solid-angle
+pdf ``dist^2 density / |cos|`` for both light sampling and the MIS weight of a ray that hits the tube.
 
 Lengths are taken times the power of two ``down`` that brings the tube's largest length (its radius or a component of
 its half axis) into [1, 2): the area in world units squared overflowed float32 for a tube 1e19 across.
@@ -23,6 +25,7 @@ from .glowing_spheres import GLOW_CAPPED_CYLINDER, GLOW_CAPSULE, GLOW_OPEN_CYLIN
 from .sampling import PI, basis_x, basis_y, sample_uniform_sphere
 from .sphere_cone import cone_of_sphere, sample_sphere_cone
 from .subtended_tube import sample_subtended, subtended_density
+from .tube_caps import cap_density, cap_weight, sample_cap
 
 TUBE_OPEN = wp.constant(GLOW_OPEN_CYLINDER)  # also a UsdLux CylinderLight's (wrt.light_sampling)
 TUBE_CAPPED = wp.constant(GLOW_CAPPED_CYLINDER)
@@ -166,7 +169,8 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
     :func:`sample_tube` makes by the angles the side subtends (``share``: none where that draw has nothing to draw
     from, a single-sided tube's side p sees no front of, from inside its extension, past a cone's apex or far away)
     and by the cones a capsule's bottom and top spheres subtend (``low``, ``high``: none from inside the capsule, far
-    away, or for a tapered capsule's top sphere inside its bottom one; continuous in p outside the capsule)."""
+    away, or for a tapered capsule's top sphere inside its bottom one; continuous in p outside the capsule) or, for a
+    capped tube, by its bottom and top caps' disk draws (:mod:`wrt.tube_caps`: none but for a cap p lies beyond)."""
     mid, half, ra, rb, sin_lat = tube_side(r, top, h, code)
     rel = to_p - mid * w
     z = wp.dot(rel, w)
@@ -216,9 +220,15 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
         inside_end = wp.max(cos_low, cos_high) > 1.0
         low = wp.where(inside_end, 0.0, wp.sqrt(low))
         high = wp.where(inside_end, 0.0, wp.sqrt(high))
-        rest = (SUBTENDED_SHARE - share) / wp.max(1.0, low + high)
-        low = low * rest
-        high = high * rest
+    if code == TUBE_CAPPED and near:
+        # A capped tube's caps by the disk draw (wrt.tube_caps), the one p lies beyond, weighted alike by the square
+        # root of the share of p's sky the square around it fills: by area alone, a point 0.02 radii off a cap
+        # estimated its light with a relative noise of 12 to 110 per draw.
+        low = cap_weight(-1.0, r, h, w, to_p)
+        high = cap_weight(1.0, top, h, w, to_p)
+    rest = (SUBTENDED_SHARE - share) / wp.max(1.0, low + high)
+    low = low * rest
+    high = high * rest
     return mid, ra, rb, half, reach, spread, rho, z, phi_p, share, low, high
 
 
@@ -251,11 +261,15 @@ def tube_density(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp
     """Density by area (lengths times ``down``) with which :func:`sample_tube` draws the point ``q_rel`` from the
     centre (``on_side`` 1: on the side; the rest is caps or spheres), p ``to_p`` from it, ``area`` and ``arc`` as
     :func:`tube_area` gives them: the draw uniform by area's ``1 / area``, the draw by the angles the side subtends
-    and, on a capsule's end (the top sphere's above the side's middle), the draw by that sphere's cone, mixed."""
+    and, on a capsule's end (the top sphere's above the side's middle), the draw by that sphere's cone or, on a cap,
+    its disk draw, mixed."""
     mid, ra, rb, half, reach, spread, rho, z, phi_p, share, low, high = side_view(r, top, h, code, w, to_p, facing,
                                                                                   arc)
     density = (1.0 - share - low - high) / area
-    if on_side == 0 and low + high > 0.0:
+    if on_side == 0 and low + high > 0.0 and code == TUBE_CAPPED:
+        end = wp.where(wp.dot(q_rel, w) >= 0.0, 1.0, -1.0)  # a cap: its disk draw's
+        density += wp.where(end > 0.0, high, low) * cap_density(end, wp.where(end > 0.0, top, r), h, w, to_p, q_rel)
+    elif on_side == 0 and low + high > 0.0:
         end = end_sign(q_rel, w, mid, half, code)  # a capsule's end: its sphere's cone's
         density += wp.where(end > 0.0, high, low) * end_cone_density(end * h * w, wp.where(end > 0.0, top, r), to_p,
                                                                      q_rel)
@@ -286,8 +300,9 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
     spheres'), 1 for cylinders and capsules.
 
     Draws mixed (:func:`tube_density`): by the angles the side subtends from ``p`` (:mod:`wrt.subtended_tube`) and,
-    for a capsule, by the cones its end spheres subtend (``SUBTENDED_SHARE`` of the draws between them where they
-    can draw: :func:`side_view`; a cone's draw is dropped, nothing drawn, where it enters the sphere off its end),
+    for a capsule, by the cones its end spheres subtend or, for a capped tube, by the solid angles of its caps
+    (``SUBTENDED_SHARE`` of the draws between them where they can draw: :func:`side_view`; a cone's draw is dropped,
+    nothing drawn, where it enters the sphere off its end, a cap's where it lands off the disk),
     and uniformly by area over the part of the tube :func:`tube_area` names for ``p`` (its side, caps, hemispheres
     or zones chosen in proportion to their areas).
     ``facing`` 1 (a single-sided tube) leaves out what ``p`` cannot see the front of: the points of the side off
@@ -327,6 +342,16 @@ def sample_tube(row: wp.vec4, axis: wp.vec4, taper: float, p: wp.vec3, facing: i
         if taper != 1.0:  # a cone's normal leans towards its top by the slope of its radius
             n = wp.normalize(2.0 * h_side * radial + (r_side - top_side) * w)
         on_side = 1
+    elif u1 < guided and code == TUBE_CAPPED:
+        # A cap by its disk draw (wrt.tube_caps), kept where it lands on the disk.
+        end = wp.where(u1 < by_angle + low, -1.0, 1.0)
+        u_end = wp.where(end > 0.0, (u1 - by_angle - low) / high, (u1 - by_angle) / low)
+        q_rel, kept = sample_cap(end, r * down * wp.where(end > 0.0, taper, 1.0), h_down, w, to_p, wp.min(u_end, 1.0),
+                                 u2)
+        if not kept:
+            return q, n, 0.0, down
+        q = c + q_rel * up
+        n = end * w
     elif u1 < guided:
         # A capsule's end sphere by the cone it subtends: where the direction enters the sphere, kept on the end
         # (the rest of the sphere's near side lies inside the capsule, behind its side or other end).
