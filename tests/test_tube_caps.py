@@ -11,7 +11,17 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from test_subtended_tube import TUBES, density_kernel, device_tube, draws, kept_kernel, sinh_grid, surface, to_world
+from test_subtended_tube import (
+    TUBES,
+    density_kernel,
+    device_tube,
+    draws,
+    kept_kernel,
+    side,
+    sinh_grid,
+    surface,
+    to_world,
+)
 
 CAPPED = ["capped-cylinder", "capped-frustum"]
 
@@ -102,3 +112,36 @@ def test_the_density_near_a_cap_integrates_to_the_share_of_draws_kept(name, faci
     share = float(kept.numpy().mean())
     assert abs(total - share) < 5e-3, (total, share)
     assert share < 1.0, share  # the cap's draw takes part there
+
+
+@pytest.mark.parametrize("name", CAPPED)
+@pytest.mark.parametrize("end", [-1, 1], ids=["bottom", "top"])
+def test_the_density_is_continuous_across_a_caps_plane_beside_the_tube(name, end):
+    """From points 1e-5 radii either side of a cap's plane, 1.2 radii off the axis all round it (beside the tube: a
+    floor a capped cylinder stands on), the density at side points differs by under 0.1%: path reads a hit's density
+    from its ray's origin, just off the shading point, and light sampling from the shading point itself. Weighted by
+    the solid angle of the square the cap is drawn through alone, the cap's draw took near all of the guided share
+    just beyond the plane in the square's corners (its solid angle near 2 pi there) and none just inside it."""
+    kind, code, taper, r, h = TUBES[name]
+    z0, z1, ra, rb = side(kind, r, h, taper)
+    cap = r * (taper if end > 0 else 1.0)
+    slope = (rb - ra) / (z1 - z0)
+    for angle in np.arange(16) * math.pi / 8 + 0.1:
+        zs = np.linspace(z0, z1, 7)[1:-1]
+        deltas = angle + np.array([-0.6, 0.0, 0.6])
+        zz, dd = np.meshgrid(zs, deltas, indexing="ij")
+        radius = ra + (rb - ra) * (zz - z0) / (z1 - z0)
+        q = np.stack([radius * np.cos(dd), radius * np.sin(dd), zz], -1).reshape(-1, 3)
+        nq = np.stack([np.cos(dd), np.sin(dd), np.full_like(dd, -slope)], -1).reshape(-1, 3) / math.hypot(1.0, slope)
+        densities = []
+        for side_of in (-1.0, 1.0):
+            p = np.array([1.2 * cap * math.cos(angle), 1.2 * cap * math.sin(angle), end * (h + side_of * 1e-5 * r)])
+            out = wp.zeros(len(q), dtype=float, device="cpu")
+            wp.launch(density_kernel, len(q), inputs=[*device_tube(name), 1, wp.vec3(*to_world(p)),
+                                                      wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
+                                                      wp.array(to_world(nq, point=False), dtype=wp.vec3,
+                                                               device="cpu")],
+                      outputs=[out], device="cpu")
+            densities.append(out.numpy().astype(np.float64))
+        assert (densities[0] > 0.0).all()
+        np.testing.assert_allclose(densities[1], densities[0], rtol=1e-3, err_msg=f"angle {angle}")

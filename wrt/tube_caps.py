@@ -30,16 +30,21 @@ def seen_cap(end: float, radius: float, h: float, w: wp.vec3, to_p: wp.vec3):
 def cap_weight(end: float, radius: float, h: float, w: wp.vec3, to_p: wp.vec3):
     """The weight of the cap's draw from ``to_p``: the square root of the share of p's sky (``solid angle / 2 pi``)
     the square around it fills, as a capsule end's cone's (:func:`wrt.glowing_tubes.side_view` shares the guided
-    draws by these); 0 unless p lies beyond the cap's plane (it sees the cap's front) and the square's solid angle is
-    accurate (:func:`wrt.spherical_rect.solid_angle_usable`), faded in over ``SOLID_ANGLE_MIN`` above that bound so
-    that the weight is continuous in p (path reads a hit's density from its ray's origin, just off the point)."""
-    if radius <= 0.0 or end * wp.dot(to_p, w) - h <= 0.0:
+    draws by these), times ``height / (height + out)``, ``out`` how far p's foot on the plane lies off the disk; 0
+    unless p lies beyond the cap's plane (it sees the cap's front) and the square's solid angle is accurate
+    (:func:`wrt.spherical_rect.solid_angle_usable`), faded in over ``SOLID_ANGLE_MIN`` above that bound. Continuous
+    in p off the cap (path reads a hit's density from its ray's origin, just off the shading point): by the square
+    alone, a point just beyond the plane in the square's corner, off the disk (a floor a cylinder stands on), gave
+    the cap near all the guided draws (the square filled near all its sky) and one just short of it none."""
+    height = end * wp.dot(to_p, w) - h
+    if radius <= 0.0 or height <= 0.0:
         return 0.0
     r = seen_cap(end, radius, h, w, to_p)
     if not solid_angle_usable(r, 0.0):
         return 0.0
+    out = wp.max(wp.length(to_p - wp.dot(to_p, w) * w) - radius, 0.0)
     fade = wp.clamp((r.solid_angle - SOLID_ANGLE_MIN) / SOLID_ANGLE_MIN, 0.0, 1.0)
-    return wp.sqrt(r.solid_angle / (2.0 * PI)) * fade
+    return wp.sqrt(r.solid_angle / (2.0 * PI)) * fade * height / (height + out)
 
 
 @wp.func
