@@ -222,8 +222,8 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
         high = wp.where(inside_end, 0.0, wp.sqrt(high))
     if code == TUBE_CAPPED and near:
         # A capped tube's caps by the disk draw (wrt.tube_caps), the one p lies beyond, weighted alike by the square
-        # root of the share of p's sky the square around it fills: by area alone, a point 0.02 radii off a cap
-        # estimated its light with a relative noise of 12 to 110 per draw.
+        # root of the share of p's sky the square around it fills (cap_weight: continuous in p off the cap): by area
+        # alone, a point 0.02 radii off a cap estimated its light with a relative noise of 12 to 110 per draw.
         low = cap_weight(-1.0, r, h, w, to_p)
         high = cap_weight(1.0, top, h, w, to_p)
     rest = (SUBTENDED_SHARE - share) / wp.max(1.0, low + high)
