@@ -619,9 +619,9 @@ def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_
 
 
 def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
-    """An emissive analytic shape that is not sampled (a sphere scaled into an ellipsoid: glowing spheres are,
-    tests/test_glowing_spheres.py) lights nothing under whitted: the render says so instead of silently showing a
-    dark plane. A stage's emissive gprim is drawn as its tessellation (tests/test_emissive_gprims.py), so this is a
+    """An emissive analytic shape that is not sampled (a sphere squashed flat, under 1e-6 of its width: glowing
+    spheres and ellipsoids are, tests/test_glowing_spheres.py and tests/test_glowing_hulls.py) lights nothing under
+    whitted: the render says so instead of silently showing a dark plane. A stage's emissive gprim is drawn as its tessellation (tests/test_emissive_gprims.py), so this is a
     scene built in Python; tessellated, it is sampled."""
     path = tmp_path / "scene.usda"
     path.write_text(
@@ -646,7 +646,13 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
         warnings.simplefilter("error")  # a sphere is sampled
         wrt.render(wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials), width=8, height=8)
     to_world = to_world.copy()
-    to_world[0, 0] = 0.8
+    to_world[0, 0] = 0.8  # an ellipsoid: sampled too
+    sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.render(wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials), width=8, height=8)
+    to_world = to_world.copy()
+    to_world[0, 0] = 1e-8  # squashed flat: its ellipsoid's map has no float32 inverse
     sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
     scene = wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials)
     with pytest.warns(UserWarning, match="1 emissive analytic primitive"):
