@@ -510,3 +510,45 @@ def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
     for part in ("/World/Property", "/World/Two", "/World/Collection", "material:binding:collection:looks"):
         assert part in named[0]
     assert "/World/Bound" not in named[0]
+
+
+def test_a_binding_through_a_relationship_is_named_only_where_usd_ignores_it(tmp_path):
+    """A binding may target a relationship, which USD forwards (``GetForwardedTargets``): one forwarded to a Material
+    (directly or through a chain of relationships, a collection binding's collection or material likewise) binds it
+    for ``ComputeBoundMaterial``; one forwarded to two Materials or to nothing binds nothing. wrt named the forwarded
+    ones that bind as bindings USD ignores ("drawn as bound to what is above them") while it drew their material.
+    Named exactly where ``ComputeBoundMaterial`` finds no binding; the drawn materials are USD's."""
+    path = str(tmp_path / "forwarded.usda")
+    stage = Usd.Stage.CreateNew(path)
+    red, green = preview_material(stage, "/Looks/Red", (1, 0, 0)), preview_material(stage, "/Looks/Green", (0, 1, 0))
+    world = stage.DefinePrim("/World", "Xform")
+    relays = {"one": [red.GetPath()], "chain": ["/World.one"], "two": [red.GetPath(), green.GetPath()], "none": []}
+    for name, targets in relays.items():
+        world.CreateRelationship(name).SetTargets(targets)
+    Usd.CollectionAPI.Apply(world, "looks").CreateIncludesRel().SetTargets(["/World"])
+    world.CreateRelationship("looks").SetTargets(["/World.collection:looks"])
+    for name in relays:
+        UsdShade.MaterialBindingAPI.Apply(_quads(stage, f"/World/{name}", 1)).GetDirectBindingRel().SetTargets(
+            [f"/World.{name}"])
+    collection = UsdShade.MaterialBindingAPI.Apply(_quads(stage, "/World/Collection", 1)).GetPrim()
+    collection.CreateRelationship("material:binding:collection:looks").SetTargets(["/World.looks", "/World.chain"])
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    meshes = [f"/World/{name}" for name in relays] + ["/World/Collection"]
+    ignored = {mesh for mesh in meshes
+               if not UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(mesh)).ComputeBoundMaterial()[1]}
+    assert ignored == {"/World/two", "/World/none"}  # USD's own answer: the stage holds both kinds
+    scene = None
+
+    def load():
+        nonlocal scene
+        scene = wrt.load_usd(path)
+
+    messages = _messages(load)
+    named = [m for m in messages if "USD ignores" in m]
+    assert len(named) == 1, messages
+    assert f"{len(ignored)} prim(s)" in named[0], named[0]
+    for mesh in meshes:
+        assert (re.search(re.escape(mesh) + r"\b", named[0]) is not None) == (mesh in ignored), (mesh, named[0])
+    drawn = _drawn_materials(scene)
+    assert drawn == _usd_materials(stage, drawn)

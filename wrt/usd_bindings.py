@@ -75,13 +75,15 @@ IGNORED_BINDING = ("material bindings that USD ignores (a direct binding targets
 def is_ignored_binding(prim: Usd.Prim, name: str) -> bool:
     """Binding relationship ``name`` of ``prim`` has targets that ``ComputeBoundMaterial`` does not take as a binding
     (it goes on to the bindings above): a direct binding of a property or of several prims, a collection binding
-    without a collection and a prim. One without targets (deliberately unbound) is not."""
+    without a collection and a prim. One without targets (deliberately unbound) is not. USD reads the targets
+    forwarded through relationships (one targeting ``/World.looks``, which targets a Material, binds it)."""
     parts = name.split(":")
     if parts[:2] != ["material", "binding"]:
         return False
-    targets = prim.GetRelationship(name).GetTargets()
-    if not targets:
+    rel = prim.GetRelationship(name)
+    if not rel.GetTargets():
         return False
+    targets = rel.GetForwardedTargets()
     if len(parts) > 2 and parts[2] == "collection":
         return not (len(targets) == 2 and targets[0].IsPropertyPath() and targets[1].IsPrimPath())
     return not (len(targets) == 1 and targets[0].IsPrimPath())
