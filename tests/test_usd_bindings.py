@@ -552,3 +552,23 @@ def test_a_binding_through_a_relationship_is_named_only_where_usd_ignores_it(tmp
         assert (re.search(re.escape(mesh) + r"\b", named[0]) is not None) == (mesh in ignored), (mesh, named[0])
     drawn = _drawn_materials(scene)
     assert drawn == _usd_materials(stage, drawn)
+
+
+def test_a_binding_forwarded_to_no_material_names_the_prim_it_reaches(tmp_path):
+    """A binding that targets a relationship which targets an Xform binds nothing (``ComputeBoundMaterial`` finds the
+    relationship and no material): the warning named only the relationship it targets (``-> /World.relay``, read as
+    a binding of a property), not the prim USD reached through it."""
+    path = str(tmp_path / "relay.usda")
+    stage = Usd.Stage.CreateNew(path)
+    world = stage.DefinePrim("/World", "Xform")
+    stage.DefinePrim("/World/Xform", "Xform")
+    world.CreateRelationship("relay").SetTargets(["/World/Xform"])
+    mesh = _quads(stage, "/World/Mesh", 1)
+    UsdShade.MaterialBindingAPI.Apply(mesh).GetDirectBindingRel().SetTargets(["/World.relay"])
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/Mesh")).ComputeBoundMaterial()
+    assert rel and not material and rel.GetForwardedTargets() == [Sdf.Path("/World/Xform")]
+    named = [m for m in _messages(lambda: wrt.load_usd(path)) if "no Material" in m]
+    assert len(named) == 1 and "/World/Mesh" in named[0], named
+    assert "-> /World/Xform" in named[0], named[0]

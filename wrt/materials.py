@@ -995,10 +995,13 @@ class MaterialReader:
     def _name_binding_to_no_material(self, rel):
         """Names binding relationship ``rel``, which ``ComputeBoundMaterial`` found and whose target is no Material (a
         missing prim, an Xform): it binds nothing, and its prims were drawn as bound to no material without a word. An
-        emptied binding (no target, deliberately unbound) is no binding to USD and is not named."""
+        emptied binding (no target, deliberately unbound) is no binding to USD and is not named. A target reached
+        through relationships is named with the prim USD reached (``-> /World.relay -> /World/Xform``)."""
         targets = rel.GetTargets()
         if targets:  # a collection binding targets its collection, then its material
-            self.skip(BINDING_TO_NO_MATERIAL, rel.GetPrim(), f"{rel.GetName()} -> {targets[-1]}")
+            reached = rel.GetForwardedTargets()
+            through = f" -> {reached[-1]}" if reached and reached[-1] != targets[-1] else ""
+            self.skip(BINDING_TO_NO_MATERIAL, rel.GetPrim(), f"{rel.GetName()} -> {targets[-1]}{through}")
 
     def _walk(self, prim, outer, missing):
         """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
