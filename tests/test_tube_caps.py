@@ -14,6 +14,8 @@ import warp as wp
 from test_capsule_ends import FLOOR_PATCH, FLOOR_RES, render_under
 from test_glowing_spheres import RADIANCE, floor_mesh, materials
 from test_subtended_tube import (
+    CENTRE,
+    ROT,
     TUBES,
     density_kernel,
     device_tube,
@@ -26,6 +28,7 @@ from test_subtended_tube import (
 )
 
 import wrt
+from wrt.glowing_spheres import GLOW_CAPPED_CYLINDER
 
 CAPPED = ["capped-cylinder", "capped-frustum"]
 
@@ -91,31 +94,56 @@ def test_a_point_near_a_cap_estimates_its_irradiance_unbiased_and_quiet(name, en
     assert (off_by < 2e-3).sum() >= 0.999 * drawn.sum(), np.sort(off_by)[-5:]
 
 
+def density_total_and_kept(tube, p, s, facing, count=200_000):
+    """``(total, share)``: the density by area ``tube_pdf`` gives from ``p`` (the tube's frame) summed by the float64
+    quadrature over what the capped tube ``tube`` (a row of :data:`TUBES`, placed as :func:`device_tube` places
+    them) draws from (a double-sided tube's whole surface; a single-sided one's part
+    :func:`test_subtended_tube.surface` names), its cap ``s`` refined about p's foot, and the share of ``count`` draws
+    kept."""
+    kind, code, taper, r, h = tube
+    placed = (wp.vec4(*CENTRE, r), wp.vec4(*(ROT[:, 2] * h), code), taper)
+    q, nq, dA = refined_surface(tube, p, s, single_sided=facing == 1)
+    densities = wp.zeros(len(q), dtype=float, device="cpu")
+    wp.launch(density_kernel, len(q), inputs=[*placed, facing, wp.vec3(*to_world(p)),
+                                              wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
+                                              wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
+              outputs=[densities], device="cpu")
+    total = float((densities.numpy().astype(np.float64) * dA).sum())
+    us = np.random.default_rng(5).uniform(size=(count, 2)).astype(np.float32)
+    kept = wp.zeros(count, dtype=float, device="cpu")
+    wp.launch(kept_kernel, count, inputs=[*placed, facing, wp.vec3(*to_world(p)), wp.array(us, dtype=wp.vec2,
+                                                                                             device="cpu")],
+              outputs=[kept], device="cpu")
+    return total, float(kept.numpy().mean())
+
+
 @pytest.mark.parametrize("name", CAPPED)
 @pytest.mark.parametrize("facing", [0, 1])
 @pytest.mark.parametrize("off", [0.0, 0.9, 1.3])
 def test_the_density_near_a_cap_integrates_to_the_share_of_draws_kept(name, facing, off):
     """From points 0.02 radii beyond the top cap's plane (over its centre, near its rim and past it, beside the side),
-    the density by area ``tube_pdf`` gives, summed by the float64 quadrature over what the tube draws from (a
-    double-sided tube's whole surface; a single-sided one's part :func:`test_subtended_tube.surface` names), the top
+    the density by area ``tube_pdf`` gives, summed by the float64 quadrature over what the tube draws from, the top
     cap refined about p's foot, is the share of draws kept within 0.5%: the cap's draws that fall off the disk are
     dropped (200,000 draws count them)."""
     p, _ = off_cap(name, 1, 0.02, off)
-    q, nq, dA = refined_surface(TUBES[name], p, 1, single_sided=facing == 1)
-    densities = wp.zeros(len(q), dtype=float, device="cpu")
-    wp.launch(density_kernel, len(q), inputs=[*device_tube(name), facing, wp.vec3(*to_world(p)),
-                                              wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
-                                              wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
-              outputs=[densities], device="cpu")
-    total = float((densities.numpy().astype(np.float64) * dA).sum())
-    count = 200_000
-    us = np.random.default_rng(5).uniform(size=(count, 2)).astype(np.float32)
-    kept = wp.zeros(count, dtype=float, device="cpu")
-    wp.launch(kept_kernel, count, inputs=[*device_tube(name), facing, wp.vec3(*to_world(p)),
-                                          wp.array(us, dtype=wp.vec2, device="cpu")], outputs=[kept], device="cpu")
-    share = float(kept.numpy().mean())
+    total, share = density_total_and_kept(TUBES[name], p, 1, facing)
     assert abs(total - share) < 5e-3, (total, share)
     assert share < 1.0, share  # the cap's draw takes part there
+
+
+@pytest.mark.parametrize("facing", [0, 1])
+@pytest.mark.parametrize("off", [0.0, 0.7])
+def test_a_sharp_frustums_density_beyond_its_wide_cap_integrates_to_the_share_kept(facing, off):
+    """A capped frustum whose top radius is a thousandth of its bottom one (0.3 and 3e-4, 0.9 each way), from points
+    0.02 radii beyond its bottom cap: the density ``tube_pdf`` gives integrates to the share of draws kept within
+    0.5%, its tiny top cap included (the area draw reaches it). The top cap's square, 6e-4 wide 1.8 away, has a solid
+    angle float32 rounds to 0: its disk draw's pdf there was infinite and, times that cap's weight 0, made the
+    density NaN at every point of it, though that cap takes no disk draws from there."""
+    tube = ("cone", GLOW_CAPPED_CYLINDER, 1e-3, 0.3, 0.9)
+    p = np.array([off * 0.3, 0.0, -0.9 - 0.02 * 0.3])
+    total, share = density_total_and_kept(tube, p, -1, facing)
+    assert abs(total - share) < 5e-3, (total, share)
+    assert share < 1.0, share  # the bottom cap's draw takes part there
 
 
 @pytest.mark.parametrize("name", CAPPED)

@@ -267,8 +267,10 @@ def tube_density(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp
                                                                                   arc)
     density = (1.0 - share - low - high) / area
     if on_side == 0 and low + high > 0.0 and code == TUBE_CAPPED:
-        end = wp.where(wp.dot(q_rel, w) >= 0.0, 1.0, -1.0)  # a cap: its disk draw's
-        density += wp.where(end > 0.0, high, low) * cap_density(end, wp.where(end > 0.0, top, r), h, w, to_p, q_rel)
+        end = wp.where(wp.dot(q_rel, w) >= 0.0, 1.0, -1.0)  # a cap: its disk draw's, where it draws
+        weight = wp.where(end > 0.0, high, low)
+        if weight > 0.0:  # (the other cap's square may have a solid angle float32 rounds to 0: an infinite pdf)
+            density += weight * cap_density(end, wp.where(end > 0.0, top, r), h, w, to_p, q_rel)
     elif on_side == 0 and low + high > 0.0:
         end = end_sign(q_rel, w, mid, half, code)  # a capsule's end: its sphere's cone's
         density += wp.where(end > 0.0, high, low) * end_cone_density(end * h * w, wp.where(end > 0.0, top, r), to_p,
