@@ -201,6 +201,13 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
         share = SUBTENDED_SHARE * fade
         if near_end + to_side > 0.0:
             share = share * near_end * near_end / (near_end * near_end + to_side * to_side)
+        if facing == 1:
+            # Past the side's slab, none as p nears the side's extension, inside which a single-sided side shows p
+            # no front (share 0 there): times ``off / (off + past)``. Cut off at it, the density jumped 45-50% at a
+            # capped tube's cap p sees from both sides of it (path reads a hit's density from its ray's origin).
+            off = rho - reach
+            past = wp.max(wp.abs(z) - half, 0.0)
+            share = share * off / (off + past)
     low = float(0.0)
     high = float(0.0)
     # (From inside the capsule, the cones enter their spheres inside it: none of their draws would be kept. Inside
