@@ -167,7 +167,8 @@ def side_view(r: float, top: float, h: float, code: int, w: wp.vec3, to_p: wp.ve
     times ``down``) and shading point (``to_p`` from the centre) as :mod:`wrt.subtended_tube` takes them (``reach``,
     ``spread``: its draw's arguments), p's angle about the axis from ``basis_x(w)``, and the shares of draws
     :func:`sample_tube` makes by the angles the side subtends (``share``: none where that draw has nothing to draw
-    from, a single-sided tube's side p sees no front of, from inside its extension, past a cone's apex or far away)
+    from, a single-sided tube's side p sees no front of, from inside its extension, past a cone's apex or far away;
+    continuous in p: faded in from a cone's apex plane and, past the side's slab, from a single-sided side's extension)
     and by the cones a capsule's bottom and top spheres subtend (``low``, ``high``: none from inside the capsule, far
     away, or for a tapered capsule's top sphere inside its bottom one; continuous in p outside the capsule) or, for a
     capped tube, by its bottom and top caps' disk draws (:mod:`wrt.tube_caps`: none but for a cap p lies beyond)."""
