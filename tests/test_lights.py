@@ -621,8 +621,8 @@ def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_
 def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
     """An emissive analytic shape that is not sampled (a sphere squashed flat, under 1e-6 of its width: glowing
     spheres and ellipsoids are, tests/test_glowing_spheres.py and tests/test_glowing_hulls.py) lights nothing under
-    whitted: the render says so instead of silently showing a dark plane. A stage's emissive gprim is drawn as its tessellation (tests/test_emissive_gprims.py), so this is a
-    scene built in Python; tessellated, it is sampled."""
+    whitted: the render says so instead of silently showing a dark plane. A stage's emissive gprim is drawn as its
+    tessellation (tests/test_emissive_gprims.py), so this is a scene built in Python; tessellated, it is sampled."""
     path = tmp_path / "scene.usda"
     path.write_text(
         '#usda 1.0\ndef Material "E"\n{\n    token outputs:surface.connect = </E/PS.outputs:surface>\n'
