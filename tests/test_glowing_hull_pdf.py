@@ -109,9 +109,11 @@ def test_a_hull_pdf_integrates_to_its_draws_share_and_is_read_back_as_drawn(case
     r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu",
                      integrator="path")
     lights, k, point = r.device_lights, r.device_lights.first_glowing_sphere, wp.vec3(*np.asarray(p, np.float32))
-    pdfs, read = (wp.zeros(DRAWS, dtype=float, device="cpu") for _ in range(2))
+    # Launched on the renderer's device: the GPU host's render_on_cuda plugin moves it to cuda:0, where a CPU launch
+    # reading its arrays crashed the process.
+    pdfs, read = (wp.zeros(DRAWS, dtype=float, device=r.device) for _ in range(2))
     wp.launch(draw_hull_kernel, DRAWS, inputs=[lights, r.device_scene, r.surfaces, k, point], outputs=[pdfs, read],
-              device="cpu")
+              device=r.device)
     drawn, read = pdfs.numpy().astype(np.float64), read.numpy().astype(np.float64)
     met = drawn > 0.0
     np.testing.assert_allclose(read[met], drawn[met], rtol=1e-4)
@@ -121,10 +123,10 @@ def test_a_hull_pdf_integrates_to_its_draws_share_and_is_read_back_as_drawn(case
     zz, ff = (g.reshape(-1) for g in np.meshgrid(z, phi))
     s = np.sqrt(1.0 - zz * zz)
     dirs = wp.array(np.stack([s * np.cos(ff), s * np.sin(ff), zz], axis=1).astype(np.float32), dtype=wp.vec3,
-                    device="cpu")
-    grid = wp.zeros(len(zz), dtype=float, device="cpu")
+                    device=r.device)
+    grid = wp.zeros(len(zz), dtype=float, device=r.device)
     wp.launch(hull_pdf_kernel, len(zz), inputs=[lights, r.device_scene, r.surfaces, k, point, dirs], outputs=[grid],
-              device="cpu")
+              device=r.device)
     integral = grid.numpy().astype(np.float64).sum() * 4.0 * np.pi / len(zz)
     share = met.mean()
     assert share > 0.5, share
@@ -176,11 +178,11 @@ def test_whitted_weighs_every_point_a_glowing_box_lights(linear, np_rng):
     points = np_rng.normal(size=(count, 3)) * size * np.exp(np_rng.uniform(-1.0, 4.0, (count, 1)))
     normals = np_rng.normal(size=(count, 3))
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    weights = wp.zeros(count, dtype=float, device="cpu")
+    weights = wp.zeros(count, dtype=float, device=r.device)
     wp.launch(seen_hull_kernel, count, inputs=[r.device_lights, r.device_lights.first_glowing_sphere,
-                                               wp.array(points.astype(np.float32), dtype=wp.vec3, device="cpu"),
-                                               wp.array(normals.astype(np.float32), dtype=wp.vec3, device="cpu")],
-              outputs=[weights], device="cpu")
+                                               wp.array(points.astype(np.float32), dtype=wp.vec3, device=r.device),
+                                               wp.array(normals.astype(np.float32), dtype=wp.vec3, device=r.device)],
+              outputs=[weights], device=r.device)
     lit = box_faces_seen(to_world, points, normals)
     assert lit.mean() > 0.3
     assert (weights.numpy()[lit] > 0.0).all()
