@@ -105,6 +105,19 @@ NEAR_POINTS = {
 }
 
 
+def assert_draws_give_lamberts_irradiance(p, n, corners, count=40000):
+    """``count`` directions drawn over the solid angle of the triangle ``corners`` from ``p`` average, weighed by
+    their pdf and cosine to unit normal ``n``, to Lambert's irradiance of the triangle (float64, clipped to the
+    normal's hemisphere) within four standard errors plus 0.2%."""
+    irradiance = wp.zeros(count, dtype=float, device="cpu")
+    wp.launch(drawn_irradiance_kernel, count, inputs=[wp.vec3(*p), wp.vec3(*n), *(wp.vec3(*x) for x in corners)],
+              outputs=[irradiance], device="cpu")
+    estimates = irradiance.numpy().astype(np.float64)
+    expected = polygon_irradiance(p, n, corners, 1.0)
+    error = estimates.std() / math.sqrt(count)
+    assert abs(estimates.mean() - expected) < 4 * error + 2e-3 * expected, (estimates.mean(), expected, error)
+
+
 @pytest.mark.parametrize("first", [0, 1, 2])
 @pytest.mark.parametrize("name", list(NEAR_POINTS))
 def test_directions_drawn_near_the_triangles_plane_give_lamberts_irradiance(name, first):
@@ -115,14 +128,7 @@ def test_directions_drawn_near_the_triangles_plane_give_lamberts_irradiance(name
     27% too little under an edge and twice too much beside it."""
     corners = np.roll(np.asarray(UNIT_TRIANGLE, np.float64), -first, axis=0)
     p, n = np.asarray(NEAR_POINTS[name], np.float64), np.array([0.0, 0.0, 1.0])
-    count = 40000
-    irradiance = wp.zeros(count, dtype=float, device="cpu")
-    wp.launch(drawn_irradiance_kernel, count, inputs=[wp.vec3(*p), wp.vec3(*n), *(wp.vec3(*x) for x in corners)],
-              outputs=[irradiance], device="cpu")
-    estimates = irradiance.numpy().astype(np.float64)
-    expected = polygon_irradiance(p, n, corners, 1.0)
-    error = estimates.std() / math.sqrt(count)
-    assert abs(estimates.mean() - expected) < 4 * error + 2e-3 * expected, (estimates.mean(), expected, error)
+    assert_draws_give_lamberts_irradiance(p, n, corners)
 
 
 def test_the_solid_angle_of_needles_seen_from_near_their_plane_is_girards():
@@ -167,11 +173,4 @@ def test_directions_drawn_near_a_needles_long_side_give_lamberts_irradiance(p, f
     light)."""
     corners = np.roll(np.asarray(NEEDLE, np.float32), -first, axis=0).astype(np.float64)
     p, n = np.asarray(p, np.float32).astype(np.float64), np.array([0.0, 0.0, 1.0])
-    count = 40000
-    irradiance = wp.zeros(count, dtype=float, device="cpu")
-    wp.launch(drawn_irradiance_kernel, count, inputs=[wp.vec3(*p), wp.vec3(*n), *(wp.vec3(*x) for x in corners)],
-              outputs=[irradiance], device="cpu")
-    estimates = irradiance.numpy().astype(np.float64)
-    expected = polygon_irradiance(p, n, corners, 1.0)
-    error = estimates.std() / math.sqrt(count)
-    assert abs(estimates.mean() - expected) < 4 * error + 2e-3 * expected, (estimates.mean(), expected, error)
+    assert_draws_give_lamberts_irradiance(p, n, corners)

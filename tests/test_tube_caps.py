@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from test_capsule_ends import FLOOR_PATCH, FLOOR_RES, render_under
+from test_capsule_ends import FLOOR_PATCH, FLOOR_RES, assert_unbiased_quiet_and_read_back, render_under
 from test_glowing_spheres import RADIANCE, floor_mesh, materials
 from test_subtended_tube import (
     CENTRE,
@@ -19,7 +19,6 @@ from test_subtended_tube import (
     TUBES,
     density_kernel,
     device_tube,
-    draws,
     kept_kernel,
     side,
     sinh_grid,
@@ -84,14 +83,7 @@ def test_a_point_near_a_cap_estimates_its_irradiance_unbiased_and_quiet(name, en
     draw under 1.5 (drawn by area there, it was 12 to 110; now 0.7), and the density each draw reports is the one
     ``tube_pdf`` reads back at its point within 0.2% (all but one in a thousand)."""
     p, n_p = off_cap(name, end, gap, off)
-    expected = irradiance(TUBES[name], p, n_p, end)
-    values, pdfs = draws(name, 1, p, n_p, 100_000, seed=11)
-    se = values.std() / math.sqrt(len(values))
-    assert abs(values.mean() - expected) < 4.0 * se + 1e-3 * expected, (values.mean(), expected, se)
-    assert values.std() < 1.5 * expected, values.std() / expected
-    drawn = pdfs[:, 0] > 0.0
-    off_by = np.abs(pdfs[drawn, 1] / pdfs[drawn, 0] - 1.0)
-    assert (off_by < 2e-3).sum() >= 0.999 * drawn.sum(), np.sort(off_by)[-5:]
+    assert_unbiased_quiet_and_read_back(name, p, n_p, irradiance(TUBES[name], p, n_p, end))
 
 
 def density_total_and_kept(tube, p, s, facing, count=200_000):
