@@ -174,3 +174,24 @@ def test_a_worker_frames_row_lists_the_warning_of_its_save_as_the_serial_rows_do
     assert [row["warnings"] for row in rows] == [serial["warnings"]]
     assert [str(w.message) for w in caught] == serial["warnings"]  # said by the client, in its filters
     assert (tmp_path / "worker.png").read_bytes() == (tmp_path / "serial.png").read_bytes()
+
+
+def test_ctrl_c_while_a_frame_is_written_still_logs_the_image_it_wrote(tmp_path, monkeypatch):
+    """Ctrl-C landing between a worker frame's image write and its log row (a user, or a test, reacting to the image
+    appearing) left the image on disk logged as interrupted. Now the Ctrl-C is raised once both are written."""
+    import os
+    import signal
+
+    from wrt import animation
+
+    def write_then_ctrl_c(path, write):
+        Path(path).write_bytes(b"image")
+        os.kill(os.getpid(), signal.SIGINT)  # delivered at once to this (main) thread's handler
+
+    monkeypatch.setattr(animation, "write_atomically", write_then_ctrl_c)
+    rows = []
+    write = animation._frame_writer(rows)
+    with pytest.raises(KeyboardInterrupt):
+        write({"row": {"frame": 3.0, "status": "ok"}, "data": b"image"}, tmp_path / "f_3.npy")
+    assert (tmp_path / "f_3.npy").is_file()
+    assert [(row["frame"], row["status"], row["output"]) for row in rows] == [(3.0, "ok", str(tmp_path / "f_3.npy"))]

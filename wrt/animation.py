@@ -732,10 +732,36 @@ def _frame_writer(rows: list):
         except Warning as e:  # the caller's filters make it an error: the frame failed, as in a serial run
             rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
             return
-        write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
-        rows.append(dict(row, output=str(file), warnings=frame_warnings(w[0] for w in result.get("warnings", ()))))
+        done = dict(row, output=str(file), warnings=frame_warnings(w[0] for w in result.get("warnings", ())))
+        with _ctrl_c_held():  # a Ctrl-C between the two left a written image logged as interrupted
+            write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
+            rows.append(done)
 
     return write
+
+
+@contextlib.contextmanager
+def _ctrl_c_held():
+    """Ctrl-C (SIGINT) held back inside and handed to the handler it had on leaving (KeyboardInterrupt, as a rule),
+    where this is the main thread: a frame's image and its log row are written together or not at all. Ctrl-C sent
+    the moment an image appeared (as a user watching the folder does) landed between the two: the image stayed, its
+    row said interrupted. (A Python-level handler: blocking the signal in this thread alone lets another thread of
+    the process take it.)"""
+    import signal
+    import threading
+
+    previous = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
+    if not callable(previous):  # not the main thread, or Ctrl-C ignored or left to the system
+        yield
+        return
+    held = []
+    signal.signal(signal.SIGINT, lambda signum, frame: held.append(frame))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held:
+            previous(signal.SIGINT, held[0])
 
 
 _PROCESS_DEVICE = None  # the device a worker process of render_frames claimed
