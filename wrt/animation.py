@@ -117,11 +117,12 @@ def _round_frame(frame: float) -> float:
     return float(f"{frame:.{FRAME_DIGITS}g}")
 
 
-def frame_output(pattern, frame: float) -> Path:
+def frame_output(pattern, frame: float, stem: str | None = None) -> Path:
     """The file of ``frame``: the last run of ``#`` in ``pattern`` becomes the frame number zero-padded to its
     length (``out/frame_####.png`` -> ``out/frame_0012.png``); a pattern without ``#`` gets ``_####`` before its
-    suffix. Fractional frames keep their fraction to :data:`FRAME_DIGITS` significant digits (``frame_0012.5.png``),
-    so the frames of :func:`parse_frames` get files of their own.
+    suffix. With ``stem``, ``{stem}`` in ``pattern`` becomes it once the frame is numbered, so a ``#`` in a scene's
+    name (``shot#1.usda``) stays as it is. Fractional frames keep their fraction to :data:`FRAME_DIGITS` significant
+    digits (``frame_0012.5.png``), so the frames of :func:`parse_frames` get files of their own.
 
     Raises:
         ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``), one of
@@ -151,7 +152,8 @@ def frame_output(pattern, frame: float) -> Path:
     number = ("-" if frame < 0 and digits != "0" else "") + whole.zfill(len(run.group()))
     if fraction:
         number += "." + fraction
-    path = Path(pattern[: run.start()] + number + pattern[run.end() :])
+    path = pattern[: run.start()] + number + pattern[run.end() :]
+    path = Path(path if stem is None else path.replace("{stem}", stem))
     # Every part of the path: the number lands in a folder's name where the last run of # is there (shot_####/a.png).
     part = max(path.parts, key=lambda name: len(os.fsencode(name)))
     if len(os.fsencode(part)) > MAX_NAME_BYTES:
@@ -466,11 +468,12 @@ def frame_warnings(messages) -> list[str]:
     return list(dict.fromkeys(messages))
 
 
-def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
-    """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists and is not empty are
-    left out (files are written whole or not at all: :func:`wrt.image.write_atomically`)."""
+def pending_frames(frames, output, resume: bool, stem: str | None = None) -> list[tuple[float, Path]]:
+    """``(frame, file)`` of every frame to render (``stem`` as :func:`frame_output` takes it); with ``resume``,
+    frames whose file exists and is not empty are left out (files are written whole or not at all:
+    :func:`wrt.image.write_atomically`)."""
     resume = flag(resume, "pending_frames: resume")  # by its truth, "false" left out the frames already written
-    jobs = [(f, frame_output(output, f)) for f in frames]
+    jobs = [(f, frame_output(output, f, stem)) for f in frames]
     return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
 
 

@@ -967,17 +967,20 @@ def _run_frames(args, paths: list, progress) -> int:
         raise SceneError(missing_file(paths[0]), path=str(paths[0]))
     refuse_non_file(str(paths[0]))
     frames = parse_frames(args.frames)
-    output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
+    # {stem} goes in once the frame is numbered: a # in the scene's name (shot#1.usda) is no frame placeholder.
+    pattern = args.output or "frame_####.png"
+    output = pattern.replace("{stem}", paths[0].stem)  # as for still images
     _check_not_an_existing_folder(output)
     from .image import check_not_extension_alone
 
     check_not_extension_alone(output)  # '.png' would become the pattern '.png_####', named as no image format
     if _names_a_folder(output):  # as for a still image: it became the pattern "out_####", no suffix
+        pattern += "{stem}_####.png"
         output += f"{paths[0].stem}_####.png"
     from .image import check_image_path
 
     # Without a log, --resume has only the files to go by: those on disk are skipped, whatever rendered them.
-    jobs = pending_frames(frames, output, args.resume and not args.log)
+    jobs = pending_frames(frames, pattern, args.resume and not args.log, paths[0].stem)
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
