@@ -1465,3 +1465,35 @@ def test_cli_frames_of_mixed_sizes_from_a_time_sampled_aperture_warn_once_naming
     assert len(said) == 1, err
     assert "zoom.usda" in said[0] and "camera /Cam" in said[0], said
     assert f"{width}x{heights[0]} from frame 1" in said[0] and f"{width}x{heights[1]} from frame 8" in said[0], said
+
+
+@pytest.mark.parametrize(
+    "output, names",
+    [
+        ("{stem}.png", ["shot#1_0001.png", "shot#1_0002.png"]),  # no # of its own: _#### before the suffix
+        ("{stem}_##.png", ["shot#1_01.png", "shot#1_02.png"]),
+        ("f_##/{stem}.png", ["f_01/shot#1.png", "f_02/shot#1.png"]),  # the pattern's last run of #, in a folder
+        ("out/", ["out/shot#1_0001.png", "out/shot#1_0002.png"]),  # a folder: {stem}_####.png in it
+    ],
+)
+def test_cli_frames_number_only_the_patterns_own_hashes(animated, tmp_path, monkeypatch, output, names):
+    """A scene named shot#1.usda with -o {stem}.png wrote shot11.png, shot12.png: {stem} was put in before the
+    frames were numbered, so the scene name's # became the frame number. The README: -o's last run of # is the
+    frame number, {stem} the scene file name without extension, as it is."""
+    import shutil
+
+    import wrt.animation
+    from wrt.cli import main
+
+    scene = tmp_path / "shot#1.usda"
+    shutil.copy(animated, scene)
+    given = []
+
+    def record_jobs(path, jobs, **kwargs):
+        given.extend(file for _, file in jobs)
+        return []
+
+    monkeypatch.setattr(wrt.animation, "render_frames", record_jobs)
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", str(scene), "--frames", "1:2", "-o", output, "-q"]) == 0
+    assert [str(file) for file in given] == [str(Path(name)) for name in names]
