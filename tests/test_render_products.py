@@ -981,3 +981,35 @@ def test_an_overscanned_product_is_placed_in_its_shot_past_its_edges(tmp_path):
     clear = want["clear"][shot] & (want["prim"][shot] != "")
     assert clear.sum() > 20
     np.testing.assert_allclose(inside[clear], want["P"][shot][clear], atol=2e-4)
+
+
+@pytest.mark.parametrize(
+    "product_name, png, name, said",
+    [
+        ("shot.", True, "shot.png", None),  # the dot before the extension wrt adds: not shot..png
+        ("shot.0001.", False, "shot.0001.exr", None),
+        ("shot..", True, "shot.png", None),
+        (".png", True, "P.png", "an extension alone"),  # not the hidden file .png.png: the prim's name, as for none
+        (".exr", False, "P.exr", "an extension alone"),
+        (".tif", True, "P.png", "an extension alone"),
+        ("...", True, "P.png", None),  # no name at all: the prim's, as for '.' and '..'
+    ],
+)
+def test_a_product_name_ending_in_a_dot_or_an_extension_alone_names_a_sensible_file(product_name, png, name, said):
+    """productName 'shot.' was written as 'shot..png' and '.png' as the hidden file '.png.png'. The README: a name
+    without an extension gets one, no productName gives the prim's name; an extension alone is no name, so the prim's
+    name comes before it, with a warning naming the product."""
+    from types import SimpleNamespace
+
+    from wrt.render_products import TakenNames, product_file_name
+
+    product = SimpleNamespace(product_name=product_name, product="/Render/P")
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        assert product_file_name(product, png, "shot.usda", TakenNames()) == name
+    messages = [str(w.message) for w in record]
+    if said is None:
+        assert not any("productName" in m and "format" not in m for m in messages), messages
+    else:
+        assert any(f"/Render/P productName {product_name!r}" in m and said in m and name in m for m in messages), \
+            messages

@@ -6,8 +6,9 @@ of Hydra's ``HdAovTokens``, RenderMan's and wrt's own AOV names. ``sourceType = 
 expressions of :data:`BEAUTY_LPES` only, and wrt has no primvar AOVs (``sourceType = "primvar"``). A RenderVar wrt
 has no output for is left out with one warning naming it; a product left with nothing is skipped.
 
-Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the caller's,
-never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the beauty alone
+Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one, or before an extension
+alone such as ``.png``); the folder is the caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both
+become ``OUTDIR/x.png``. A product of the beauty alone
 may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV, the colour
 unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the
 name's extension replaced with a warning where it is another, and a name past 255 bytes shortened. The first beauty
@@ -177,8 +178,10 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
     unique. A name that changes on the way is named in a warning."""
     name = re.split(r"[\\/]", product.product_name)[-1].strip()
     name = re.sub(r"[\x00-\x1f]", "_", name)  # a NUL cannot be in a file name
-    if name in ("", ".", ".."):
-        name = product.product.rsplit("/", 1)[-1]
+    name = name.rstrip(".")  # "shot.": the dot before the extension wrt adds, not "shot..png"; ".", "..": no name
+    alone = name.startswith(".") and name[1:].isalpha()  # ".png" was the hidden file ".png.png"
+    if not name or alone:
+        name = product.product.rsplit("/", 1)[-1] + name
     stem, suffix = os.path.splitext(name)
     wanted = ".exr" if not png or suffix.lower() == ".exr" else ".png"
     if suffix.lower() != wanted:
@@ -189,6 +192,9 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
                           f"written as {stem}{wanted}", stacklevel=3)
             name = stem
         name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
+    if alone:
+        warnings.warn(f"{where}: {product.product} productName {product.product_name!r} is an extension alone, no "
+                      f"file name; written as {name}, after the prim", stacklevel=3)
     stem, suffix = os.path.splitext(name)
     # Room for the suffix and a _k of unique(): a longer name failed the write after every render, other products
     # written, as "File name too long".
