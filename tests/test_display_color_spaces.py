@@ -239,7 +239,8 @@ def test_a_nested_native_prototypes_colour_takes_the_colour_space_of_the_asset_t
 def prototypes_stage(path: str, space: str, count: int = 3) -> str:
     """``count`` instanced assets ``/Proto<k>``, each of two quads with their own displayColor (no ``colorSpace``),
     each instanced twice under groups carrying ``space`` through ``UsdColorSpaceAPI``: every quad's colour is read
-    in the space its instances inherit."""
+    in the space its instances inherit. The colours lie inside Rec.709's gamut from ACEScg (no negative channel once
+    converted, which is named in a warning)."""
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.Xform.Define(stage, "/World")
@@ -248,7 +249,7 @@ def prototypes_stage(path: str, space: str, count: int = 3) -> str:
         for q in range(2):
             quad = add_quad(stage, f"/Proto{k}/Quad{q}", center=(q * 3.0, 0.0, 0.0))
             UsdGeom.PrimvarsAPI(quad).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
-                                                    UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.2 * q + 0.1, 0.5, 0.7)])
+                                                    UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.1 * q + 0.5, 0.5, 0.4)])
         for j in range(2):
             group = UsdGeom.Xform.Define(stage, f"/World/Group{k}_{j}").GetPrim()
             Usd.ColorSpaceAPI.Apply(group).CreateColorSpaceNameAttr(space)
@@ -329,3 +330,33 @@ def test_two_loads_at_once_in_threads_keep_their_own_prototype_colour_spaces(tmp
         for (_, mesh, colors), (_, _, want) in zip(got, expected):
             np.testing.assert_array_equal(colors, want, err_msg=f"{name} {mesh}")
     assert counts == {"first": instances[0], "second": instances[1]}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_negative_display_color_is_named_and_clamped_to_0(tmp_path, kind):
+    """A displayColor with a channel below 0 (an exporter's mistake) is drawn with that channel 0, as it was, but no
+    longer without a word: the warning names the prim that holds it (the instancer, the native instance)."""
+    path = str(tmp_path / "negative.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    colored(stage, kind).Set([Gf.Vec3f(-0.5, 0.5, 0.4)])
+    stage.Save()
+    albedo, messages = rendered_albedo(path)
+    named = [m for m in messages if "negative" in m and "displayColor" in m and "/World/Group/Thing" in m]
+    assert len(named) == 1, messages
+    np.testing.assert_allclose(albedo, (0.0, 0.5, 0.4), rtol=1e-3, atol=1e-4)
+
+
+def test_a_display_color_outside_rec709s_gamut_is_named_and_clamped_to_0(tmp_path):
+    """ACEScg's red is outside Rec.709's gamut: USD's conversion gives it negative green and blue, drawn as 0, named
+    as a light's colour is."""
+    path = display_stage(tmp_path, "mesh", "lin_ap1_scene", "own")
+    stage = Usd.Stage.Open(path)
+    stage.GetPrimAtPath("/World/Group/Thing").GetAttribute("primvars:displayColor").Set([Gf.Vec3f(1.0, 0.0, 0.0)])
+    stage.Save()
+    converted = usd_linear_rec709("lin_ap1_scene", (1.0, 0.0, 0.0))
+    assert converted[1] < 0.0 and converted[2] < 0.0  # USD's own answer: outside Rec.709's gamut
+    albedo, messages = rendered_albedo(path)
+    named = [m for m in messages if "negative" in m and "gamut" in m and "displayColor" in m and "/World/Group" in m]
+    assert len(named) == 1, messages
+    np.testing.assert_allclose(albedo, np.maximum(converted, 0.0), rtol=1e-3, atol=1e-4)

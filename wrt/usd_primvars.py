@@ -126,12 +126,20 @@ def quaternion_typed(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:
 
 
 def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
-    """``values`` (rows of colour primvar ``name``), the rows that are not finite replaced by grey 0.5 with a warning
-    through ``skip`` naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
+    """``values`` (rows of colour primvar ``name``, linear Rec.709), the rows that are not finite replaced by grey 0.5
+    and negative channels clamped to 0, each with a warning through ``skip`` naming ``prim``: NaN or inf would render
+    as a wrong colour (gprims fall back to grey too), and a negative albedo was drawn black without a word. A channel
+    a conversion from another colour space's primaries makes negative (a saturated ACEScg red) is clamped and named
+    too, as a light's colour is (wrt.usd_lights)."""
     bad = ~np.isfinite(values).all(axis=1)
     if bad.any():
         skip(f"non-finite {name} values were replaced by grey 0.5", prim)
         values = np.where(bad[:, None], values.dtype.type(0.5), values)
+    negative = (values < 0.0).any(axis=1)
+    if negative.any():
+        skip(f"negative {name} channels (authored, or outside Rec.709's gamut once converted from their colour "
+             "space) were clamped to 0", prim)
+        values = np.maximum(values, values.dtype.type(0.0))
     return values
 
 
