@@ -206,6 +206,28 @@ def test_an_input_authored_as_an_array_of_strings_keeps_the_schema_default(tmp_p
     assert any("is not a number; its default is used" in m and name in m for m in messages), messages
 
 
+@pytest.mark.parametrize("name", ["emissiveColor", "diffuseColor", "roughness"])
+def test_an_input_authored_as_a_bool_keeps_the_schema_default(tmp_path, name):
+    """``bool inputs:emissiveColor = 1`` holds no colour USD's typed readers give for its color3f (nor a float for
+    roughness): it was read as grey 1 (roughness 1) without a word. It keeps Sdr's default, named, as a string does."""
+    from pxr import Sdr
+
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/M")
+    shader.CreateInput(name, Sdf.ValueTypeNames.Bool).Set(True)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    authored = shader.GetInput(name).GetAttr()
+    assert authored.GetTypeName() == Sdf.ValueTypeNames.Bool and type(authored.Get()) is bool  # USD's answer
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    default = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface").GetShaderInput(name).GetDefaultValue()
+    field = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "roughness": "roughness"}[name]
+    np.testing.assert_allclose(np.ravel(getattr(mat, field)), np.ravel(default), rtol=1e-6)
+    messages = [str(w.message) for w in caught if "/Looks/M" in str(w.message)]
+    assert any("bool" in m and "its default is used" in m and name in m for m in messages), messages
+
+
 def test_an_input_connected_to_an_unsupported_shader_keeps_the_schema_default_and_says_so(tmp_path):
     """An input connected to a shader wrt does not know keeps UsdPreviewSurface's default (Sdr's), not the value
     authored beside the connection, as Storm draws it: UsdImaging hands Hydra no value for an input whose

@@ -244,11 +244,22 @@ def constant_numbers(value) -> np.ndarray | None:
     return array.astype(np.float64).reshape(-1) if array.dtype.kind in "biuf" else None
 
 
+def bool_typed(value) -> bool:
+    """Whether a constant input's ``value`` is a ``bool`` or ``bool[]``: USD's typed readers give none for a float or
+    colour input (``bool inputs:emissiveColor = 1``), though numpy reads it as the number 1."""
+    try:
+        return np.asarray(value).dtype.kind == "b"
+    except (TypeError, ValueError):  # a ragged list
+        return False
+
+
 def refused_constant(value, sizes: tuple) -> str:
     """Why a surface input's constant ``value``, which takes a count in ``sizes`` of numbers (``(1,)`` for a float,
     ``(1, 3, 4)`` for a colour), keeps the default: ``not a number`` (a string), ``authored with 3 numbers where one
     is expected`` (a ``float3 roughness``: it was called not a finite number, which its three are), else ``not a
     finite number`` (NaN, inf, past float32)."""
+    if bool_typed(value):
+        return "a bool, not a number"
     numbers = constant_numbers(value)
     if numbers is None:  # a string (or strings), None, a ragged list, a type of no numbers
         return "not a number"
@@ -873,7 +884,7 @@ def _rgb(value) -> np.ndarray | None:
     in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load), and for a string (as
     :meth:`MaterialReader._set_constant`: numpy read a ``string`` diffuseColor "0.7" as the grey 0.7, and a
     ``string[]`` likewise)."""
-    v = constant_numbers(value)
+    v = None if bool_typed(value) else constant_numbers(value)
     if v is None or v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
         return None
     return np.resize(v, 3) if v.size > 1 else np.full(3, v[0])
@@ -1462,7 +1473,8 @@ class MaterialReader:
         covers."""
         # A string of digits is no number, nor is a string[] of them: numpy would read "0.7" as 0.7.
         v = constant_numbers(value)
-        v = np.empty(0) if v is None else v
+        # A bool is a number to numpy alone: a bool emissiveColor was read as grey 1; bool fields (thin_walled) take it.
+        v = np.empty(0) if v is None or (bool_typed(value) and not isinstance(getattr(mat, field), bool)) else v
         # A colour is 1 (grey), 3 or 4 (rgba) numbers, anything else 1: a float2 colour was read as the grey of its
         # first number, an array of colours as its first, a matrix as its first entry, without a word.
         # Finite in float32 too, which the device reads: a double ior of 1e300 stopped the render (Material's check).
