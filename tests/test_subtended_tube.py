@@ -149,6 +149,17 @@ def density_kernel(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp
     densities[i] = tube_pdf(row, axis, taper, facing, p, wi, dist, ns[i]) * wp.abs(wp.dot(wi, ns[i])) / (dist * dist)
 
 
+def tube_densities(placed, facing: int, p, q, nq) -> np.ndarray:
+    """The density by area ``tube_pdf`` gives from ``p`` at each surface point ``q`` of unit normal ``nq`` (all in the
+    tube's frame, placed by :func:`to_world`) of the tube ``placed`` (:func:`device_tube`'s), in float64."""
+    out = wp.zeros(len(q), dtype=float, device="cpu")
+    wp.launch(density_kernel, len(q), inputs=[*placed, facing, wp.vec3(*to_world(p)),
+                                              wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
+                                              wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
+              outputs=[out], device="cpu")
+    return out.numpy().astype(np.float64)
+
+
 @wp.kernel
 def kept_kernel(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3, us: wp.array[wp.vec2],
                 # outputs
@@ -225,12 +236,8 @@ def test_the_tube_density_integrates_to_the_share_of_draws_kept_over_what_it_dra
     make, gap = POINTS[where]
     p = make(name, gap)[0]
     q, nq, dA = surface(TUBES[name], p, single_sided=facing == 1)
-    densities = wp.zeros(len(q), dtype=float, device="cpu")
-    wp.launch(density_kernel, len(q), inputs=[*device_tube(name), facing, wp.vec3(*to_world(p)),
-                                              wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
-                                              wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
-              outputs=[densities], device="cpu")
-    total = float((densities.numpy().astype(np.float64) * dA).sum())
+    densities = tube_densities(device_tube(name), facing, p, q, nq)
+    total = float((densities * dA).sum())
     count = 200_000
     us = np.random.default_rng(5).uniform(size=(count, 2)).astype(np.float32)
     kept = wp.zeros(count, dtype=float, device="cpu")
@@ -282,12 +289,7 @@ def test_the_density_is_continuous_across_a_cones_apex_plane(name):
         densities = []
         for side_of in (-1.0, 1.0):
             p = np.array([rho, 0.0, apex + side_of * 1e-5])
-            out = wp.zeros(len(q), dtype=float, device="cpu")
-            wp.launch(density_kernel, len(q), inputs=[*device_tube(name), 1, wp.vec3(*to_world(p)),
-                                                      wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
-                                                      wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
-                      outputs=[out], device="cpu")
-            densities.append(out.numpy().astype(np.float64))
+            densities.append(tube_densities(device_tube(name), 1, p, q, nq))
         assert (densities[0] > 0.0).all()
         np.testing.assert_allclose(densities[1], densities[0], rtol=1e-3)
 
@@ -330,12 +332,8 @@ def test_inside_a_double_sided_tube_the_density_integrates_to_one_and_draws_read
     (all but one in a thousand). Guard: no other test draws from between a tube's ends inside it."""
     p = inside(name, where)
     q, nq, dA = surface(TUBES[name], p, single_sided=False)
-    densities = wp.zeros(len(q), dtype=float, device="cpu")
-    wp.launch(density_kernel, len(q), inputs=[*device_tube(name), 0, wp.vec3(*to_world(p)),
-                                              wp.array(to_world(q), dtype=wp.vec3, device="cpu"),
-                                              wp.array(to_world(nq, point=False), dtype=wp.vec3, device="cpu")],
-              outputs=[densities], device="cpu")
-    total = float((densities.numpy().astype(np.float64) * dA).sum())
+    densities = tube_densities(device_tube(name), 0, p, q, nq)
+    total = float((densities * dA).sum())
     assert abs(total - 1.0) < 5e-3, total
     _, pdfs = draws(name, 0, p, np.array([1.0, 0.0, 0.0]), 20_000, seed=5)
     drawn = pdfs[:, 0] > 0.0
