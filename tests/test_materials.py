@@ -190,41 +190,37 @@ def test_an_input_of_several_numbers_is_named_by_its_count_not_as_not_finite(tmp
 def test_an_input_authored_as_an_array_of_strings_keeps_the_schema_default(tmp_path, name, type_name, value):
     """A ``string[]`` or ``token[]`` of digits is no number, as a ``string`` is not: numpy read ``["0.7"]`` as 0.7,
     so such an input became a grey or a roughness without a word. It keeps Sdr's default, named as not a number."""
+    messages, _ = loaded_with_the_default(tmp_path, name, getattr(Sdf.ValueTypeNames, type_name), value)
+    assert any("is not a number; its default is used" in m and name in m for m in messages), messages
+
+
+def loaded_with_the_default(tmp_path, name: str, type_name, value) -> tuple[list[str], object]:
+    """The warnings naming the material of a stage whose UsdPreviewSurface input ``name`` is authored as ``value`` of
+    Sdf type ``type_name``, and the value USD reads back for it, after checking that the loaded material keeps Sdr's
+    default for it."""
     from pxr import Sdr
 
     stage, path = new_stage(tmp_path)
     material, shader = preview_material(stage, "/Looks/M")
-    shader.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).Set(value)
+    shader.CreateInput(name, type_name).Set(value)
     bind(add_quad(stage, "/Quad"), material)
     stage.Save()
+    authored = shader.GetInput(name).GetAttr()
+    assert authored.GetTypeName() == type_name  # USD's answer
     with pytest.warns(UserWarning) as caught:
         mat = wrt.load_usd(path).materials[0]
     default = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface").GetShaderInput(name).GetDefaultValue()
     field = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "roughness": "roughness"}[name]
     np.testing.assert_allclose(np.ravel(getattr(mat, field)), np.ravel(default), rtol=1e-6)
-    messages = [str(w.message) for w in caught if "/Looks/M" in str(w.message)]
-    assert any("is not a number; its default is used" in m and name in m for m in messages), messages
+    return [str(w.message) for w in caught if "/Looks/M" in str(w.message)], authored.Get()
 
 
 @pytest.mark.parametrize("name", ["emissiveColor", "diffuseColor", "roughness"])
 def test_an_input_authored_as_a_bool_keeps_the_schema_default(tmp_path, name):
     """``bool inputs:emissiveColor = 1`` holds no colour USD's typed readers give for its color3f (nor a float for
     roughness): it was read as grey 1 (roughness 1) without a word. It keeps Sdr's default, named, as a string does."""
-    from pxr import Sdr
-
-    stage, path = new_stage(tmp_path)
-    material, shader = preview_material(stage, "/Looks/M")
-    shader.CreateInput(name, Sdf.ValueTypeNames.Bool).Set(True)
-    bind(add_quad(stage, "/Quad"), material)
-    stage.Save()
-    authored = shader.GetInput(name).GetAttr()
-    assert authored.GetTypeName() == Sdf.ValueTypeNames.Bool and type(authored.Get()) is bool  # USD's answer
-    with pytest.warns(UserWarning) as caught:
-        mat = wrt.load_usd(path).materials[0]
-    default = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface").GetShaderInput(name).GetDefaultValue()
-    field = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "roughness": "roughness"}[name]
-    np.testing.assert_allclose(np.ravel(getattr(mat, field)), np.ravel(default), rtol=1e-6)
-    messages = [str(w.message) for w in caught if "/Looks/M" in str(w.message)]
+    messages, authored = loaded_with_the_default(tmp_path, name, Sdf.ValueTypeNames.Bool, True)
+    assert type(authored) is bool  # USD's answer
     assert any("bool" in m and "its default is used" in m and name in m for m in messages), messages
 
 
