@@ -1665,3 +1665,26 @@ def test_place2d_nodes_that_loop_back_are_named_and_applied_once(tmp_path):
     assert any("/Looks/Placed" in m and loop in m for m in messages), messages
     st = place2d_oracle(pixel_centre_st(12), np.array(inputs["pivot"]), np.ones(2), inputs["rotate"], np.zeros(2), 0)
     assert_reads_the_texels_at(scene, PIXELS, st)
+
+
+@pytest.mark.parametrize("shader_id, name, field, default", [
+    (STANDARD, "base_color", "diffuse_color", 0.8),  # was white: numpy's 1 for true
+    (STANDARD, "specular_roughness", "roughness", 0.2),  # was 1
+    (OPEN_PBR, "specular_roughness", "roughness", 0.3),
+])
+def test_an_input_authored_as_a_bool_keeps_its_default_with_a_note(tmp_path, shader_id, name, field, default):
+    """``bool inputs:base_color = 1`` holds no colour USD's typed readers give for a color3 (nor a float for a
+    roughness): it was read as 1 without a word. It keeps the specification's default, named with its shader prim
+    in the material's note, as a UsdPreviewSurface input does (test_materials.py, 741d11b)."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Odd", shader_id)
+    shader.CreateInput(name, Sdf.ValueTypeNames.Bool).Set(True)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    assert type(shader.GetInput(name).Get()) is bool  # USD's answer
+    scene, messages = load(path)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(getattr(mat, field), default, rtol=1e-6)
+    (warning,) = [m for m in messages if "/Looks/Odd:" in m]
+    assert f"{name} is a bool, not a number; its default is used" in warning and "/Looks/Odd/Surface" in warning, \
+        warning

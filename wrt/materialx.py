@@ -102,6 +102,7 @@ from .materials import (
     Material,
     PrimvarInput,
     TextureInput,
+    bool_typed,
     constant_numbers,
     constant_st_transform,
     four_components,
@@ -796,8 +797,9 @@ def _input_array(value, size: int) -> np.ndarray | None:
     """:func:`_array` of a surface input's constant, ``size`` numbers of its type: None also when it has another shape
     (a colour, ``size`` 3, is 1, 3 or 4 numbers, a float one) or is a string, as for UsdPreviewSurface's inputs: a
     float2 colour was resized to ``(a, b, a)``, a matrix read as its first entries, a colour or a string of digits
-    given for a float as its first number, without a word."""
-    numbers = constant_numbers(value)
+    given for a float as its first number, without a word. A ``bool`` is none either (numpy's 1 for true): USD's
+    typed readers give no bool for a colour or float input, and a bool base_color was drawn white."""
+    numbers = None if bool_typed(value) else constant_numbers(value)
     return _array(numbers, size) if numbers is not None and numbers.size in _input_sizes(size) else None
 
 
