@@ -6,6 +6,7 @@ seeds 0 .. n-1 instead of the fixed ones."""
 
 from __future__ import annotations
 
+import collections
 import glob
 import os
 import re
@@ -572,3 +573,59 @@ def test_a_binding_forwarded_to_no_material_names_the_prim_it_reaches(tmp_path):
     named = [m for m in _messages(lambda: wrt.load_usd(path)) if "no Material" in m]
     assert len(named) == 1 and "/World/Mesh" in named[0], named
     assert "-> /World/Xform" in named[0], named[0]
+
+
+@pytest.mark.parametrize("purposes, named_meshes", [
+    (["full", ""], {"Full", "Xform"}),  # /World/Preview's preview binding is not asked for
+    (["preview", "full", ""], {"Full", "Xform", "Preview", "Bound"}),  # /World/Bound's preview binding comes first
+])
+def test_a_listed_purposes_binding_to_no_material_is_named_and_binds_nothing(tmp_path, purposes, named_meshes):
+    """With ``materialBindingPurposes`` authored, a ``material:binding:full`` (or ``:preview``) to a missing prim or
+    an Xform is the purpose's binding to ``ComputeBoundMaterial(purpose)``, which binds no material and does not
+    fall back (and Hydra takes the first purpose bound). wrt passed it over as no binding: ``["full", ""]`` drew the
+    all-purpose material under it, without a word. Each mesh draws the material of the first listed purpose whose
+    own walk USD finds a binding of, and those bindings to no Material are named; a purpose not listed is not."""
+    from pxr import UsdRender
+
+    path = str(tmp_path / "purposes.usda")
+    stage = Usd.Stage.CreateNew(path)
+    red, green = preview_material(stage, "/Looks/Red", (1, 0, 0)), preview_material(stage, "/Looks/Green", (0, 1, 0))
+    stage.DefinePrim("/World", "Xform")
+    bindings = {"/World/Full": {"full": "/Looks/Gone", "": red.GetPath()},
+                "/World/Xform": {"full": "/World", "": red.GetPath()},
+                "/World/Preview": {"preview": "/Looks/Gone", "": green.GetPath()},
+                "/World/Bound": {"full": red.GetPath(), "preview": "/Looks/Gone"}}
+    for mesh, targets in bindings.items():
+        api = UsdShade.MaterialBindingAPI.Apply(_quads(stage, mesh, 1))
+        for purpose, target in targets.items():
+            api.GetDirectBindingRel(purpose or UsdShade.Tokens.allPurpose).SetTargets([target])
+    settings = UsdRender.Settings.Define(stage, "/Render/S")
+    settings.CreateMaterialBindingPurposesAttr(purposes)
+    stage.GetRootLayer().Save()
+
+    def usd_binding(prim):  # the first listed purpose whose own walk finds a binding (ComputeBoundMaterial's)
+        for purpose in purposes:
+            material, rel = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(
+                purpose or UsdShade.Tokens.allPurpose)
+            if rel and rel.GetName() == ":".join(["material:binding", purpose]).rstrip(":"):
+                return material, rel
+        return UsdShade.Material(), None
+
+    stage = Usd.Stage.Open(path)
+    expected = {mesh: usd_binding(stage.GetPrimAtPath(mesh)) for mesh in bindings}
+    unbound = {mesh for mesh, (material, rel) in expected.items() if rel and not material}
+    assert unbound == {f"/World/{name}" for name in named_meshes}
+    scene = None
+
+    def load():
+        nonlocal scene
+        scene = wrt.load_usd(path, render_settings="/Render/S")
+
+    named = [m for m in _messages(load) if "no Material" in m]
+    assert len(named) == 1 and f": {len(unbound)} prim(s)" in named[0], named
+    details = collections.Counter(f"{rel.GetName()} -> {rel.GetTargets()[0]}" for mesh, (_, rel) in expected.items()
+                                  if mesh in unbound)
+    for detail, count in details.items():  # each binding USD found to no Material, as many times as it binds
+        assert f"{detail}: {count}" in named[0], named[0]
+    drawn = _drawn_materials(scene)
+    assert drawn == {(mesh, 0): str(material.GetPath()) if material else "" for mesh, (material, _) in expected.items()}

@@ -779,16 +779,16 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None, rea
     ``UsdShade.Material`` when none, and the binding relationship that binds it (None for one bound above a native
     instance).
 
-    ``purposes`` (the render settings' ``materialBindingPurposes``, ``""`` for all-purpose bindings) orders the
-    binding purposes: the material of the first purpose that binds one wrt can read, else of the first that binds
-    any. ``None`` (nothing authored): the ``full`` purpose first (it falls back to all-purpose bindings); when that
-    binds nothing, or a material wrt cannot read (an MDL look, a MaterialX surface other than standard_surface and
-    OpenPBR) while a ``material:binding:preview`` binds one it can (a UsdPreviewSurface, standard_surface or
-    OpenPBR), the preview binding, as usdview shows it. USD's resolution for a full render (``full``, then
-    all-purpose) never reaches preview bindings; without this an asset whose meshes bind their look only for preview
-    was drawn in the default grey (a standard_surface or OpenPBR one until this accepted them there). (usdview
-    takes a preview binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the
-    full one.)
+    ``purposes`` (the render settings' ``materialBindingPurposes``, ``""`` for all-purpose bindings) orders the binding
+    purposes: the material of the first purpose that binds one wrt can read, else of the first that binds any; a purpose
+    bound to no Material ends the search. ``None`` (nothing authored): the ``full`` purpose first (it falls back to
+    all-purpose bindings); when that binds nothing, or a material wrt cannot read (an MDL look, a MaterialX surface
+    other than standard_surface and OpenPBR) while a ``material:binding:preview`` binds one it can (a UsdPreviewSurface,
+    standard_surface or OpenPBR), the preview binding, as usdview shows it. USD's resolution for a full render
+    (``full``, then all-purpose) never reaches preview bindings; without this an asset whose meshes bind their look only
+    for preview was drawn in the default grey (a standard_surface or OpenPBR one until this accepted them there).
+    (usdview takes a preview binding first also where the full one is readable: there wrt, a final-frame renderer, keeps
+    the full one.)
 
     ``walk(purpose)``: the :class:`wrt.usd_bindings.Found` of the bindings of that purpose alone, or None (see
     :class:`wrt.usd_bindings.OwnWalks`, the default), as ``ComputeBoundMaterial`` walks them before it falls back
@@ -808,12 +808,18 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None, rea
         # A purpose without a binding of its own passes its turn in the order.
         found = []
         for purpose in purposes:
-            material, rel = (walk(purpose) or nothing)[:2]
-            if not material:
+            binding = walk(purpose)
+            if binding is None:
                 continue
-            if readable(material):
+            material, rel = binding[:2]
+            if material and readable(material):
                 return material, rel
             found.append((material, rel))
+            if not material:
+                # A binding to no Material binds nothing for its purpose, as ComputeBoundMaterial(purpose) answers
+                # and Hydra takes the first purpose bound: later purposes are not asked. It was passed over as no
+                # binding, so ["full", ""] drew the all-purpose material under it, and it went unnamed.
+                break
         return found[0] if found else nothing
     full, full_binding = with_fallback(UsdShade.Tokens.full)
     if full and readable(full):
