@@ -993,12 +993,15 @@ def test_an_overscanned_product_is_placed_in_its_shot_past_its_edges(tmp_path):
         (".exr", False, "P.exr", "an extension alone"),
         (".tif", True, "P.png", "an extension alone"),
         ("...", True, "P.png", None),  # no name at all: the prim's, as for '.' and '..'
+        (".beauty.png", True, "P.beauty.png", "begins with a dot"),  # was the hidden file .beauty.png
+        ("..beauty.0001.exr", False, "P.beauty.0001.exr", "begins with a dot"),
     ],
 )
 def test_a_product_name_ending_in_a_dot_or_an_extension_alone_names_a_sensible_file(product_name, png, name, said):
-    """productName 'shot.' was written as 'shot..png' and '.png' as the hidden file '.png.png'. The README: a name
-    without an extension gets one, no productName gives the prim's name; an extension alone is no name, so the prim's
-    name comes before it, with a warning naming the product."""
+    """productName 'shot.' was written as 'shot..png', '.png' as the hidden file '.png.png' and '.beauty.png' as the
+    hidden '.beauty.png' (a templated name whose shot was empty). The README: a name without an extension gets one,
+    no productName gives the prim's name; a name that begins with a dot (an extension alone too) gets the prim's name
+    before it, with a warning naming the product and the file."""
     from types import SimpleNamespace
 
     from wrt.render_products import TakenNames, product_file_name

@@ -6,13 +6,13 @@ of Hydra's ``HdAovTokens``, RenderMan's and wrt's own AOV names. ``sourceType = 
 expressions of :data:`BEAUTY_LPES` only, and wrt has no primvar AOVs (``sourceType = "primvar"``). A RenderVar wrt
 has no output for is left out with one warning naming it; a product left with nothing is skipped.
 
-Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one, or before an extension
-alone such as ``.png``); the folder is the caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both
-become ``OUTDIR/x.png``. A product of the beauty alone
-may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV, the colour
-unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the
-name's extension replaced with a warning where it is another, and a name past 255 bytes shortened. The first beauty
-RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
+Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one, or before a name
+that begins with a dot, such as ``.png`` or ``.beauty.png``, which would hide the file); the folder is the
+caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the
+beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage``
+AOV, the colour unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact
+below 2^24), the name's extension replaced with a warning where it is another, and a name past 255 bytes shortened.
+The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
 ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X, N.Y,
 N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name or writes one of its
 channels; shortened past 237 bytes). Two products of one file name get ``_2``, ``_3`` suffixes, with a warning. An
@@ -179,9 +179,12 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
     name = re.split(r"[\\/]", product.product_name)[-1].strip()
     name = re.sub(r"[\x00-\x1f]", "_", name)  # a NUL cannot be in a file name
     name = name.rstrip(".")  # "shot.": the dot before the extension wrt adds, not "shot..png"; ".", "..": no name
-    alone = name.startswith(".") and name[1:].isalpha()  # ".png" was the hidden file ".png.png"
-    if not name or alone:
-        name = product.product.rsplit("/", 1)[-1] + name
+    # A leading dot hides the file: ".png" was the hidden ".png.png", ".beauty.png" the hidden ".beauty.png" (an empty
+    # shot variable in a templated name). The prim's name goes before it, as where there is no name.
+    hidden = name.startswith(".")
+    hides = "is an extension alone, no file name" if name[1:].isalpha() else "begins with a dot, which hides the file"
+    if not name or hidden:
+        name = product.product.rsplit("/", 1)[-1] + "." * hidden + name.lstrip(".")
     stem, suffix = os.path.splitext(name)
     wanted = ".exr" if not png or suffix.lower() == ".exr" else ".png"
     if suffix.lower() != wanted:
@@ -192,9 +195,9 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
                           f"written as {stem}{wanted}", stacklevel=3)
             name = stem
         name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
-    if alone:
-        warnings.warn(f"{where}: {product.product} productName {product.product_name!r} is an extension alone, no "
-                      f"file name; written as {name}, after the prim", stacklevel=3)
+    if hidden:
+        warnings.warn(f"{where}: {product.product} productName {product.product_name!r} {hides}; written as "
+                      f"{name}, after the prim", stacklevel=3)
     stem, suffix = os.path.splitext(name)
     # Room for the suffix and a _k of unique(): a longer name failed the write after every render, other products
     # written, as "File name too long".
