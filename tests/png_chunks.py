@@ -91,3 +91,16 @@ def rgb_png(samples: np.ndarray, transparent=None) -> bytes:
     if transparent is not None:
         data += chunk(b"tRNS", struct.pack(">3H", *transparent))
     return data + chunk(b"IDAT", zlib.compress(stream)) + chunk(b"IEND", b"")
+
+
+def pixel_aspect_ratio(chunks) -> float | None:
+    """The width / height of a pixel that the pHYs chunk of ``chunks`` gives (PNG specification 11.3.5.3: pixels
+    per unit along x, along y, then the unit; one pixel is ``1 / x`` wide and ``1 / y`` tall), None without one. It
+    must come once, before the image data, of unit 0 (the aspect alone: a unit of metres would give a print size)."""
+    kinds = [kind for kind, _, _ in chunks]
+    if b"pHYs" not in kinds:
+        return None
+    ((data, crc_ok),) = [(data, ok) for kind, data, ok in chunks if kind == b"pHYs"]
+    assert crc_ok and len(data) == 9 and data[8] == 0 and kinds.index(b"pHYs") < kinds.index(b"IDAT")
+    x, y = struct.unpack(">II", data[:8])
+    return y / x

@@ -760,6 +760,30 @@ def test_exr_pixel_aspect_ratio_is_the_shape_the_pixels_were_rendered_with(tmp_p
         assert read_header(written[f"/Render/{name}"])["pixelAspectRatio"] == pytest.approx(ratio, rel=1e-6), name
 
 
+def test_png_products_say_the_shape_of_their_pixels(tmp_path):
+    """A PNG product of non-square pixels carried no pHYs chunk, so viewers showed it stretched (the EXR says it in
+    its header, the test above). Its pHYs now holds the ratio UsdRenderComputeSpec gives the product, read by Pillow
+    and png_chunks' reader; a product of square pixels has none (square is what a PNG without it means)."""
+    from pxr import Usd, UsdGeom
+    from test_render_settings import png_pixel_aspect_ratio
+
+    products = "".join(product(name, ["color"], f"{name}.png", extra) for name, extra in [
+        ("Adjusted", 'uniform token aspectRatioConformPolicy = "adjustPixelAspectRatio"\n'),
+        ("Fitted", 'uniform token aspectRatioConformPolicy = "cropAperture"\n'),
+        ("Square", 'uniform token aspectRatioConformPolicy = "cropAperture"\nuniform float pixelAspectRatio = 1\n'),
+    ])
+    stage = write_stage(tmp_path, products, ["Adjusted", "Fitted", "Square"],
+                        settings="uniform float pixelAspectRatio = 2\n")
+    written = wrt.render_products(load(stage), tmp_path / "out", spp=1, device="cpu")
+    usd_stage = Usd.Stage.Open(stage)
+    front = UsdGeom.Camera(usd_stage.GetPrimAtPath("/World/Front")).GetCamera(Usd.TimeCode.Default())
+    adjusted = (front.horizontalAperture / front.verticalAperture) / (32 / 16)  # UsdRenderComputeSpec's
+    assert abs(adjusted - 1.0) > 0.1
+    for name, ratio in [("Adjusted", adjusted), ("Fitted", 2.0)]:
+        assert png_pixel_aspect_ratio(written[f"/Render/{name}"]) == pytest.approx(ratio, rel=1e-5), name
+    assert png_pixel_aspect_ratio(written["/Render/Square"]) is None
+
+
 def test_aov_names_name_the_layers(tmp_path):
     """driver:parameters:aov:name, where authored, names a RenderVar's layer (RenderMan's channel name); the prim
     name otherwise; the first beauty stays R, G, B."""

@@ -537,7 +537,9 @@ def test_exr_images_say_the_shape_of_their_pixels(tmp_path, policy):
     """``wrt render -o x.exr`` and ``Image.save`` of a stage whose settings render non-square pixels wrote
     ``pixelAspectRatio`` 1, so a compositor showed the image squashed; EXR products said it right. Now the header
     holds the rendered pixels' shape: the authored ratio, or under ``adjustPixelAspectRatio`` the apertures' aspect
-    over the resolution's (the film is the apertures), as UsdRenderComputeSpec gives it; PNG has no such field."""
+    over the resolution's (the film is the apertures), as UsdRenderComputeSpec gives it. A PNG says it in its pHYs
+    chunk (unit 0: the aspect alone, pixels per unit along y over x), which it lacked: viewers showed it stretched.
+    Read by Pillow and by the plain-Python reader of png_chunks."""
     from pxr import Usd, UsdGeom
 
     settings = ("rel camera = </World/Side>\n        uniform int2 resolution = (64, 48)\n"
@@ -549,8 +551,23 @@ def test_exr_images_say_the_shape_of_their_pixels(tmp_path, policy):
     expected = 2.0 if policy == "expandAperture" else side.horizontalAperture / side.verticalAperture / (64 / 48)
     assert main(["render", str(stage), "-o", str(tmp_path / "cli.exr"), "-q"]) == 0
     assert exr_float_attribute(tmp_path / "cli.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)
-    wrt.render(wrt.load_usd(stage), width=16, height=12).save(tmp_path / "python.exr")
+    image = wrt.render(wrt.load_usd(stage), width=16, height=12)
+    image.save(tmp_path / "python.exr")
     assert exr_float_attribute(tmp_path / "python.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)
+    image.save(tmp_path / "python.png")
+    assert png_pixel_aspect_ratio(tmp_path / "python.png") == pytest.approx(expected, rel=1e-5)
+
+
+def png_pixel_aspect_ratio(path) -> float | None:
+    """The width / height of a PNG's pixels by its pHYs chunk (None without one), as png_chunks reads it and as
+    Pillow does (its ``aspect``: pixels per unit along x and y)."""
+    from PIL import Image as PilImage
+    from png_chunks import pixel_aspect_ratio, read_chunks
+
+    ratio = pixel_aspect_ratio(read_chunks(str(path)))
+    aspect = PilImage.open(path).info.get("aspect")
+    assert (aspect is None) == (ratio is None) and (aspect is None or aspect[1] / aspect[0] == ratio), aspect
+    return ratio
 
 
 BAD_PYTHON_SETTINGS = [

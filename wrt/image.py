@@ -96,9 +96,29 @@ def depth_grey(depth: np.ndarray) -> np.ndarray:
     return np.clip(np.where(finite, depth, 0.0) / (far if far > 0.0 else 1.0), 0.0, 1.0)
 
 
-def write_srgb_png(target, pixels: np.ndarray) -> None:
+def png_aspect_chunk(pixel_aspect_ratio: float) -> tuple[bytes, bytes] | None:
+    """The PNG ``pHYs`` chunk (specification 11.3.5.3) of pixels ``pixel_aspect_ratio`` times as wide as they are
+    tall: pixels per unit along x and y in the inverse ratio, unit 0 (unknown: the aspect alone), the ratio as the
+    nearest fraction of terms up to 10^5 (within 10^-5 of it); None for square pixels, square without the chunk."""
+    from fractions import Fraction
+
+    wide = pixel_aspect_ratio >= 1.0
+    ratio = Fraction(min(pixel_aspect_ratio if wide else 1.0 / pixel_aspect_ratio, 2**31 - 1)).limit_denominator(
+        100_000)  # at least 1; the fields are below 2^31
+    if ratio == 1:
+        return None
+    many, few = ratio.numerator, ratio.denominator  # pixels per unit along the short side of a pixel, the long one
+    x, y = (few, many) if wide else (many, few)
+    return b"pHYs", x.to_bytes(4, "big") + y.to_bytes(4, "big") + bytes([0])
+
+
+def write_srgb_png(target, pixels: np.ndarray, pixel_aspect_ratio: float = 1.0) -> None:
     """Writes ``(H, W, 3)`` or ``(H, W, 4)`` uint8 sRGB-encoded ``pixels`` (alpha straight, not encoded) as a PNG
-    tagged sRGB (:data:`SRGB_PNG_CHUNKS`) to ``target``, a path or a binary file object."""
+    tagged sRGB (:data:`SRGB_PNG_CHUNKS`) to ``target``, a path or a binary file object, with the shape of its
+    pixels (:func:`png_aspect_chunk`) where they are not square: without it a viewer showed an image of pixels twice
+    as wide as tall squashed to half its width."""
+    import io
+
     from PIL import Image as PilImage
     from PIL.PngImagePlugin import PngInfo
 
@@ -106,7 +126,31 @@ def write_srgb_png(target, pixels: np.ndarray) -> None:
     for chunk_type, data in SRGB_PNG_CHUNKS:
         info.add(chunk_type, data)  # Pillow writes these before the image data, where the specification puts them
     mode = "RGBA" if pixels.shape[-1] == 4 else "RGB"
-    PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(target, format="PNG", pnginfo=info)
+    aspect = png_aspect_chunk(pixel_aspect_ratio)
+    if aspect is None:
+        PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(target, format="PNG", pnginfo=info)
+        return
+    # Pillow writes no pHYs of pnginfo's, and its own (``dpi``) is in metres, a print size: put ours in.
+    buffer = io.BytesIO()
+    PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(buffer, format="PNG", pnginfo=info)
+    png = with_png_chunk(buffer.getvalue(), *aspect)
+    if hasattr(target, "write"):
+        target.write(png)
+    else:
+        with open(target, "wb") as f:
+            f.write(png)
+
+
+def with_png_chunk(png: bytes, kind: bytes, data: bytes) -> bytes:
+    """The bytes of ``png`` with a chunk of type ``kind`` holding ``data`` before its first IDAT chunk (where the
+    specification puts pHYs), its CRC over type and data (clause 5.3)."""
+    import zlib
+
+    at = 8  # past the signature: a chunk is its length, type, data and CRC
+    while png[at + 4:at + 8] != b"IDAT":
+        at += 12 + int.from_bytes(png[at:at + 4], "big")
+    chunk = len(data).to_bytes(4, "big") + kind + data + zlib.crc32(kind + data).to_bytes(4, "big")
+    return png[:at] + chunk + png[at:]
 
 
 def heat_map(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
@@ -425,7 +469,8 @@ class Image:
     def _write_png(self, target, exposure: float) -> None:
         """The 8-bit sRGB PNG of ``rgb * 2**exposure`` into ``target``, a path or a binary file object."""
         # A normal map's values are what a reader takes back, so no transfer curve may change them.
-        write_srgb_png(target, data_to_8bit(self.rgb) if self.data else to_srgb8(self.rgb, exposure))
+        write_srgb_png(target, data_to_8bit(self.rgb) if self.data else to_srgb8(self.rgb, exposure),
+                       self.pixel_aspect_ratio)
 
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
@@ -499,5 +544,5 @@ class Image:
             raise ValueError(f"save_aov_png: cannot write {path.name}: the preview is a PNG, so name it .png (the "
                              f"AOV's values: save_aovs, as .npy)")
         preview = aov_preview(name, self.aovs[name])  # display colours, meant to be shown as they are: sRGB
-        write_atomically(path, lambda target: write_srgb_png(target, preview))
+        write_atomically(path, lambda target: write_srgb_png(target, preview, self.pixel_aspect_ratio))
         return path

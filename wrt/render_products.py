@@ -294,12 +294,13 @@ def exr_windows(product, camera) -> dict:
 
 
 def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
-                  attributes: dict | None = None, data: bool = False) -> Path:
+                  attributes: dict | None = None, data: bool = False, pixel_aspect_ratio: float = 1.0) -> Path:
     """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
     an EXR of every channel, with the header ``attributes``. The channels are premultiplied by ``A``, as OpenEXR's
     RGBA is; a PNG's colour is not (its alpha is unassociated), so it gets ``RGB / A`` where ``A > 0``. With
     ``data`` (:attr:`wrt.Image.data`: a normals or depth quick look, made from each pixel centre's ray, so not
-    premultiplied) a PNG stores ``R, G, B`` as they are, as :meth:`wrt.Image.save` does."""
+    premultiplied) a PNG stores ``R, G, B`` as they are, as :meth:`wrt.Image.save` does. A PNG's ``pHYs`` chunk
+    says its pixels' ``pixel_aspect_ratio`` (the EXR's is among ``attributes``)."""
     def write(target: Path) -> None:
         if path.suffix.lower() == ".exr":
             write_exr(target, channels, attributes)
@@ -317,7 +318,7 @@ def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float =
             rgb = np.dstack([to_srgb8(rgb, exposure), np.round(alpha[..., 0] * 255).astype(np.uint8)])
         else:
             rgb = to_srgb8(rgb, exposure)
-        write_srgb_png(target, rgb)
+        write_srgb_png(target, rgb, pixel_aspect_ratio)
 
     write_atomically(path, write)
     return path
@@ -441,5 +442,6 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                     warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
                                   "unscaled", stacklevel=2)
                     warned_exposure = True
-            files[product.product] = write_product(directory / name, channels, exposure, attributes, image.data)
+            files[product.product] = write_product(directory / name, channels, exposure, attributes, image.data,
+                                                   camera.pixel_aspect_ratio)
     return {product.product: files[product.product] for product, _, _, _ in plan}  # in the settings' order
