@@ -2541,3 +2541,51 @@ def test_ids_of_another_type_than_int64_are_ignored_as_usds_mask_ignores_them(tm
     with pytest.warns(UserWarning, match=rf"(?s){name} of another type than int64\[\].*/PI"):
         scene = wrt.load_usd(path)
     np.testing.assert_allclose(sorted(scene.instances.to_world[:, 0, 3]), expected)
+
+
+def test_prototypes_targeting_a_relationship_are_the_prims_usd_forwards_to(tmp_path):
+    """A ``prototypes`` target may be a relationship, which USD forwards (``GetForwardedTargets``): UsdImaging's
+    PointInstancer adapter takes the forwarded prims as the prototypes, ``protoIndices`` indexing that list. wrt took
+    the relationship path for a prototype that does not exist and skipped its instances with a warning (and a
+    light in it was no light of the stage). Each instance now draws the prototype USD forwards its index to, placed
+    as ``ComputeInstanceTransformsAtTime`` places it, and the light of a forwarded prototype shines once per
+    instance of it (USD's schema helpers, which count GetTargets, are not what is drawn: they compute nothing
+    here)."""
+    from pxr import UsdLux
+
+    path = str(tmp_path / "forwarded.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Imageable(UsdGeom.Scope.Define(stage, "/Protos")).MakeInvisible()
+    for name in "ABC":
+        octahedron(stage, f"/Protos/{name}")
+    UsdGeom.Xform.Define(stage, "/Protos/L")
+    UsdLux.SphereLight.Define(stage, "/Protos/L/Lamp")
+    world = UsdGeom.Xform.Define(stage, "/World").GetPrim()
+    world.CreateRelationship("relay").SetTargets(["/Protos/B", "/World.chain"])
+    world.CreateRelationship("chain").SetTargets(["/Protos/C", "/Protos/L"])
+    pi = UsdGeom.PointInstancer.Define(stage, "/World/PI")
+    pi.CreatePrototypesRel().SetTargets(["/Protos/A", "/World.relay"])
+    indices = [0, 1, 2, 2, 3, 3, 1]
+    pi.CreateProtoIndicesAttr(indices)
+    pi.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0, 0) for k in range(len(indices))])
+    stage.Save()
+    rel = pi.GetPrototypesRel()
+    forwarded = [str(p) for p in rel.GetForwardedTargets()]  # USD's answer, which Hydra draws
+    assert forwarded == ["/Protos/A", "/Protos/B", "/Protos/C", "/Protos/L"] and len(rel.GetTargets()) == 2
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    assert not any("PointInstancer" in str(w.message) for w in caught), [str(w.message) for w in caught]
+    drawn = [k for k, index in enumerate(indices) if forwarded[index] != "/Protos/L"]  # L holds no geometry
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/World/PI[{k}]" for k in drawn]
+    assert [scene.prototypes[p].path for p in scene.instances.prototype] == [forwarded[indices[k]] for k in drawn]
+    # ComputeInstanceTransformsAtTime checks protoIndices against GetTargets (2 here: it computes none), so it is
+    # asked of the relationship with USD's forwarded targets authored in place of the relay.
+    rel.SetTargets(rel.GetForwardedTargets())
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert len(expected) == len(indices)
+    np.testing.assert_allclose(scene.instances.to_world.reshape(-1, 4, 4), expected[drawn], atol=1e-6)
+    lamps = [k for k, index in enumerate(indices) if forwarded[index] == "/Protos/L"]
+    assert len(scene.lights) == len(lamps)
+    np.testing.assert_allclose([light.position for light in scene.lights], expected[lamps][:, :3, 3], atol=1e-6)

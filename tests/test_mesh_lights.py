@@ -428,17 +428,21 @@ def test_integrators_that_read_no_light_do_not_warn_that_a_stage_is_dark(tmp_pat
                                                       integrator=integrator, device="cpu").rgb)
 
 
-@pytest.mark.parametrize("shown, indices", [("invisible", "[0]"), ("inherited", "[]")])
+@pytest.mark.parametrize("shown, indices, prototypes", [
+    ("invisible", "[0]", "</Lamps/Protos/Lamp>"), ("inherited", "[]", "</Lamps/Protos/Lamp>"),
+    ("invisible", "[0]", "</Lamps.relay>\n    rel relay = </Lamps/Protos/Lamp>"),  # forwarded (GetForwardedTargets)
+])
 def test_the_lights_in_the_prototypes_of_a_point_instancer_that_draws_none_are_the_stages_lights_too(
-        tmp_path, shown, indices):
+        tmp_path, shown, indices, prototypes):
     """A stage lit only by a lamp prototype's light, instanced by a hidden PointInstancer (or one of no instances),
     got the default lights: the walk does not enter an instancer's subtree and reads the prototypes only for the
     instances it draws, so the light was never met. ``ComputeLightList`` lists it, at its path under the instancer:
-    such a stage gets no default lights either, as for a hidden native instance's light."""
+    such a stage gets no default lights either, as for a hidden native instance's light. So too where
+    ``prototypes`` targets a relationship that USD forwards to the lamp (it was taken for no prim)."""
     from pxr import Usd, UsdLux
 
     lamps = (f'def PointInstancer "Lamps"\n{{\n    token visibility = "{shown}"\n'
-             "    rel prototypes = </Lamps/Protos/Lamp>\n    point3f[] positions = [(0, 0, 0)]\n"
+             f"    rel prototypes = {prototypes}\n    point3f[] positions = [(0, 0, 0)]\n"
              f"    int[] protoIndices = {indices}\n"
              '    def Xform "Protos"\n    {\n        def Xform "Lamp"\n        {\n'
              + rect_light(intensity=3.0) + "        }\n    }\n}\n")

@@ -17,7 +17,7 @@ def drawn_placements(stage: Usd.Stage, keep, time=Usd.TimeCode.Default()):
     for prim in stage.Traverse(predicate):
         if prim.IsA(UsdGeom.PointInstancer):
             instancer = UsdGeom.PointInstancer(prim)
-            targets = instancer.GetPrototypesRel().GetTargets()
+            targets = instancer.GetPrototypesRel().GetForwardedTargets()  # as UsdImaging reads them
             indices = instancer.GetProtoIndicesAttr().Get(time)
             xforms = instancer.ComputeInstanceTransformsAtTime(time, time)
             to_world = np.array(cache.GetLocalToWorldTransform(prim))

@@ -524,7 +524,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         (``authored_lights``), at their paths under it, as ``ComputeLightList`` lists them: its subtree is not walked,
         and its prototypes are read only for the instances it draws, so a hidden instancer's (or one of no instances)
         were never met, and the stage got the default lights."""
-        for target in UsdGeom.PointInstancer(prim).GetPrototypesRel().GetTargets():
+        for target in UsdGeom.PointInstancer(prim).GetPrototypesRel().GetForwardedTargets():  # as they are read
             root = self.stage.GetPrimAtPath(target)
             if root and PROTOTYPE_PREDICATE(root):  # as the prototypes read are (an over or a class draws nothing)
                 shown = Sdf.Path(self._shown_path(root))

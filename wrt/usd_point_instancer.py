@@ -173,8 +173,10 @@ class PointInstancerReading(InstancerPrimvarReading):
     def _prototype_roots(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer) -> tuple[list, list]:
         """The ``prototypes`` targets of ``pi`` and their prims, None for one that is inactive or under an inactive
         prim, :data:`MISSING_PROTOTYPE` for one that does not exist (the instances of both are skipped with a
-        warning)."""
-        targets = pi.GetPrototypesRel().GetTargets()
+        warning). A target that is a relationship stands for the targets USD forwards it to, as UsdImaging reads
+        them (``GetForwardedTargets``), ``protoIndices`` indexing that list: its instances were skipped as of a
+        prototype that does not exist."""
+        targets = pi.GetPrototypesRel().GetForwardedTargets()
         protos = []
         for k, path in enumerate(targets):
             target = self.stage.GetPrimAtPath(path)
