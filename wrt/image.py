@@ -125,14 +125,14 @@ def write_srgb_png(target, pixels: np.ndarray, pixel_aspect_ratio: float = 1.0) 
     info = PngInfo()
     for chunk_type, data in SRGB_PNG_CHUNKS:
         info.add(chunk_type, data)  # Pillow writes these before the image data, where the specification puts them
-    mode = "RGBA" if pixels.shape[-1] == 4 else "RGB"
+    image = PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode="RGBA" if pixels.shape[-1] == 4 else "RGB")
     aspect = png_aspect_chunk(pixel_aspect_ratio)
     if aspect is None:
-        PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(target, format="PNG", pnginfo=info)
+        image.save(target, format="PNG", pnginfo=info)
         return
     # Pillow writes no pHYs of pnginfo's, and its own (``dpi``) is in metres, a print size: put ours in.
     buffer = io.BytesIO()
-    PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(buffer, format="PNG", pnginfo=info)
+    image.save(buffer, format="PNG", pnginfo=info)
     png = with_png_chunk(buffer.getvalue(), *aspect)
     if hasattr(target, "write"):
         target.write(png)
