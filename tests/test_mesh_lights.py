@@ -431,7 +431,7 @@ def test_integrators_that_read_no_light_do_not_warn_that_a_stage_is_dark(tmp_pat
 @pytest.mark.parametrize("shown, indices, prototypes", [
     ("invisible", "[0]", "</Lamps/Protos/Lamp>"), ("inherited", "[]", "</Lamps/Protos/Lamp>"),
     ("invisible", "[0]", "</Lamps.relay>\n    rel relay = </Lamps/Protos/Lamp>"),  # forwarded (GetForwardedTargets)
-])
+], ids=["invisible", "no_instances", "invisible_relayed"])
 def test_the_lights_in_the_prototypes_of_a_point_instancer_that_draws_none_are_the_stages_lights_too(
         tmp_path, shown, indices, prototypes):
     """A stage lit only by a lamp prototype's light, instanced by a hidden PointInstancer (or one of no instances),
