@@ -416,6 +416,21 @@ def test_a_bad_product_value_names_the_product(tmp_path):
     assert scene.render_settings.products == () and scene.render_settings.product == ""
 
 
+def test_a_bad_settings_camera_is_one_error_naming_the_settings_though_a_product_takes_it(tmp_path):
+    """The settings' own camera was checked in each product that took it: every such product was left out with a
+    warning naming the settings prim as the product ('/Render/Settings: camera relationship targets /World/Box ...;
+    this RenderProduct is left out'), and then the load failed with the same words. It is one error, as the settings'
+    other values are."""
+    settings = "rel camera = </World/Box>\n        rel products = [</Render/Product>]"
+    stage = write_stage(tmp_path, settings=settings, product="uniform int2 resolution = (16, 8)")
+    with warnings.catch_warnings(record=True) as said, pytest.raises(
+            wrt.SceneError, match=r"stage.usda: /Render/Settings: camera relationship targets /World/Box, which is a "
+                                  r"Cube, not a Camera"):
+        warnings.simplefilter("always")
+        wrt.load_usd(stage)
+    assert [str(w.message) for w in said] == []
+
+
 def test_a_misspelt_render_settings_path_names_the_one_meant(tmp_path, capsys):
     """The error listed the RenderSettings prims of the stage but named none as the one meant, as --camera does."""
     stage = write_stage(tmp_path)

@@ -317,6 +317,9 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
         base["material_binding_purposes"] = _tokens(binding_purposes, value_at(binding_purposes, time), where)
     base["rendering_color_space"] = str(value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
     _check_values(base, where)
+    # The settings' own camera is checked here, as their other values are: checked in each product that took it, it
+    # left that product out with a warning naming the settings as the product, and only then failed the load.
+    _check_camera(stage, base.get("camera"), where)
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
     products = []
     for prim in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}"):
@@ -350,30 +353,36 @@ def _targets(stage, rel, schema, where: str) -> list:
 def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> RenderSettings:
     """The settings at ``path`` (``base``: their values) merged with the overrides of ``product_prim`` (or None),
     with the product's name, type and RenderVars at ``time``, as ``UsdRenderComputeSpec`` builds each product."""
-    from pxr import UsdGeom, UsdRender
+    from pxr import UsdRender
 
-    values, camera_from = dict(base), path
+    values = dict(base)
     if product_prim is not None:
         product = str(product_prim.GetPath())
         schema = UsdRender.Product(product_prim)
         overrides = _read_base(schema, time, authored_only=True)
-        camera_from = product if "camera" in overrides else path
+        _check_camera(stage, overrides.get("camera"), dict(path=source, prim=product))  # (the settings' one: checked)
         values.update(overrides, product=product,
                       product_name=str(value_at(schema.GetProductNameAttr(), time) or ""),
                       product_type=str(value_at(schema.GetProductTypeAttr(), time) or "raster"))
         where = f"{os.path.basename(source)}: {product}"
         values["render_vars"] = tuple(_read_var(UsdRender.Var(var), time)
                                       for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
-    camera = values.get("camera")
-    if camera is not None:
-        target = stage.GetPrimAtPath(camera)
-        if not (target and target.IsA(UsdGeom.Camera)):
-            what = f"a {target.GetTypeName() or 'typeless prim'}" if target else "no prim"
-            raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", path=source,
-                             prim=camera_from)
     if product_prim is not None:  # the merged values: a bad one now comes from the product
         _check_values(values, dict(path=source, prim=values["product"]))
     return RenderSettings(path=path, source=source, **values)
+
+
+def _check_camera(stage, camera: str | None, where: dict) -> None:
+    """SceneError (``where``: file and prim) unless ``camera``, the path a ``camera`` relationship targets (or None),
+    is a Camera prim of ``stage``."""
+    from pxr import UsdGeom
+
+    if camera is None:
+        return
+    target = stage.GetPrimAtPath(camera)
+    if not (target and target.IsA(UsdGeom.Camera)):
+        what = f"a {target.GetTypeName() or 'typeless prim'}" if target else "no prim"
+        raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", **where)
 
 
 def _read_var(var, time) -> RenderVar:
