@@ -158,13 +158,17 @@ def test_orthographic_camera_rays_are_parallel():
     np.testing.assert_allclose(img.aovs["depth"][hit], 5.0, rtol=1e-6)
 
 
-@pytest.mark.parametrize("focal_length", [0.0, -35.0])
-def test_orthographic_usd_camera_of_any_focal_length_is_framed_by_its_apertures(tmp_path, focal_length):
+@pytest.mark.parametrize("focal_length, meters_per_unit, up_axis", [(0.0, 1.0, "Z"), (-35.0, 0.001, "Y")])
+def test_orthographic_usd_camera_of_any_focal_length_is_framed_by_its_apertures(tmp_path, focal_length,
+                                                                                 meters_per_unit, up_axis):
     """USD's orthographic frustum is the apertures alone (``GetCamera().frustum`` takes no focal length), and usdview
     draws an orthographic camera of ``focalLength = 0``; wrt skipped it as a camera of no positive focal length. Each
-    pixel centre's ray of USD's frustum, met with the plane z = 0 in float64, says which pixels see the quad."""
+    pixel centre's ray of USD's frustum, met with the plane z = 0 in float64, says which pixels see the quad. The
+    apertures are tenths of a scene unit whatever the stage's ``metersPerUnit`` and ``upAxis`` say."""
     path = tmp_path / "ortho.usda"
     stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
+    UsdGeom.SetStageUpAxis(stage, up_axis)
     cam = UsdGeom.Camera.Define(stage, "/Cam")
     cam.CreateProjectionAttr("orthographic")
     cam.CreateFocalLengthAttr(focal_length)

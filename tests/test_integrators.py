@@ -318,6 +318,57 @@ def test_every_colour_sample_of_a_thin_lens_samples_the_lens():
     assert (images[0].aovs["prim"][0] >= 0).tolist() == (centres < 0).tolist()  # the AOVs' ray: no blur
 
 
+def test_thin_lens_rays_of_a_sheared_offset_camera_meet_in_focus_within_their_pixel():
+    """The colour rays behind a thin lens (f/2.8, focused at depth 4) of a camera under a sheared, unevenly scaled and
+    mirrored transform, with film offsets and pixels 1.7 times as wide as tall, taken to camera space by the inverse of
+    the camera's transform (float64): each starts on the lens disk in the film plane, of radius ``focalLength / fStop
+    / 2`` in tenths of a unit, spread uniformly over it (mean 0, variance ``R^2 / 4`` per axis), and crosses depth 4
+    inside its own pixel's footprint there, the film worked out by hand for ``expandAperture`` (36 x 24 grown to the
+    image's aspect 1.7 * 5 / 3 at its height)."""
+    from wrt.shade import FIRST_SPREAD, start_paths_kernel
+
+    m = np.eye(4)
+    m[:3, :3] = [[1.5, 0.3, 0.1], [0.2, -0.8, -0.4], [0.0, 0.5, 2.0]]
+    m[:3, 3] = [3.0, -2.0, 7.0]
+    focal, f_stop, focus, offsets = 35.0, 2.8, 4.0, (5.0, -3.0)
+    cam = wrt.Camera(to_world=m, focal_length=focal, horizontal_aperture=36.0, vertical_aperture=24.0,
+                     horizontal_aperture_offset=offsets[0], vertical_aperture_offset=offsets[1], f_stop=f_stop,
+                     focus_distance=focus, fit="expandAperture", pixel_aspect_ratio=1.7, clipping_range=(0.5, 100.0))
+    width, height, samples = 5, 3, 2000
+    renderer = wrt.Renderer(wrt.Scene.from_triangles([[0, 0, -50], [1, 0, -50], [0, 1, -50]], [[0, 1, 2]]),
+                            camera=cam, width=width, height=height, device="cpu", integrator="path")
+    n = width * height * samples
+    vectors = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
+    outputs = [*vectors, wp.empty(n, dtype=float, device="cpu"), wp.empty(n, dtype=float, device="cpu"),
+               wp.empty(n, dtype=wp.uint32, device="cpu"), wp.empty(n, dtype=wp.vec3, device="cpu"),
+               wp.empty(n, dtype=wp.vec3, device="cpu"), wp.empty(n, dtype=wp.int32, device="cpu"),
+               wp.empty(n, dtype=float, device="cpu"), wp.empty(n, dtype=wp.vec3, device="cpu"),
+               wp.empty(n, dtype=wp.int32, device="cpu")]
+    wp.launch(start_paths_kernel, n, inputs=[renderer._cams, renderer._lenses, width, height, 0, 7, FIRST_SPREAD],
+              outputs=outputs, device="cpu")
+    o, d, t_min = (a.numpy().astype(np.float64) for a in outputs[:3])
+    to_camera = np.linalg.inv(m)
+    o = (o - m[:3, 3]) @ to_camera[:3, :3].T
+    d = d @ to_camera[:3, :3].T
+
+    radius = focal * 0.1 / f_stop / 2.0
+    np.testing.assert_allclose(o[:, 2], 0.0, atol=1e-5)
+    assert np.hypot(o[:, 0], o[:, 1]).max() <= radius * (1 + 1e-5)
+    np.testing.assert_allclose(o[:, :2].mean(axis=0), 0.0, atol=0.02)  # sigma of a mean: 0.003
+    np.testing.assert_allclose(o[:, :2].var(axis=0), radius**2 / 4, rtol=0.05)
+    np.testing.assert_allclose((o + t_min[:, None] * d)[:, 2], -0.5, rtol=1e-5)  # starts at the near plane
+
+    film_h = 24.0
+    film_w = film_h * 1.7 * width / height  # wider than 36: the width grows
+    at_focus = o + (-focus - o[:, 2:]) / d[:, 2:] * d  # where each ray crosses depth 4, as film units below
+    x, y = (at_focus[:, k] / focus * focal - offsets[k] for k in (0, 1))
+    pixel = np.arange(n) % (width * height)
+    i, j = pixel // width, pixel % width
+    slack = 1e-4 * film_w
+    assert np.all((x >= (j / width - 0.5) * film_w - slack) & (x <= ((j + 1) / width - 0.5) * film_w + slack))
+    assert np.all((y <= (0.5 - i / height) * film_h + slack) & (y >= (0.5 - (i + 1) / height) * film_h - slack))
+
+
 @pytest.mark.parametrize("device", DEVICES)
 def test_path_tracer_is_deterministic_and_device_independent(device):
     scene = mirror_scene()
