@@ -668,6 +668,32 @@ def test_the_python_pixel_limit_error_names_the_render_settings_that_sized_the_i
         renderer.render()
 
 
+def test_a_data_window_that_overscans_past_the_pixel_limit_is_named_as_its_cause(tmp_path, capsys):
+    """A dataWindowNDC of (-1000, -1000, 1000, 1000) makes a 64x32 shot a 128000x64000 image: ``wrt render`` and
+    ``wrt.render`` refused it naming the resolution (or the sizes given) alone, though those are small, and
+    ``camera_rays`` failed in Warp's words ('Array shapes must not exceed the maximum representable value of a
+    signed 32-bit integer') naming nothing; below 2^31 rays it allocated them without bound. Each names the data
+    window now."""
+    from wrt.render_settings import RenderSettings
+
+    limit = "128000x64000 is 8,192,000,000 pixels; at most 67,108,864 are supported"
+    settings = RenderSettings(path="/Render/Wide", resolution=(64, 32), data_window=(-1000.0, -1000.0, 1000.0, 1000.0))
+    scene = wrt.Scene.from_triangles([[-1, -1, -5], [1, -1, -5], [1, 1, -5]], [[0, 1, 2]])
+    scene.render_settings = settings
+    cause = "resolution and dataWindowNDC of scene.render_settings /Render/Wide"
+    for call in (lambda: wrt.render(scene, device="cpu"), lambda: camera_rays(scene)):
+        with pytest.raises(ValueError, match=f"^{cause}: {limit}$"):
+            call()
+    with pytest.raises(ValueError, match=f"^width=64 height=32, dataWindowNDC of scene.render_settings /Render/Wide: "
+                                         f"{limit}$"):
+        camera_rays(scene, width=64, height=32)
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (-1000, -1000, "
+                                                              "1000, 1000)")
+    assert main(["render", str(stage), "-o", str(tmp_path / "x.png"), "-q"]) != 0
+    said = capsys.readouterr().err.splitlines()[-1]
+    assert said == f"wrt: error: resolution and dataWindowNDC of /Render/Settings: {limit}"
+
+
 @pytest.mark.parametrize("batched", [False, True])
 def test_an_edit_of_the_view_a_renderer_resolved_is_named_not_drawn_silently(tmp_path, batched):
     """renderer.camera under render settings is a view wrt made of the stage camera (the settings' film), and for a

@@ -720,7 +720,11 @@ def _check_view_pixels(args, width: int, height: int, settings=None) -> None:
     from .render import check_view_pixels
 
     given = [f"--{name} {getattr(args, name)}" for name in ("width", "height") if getattr(args, name)]
-    check_view_pixels(width, height, 1, given, None if settings is None else settings.product or settings.path)
+    if settings is None:
+        check_view_pixels(width, height, 1, given, None)
+    else:
+        check_view_pixels(width, height, 1, given, settings.product or settings.path,
+                          windowed=(width, height) != settings.image_size(args.width, args.height))
 
 
 def _render_one(args, path: Path, output: Path, progress) -> list[Path]:

@@ -13,7 +13,7 @@ from .camera import generate_rays_kernel
 from .errors import did_you_mean, flag
 from .primitives import SHAPE_KINDS, shape_surface
 from .ray_batch import host_array
-from .render import check_sides, resolve_view
+from .render import check_asked_pixels, check_sides, resolve_view
 from .scene import DistantLight, Scene
 from .traced_in import check_traced_in
 
@@ -49,7 +49,11 @@ def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int
     where a clipping plane cuts the whole ray); without it the rays alone, which hit what the camera clips."""
     t_range = flag(t_range, "camera_rays: t_range")  # "false" gave four arrays where two were unpacked
     check_sides(width, height)  # width=0 gave no rays, 1.5 failed in Python's words ('float' object is not iterable)
+    asked = (width, height)
     cam, width, height = resolve_view(scene, camera, width, height)
+    # As a render's: past 2^31 rays Warp's "Array shapes must not exceed ..." named nothing, and below it a
+    # dataWindowNDC's overscan (or a huge size given) allocated rays without bound.
+    check_asked_pixels(scene, width, height, 1, asked)
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
     out += [wp.empty(n, dtype=float, device="cpu") for _ in range(2)]

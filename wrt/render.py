@@ -101,29 +101,37 @@ def check_pixels(width: int, height: int, n_views: int = 1) -> None:
         raise ValueError(f"{images} {n_views * width * height:,} pixels; at most {MAX_PIXELS:,} are supported")
 
 
-def check_view_pixels(width: int, height: int, n_views: int, given: list, settings_name: str | None) -> None:
+def check_view_pixels(width: int, height: int, n_views: int, given: list, settings_name: str | None,
+                      windowed: bool = False) -> None:
     """:func:`check_pixels`, its error naming where the size came from: ``given``, the sides given as their caller
     spells them (``--width 8``, ``width=8``), and ``settings_name``, the render settings that gave a side where there
-    are some (their resolution, or their aspect where one side was given). A size from a stage's RenderSettings was
-    refused as "2147483647x2 is ... pixels", naming neither."""
+    are some (their resolution, or their aspect where one side was given), and their data window where it made the
+    image another size (``windowed``). A size from a stage's RenderSettings was refused as "2147483647x2 is ...
+    pixels", naming neither, and one that a dataWindowNDC overscan grew was blamed on the resolution."""
     try:
         check_pixels(width, height, n_views)
     except ValueError as e:
         parts = [" ".join(given)] if given else []  # "--width 8 --height 9", as typed
-        if settings_name is not None and len(given) < 2:
-            parts.append(f"{'aspect' if given else 'resolution'} of {settings_name}")
+        causes = ["aspect" if given else "resolution"] if len(given) < 2 else []
+        if windowed:
+            causes.append("dataWindowNDC")
+        if settings_name is not None and causes:
+            parts.append(f"{' and '.join(causes)} of {settings_name}")
         raise ValueError(f"{', '.join(parts)}: {e}" if parts else str(e)) from None
 
 
-def _check_renderer_pixels(scene: Scene, width: int, height: int, n_views: int, asked: tuple) -> None:
-    """:func:`check_pixels` of a :class:`Renderer`'s image, ``asked`` its ``(width, height)`` as given, its error
-    naming ``scene.render_settings`` where they gave a side (as the CLI names them: :func:`check_view_pixels`)."""
+def check_asked_pixels(scene: Scene, width: int, height: int, n_views: int, asked: tuple) -> None:
+    """:func:`check_pixels` of ``n_views`` images of ``width x height`` that :func:`resolve_view` made of ``asked``,
+    the ``(width, height)`` given (each may be None), its error naming ``scene.render_settings`` where they gave a
+    side or their data window changed the size (as the CLI names them: :func:`check_view_pixels`)."""
     settings = scene.render_settings
     given = [f"{name}={side}" for name, side in zip(("width", "height"), asked) if side is not None]
-    if settings is None or len(given) == 2:  # the size is the caller's own
+    windowed = settings is not None and (width, height) != settings.image_size(*asked)
+    if settings is None or (len(given) == 2 and not windowed):  # the size is the caller's own
         check_pixels(width, height, n_views)
     else:
-        check_view_pixels(width, height, n_views, given, f"scene.render_settings {settings.product or settings.path}")
+        check_view_pixels(width, height, n_views, given, f"scene.render_settings {settings.product or settings.path}",
+                          windowed)
 
 
 def samples_per_launch(n_pixels: int, spp: int, batch: int | None = None) -> int:
@@ -620,7 +628,7 @@ class Renderer:
         self._windows = [view_window(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
         width, height = views[0][1:]
         _check_one_size(views, width, height)
-        _check_renderer_pixels(scene, width, height, len(views), self._asked_size)
+        check_asked_pixels(scene, width, height, len(views), self._asked_size)
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}{did_you_mean(integrator, INTEGRATORS)}; valid "
                              f"integrators: {', '.join(INTEGRATORS)}")
@@ -882,7 +890,7 @@ class Renderer:
         # settings' resolution or data window changed. A kept Renderer drew the old size, stretched.
         size = views[0][1:]
         _check_one_size(views, *size)
-        _check_renderer_pixels(self.scene, *size, len(views), asked)
+        check_asked_pixels(self.scene, *size, len(views), asked)
         self._upload_cameras_at([view[0] for view in views], size, self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
