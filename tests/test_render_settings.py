@@ -416,6 +416,44 @@ def test_a_bad_product_value_names_the_product(tmp_path):
     assert scene.render_settings.products == () and scene.render_settings.product == ""
 
 
+# Values authored with another type than the schema's: Python's Get hands them back, and wrt rendered them as
+# authored, but UsdRenderComputeSpec reads each with Get<T> of the schema's type (GfVec2i resolution, float
+# pixelAspectRatio, TfToken aspectRatioConformPolicy, GfVec4f dataWindowNDC, bool disableDepthOfField), which passes
+# them over for the schema's fallback: usdview's and RenderMan's image is another.
+MISTYPED_SETTINGS = [
+    ("uniform float2 resolution = (64, 32)", r"float2 resolution = \(64, 32\), not the schema's int2"),
+    ("uniform double pixelAspectRatio = 2", r"double pixelAspectRatio = 2.0, not the schema's float"),
+    ('uniform string aspectRatioConformPolicy = "cropAperture"',
+     r"string aspectRatioConformPolicy = 'cropAperture', not the schema's token"),
+    ("uniform double4 dataWindowNDC = (0, 0, 0.5, 1)", r"double4 dataWindowNDC = \(0, 0, 0.5, 1\), not the schema's "
+                                                       r"float4"),
+    ("uniform int disableDepthOfField = 1", r"int disableDepthOfField = 1, not the schema's bool"),
+]
+
+
+@pytest.mark.parametrize("authored, words", MISTYPED_SETTINGS)
+def test_a_settings_value_of_another_type_than_the_schemas_is_an_error_and_a_products_leaves_it_out(tmp_path,
+                                                                                                  authored, words):
+    """The schema's type for each attribute is USD's own (``UsdRender.Settings`` attribute ``GetTypeName``); on the
+    settings prim the value is an error naming the file, the prim, the type and the value, as the README says of a
+    value of another type than the schema's; on a product it leaves the product out with a warning naming it."""
+    from pxr import Sdf, Usd, UsdRender
+
+    kind, name = authored.split()[1:3]
+    memory = Usd.Stage.CreateInMemory()
+    schema_type = UsdRender.Settings.Define(memory, "/S").GetPrim().GetAttribute(name).GetTypeName()
+    assert words.endswith(str(schema_type)) and schema_type != Sdf.ValueTypeNames.Find(kind)
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS.replace("uniform int2 resolution = (64, 32)", "")
+                        + f"\n        {authored}")
+    with pytest.raises(wrt.SceneError, match=rf"stage.usda: /Render/Settings: {words}: UsdRenderComputeSpec passes"):
+        wrt.load_usd(stage)
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        rel products = [</Render/Product>]",
+                        product=authored, name="product.usda")
+    with pytest.warns(UserWarning, match=rf"product.usda: /Render/Product: {words}: .*; this RenderProduct is left "):
+        scene = wrt.load_usd(stage)
+    assert scene.render_settings.products == () and scene.render_settings.resolution == (64, 32)
+
+
 def test_a_bad_settings_camera_is_one_error_naming_the_settings_though_a_product_takes_it(tmp_path):
     """The settings' own camera was checked in each product that took it: every such product was left out with a
     warning naming the settings prim as the product ('/Render/Settings: camera relationship targets /World/Box ...;

@@ -40,7 +40,7 @@ import numpy as np
 
 from .camera import CONFORM_POLICIES, Camera
 from .errors import SceneError, did_you_mean, flag, prim_path, user_stacklevel
-from .usd_values import value_at, value_or_fallback
+from .usd_values import schema_typed_value, value_at, value_or_fallback
 
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
 DEFAULT_HEIGHT = 480  # image height, likewise
@@ -279,7 +279,8 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
         SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, or on the settings
             prim itself (a product's are warnings) a ``camera`` relationship to a prim that is not a camera, or a
             value the schema does not allow (a resolution that is not positive, a pixel aspect ratio that is not a
-            finite positive number, an unknown conform policy, a data window that is not finite or empty).
+            finite positive number, an unknown conform policy, a data window that is not finite or empty, a value
+            of another type than the schema's).
     """
     from pxr import Sdf, Usd, UsdRender
 
@@ -307,7 +308,7 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
         return None
     path = str(path)
     settings = UsdRender.Settings(prim)
-    base = _read_base(settings, time, authored_only=False)
+    base, mistyped = _read_base(settings, time, authored_only=False)
     where = dict(path=source, prim=path)
     included = _tokens(settings.GetIncludedPurposesAttr(), value_or_fallback(settings.GetIncludedPurposesAttr(), time),
                        where)
@@ -317,6 +318,7 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
         base["material_binding_purposes"] = _tokens(binding_purposes, value_at(binding_purposes, time), where)
     base["rendering_color_space"] = str(value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
     _check_values(base, where)
+    _check_types(mistyped, where)
     # The settings' own camera is checked here, as their other values are: checked in each product that took it, it
     # left that product out with a warning naming the settings as the product, and only then failed the load.
     _check_camera(stage, base.get("camera"), where)
@@ -359,7 +361,7 @@ def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> Re
     if product_prim is not None:
         product = str(product_prim.GetPath())
         schema = UsdRender.Product(product_prim)
-        overrides = _read_base(schema, time, authored_only=True)
+        overrides, mistyped = _read_base(schema, time, authored_only=True)
         _check_camera(stage, overrides.get("camera"), dict(path=source, prim=product))  # (the settings' one: checked)
         values.update(overrides, product=product,
                       product_name=str(value_at(schema.GetProductNameAttr(), time) or ""),
@@ -369,6 +371,7 @@ def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> Re
                                       for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
     if product_prim is not None:  # the merged values: a bad one now comes from the product
         _check_values(values, dict(path=source, prim=values["product"]))
+        _check_types(mistyped, dict(path=source, prim=values["product"]))
     return RenderSettings(path=path, source=source, **values)
 
 
@@ -404,10 +407,11 @@ def _warn_color_space(space: str, where: str) -> None:
                       "which wrt renders in; colours are not converted", stacklevel=user_stacklevel())
 
 
-def _read_base(schema, time, authored_only: bool) -> dict:
+def _read_base(schema, time, authored_only: bool) -> tuple[dict, list[str]]:
     """The ``UsdRenderSettingsBase`` values of ``schema`` at ``time`` as :class:`RenderSettings` fields: every one
-    (fallbacks included), or only those authored (a product's overrides)."""
-    values = {}
+    (fallbacks included), or only those authored (a product's overrides); and words for each of them authored with
+    another type than the schema's (``float2 resolution = (64, 32)``), for :func:`_check_types`."""
+    values, mistyped = {}, []
     targets = schema.GetCameraRel().GetForwardedTargets()
     if targets:
         values["camera"] = str(targets[0])
@@ -422,12 +426,25 @@ def _read_base(schema, time, authored_only: bool) -> dict:
         if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
         value = value_or_fallback(attr, time)
+        wrong = schema_typed_value(attr, time)[1]
+        if wrong is not None:
+            mistyped.append(f"{wrong}, not the schema's {attr.GetTypeName()}")
         if field in ("resolution", "data_window") and not isinstance(value, str) and hasattr(value, "__len__"):
             value = tuple(value)  # (another type is refused by _check_values, naming the attribute)
         elif field == "conform_policy":
             value = str(value)
         values[field] = value
-    return values
+    return values, mistyped
+
+
+def _check_types(mistyped: list[str], where: dict) -> None:
+    """SceneError (``where``: file and prim) naming the values :func:`_read_base` found authored with another type
+    than the schema's. Python's ``Get`` hands them back as they are, and a ``float2 resolution``, a ``double
+    pixelAspectRatio`` or a ``string aspectRatioConformPolicy`` was rendered as authored without a word, where USD's
+    typed reads (``UsdRenderComputeSpec``'s, Hydra's) pass them over for the schema's fallback: another image."""
+    if mistyped:
+        raise SceneError(f"{'; '.join(mistyped)}: UsdRenderComputeSpec passes a value of another type over for the "
+                         "schema's fallback; author the schema's type", **where)
 
 
 def _tokens(attr, value, where: dict) -> tuple:
