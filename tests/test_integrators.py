@@ -338,12 +338,8 @@ def test_thin_lens_rays_of_a_sheared_offset_camera_meet_in_focus_within_their_pi
     renderer = wrt.Renderer(wrt.Scene.from_triangles([[0, 0, -50], [1, 0, -50], [0, 1, -50]], [[0, 1, 2]]),
                             camera=cam, width=width, height=height, device="cpu", integrator="path")
     n = width * height * samples
-    vectors = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
-    outputs = [*vectors, wp.empty(n, dtype=float, device="cpu"), wp.empty(n, dtype=float, device="cpu"),
-               wp.empty(n, dtype=wp.uint32, device="cpu"), wp.empty(n, dtype=wp.vec3, device="cpu"),
-               wp.empty(n, dtype=wp.vec3, device="cpu"), wp.empty(n, dtype=wp.int32, device="cpu"),
-               wp.empty(n, dtype=float, device="cpu"), wp.empty(n, dtype=wp.vec3, device="cpu"),
-               wp.empty(n, dtype=wp.int32, device="cpu")]
+    kinds = (wp.vec3, wp.vec3, float, float, wp.uint32, wp.vec3, wp.vec3, wp.int32, float, wp.vec3, wp.int32)
+    outputs = [wp.empty(n, dtype=kind, device="cpu") for kind in kinds]  # start_paths_kernel's outputs, in order
     wp.launch(start_paths_kernel, n, inputs=[renderer._cams, renderer._lenses, width, height, 0, 7, FIRST_SPREAD],
               outputs=outputs, device="cpu")
     o, d, t_min = (a.numpy().astype(np.float64) for a in outputs[:3])
