@@ -1716,10 +1716,8 @@ class MaterialReader:
                 return str(geomprop), transform, fallback
             if node_id in TRANSFORM2D_IDS:
                 passed.add(node.GetPrim().GetPath())
-                rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
-                                                for name, default in TRANSFORM2D_DEFAULTS)
                 with np.errstate(over="ignore", invalid="ignore"):  # past float32: inf, named by _texture
-                    transform = transform @ _transform2d(rotation[0], scale, translation)
+                    transform = transform @ self.transform2d_map(node, material_path)
                 found, name = self._producer(node, "in"), "in"
                 if found is None:
                     # Storm's material network reads an unconnected in's authored value, else Sdr's default (0, 0),
@@ -1758,6 +1756,14 @@ class MaterialReader:
             self.skip(f"material {material_path}: a texture's coordinates are moved approximately: "
                       f"{'; '.join(mapped[2])}", tex.GetPrim())
         return mapped[0], mapped[1]
+
+    def transform2d_map(self, node, material_path: str) -> np.ndarray:
+        """``(3, 3)`` float32 map of ``UsdTransform2d`` ``node`` (:func:`_transform2d`) from its inputs
+        (:meth:`_transform2d_input`); past float32's range it holds inf, which its caller names."""
+        rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
+                                        for name, default in TRANSFORM2D_DEFAULTS)
+        with np.errstate(over="ignore", invalid="ignore"):
+            return _transform2d(rotation[0], scale, translation)
 
     def _transform2d_input(self, node, name: str, default: tuple, material_path: str) -> np.ndarray:
         """Input ``name`` of ``UsdTransform2d`` ``node`` as ``len(default)`` float64 numbers: ``default`` (the

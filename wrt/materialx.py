@@ -68,8 +68,8 @@ them; the colour of other primaries then converted to Rec.709's at load, as USD 
 management, and Storm reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
-and ``cubic``: bilinear), ``place2d`` nodes and vector2 math of constants before its ``texcoord``
-(:meth:`_Graph._texcoord`),
+and ``cubic``: bilinear), ``place2d`` and ``UsdTransform2d`` nodes and vector2 math of constants before its
+``texcoord`` (:meth:`_Graph._texcoord`),
 ``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
@@ -99,6 +99,7 @@ from .materials import (
     COLOR_PRIMVAR_READERS,
     MIN_IOR,
     TEXTURE_FALLBACK,
+    TRANSFORM2D_IDS,
     Material,
     PrimvarInput,
     TextureInput,
@@ -634,8 +635,9 @@ class _Graph:
 
     def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`_texcoord_source` of image node ``node``'s ``texcoord``, and the ``(3, 3)`` float64 map of the
-        ``place2d`` nodes (:meth:`_place2d`) and vector2 math of constants (:meth:`_texcoord_math`) between them
-        (identity without one), the image's nearest first."""
+        ``place2d`` nodes (:meth:`_place2d`), ``UsdTransform2d`` nodes (``MaterialReader.transform2d_map``) and
+        vector2 math of constants (:meth:`_texcoord_math`) between them (identity without one), the image's nearest
+        first."""
         placement = np.eye(3)
         found, holder = self.reader._producer(node, "texcoord"), node
         passed = set()  # the nodes on the way: a chain that loops back (fed by its own output) ends there
@@ -651,6 +653,16 @@ class _Graph:
                 placement = placement @ self._place2d(holder)
                 found = self.reader._producer(holder, "texcoord")  # unconnected: UV0, st (defaultgeomprop)
                 passed.add(holder.GetPath())
+                continue
+            if node_id in TRANSFORM2D_IDS:  # as it moves a UsdUVTexture's st: it was named as unsupported, st read
+                holder = found[1]
+                placement = placement @ self.reader.transform2d_map(holder, self.path)
+                found = self.reader._producer(holder, "in")
+                passed.add(holder.GetPath())
+                if found is None:  # no defaultgeomprop: Sdr's and the nodedef's (0, 0), as for a UsdUVTexture
+                    self.notes.append(f"{holder.GetPath()}: a UsdTransform2d's in that is neither connected nor "
+                                      "authored reads (0, 0): its texture shows one point")
+                    found = ("value", (0.0, 0.0))
                 continue
             math_node = TEXCOORD_MATH_ID.match(node_id)
             mapped = self._texcoord_math(found[1], math_node.group(1)) if math_node else None
