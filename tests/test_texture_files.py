@@ -521,3 +521,20 @@ def test_an_unreadable_texture_s_warning_says_what_is_wrong_in_plain_words(tmp_p
     assert says in message, message
     assert not re.search(r"NoneType|BytesIO|0x[0-9a-f]{6}", message), message
     assert message.count("cannot open") <= 1, message
+
+
+@pytest.mark.parametrize("colour_type, depth", [(2, 8), (2, 16)])
+def test_a_texture_past_pillows_decompression_bomb_limit_is_read(tmp_path, monkeypatch, colour_type, depth):
+    """Pillow refuses an image of more than twice ``PIL.Image.MAX_IMAGE_PIXELS`` (179 million pixels by default: a
+    16k x 16k texture) and warns of one past it; a 7 x 11 PNG against a limit of 10 stands in for one. It was read as
+    the fallback, named as a "decompression bomb DOS attack"; Storm's readers take such textures. Now read as the
+    samples written, without a word, and the caller's limit is put back."""
+    monkeypatch.setattr(PilImage, "MAX_IMAGE_PIXELS", 10)
+    samples = np.random.default_rng(31).integers(0, 2**depth, (7, 11, 3))
+    path = tmp_path / "large.png"
+    path.write_bytes(png(samples, colour_type, depth))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pixels = load_image(str(path), "raw")
+    np.testing.assert_allclose(pixels[..., :3], samples / (2**depth - 1), atol=1e-6)
+    assert PilImage.MAX_IMAGE_PIXELS == 10

@@ -33,6 +33,7 @@ Conventions, stated once:
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import struct
@@ -287,6 +288,24 @@ def _warn_unread_gamma(name: str, gamma: float) -> None:
                   stacklevel=4)
 
 
+@contextlib.contextmanager
+def _pillow_size_limit_lifted():
+    """Pillow's decompression-bomb limit (``PIL.Image.MAX_IMAGE_PIXELS``) lifted while a texture is read with it, and
+    put back after. Pillow refused images of more than 179 million pixels (a 16k x 16k texture read its fallback,
+    named with words of a "decompression bomb DOS attack") and warned of them past 89 million (a 16k x 8k panorama):
+    Storm's readers take them, and wrt reads the whole image anyway (:func:`pack_images` refuses more than 2^31
+    texels). The limit is Pillow's module state: an image another thread opens with Pillow meanwhile goes without it
+    too."""
+    from PIL import Image as PilImage
+
+    limit = PilImage.MAX_IMAGE_PIXELS
+    PilImage.MAX_IMAGE_PIXELS = None
+    try:
+        yield
+    finally:
+        PilImage.MAX_IMAGE_PIXELS = limit
+
+
 def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np.ndarray, tuple[int, ...], bool,
                                                                              bool | None]:
     """The samples and their channels' places as :func:`_read_pillow` gives them, whether they are 8-bit colour,
@@ -297,18 +316,19 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     if problem:
         raise TextureError(f"cannot read image {name}: {problem}, which Storm's PNG reader (stb_image) refuses")
     try:
-        img = PilImage.open(io.BytesIO(data))
-        tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
-        if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
-            _warn_unread_gamma(name, img.info["gamma"])
-        rawmode = _sixteen_bit_rawmode(img)
-        if rawmode is not None:
-            # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
-            # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
-            # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
-            key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
-            return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
-        img.load()
+        with _pillow_size_limit_lifted():
+            img = PilImage.open(io.BytesIO(data))
+            tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
+            if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
+                _warn_unread_gamma(name, img.info["gamma"])
+            rawmode = _sixteen_bit_rawmode(img)
+            if rawmode is not None:
+                # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
+                # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
+                # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
+                key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
+                return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
+            img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
         raise TextureError(f"cannot read image {name}: no image reader wrt has (Pillow, OpenEXR, Radiance) knows its "
                            "format") from None
