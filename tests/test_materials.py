@@ -1343,6 +1343,64 @@ def transform_chain(stage, material_path, count, **values):
     return source[0]
 
 
+def filtered_texels(texels, st, wraps):
+    """``(..., C)`` float64 oracle of a UsdUVTexture lookup of ``texels`` (``(H, W, C)``, row 0 at the top) at ``st``
+    (``(..., 2)``, t up) under wrap modes ``wraps`` (wrapS, wrapT): bilinear between texel centres, each texel index
+    wrapped (``repeat`` modulo the size, ``mirror`` back and forth, ``clamp`` and ``black`` to the edge), and 0
+    along a ``black`` axis outside [0, 1]."""
+    h, w = texels.shape[:2]
+
+    def wrapped(i, n, mode):
+        if mode == "repeat":
+            return np.mod(i, n)
+        if mode == "mirror":
+            m = np.mod(i, 2 * n)
+            return np.where(m < n, m, 2 * n - 1 - m)
+        return np.clip(i, 0, n - 1)
+
+    x, y = st[..., 0] * w - 0.5, (1.0 - st[..., 1]) * h - 0.5
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+
+    def texel(i, j):
+        return texels[wrapped(j, h, wraps[1]), wrapped(i, w, wraps[0])].astype(np.float64)
+
+    out = ((texel(x0, y0) * (1 - fx) + texel(x0 + 1, y0) * fx) * (1 - fy)
+           + (texel(x0, y0 + 1) * (1 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy)
+    outside = np.zeros(st.shape[:-1], bool)
+    for axis, mode in enumerate(wraps):
+        if mode == "black":
+            outside |= (st[..., axis] < 0.0) | (st[..., axis] > 1.0)
+    return np.where(outside[..., None], 0.0, out)
+
+
+@pytest.mark.parametrize("wraps", [("mirror", "repeat"), ("clamp", "black")])
+def test_a_scaled_turned_and_moved_st_is_filtered_bilinearly_under_its_wrap_modes(tmp_path, wraps):
+    """Guard: a UsdTransform2d of uneven scale, a turn that is not a quarter and a translation, read through each
+    wrap mode over st from -0.5 to 2.5, matches the specification's order (``in * scale``, turned
+    counter-clockwise, then moved) and a float64 bilinear oracle at every pixel, filtering across mirror and repeat
+    seams included."""
+    texels = np.random.default_rng(5).integers(0, 256, (3, 5, 3))
+    inputs = {"scale": (1.7, 0.6), "rotation": 30.0, "translation": (0.3, -0.2)}
+    path = textured_stage(tmp_path, write_png(tmp_path / "noise.png", texels), st_range=3.0, color_space="raw",
+                          transform=inputs)
+    stage = Usd.Stage.Open(path)
+    image = UsdShade.Shader.Get(stage, "/Looks/Tex/Image")
+    for name, mode in zip(("wrapS", "wrapT"), wraps):
+        image.CreateInput(name, Sdf.ValueTypeNames.Token).Set(mode)
+    st_attr = stage.GetAttributeAtPath("/Quad.primvars:st")  # st over [-0.5, 2.5]: the quad's [0, 3] moved
+    st_attr.Set([Gf.Vec2f(v[0] - 0.5, v[1] - 0.5) for v in st_attr.Get()])
+    stage.Save()
+    res = 12
+    centres = (np.arange(res) + 0.5) / res * 3.0 - 0.5
+    s, t = np.meshgrid(centres, centres[::-1])
+    a = math.radians(inputs["rotation"])
+    xs, ys = s * inputs["scale"][0], t * inputs["scale"][1]
+    st = np.stack([xs * math.cos(a) - ys * math.sin(a) + inputs["translation"][0],
+                   xs * math.sin(a) + ys * math.cos(a) + inputs["translation"][1]], axis=-1)
+    np.testing.assert_allclose(albedo(path, res), filtered_texels(texels / 255.0, st, wraps), atol=2e-3)
+
+
 def test_a_long_chain_of_transform2d_nodes_applies_every_one(tmp_path):
     """Ten UsdTransform2d nodes in a row, each moving st by (0.05, 0): the image moves by 0.5 in s (its halves
     swap). The walk stopped after eight without a word, so the image moved by 0.4."""
