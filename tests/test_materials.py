@@ -1401,6 +1401,35 @@ def test_a_scaled_turned_and_moved_st_is_filtered_bilinearly_under_its_wrap_mode
     np.testing.assert_allclose(albedo(path, res), filtered_texels(texels / 255.0, st, wraps), atol=2e-3)
 
 
+@pytest.mark.parametrize("wrap", ["repeat", "mirror", "clamp", "black"])
+def test_texture_coordinates_on_whole_numbers_read_as_each_wrap_mode_defines(tmp_path, wrap):
+    """Guard: constant st on whole numbers and on an edge, (1, 1), (2, 0), (-1, 3) and (1, 0.5), each read by one
+    quad, match the float64 oracle of :func:`filtered_texels`: ``repeat`` blends the last texel with the first
+    there, ``mirror`` and ``clamp`` read the edge, and ``black`` is black only outside [0, 1] (1 itself is in)."""
+    texels = np.random.default_rng(6).integers(0, 256, (3, 5, 3))
+    png = write_png(tmp_path / "noise.png", texels)
+    stage, path = new_stage(tmp_path)
+    points = [(1.0, 1.0), (2.0, 0.0), (-1.0, 3.0), (1.0, 0.5)]
+    for k, st in enumerate(points):  # quads 1 wide at x = -3.5, -1.5, 0.5, 2.5: under pixel columns 0, 2, 4, 6
+        quad = add_quad(stage, f"/Quad{k}", center=(2.0 * k - 3.5, 0.0, 0.0), size=1.0)
+        material, surface = preview_material(stage, f"/Looks/M{k}")
+        tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+        for name in ("wrapS", "wrapT"):
+            tex.CreateInput(name, Sdf.ValueTypeNames.Token).Set(wrap)
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*st))
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.CreateOutput(
+            "rgb", Sdf.ValueTypeNames.Float3))
+        bind(quad, material)
+    stage.Save()
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(wrt.load_usd(path), camera=cam, width=8, height=2, device="cpu", integrator="albedo").rgb
+    expected = filtered_texels(texels / 255.0, np.array(points), (wrap, wrap))
+    np.testing.assert_allclose(img[0, ::2], expected, atol=2e-3)
+
+
 def test_a_long_chain_of_transform2d_nodes_applies_every_one(tmp_path):
     """Ten UsdTransform2d nodes in a row, each moving st by (0.05, 0): the image moves by 0.5 in s (its halves
     swap). The walk stopped after eight without a word, so the image moved by 0.4."""
