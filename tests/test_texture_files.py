@@ -19,14 +19,15 @@ import wrt
 from wrt.textures import load_image
 
 
-def write_tiff16(path, samples, byte_order="<", rows_per_strip=1):
+def write_tiff16(path, samples, byte_order="<", rows_per_strip=1, sample_format=None):
     """An uncompressed 16-bit RGB or RGBA TIFF written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``:
-    ``MM``), one strip per ``rows_per_strip`` rows, so the reader has to join several strips."""
+    ``MM``), one strip per ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its
+    ``SampleFormat`` tag where given (3: half floats, ``samples`` their bits)."""
     samples = np.asarray(samples, np.uint16)
     h, w, c = samples.shape
     strips = [samples[r : r + rows_per_strip].astype(byte_order + "u2").tobytes() for r in range(0, h, rows_per_strip)]
     n_strips = len(strips)
-    tags = 11 if c == 4 else 10
+    tags = (11 if c == 4 else 10) + (sample_format is not None)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
     offsets_at = bits_at + 2 * c
     counts_at = offsets_at + 4 * n_strips
@@ -44,6 +45,8 @@ def write_tiff16(path, samples, byte_order="<", rows_per_strip=1):
            entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 1)]
     if c == 4:
         ifd.append(entry(338, 3, 1, 2))  # extra sample: unassociated alpha
+    if sample_format is not None:
+        ifd.append(entry(339, 3, 1, sample_format))
     ifd.sort()
     starts = np.cumsum([pixels_at] + [len(s) for s in strips[:-1]])
     body = struct.pack(byte_order + "H" * c, *([16] * c))
@@ -506,6 +509,9 @@ def test_a_32_bit_bmp_reads_its_fourth_byte_as_alpha(tmp_path, top_down, alpha_u
     (lambda path: path.write_bytes(b""), "the file is empty"),
     (lambda path: path.write_text("not an image"), "no image reader wrt has (Pillow, OpenEXR, Radiance) knows"),
     (lambda path: path.mkdir(), "it is a folder"),
+    # Half floats, which Pillow does not decode (it named no format, as for text): Storm's reader takes them.
+    (lambda path: write_tiff16(path, np.full((2, 3, 3), 0.5, np.float16).view(np.uint16), sample_format=3),
+     "a TIFF of 3 channels of 16-bit floating-point samples, which Pillow"),
 ])
 def test_an_unreadable_texture_s_warning_says_what_is_wrong_in_plain_words(tmp_path, make, says):
     """The warning for a texture that cannot be read names the file and says why, in words a user can act on.

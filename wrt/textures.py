@@ -44,6 +44,7 @@ import warp as wp
 
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem
+from .tiff_checks import tiff_sample_layout
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -330,6 +331,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
+        layout = tiff_sample_layout(data)  # a TIFF of float colour, which Pillow does not decode
+        if layout is not None:
+            raise TextureError(f"cannot read image {name}: a TIFF of {layout}, which Pillow (wrt's TIFF reader) does "
+                               "not decode; an EXR holds such samples") from None
         raise TextureError(f"cannot read image {name}: no image reader wrt has (Pillow, OpenEXR, Radiance) knows its "
                            "format") from None
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
