@@ -19,13 +19,17 @@ import wrt
 from wrt.textures import load_image
 
 
-def write_tiff16(path, samples, byte_order="<", rows_per_strip=1, sample_format=None):
-    """An uncompressed 16-bit RGB or RGBA TIFF written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``:
-    ``MM``), one strip per ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its
-    ``SampleFormat`` tag where given (3: half floats, ``samples`` their bits)."""
-    samples = np.asarray(samples, np.uint16)
+def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None):
+    """An uncompressed grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for
+    integers) written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per
+    ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag
+    where given (2: signed integers, 3: floats)."""
+    samples = np.asarray(samples)
+    samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
-    strips = [samples[r : r + rows_per_strip].astype(byte_order + "u2").tobytes() for r in range(0, h, rows_per_strip)]
+    bits = samples.dtype.itemsize * 8
+    sample_type = byte_order + samples.dtype.str[1:]
+    strips = [samples[r : r + rows_per_strip].astype(sample_type).tobytes() for r in range(0, h, rows_per_strip)]
     n_strips = len(strips)
     tags = (11 if c == 4 else 10) + (sample_format is not None)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
@@ -40,8 +44,9 @@ def write_tiff16(path, samples, byte_order="<", rows_per_strip=1, sample_format=
 
     one_offset = pixels_at if n_strips == 1 else offsets_at
     one_count = len(strips[0]) if n_strips == 1 else counts_at
-    ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), entry(258, 3, c, bits_at), entry(259, 3, 1, 1),
-           entry(262, 3, 1, 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
+    ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), entry(258, 3, c, bits if c == 1 else bits_at),
+           entry(259, 3, 1, 1),
+           entry(262, 3, 1, 1 if c == 1 else 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
            entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 1)]
     if c == 4:
         ifd.append(entry(338, 3, 1, 2))  # extra sample: unassociated alpha
@@ -49,13 +54,29 @@ def write_tiff16(path, samples, byte_order="<", rows_per_strip=1, sample_format=
         ifd.append(entry(339, 3, 1, sample_format))
     ifd.sort()
     starts = np.cumsum([pixels_at] + [len(s) for s in strips[:-1]])
-    body = struct.pack(byte_order + "H" * c, *([16] * c))
+    body = struct.pack(byte_order + "H" * c, *([bits] * c))
     body += struct.pack(byte_order + "I" * n_strips, *starts) + struct.pack(byte_order + "I" * n_strips,
                                                                             *map(len, strips))
     head = (b"II*\0" if byte_order == "<" else b"MM\0*") + struct.pack(byte_order + "I", 8)
     data = head + struct.pack(byte_order + "H", tags) + b"".join(ifd) + struct.pack(byte_order + "I", 0) + body
     path.write_bytes(data + b"".join(strips))
     return str(path)
+
+
+@pytest.mark.parametrize("dtype, sample_format, full, values", [
+    (np.int16, 2, 32767.0, [[0, 1000, 20000], [7, -300, -32768]]),
+    (np.uint32, None, 4294967295.0, [[0, 1000, 70000], [7, 5, 4_000_000_000]]),
+])
+def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path, dtype, sample_format, full, values):
+    """A grey TIFF of 16-bit signed or 32-bit unsigned samples (which Pillow opens as 32-bit signed integers) reads
+    each sample over its type's largest value, as Pillow scales 8- and 16-bit ones and OpenImageIO converts integer
+    samples to float. They were divided by the image's own largest sample, so the same value read differently in
+    each file, and a 32-bit sample past 2^31, which Pillow wraps negative, read -4214."""
+    samples = np.array(values, dtype)[..., None]
+    image = load_image(write_tiff(tmp_path / "grey.tif", samples, sample_format=sample_format), "auto")
+    np.testing.assert_allclose(image[..., 0], samples[..., 0] / full, rtol=1e-6)
+    np.testing.assert_array_equal(image[..., 1], image[..., 0])
+    np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
 @pytest.mark.parametrize("byte_order", ["<", ">"])
@@ -65,7 +86,7 @@ def test_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order,
     sourceColorSpace auto (16-bit data is linear, as for 16-bit PNGs): 0.5 came out as 0.216."""
     samples = np.random.default_rng(7).integers(0, 65536, (3, 5, channels))
     samples[0, 0, :] = 0x8001  # 0.50001 linear; its high byte alone would be 0.502, or 0.216 after sRGB decoding
-    image = load_image(write_tiff16(tmp_path / "c.tif", samples, byte_order), "auto")
+    image = load_image(write_tiff(tmp_path / "c.tif", samples, byte_order), "auto")
     expected = np.ones((3, 5, 4))
     expected[..., :channels] = samples / 65535.0
     np.testing.assert_allclose(image, expected, atol=1e-7)
@@ -510,7 +531,7 @@ def test_a_32_bit_bmp_reads_its_fourth_byte_as_alpha(tmp_path, top_down, alpha_u
     (lambda path: path.write_text("not an image"), "no image reader wrt has (Pillow, OpenEXR, Radiance) knows"),
     (lambda path: path.mkdir(), "it is a folder"),
     # Half floats, which Pillow does not decode (it named no format, as for text): Storm's reader takes them.
-    (lambda path: write_tiff16(path, np.full((2, 3, 3), 0.5, np.float16).view(np.uint16), sample_format=3),
+    (lambda path: write_tiff(path, np.full((2, 3, 3), 0.5, np.float16).view(np.uint16), sample_format=3),
      "a TIFF of 3 channels of 16-bit floating-point samples, which Pillow"),
 ])
 def test_an_unreadable_texture_s_warning_says_what_is_wrong_in_plain_words(tmp_path, make, says):

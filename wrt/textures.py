@@ -44,7 +44,7 @@ import warp as wp
 
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem
-from .tiff_checks import tiff_sample_layout
+from .tiff_checks import SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -342,8 +342,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
-        full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else max(1.0, float(np.max(img)))
+        full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else None
         grey = np.asarray(img, dtype=np.float32)
+        if full is None:
+            full, grey = _integer_tiff_grey(data, img)
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
         return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
@@ -366,6 +368,24 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             arr = arr.copy()
             arr[..., 3] = alpha
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def _integer_tiff_grey(data: bytes, img) -> tuple[float, np.ndarray]:
+    """``(full, samples)`` of the grey image Pillow opened as 32-bit integers (mode ``I``) from file ``data``:
+    ``samples`` (float32) over ``full`` read it in [0, 1] (signed ones in [-1, 1]), the largest value of its sample
+    type, as Pillow scales 8- and 16-bit samples and OpenImageIO, Storm's TIFF reader, converts integer samples to
+    float. A TIFF's 32-bit unsigned samples, which Pillow holds as signed, are taken as unsigned. The grey was divided
+    by the image's own largest value: a 16-bit signed map read its values over whatever its brightest was, and a
+    32-bit unsigned one of a value past 2^31 read -4214. Another file of this mode keeps that division."""
+    samples = tiff_samples(data)
+    if samples is None or samples[2] not in (UNSIGNED, SIGNED) or not 1 < samples[1] <= 32:
+        grey = np.asarray(img, dtype=np.float32)
+        return max(1.0, float(np.max(grey))), grey
+    bits = samples[1]
+    if samples[2] == UNSIGNED:
+        grey = np.asarray(img).astype(np.int64) % (1 << 32)  # Pillow's int32 of a value past 2^31 wraps negative
+        return float((1 << bits) - 1), grey.astype(np.float32)
+    return float((1 << (bits - 1)) - 1), np.asarray(img, dtype=np.float32)
 
 
 def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | None:

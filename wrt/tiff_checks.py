@@ -11,13 +11,14 @@ import struct
 TIFF_MAGIC = {b"II*\0": "<", b"MM\0*": ">"}  # little- and big-endian TIFF headers -> struct byte order
 SHORT = 3  # TIFF field type of unsigned 16-bit values
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
-SAMPLE_FORMATS = {1: "unsigned integer", 2: "signed integer", 3: "floating-point"}  # SampleFormat values
+UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
+SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "floating-point"}  # their words
 
 
-def tiff_sample_layout(data: bytes) -> str | None:
-    """Words for the samples of the TIFF file ``data``'s first image (``3 channels of 32-bit floating-point
-    samples``), from its ``SamplesPerPixel``, ``BitsPerSample`` and ``SampleFormat`` tags (the TIFF defaults 1, 1 and
-    unsigned integer where a tag is missing); None for data that is no TIFF or whose directory is cut short."""
+def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
+    """``(channels, bits, sample format)`` of the TIFF file ``data``'s first image, from its ``SamplesPerPixel``,
+    ``BitsPerSample`` and ``SampleFormat`` tags (the TIFF defaults 1, 1 and 1, unsigned integer, where a tag is
+    missing); None for data that is no TIFF or whose directory is cut short."""
     order = TIFF_MAGIC.get(data[:4])
     if order is None:
         return None
@@ -35,7 +36,15 @@ def tiff_sample_layout(data: bytes) -> str | None:
                 tags[tag] = struct.unpack(order + f"{n}H", field[: 2 * n])
     except struct.error:
         return None
-    channels = tags.get(SAMPLES_PER_PIXEL, (1,))[0]
-    bits = tags.get(BITS_PER_SAMPLE, (1,))[0]
-    kind = SAMPLE_FORMATS.get(tags.get(SAMPLE_FORMAT, (1,))[0], "undefined")
-    return f"{channels} channel{'' if channels == 1 else 's'} of {bits}-bit {kind} samples"
+    return tags.get(SAMPLES_PER_PIXEL, (1,))[0], tags.get(BITS_PER_SAMPLE, (1,))[0], tags.get(SAMPLE_FORMAT, (1,))[0]
+
+
+def tiff_sample_layout(data: bytes) -> str | None:
+    """Words for :func:`tiff_samples` of ``data`` (``3 channels of 32-bit floating-point samples``); None where that
+    is None."""
+    samples = tiff_samples(data)
+    if samples is None:
+        return None
+    channels, bits, kind = samples
+    return (f"{channels} channel{'' if channels == 1 else 's'} of {bits}-bit "
+            f"{SAMPLE_FORMATS.get(kind, 'undefined')} samples")
