@@ -342,10 +342,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
-        full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else None
-        grey = np.asarray(img, dtype=np.float32)
-        if full is None:
-            full, grey = _integer_tiff_grey(data, img)
+        if mode.startswith("I;16") or png_bit_depth(data) == 16:
+            full, grey = 65535.0, np.asarray(img, dtype=np.float32)
+        else:
+            full, grey = _integer_grey(data, img)
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
         return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
@@ -370,7 +370,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
 
 
-def _integer_tiff_grey(data: bytes, img) -> tuple[float, np.ndarray]:
+def _integer_grey(data: bytes, img) -> tuple[float, np.ndarray]:
     """``(full, samples)`` of the grey image Pillow opened as 32-bit integers (mode ``I``) from file ``data``:
     ``samples`` (float32) over ``full`` read it in [0, 1] (signed ones in [-1, 1]), the largest value of its sample
     type, as Pillow scales 8- and 16-bit samples and OpenImageIO, Storm's TIFF reader, converts integer samples to
