@@ -1410,8 +1410,8 @@ def test_texture_coordinates_on_whole_numbers_read_as_each_wrap_mode_defines(tmp
     png = write_png(tmp_path / "noise.png", texels)
     stage, path = new_stage(tmp_path)
     points = [(1.0, 1.0), (2.0, 0.0), (-1.0, 3.0), (1.0, 0.5)]
-    for k, st in enumerate(points):  # quads 1 wide at x = -3.5, -1.5, 0.5, 2.5: under pixel columns 0, 2, 4, 6
-        quad = add_quad(stage, f"/Quad{k}", center=(2.0 * k - 3.5, 0.0, 0.0), size=1.0)
+    for k, st in enumerate(points):  # quads 1.5 wide at x = -3.5, -1.5, 0.5, 2.5: under pixel columns 0, 2, 4, 6
+        quad = add_quad(stage, f"/Quad{k}", center=(2.0 * k - 3.5, 0.0, 0.0), size=1.5)
         material, surface = preview_material(stage, f"/Looks/M{k}")
         tex = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image")
         tex.CreateIdAttr("UsdUVTexture")
@@ -1427,7 +1427,8 @@ def test_texture_coordinates_on_whole_numbers_read_as_each_wrap_mode_defines(tmp
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     img = wrt.render(wrt.load_usd(path), camera=cam, width=8, height=2, device="cpu", integrator="albedo").rgb
     expected = filtered_texels(texels / 255.0, np.array(points), (wrap, wrap))
-    np.testing.assert_allclose(img[0, ::2], expected, atol=2e-3)
+    np.testing.assert_allclose(img[:, ::2], np.broadcast_to(expected, (2, 4, 3)), atol=2e-3)
+    np.testing.assert_array_equal(img[:, 1::2], 0.0)  # between the quads: nothing
 
 
 def test_a_long_chain_of_transform2d_nodes_applies_every_one(tmp_path):
