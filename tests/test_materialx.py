@@ -1690,29 +1690,36 @@ def test_an_input_authored_as_a_bool_keeps_its_default_with_a_note(tmp_path, sha
         warning
 
 
-def test_a_usd_transform2d_moves_an_image_nodes_texture_coordinates(tmp_path):
+@pytest.mark.parametrize("connected", [True, False])
+def test_a_usd_transform2d_moves_an_image_nodes_texture_coordinates(tmp_path, connected):
     """An ``ND_UsdTransform2d`` between an image node and its texture coordinates moves them as it moves a
     UsdUVTexture's st (``in * scale``, turned counter-clockwise by ``rotation`` degrees, plus ``translation``, the
     UsdPreviewSurface specification's order, MaterialX pull request 2924). It was named as an unsupported
-    texture-coordinate node and primvar ``st`` read unmoved. Oracle: the texel under each pixel centre's st moved so
-    in float64."""
+    texture-coordinate node and primvar ``st`` read unmoved. Its ``in`` neither connected nor authored is the
+    nodedef's (0, 0) (no defaultgeomprop), moved, on every point, named in the note. Oracle: the texel under each
+    pixel centre's st moved so in float64."""
     texels = PIXELS
     png = write_png(tmp_path / "pixels.png", texels)
     stage, path = new_stage(tmp_path, "moved.usda")
     bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Moved")[0])
-    coords = UsdShade.Shader.Define(stage, "/Looks/Moved/Coords")
-    coords.CreateIdAttr("ND_texcoord_vector2")
     move = UsdShade.Shader.Define(stage, "/Looks/Moved/Move")
     move.CreateIdAttr("ND_UsdTransform2d")
-    move.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(coords.ConnectableAPI(), "out")
+    if connected:
+        coords = UsdShade.Shader.Define(stage, "/Looks/Moved/Coords")
+        coords.CreateIdAttr("ND_texcoord_vector2")
+        move.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(coords.ConnectableAPI(), "out")
     move.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set((1.5, 0.7))
     move.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(30.0)
     move.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set((0.2, 0.1))
     closest_image(stage, "/Looks/Moved", png, move)
     stage.Save()
     scene, messages = load(path)
-    assert not messages, messages
-    st = pixel_centre_st(16) * (1.5, 0.7)
+    if connected:
+        assert not messages, messages
+    else:
+        assert any("/Looks/Moved/Move: a UsdTransform2d's in that is neither connected nor authored reads (0, 0)" in m
+                   for m in messages), messages
+    st = pixel_centre_st(16) * (1.5, 0.7) * connected
     a = np.radians(30.0)
     st = np.stack([st[..., 0] * np.cos(a) - st[..., 1] * np.sin(a) + 0.2,
                    st[..., 0] * np.sin(a) + st[..., 1] * np.cos(a) + 0.1], axis=-1)
