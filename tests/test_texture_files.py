@@ -568,16 +568,19 @@ def test_a_texture_past_pillows_decompression_bomb_limit_is_read(tmp_path, monke
     assert PilImage.MAX_IMAGE_PIXELS == 10
 
 
-@pytest.mark.parametrize("depth", [8, 16])
-def test_a_png_whose_text_chunk_expands_past_a_megabyte_is_read(tmp_path, depth):
+@pytest.mark.parametrize("depth, kind, payload", [
+    (8, b"zTXt", b"XML:com.adobe.xmp\0\0" + zlib.compress(b"<x:xmpmeta/>" * 250_000)),
+    (16, b"zTXt", b"XML:com.adobe.xmp\0\0" + zlib.compress(b"<x:xmpmeta/>" * 250_000)),
+    (8, b"iCCP", b"printer\0\0" + zlib.compress(b"LUT" * 700_000)),
+])
+def test_a_png_whose_text_or_icc_chunk_expands_past_a_megabyte_is_read(tmp_path, depth, kind, payload):
     """A PNG carrying a compressed text chunk (an XMP packet of 3 MB, as image editors' histories grow, in ``zTXt``)
-    reads its samples: Pillow refuses text that expands past 1 MB (``PngImagePlugin.MAX_TEXT_CHUNK``), so the
-    texture read its fallback, named as "Decompressed data too large"; stb_image skips text chunks. The chunks
-    around it are still read: ``gAMA`` 1 makes ``auto`` read the colour as stored."""
+    or a 2 MB ICC profile reads its samples: Pillow refuses a chunk that expands past 1 MB
+    (``PngImagePlugin.MAX_TEXT_CHUNK``), so the texture read its fallback, named as "Decompressed data too large";
+    stb_image skips both. The chunks around it are still read: ``gAMA`` 1 makes ``auto`` read the colour as stored."""
     samples = np.random.default_rng(37).integers(0, 2**depth, (3, 4, 3))
-    xmp = b"XML:com.adobe.xmp\0\0" + zlib.compress(b"<x:xmpmeta/>" * 250_000)
     path = tmp_path / "tagged.png"
-    path.write_bytes(png(samples, 2, depth, extra=[(b"gAMA", struct.pack(">I", 100_000)), (b"zTXt", xmp)]))
+    path.write_bytes(png(samples, 2, depth, extra=[(b"gAMA", struct.pack(">I", 100_000)), (kind, payload)]))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         pixels = load_image(str(path), "auto")

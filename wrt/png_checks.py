@@ -2,8 +2,8 @@
 ``tRNS`` chunk beside an alpha channel, after the image data, of the wrong length or before the palette, and a
 palette image without its ``PLTE`` chunk. stb_image refuses such files ("tRNS with alpha", "Corrupt PNG"), so
 Storm draws the texture's fallback; Pillow read them, ignoring the chunk or applying it (the PNG specification,
-clause 11.3.2.1, forbids each of them). And the text chunks stb_image skips, taken out before Pillow (which
-refuses large compressed ones) sees the file (:func:`without_text_chunks`)."""
+clause 11.3.2.1, forbids each of them). And the text and ICC profile chunks stb_image skips, taken out before Pillow
+(which refuses large compressed ones) sees the file (:func:`without_unread_chunks`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ import struct
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 KEY_BYTES = {0: 2, 2: 6}  # tRNS length of a grey and of an RGB image: one 16-bit sample per channel
-TEXT_CHUNKS = (b"tEXt", b"zTXt", b"iTXt")  # metadata in words: comments, XMP, ImageMagick's raw profiles
+# Chunks wrt does not read and stb_image skips, which Pillow decompresses (and refuses past 1 MB): text (comments,
+# XMP, ImageMagick's raw profiles) and the ICC profile (wrt decodes by sRGB and gAMA chunks, as Storm's reader)
+UNREAD_CHUNKS = (b"tEXt", b"zTXt", b"iTXt", b"iCCP")
 
 
 def png_chunk_problem(data: bytes) -> str | None:
@@ -48,20 +50,20 @@ def png_chunk_problem(data: bytes) -> str | None:
     return None
 
 
-def without_text_chunks(data: bytes) -> bytes:
-    """The PNG ``data`` without its text chunks (:data:`TEXT_CHUNKS`), which stb_image skips and wrt does not read;
-    ``data`` itself where it has none or is no PNG. Pillow decompresses each as it opens the file and refuses one
-    that expands past 1 MB (``PngImagePlugin.MAX_TEXT_CHUNK``): a texture carrying a large compressed XMP packet (an
-    image editor's history, ImageMagick's hex ``Raw profile type xmp``) read its fallback, named as "Decompressed data
-    too large". Every chunk carries its own CRC, so the others are kept as they are; bytes after a chunk cut short
-    are kept for the decoder to judge."""
+def without_unread_chunks(data: bytes) -> bytes:
+    """The PNG ``data`` without its text chunks and ICC profile (:data:`UNREAD_CHUNKS`), which stb_image skips and
+    wrt does not read; ``data`` itself where it has none or is no PNG. Pillow decompresses each as it opens the file
+    and refuses one that expands past 1 MB (``PngImagePlugin.MAX_TEXT_CHUNK``): a texture carrying a large
+    compressed XMP packet (an image editor's history, ImageMagick's hex ``Raw profile type xmp``) or a 2 MB ICC
+    profile read its fallback, named as "Decompressed data too large". Every chunk carries its own CRC, so the
+    others are kept as they are; bytes after a chunk cut short are kept for the decoder to judge."""
     if data[:8] != PNG_SIGNATURE:
         return data
     kept, at, dropped = [data[:8]], 8, False
     while at + 8 <= len(data):
         (length,), kind = struct.unpack(">I", data[at : at + 4]), data[at + 4 : at + 8]
         end = at + 12 + length  # length, type, data, CRC
-        if kind in TEXT_CHUNKS:
+        if kind in UNREAD_CHUNKS:
             dropped = True
         else:
             kept.append(data[at:end])

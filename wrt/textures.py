@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .exr_yca import yca_rgba
-from .png_checks import png_chunk_problem, without_text_chunks
+from .png_checks import png_chunk_problem, without_unread_chunks
 from .tiff_checks import SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
@@ -316,7 +316,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     problem = png_chunk_problem(data)
     if problem:
         raise TextureError(f"cannot read image {name}: {problem}, which Storm's PNG reader (stb_image) refuses")
-    data = without_text_chunks(data)
+    data = without_unread_chunks(data)
     try:
         with _pillow_size_limit_lifted():
             img = PilImage.open(io.BytesIO(data))
