@@ -572,7 +572,7 @@ def test_a_texture_past_pillows_decompression_bomb_limit_is_read(tmp_path, monke
     (8, b"zTXt", b"XML:com.adobe.xmp\0\0" + zlib.compress(b"<x:xmpmeta/>" * 250_000)),
     (16, b"zTXt", b"XML:com.adobe.xmp\0\0" + zlib.compress(b"<x:xmpmeta/>" * 250_000)),
     (8, b"iCCP", b"printer\0\0" + zlib.compress(b"LUT" * 700_000)),
-])
+], ids=["xmp-8bit", "xmp-16bit", "icc-8bit"])
 def test_a_png_whose_text_or_icc_chunk_expands_past_a_megabyte_is_read(tmp_path, depth, kind, payload):
     """A PNG carrying a compressed text chunk (an XMP packet of 3 MB, as image editors' histories grow, in ``zTXt``)
     or a 2 MB ICC profile reads its samples: Pillow refuses a chunk that expands past 1 MB
