@@ -332,7 +332,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
-        layout = tiff_sample_layout(data)  # a TIFF of float colour, which Pillow does not decode
+        layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
         if layout is not None:
             raise TextureError(f"cannot read image {name}: a TIFF of {layout}, which Pillow (wrt's TIFF reader) does "
                                "not decode; an EXR holds such samples") from None
