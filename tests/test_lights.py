@@ -303,6 +303,35 @@ def test_light_sampling_reaches_the_far_part_of_a_light_a_wall_beside_it_sees(ki
     assert estimates[off].sum() <= 1e-3 * estimates.sum(), off.mean()
 
 
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_floor_across_where_a_rect_lights_draw_starts_to_clip_renders_as_the_closed_form(integrator):
+    """A 1 x 1 rect light standing upright (in the plane x = 0, emitting along +x, its bottom edge 0.05 above the
+    floor) over floor points 0 to 0.0082 from its plane: the solid-angle draw reaches 256 heights from a point's
+    foot, so it clips the light's top edge (1.05 up) for points nearer than 1.05 / 256 = 0.0041 and mixes in draws
+    by area there (0.25 of them for the floor's normal, which lies in the light's plane), none beyond. path reads the
+    MIS weight back at its bounce ray's origin, moved off the floor along +z, where the share may differ; the band
+    where it does is the offset wide, and the floor on either side of the switch shows Lambert's closed form."""
+    to_world = np.eye(4)
+    to_world[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]]  # the light's -z along +x, its width along z
+    to_world[:3, 3] = (0.0, 0.0, 0.55)
+    light = RectLight(to_world=to_world, width=1.0, height=1.0, color=np.full(3, 2.0))
+    corners = [(0, -0.5, 0.05), (0, 0.5, 0.05), (0, 0.5, 1.05), (0, -0.5, 1.05)]
+    switch, res = 1.05 / 256.0, 8
+    centre, patch = (switch, 0.0, 0.0), 2.0 * switch
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=[light])
+    points = pixel_points(centre, patch, res, res)
+    expected = ALBEDO / math.pi * np.array([[polygon_irradiance(p, (0, 0, 1), corners, 2.0) for p in row]
+                                            for row in points])
+    ratios = np.array([wrt.render(scene, camera=top_down_camera(centre, height=patch), width=res, height=res,
+                                  spp=64, seed=seed, device="cpu", integrator=integrator, max_depth=1).rgb.mean(-1)
+                       for seed in range(4)]) / expected
+    for side in (points[0, :, 0] < switch, points[0, :, 0] > switch):  # clipped (mixed draws), then not
+        means = ratios[:, :, side].mean(axis=(1, 2))
+        error = means.std(ddof=1) / 2.0
+        assert abs(means.mean() - 1.0) < 4.0 * error + 2e-3, (means, error)
+        assert error < 0.01
+
+
 def test_cylinder_light_irradiance():
     length, radius, elevation, radiance = 3.0, 0.2, 1.0, 2.0
     to_world = np.eye(4)
