@@ -1,8 +1,8 @@
 """The pdf of a glowing hull's draw (wrt.glowing_hulls) against float64 quadrature over the sphere of directions: at
-points around turned boxes, an ellipsoid, a sheared tube and inside a sphere glowing inwards, the pdf read back as
-path reads it (at the shape's first hit along a direction) integrates to the share of draws that meet the shape's
-emitting side, and equals, at each drawn direction, the pdf the draw reported; whitted's pick weighs every point a
-glowing box lights."""
+points around turned boxes (one in a mirrored, sheared instance), an ellipsoid, a sheared tube, a disk and inside a
+sphere glowing inwards, the pdf read back as path reads it (at the shape's first hit along a direction) integrates to
+the share of draws that meet the shape's emitting side, and equals, at each drawn direction, the pdf the draw
+reported; whitted's pick weighs every point a glowing box lights."""
 
 import numpy as np
 import pytest
@@ -76,6 +76,7 @@ def turned(x_degrees, z_degrees):
 
 
 BOX = placed(turned(15, 30) @ np.diag([0.8, 0.6, 0.3]), (0.1, 0.0, 0.55))
+SHEAR = np.array([[1.0, 0.8, 0.3], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
 
 def box_point(b):
@@ -97,15 +98,28 @@ CASES = {
                      (0.2, 0.1, 0.0)),
     "inward sphere from inside": ("sphere", placed(np.eye(3) * 3.0, (0, 0, 0)),
                                   {"params": np.array([0.0, 0.0, 0.0, -1.0])}, (0.5, 0.2, 0.1)),
+    # A prototype's unit box under an instance that mirrors and shears it (the ray moved by the instance, then the
+    # shape), and a disk 0.01 off its front, outside its ellipsoid (1e-3 of its width thick) but seeing it near flat.
+    "box in a mirrored, sheared instance": ("box", placed(SHEAR @ np.diag([-1.0, 1.0, 1.0]) @ BOX[:3, :3], BOX[:3, 3]),
+                                            {"instanced": True}, (1.5, 1.0, -0.5)),
+    "disk just off its front": ("disk", placed(turned(10, 20) @ np.diag([1.0, 0.5, 1.0]), (0.0, 0.0, 1.0)), {},
+                                (0.2, 0.1, 1.01)),
 }
 
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_a_hull_pdf_integrates_to_its_draws_share_and_is_read_back_as_drawn(case):
     kind, to_world, options, p = CASES[case]
+    options = dict(options)
     materials = [wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(1.0, 1.0, 1.0))]
-    scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))],
-                      shapes=[wrt.Shape("/Glow", kind, to_world, material_id=0, **options)], materials=materials)
+    floor = quad((0, 0, -50), (1, 0, 0), (0, 1, 0))
+    if options.pop("instanced", False):
+        proto = wrt.Prototype("/Lamp", shapes=[wrt.Shape("/Lamp/Glow", kind, np.eye(4), material_id=0, **options)])
+        instances = wrt.Instances.from_transforms([0], to_world[None])
+        scene = wrt.Scene(meshes=[floor], prototypes=[proto], instances=instances, materials=materials)
+    else:
+        scene = wrt.Scene(meshes=[floor], shapes=[wrt.Shape("/Glow", kind, to_world, material_id=0, **options)],
+                          materials=materials)
     r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu",
                      integrator="path")
     lights, k, point = r.device_lights, r.device_lights.first_glowing_sphere, wp.vec3(*np.asarray(p, np.float32))
