@@ -487,7 +487,9 @@ def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
     """A direct binding whose targets are not one prim (a property, two materials) or a collection binding without a
     collection and a material is ignored by ``ComputeBoundMaterial`` (no relationship found), and the mesh is drawn
     as bound to what is above it, here nothing: wrt drew it so without a word (found by the mutation fuzz that
-    retargets bindings to a property). One warning names the file, each binding prim and its relationship."""
+    retargets bindings to a property). One warning names the file, each binding prim and its relationship. A
+    collection binding that targets its material first, then its collection, binds as USD binds it, unnamed: it was
+    named as ignored while drawn bound."""
     path = str(tmp_path / "ignored.usda")
     stage = Usd.Stage.CreateNew(path)
     red, green = preview_material(stage, "/Looks/Red", (1, 0, 0)), preview_material(stage, "/Looks/Green", (0, 1, 0))
@@ -499,18 +501,32 @@ def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
     UsdShade.MaterialBindingAPI.Apply(collection)
     collection.CreateRelationship("material:binding:collection:looks").SetTargets([red.GetPath()])
     _bind(_quads(stage, "/World/Bound", 1), red)
+    reversed_ = UsdShade.MaterialBindingAPI.Apply(_quads(stage, "/World/Reversed", 1)).GetPrim()
+    Usd.CollectionAPI.Apply(reversed_, "mine").CreateIncludesRel().SetTargets([reversed_.GetPath()])
+    reversed_.CreateRelationship("material:binding:collection:mine").SetTargets(
+        [green.GetPath(), "/World/Reversed.collection:mine"])
     stage.GetRootLayer().Save()
     stage = Usd.Stage.Open(path)
     for mesh in ("/World/Property", "/World/Two", "/World/Collection"):  # USD: no binding found
         material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(mesh)).ComputeBoundMaterial()
         assert not rel and not material
-    messages = _messages(lambda: wrt.load_usd(path))
+    material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/Reversed")).ComputeBoundMaterial()
+    assert rel and material.GetPath() == green.GetPath()
+    scene = None
+
+    def load():
+        nonlocal scene
+        scene = wrt.load_usd(path)
+
+    messages = _messages(load)
     named = [m for m in messages if "USD ignores" in m]
     assert len(named) == 1, messages
     assert named[0].startswith(path) and "3 prim(s)" in named[0]
     for part in ("/World/Property", "/World/Two", "/World/Collection", "material:binding:collection:looks"):
         assert part in named[0]
-    assert "/World/Bound" not in named[0]
+    assert "/World/Bound" not in named[0] and "/World/Reversed" not in named[0]
+    drawn = _drawn_materials(scene)
+    assert drawn == _usd_materials(stage, drawn) and drawn[("/World/Reversed", 0)] == "/Looks/Green"
 
 
 def test_a_binding_through_a_relationship_is_named_only_where_usd_ignores_it(tmp_path):

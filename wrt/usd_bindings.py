@@ -69,14 +69,15 @@ def has_ambiguous_purpose(name: str) -> bool:
 
 
 IGNORED_BINDING = ("material bindings that USD ignores (a direct binding targets one prim; a collection binding a "
-                   "collection, then a prim) bind nothing; their prims are drawn as bound to what is bound above them")
+                   "collection and a prim) bind nothing; their prims are drawn as bound to what is bound above them")
 
 
 def is_ignored_binding(prim: Usd.Prim, name: str) -> bool:
     """Binding relationship ``name`` of ``prim`` has targets that ``ComputeBoundMaterial`` does not take as a binding
     (it goes on to the bindings above): a direct binding of a property or of several prims, a collection binding
-    without a collection and a prim. One without targets (deliberately unbound) is not. USD reads the targets
-    forwarded through relationships (one targeting ``/World.looks``, which targets a Material, binds it)."""
+    without a collection and a prim (in either order: ``ComputeBoundMaterial`` binds ``[</Looks/M>,
+    </World.collection:c>]`` too). One without targets (deliberately unbound) is not. USD reads the targets forwarded
+    through relationships (one targeting ``/World.looks``, which targets a Material, binds it)."""
     parts = name.split(":")
     if parts[:2] != ["material", "binding"]:
         return False
@@ -85,7 +86,8 @@ def is_ignored_binding(prim: Usd.Prim, name: str) -> bool:
         return False
     targets = rel.GetForwardedTargets()
     if len(parts) > 2 and parts[2] == "collection":
-        return not (len(targets) == 2 and targets[0].IsPropertyPath() and targets[1].IsPrimPath())
+        # A collection (a property) and a prim, whichever comes first.
+        return sorted((t.IsPrimPath(), t.IsPropertyPath()) for t in targets) != [(False, True), (True, False)]
     return not (len(targets) == 1 and targets[0].IsPrimPath())
 
 
