@@ -149,6 +149,38 @@ def test_stronger_binding_above_an_instance_beats_its_prototype_and_weaker_one_d
     assert np.all(np.array([v for v in drawn.values()]) != "")
 
 
+@pytest.mark.parametrize("direct", ["stronger", "weaker"])
+def test_a_weaker_collection_beside_a_stronger_direct_binding_above_an_instance_beats_its_prototype(tmp_path, direct):
+    """On one prim ``ComputeBoundMaterial`` asks the direct binding first, then takes a collection binding that holds
+    the prim over a direct binding won there: a weaker collection binding on a group beside its
+    ``strongerThanDescendants`` direct binding wins over the binding inside the group's instances (beside a weaker
+    direct binding it does not). wrt read the collection's own strength and drew the prototype's material in the
+    instance, where a plain copy of it drew the collection's."""
+    path = str(tmp_path / "beside.usda")
+    stage = Usd.Stage.CreateNew(path)
+    inner, outer = _inner_and_outer(stage)
+    held = preview_material(stage, "/Looks/Held", (0, 0, 1))
+    stage.DefinePrim("/Protos/P", "Xform")
+    _bind(_quads(stage, "/Protos/P/Bound", 1), inner)
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
+    group = stage.DefinePrim("/World/G", "Xform")
+    binding = UsdShade.MaterialBindingAPI.Apply(group)
+    binding.Bind(outer, bindingStrength=getattr(UsdShade.Tokens, f"{direct}ThanDescendants"))
+    collection = Usd.CollectionAPI.Apply(group, "held")
+    for name, instanceable in (("Instance", True), ("Plain", False)):
+        prim = stage.DefinePrim(f"/World/G/{name}", "Xform")
+        prim.GetReferences().AddInternalReference("/Protos/P")
+        prim.SetInstanceable(instanceable)
+        collection.GetIncludesRel().AddTarget(prim.GetPath())
+    binding.Bind(collection, held, "held")
+    stage.GetRootLayer().Save()
+    drawn = _drawn_materials(load(path))
+    expected = _usd_materials(Usd.Stage.Open(path), drawn)
+    looks = "/Looks/Held" if direct == "stronger" else "/Looks/Inner"
+    assert expected == {("/World/G/Instance/Bound", 0): looks, ("/World/G/Plain/Bound", 0): looks}
+    assert drawn == expected
+
+
 @pytest.mark.parametrize("target", ["/Looks/Missing", "/World"])
 def test_binding_to_no_material_inside_a_prototype_hides_the_instances_binding(tmp_path, target):
     """A binding to a prim that does not exist or is no Material is a binding all the same for USD: it wins over a

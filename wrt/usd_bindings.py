@@ -28,7 +28,7 @@ class OuterBinding(NamedTuple):
 
     purpose: str  # the binding purpose ("" all-purpose, "full", "preview", ...)
     material: str  # path of the material the walk ends at ("": a binding to no Material, see Found)
-    stronger: bool  # its binding is strongerThanDescendants: it wins over every binding inside the prototype
+    stronger: bool  # it wins over every binding inside the prototype (Found.stronger)
 
 
 class Found(NamedTuple):
@@ -39,7 +39,7 @@ class Found(NamedTuple):
 
     material: UsdShade.Material  # the bound material (not valid: the binding targets no Material)
     rel: Usd.Relationship | None  # the binding relationship; None for one found above a native instance
-    stronger: bool  # that binding is strongerThanDescendants
+    stronger: bool  # that binding wins over one found below it (overrides_below: strongerThanDescendants)
 
 
 def binding_purpose(rel: Usd.Relationship) -> str:
@@ -96,6 +96,23 @@ def is_stronger(rel) -> bool:
     return UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(rel) == UsdShade.Tokens.strongerThanDescendants
 
 
+def overrides_below(rel) -> bool:
+    """Binding relationship ``rel``, where a walk ends, would also win over a binding found below its prim: it is
+    :func:`is_stronger`, or it is a collection binding whose prim's direct binding of its purpose is. On one prim
+    ``ComputeBoundMaterial`` asks the direct binding first, then takes a collection binding that holds the prim over
+    a direct binding won there: a weaker collection beside a stronger direct binding wins over what is bound below,
+    which a walk begun above it (from a native instance) cannot tell from its relationship alone."""
+    if is_stronger(rel):
+        return True
+    if rel.GetName().split(":")[:3] != ["material", "binding", "collection"]:
+        return False
+    purpose = binding_purpose(rel)
+    prim = rel.GetPrim()
+    direct = prim.GetRelationship(f"material:binding:{purpose}" if purpose else "material:binding")
+    return bool(direct and direct.GetTargets()) and not is_ignored_binding(prim, direct.GetName()) and is_stronger(
+        direct)
+
+
 class OwnWalks:
     """``walk(purpose)``: the :class:`Found` of the walk of ``purpose`` bindings alone from ``prim`` up to its root
     (``ALL_PURPOSE``: all-purpose bindings), None where it finds no binding; one ``ComputeBoundMaterial`` call
@@ -109,7 +126,7 @@ class OwnWalks:
         if purpose not in self.found:
             material, rel = self.binding.ComputeBoundMaterial(purpose or UsdShade.Tokens.allPurpose)
             of = binding_purpose(rel) if rel else None  # (no relationship: no binding of either walk)
-            found = Found(material, rel, is_stronger(rel)) if rel else None
+            found = Found(material, rel, overrides_below(rel)) if rel else None
             if of != purpose:  # the purpose's own walk found nothing: ComputeBoundMaterial fell back
                 self.found[ALL_PURPOSE] = found
                 found = None
