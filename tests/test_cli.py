@@ -108,6 +108,35 @@ def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsy
     assert line.startswith("wrt: error: ") and line.endswith(message), line
 
 
+@pytest.mark.parametrize("args, message", [
+    # argparse read '-output x.png' as '-o utput' (a scene x.png; 'cannot write utput' where that was no scene)...
+    (["render", "-output", "x.png"], "-output is no option: long options take two dashes (did you mean '--output'?)"),
+    # ... '-quiet' as '-q' given a value ("ignored explicit argument 'uiet'"), '-out=b' as '-o ut=b' ...
+    (["render", "-quiet"], "-quiet is no option: long options take two dashes (did you mean '--quiet'?)"),
+    (["bench", "-out=b"], "-out=b is no option: long options take two dashes (did you mean '--out'?)"),
+    # ... and named '-width', '-widht' and '-O' with no hint.
+    (["render", "-width", "8"], "-width is no option: long options take two dashes (did you mean '--width'?)"),
+    (["render", "-widht", "8"], "unrecognized arguments: -widht (did you mean '--width'?)"),
+    (["render", "-O", "x.png"], "unrecognized arguments: -O (did you mean '-o'?)"),
+])
+def test_a_long_option_given_one_dash_is_named_with_its_two(capsys, args, message):
+    """A long option typed with one dash, as many tools spell theirs, is named with the option meant, whatever short
+    option argparse would have read its first letter as."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: ") and line.endswith(f"{message} (see 'wrt {args[0]} --help')"), line
+
+
+def test_short_options_with_attached_values_are_still_read():
+    """The one-dash check leaves argparse's own short forms alone: '-oout.png', a value after '--'."""
+    from wrt.cli import build_parser
+
+    parsed = build_parser().parse_args(["render", "-oout.png", "-q", "--time", "-1e3", "--", "-width.usda"])
+    assert (parsed.output, parsed.quiet, parsed.time, parsed.scene) == ("out.png", True, -1000.0, ["-width.usda"])
+
+
 def test_the_abbreviations_the_hint_names_are_taken_after_the_command():
     """argparse itself reads the abbreviations above as the options the hint names, given after the command."""
     from wrt.cli import build_parser

@@ -78,13 +78,18 @@ class _Parser(argparse.ArgumentParser):
         lists the commands, not their options."""
         args = self._without_dashes_before_the_command(sys.argv[1:] if args is None else list(args))
         self._check_options_before_the_command(args)
+        self._check_long_options_given_one_dash(args)
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
             command = self._commands().get(getattr(parsed, "command", None), self)
             unknown = next((e for e in extras if e.startswith("-")), "")
             # Compared without the dashes, which every name shares: with them '--frobnicate' was close to '--frames'.
             names = [o[2:] for action in command._actions for o in action.option_strings if o.startswith("--")]
-            hint = did_you_mean(unknown[2:].split("=")[0], names).replace(" '", " '--") if unknown[:2] == "--" else ""
+            # A long option given one dash ('-widht') is compared as well: argparse has no short option of that name.
+            dashes = 2 if unknown[:2] == "--" else 1 if len(unknown) > 2 else 0
+            hint = did_you_mean(unknown[dashes:].split("=")[0], names).replace(" '", " '--") if dashes else ""
+            if not dashes and unknown.swapcase() in command._option_string_actions:  # -O for -o
+                hint = f" (did you mean {unknown.swapcase()!r}?)"
             command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return parsed
 
@@ -118,6 +123,21 @@ class _Parser(argparse.ArgumentParser):
                 hint = f"; it is an option of {', '.join(owners)}: give it after the command" \
                     if owners else did_you_mean(name, self._option_string_actions)
                 self.error(f"unrecognized arguments: {arg}{hint}")
+
+    def _check_long_options_given_one_dash(self, args: list) -> None:
+        """A long option given one dash (``-width 8``, ``-output x.png``, ``-quiet``, as many tools spell theirs) is
+        named with its two: argparse took ``-output`` for ``-o utput`` ('cannot write utput'),
+        ``-quiet`` for ``-q`` given a value ('ignored explicit argument 'uiet''), and ``-width`` with no hint."""
+        parser, commands = self, self._commands()
+        for arg in args:
+            if arg == "--":  # what follows is positional
+                return
+            if parser is self and arg in commands:
+                parser = commands[arg]
+            elif arg[:1] == "-" and arg[1:2] not in ("-", "") and len(arg) > 2:
+                name = "-" + arg.split("=")[0]
+                if name in parser._option_string_actions:
+                    parser.error(f"{arg} is no option: long options take two dashes (did you mean {name!r}?)")
 
     def _check_value(self, action, value):
         """As argparse's, but a misspelt choice (``--builder SAH``, ``--integrator pth``, ``rendr``) names the one
