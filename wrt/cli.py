@@ -395,7 +395,8 @@ def _add_render(sub) -> None:
     p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
     p.add_argument("--frames", type=_non_empty,
                    help="render time codes START:END[:STEP] (END included) of an animated stage, one image each; "
-                   "OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
+                   "OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png (a name without # gets "
+                   "_#### before its extension). The BVH is kept "
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
     p.add_argument("--resume", action="store_true", help="skip the scenes (frames) that the log (--log, or a batch's "
                    "default) says were finished with the same options, whose images are still as written; render "
