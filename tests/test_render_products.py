@@ -447,6 +447,13 @@ def test_cli_products(tmp_path, capsys):
     assert "RenderProducts" not in capsys.readouterr().err
     assert main(["render", stage, "-o", str(tmp_path / "cam.png"), "-q"]) == 0  # the same run warns without it
     assert "camera.usda: /Render/Settings has 2 RenderProducts" in capsys.readouterr().err
+    # The frames of such a stage drew the first product's view without a word; now said once per run.
+    stage = write_stage(tmp_path, products, ["Beauty", "Aovs"], name="frames.usda")
+    assert main(["render", stage, "--frames", "1:2", "-o", str(tmp_path / "f_#.png"), "-q"]) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if "RenderProducts" in line]
+    assert said == ["wrt: warning: frames.usda: /Render/Settings has 2 RenderProducts; each frame is the first's, "
+                    "/Render/Beauty (--products DIR --time T writes them all at one time)"], said
+    assert PilImage.open(tmp_path / "f_2.png").size == (32, 16)
 
 
 # The options of one image that --products refuses, each with a value (None: a flag).

@@ -328,6 +328,12 @@ class FrameRenderer:
             self._frames = StageFrames(self.path, **self.load_options)
         scene = self._frames.load(frame)
         loaded = _time.perf_counter()
+        settings = scene.render_settings
+        if settings is not None and len(settings.products) > 1 and self.camera is None:
+            # As a still render says (wrt render): the frames drew the first product's view without a word.
+            warnings.warn(f"{os.path.basename(self.path)}: {settings.path} has {len(settings.products)} "
+                          f"RenderProducts; each frame is the first's, {settings.product} (--products DIR --time T "
+                          "writes them all at one time)", stacklevel=3)
         # Forgotten until this frame is done: following refits the accelerators in place, so after a frame that
         # failed past this point (a camera missing at its time, out of memory) they hold its vertices, not the last
         # good frame's, and a later frame equal to that one was drawn with them as 'static'.
