@@ -879,3 +879,17 @@ def test_a_row_without_a_thread_count_in_the_output_folder_is_no_row_of_an_earli
     assert main(argv) == 0
     rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
     assert [(r["scene"], r["accel"], "mrays" in r) for r in rows] == [("sphere:200", "wrt:sah", True)]
+
+
+def test_an_asset_folder_without_a_manifest_is_named(tmp_path, monkeypatch):
+    """WRT_ASSETS set to a folder without manifest.json said 'no shared asset folder found (set WRT_ASSETS)', as if
+    it were not set: now each folder looked in is named, WRT_ASSETS's first."""
+    monkeypatch.setenv("WRT_ASSETS", str(tmp_path / "asets"))
+    monkeypatch.chdir(tmp_path)  # ../shared/assets from here holds nothing either
+    monkeypatch.setattr(bench_module, "__file__", str(tmp_path / "a" / "wrt" / "bench.py"))  # nor beside the package
+    with pytest.raises(FileNotFoundError) as error:
+        bench_module.asset_path("chess_set")
+    assert str(error.value) == (
+        f"asset 'chess_set': no shared asset folder found: no manifest.json in {tmp_path / 'asets'} (WRT_ASSETS), "
+        f"{tmp_path.parent / 'shared' / 'assets'}, {tmp_path / 'shared' / 'assets'}; set WRT_ASSETS to the folder "
+        "that holds it")

@@ -615,7 +615,12 @@ def asset_path(asset_id: str) -> Path:
             if asset_id not in entries:  # 42 ids in the shared manifest: the one meant, not all of them
                 raise ValueError(f"no asset {asset_id!r}{did_you_mean(asset_id, entries)} in {manifest}")
             return root / entries[asset_id]["path"]
-    raise FileNotFoundError(f"asset {asset_id!r}: no shared asset folder found (set WRT_ASSETS)")
+    # Each folder looked in, WRT_ASSETS's named as such: 'set WRT_ASSETS' was all it said, also where it was set to a
+    # folder without the manifest (a typo, or the repository's folder above the assets).
+    looked = [f"{root} (WRT_ASSETS)" if k == 0 and os.environ.get("WRT_ASSETS") else str(root)
+              for k, root in enumerate(candidates)]
+    raise FileNotFoundError(f"asset {asset_id!r}: no shared asset folder found: no manifest.json in "
+                            f"{', '.join(looked)}; set WRT_ASSETS to the folder that holds it")
 
 
 class _Subject:
