@@ -384,7 +384,8 @@ def test_cli_bvh_stats_names_an_option_no_builder_uses(capsys, builder, option, 
     plain = json.loads(capsys.readouterr().out)
     assert main(common + [option, value]) == 0
     out, err = capsys.readouterr()
-    assert re.search(f"wrt: warning: {option} is ignored: only .* use it, and the builders here are {builder}\n", err)
+    warning = f"wrt: warning: {option} is ignored: only .* uses? it, and the builders here are {builder}\n"
+    assert re.search(warning, err)
     assert json.loads(out)[0]["nodes"] == plain[0]["nodes"]  # the tree is indeed the same
 
 

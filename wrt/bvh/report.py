@@ -223,13 +223,14 @@ def warn_unused_builder_options(args, builders: list[str]) -> None:
     import warnings
 
     wrt_builders = [b for b in builders if not b.startswith(WARP_PREFIX)]
-    for option, value, users, used in (
-        ("--bins", args.bins, "sah", "sah" in builders),
-        ("--leaf-size", args.leaf_size, "wrt's builders (not warp:<name>)", bool(wrt_builders)),
-        ("--warp-leaf-size", args.warp_leaf_size, "Warp's builders (warp:<name>)", len(wrt_builders) < len(builders)),
+    for option, value, who_uses, used in (
+        ("--bins", args.bins, "the sah builder uses", "sah" in builders),
+        ("--leaf-size", args.leaf_size, "wrt's builders (not warp:<name>) use", bool(wrt_builders)),
+        ("--warp-leaf-size", args.warp_leaf_size, "Warp's builders (warp:<name>) use",
+         len(wrt_builders) < len(builders)),
     ):
         if value is not None and not used:
-            warnings.warn(f"{option} is ignored: only {users} use it, and the builders here are {', '.join(builders)}")
+            warnings.warn(f"{option} is ignored: only {who_uses} it, and the builders here are {', '.join(builders)}")
 
 
 def run_bvh_stats(args) -> int:
