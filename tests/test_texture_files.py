@@ -5,6 +5,7 @@ or files of no colour channel (a warning and the fallback)."""
 
 import re
 import struct
+import threading
 import warnings
 import zlib
 
@@ -566,6 +567,45 @@ def test_a_texture_past_pillows_decompression_bomb_limit_is_read(tmp_path, monke
         pixels = load_image(str(path), "raw")
     np.testing.assert_allclose(pixels[..., :3], samples / (2**depth - 1), atol=1e-6)
     assert PilImage.MAX_IMAGE_PIXELS == 10
+
+
+def test_textures_read_in_two_threads_put_pillows_limit_back(tmp_path, monkeypatch):
+    """Two threads read textures, the first done while the second is still inside Pillow (its open held until then):
+    each kept the limit it found, so the second put back the None the first had set, and Pillow's decompression-bomb
+    check stayed off for good. Now the limit the caller had is back after both, and both read their samples."""
+    monkeypatch.setattr(PilImage, "MAX_IMAGE_PIXELS", 10)
+    samples = np.random.default_rng(32).integers(0, 256, (7, 11, 3))
+    path = tmp_path / "large.png"
+    path.write_bytes(png(samples, 2, 8))
+    opened, read = PilImage.open, {}
+    first_in, second_in, first_done = threading.Event(), threading.Event(), threading.Event()
+
+    def open_in_turn(*args, **kwargs):  # the first reader waits inside for the second, the second for its end
+        if threading.current_thread().name == "first":
+            first_in.set()
+            second_in.wait(10)
+        else:
+            second_in.set()
+            first_done.wait(10)
+        return opened(*args, **kwargs)
+
+    def reader():
+        name = threading.current_thread().name
+        if name == "second":
+            first_in.wait(10)
+        read[name] = load_image(str(path), "raw")
+        if name == "first":
+            first_done.set()
+
+    monkeypatch.setattr(PilImage, "open", open_in_turn)
+    threads = [threading.Thread(target=reader, name=name) for name in ("first", "second")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(30)
+    assert PilImage.MAX_IMAGE_PIXELS == 10
+    for name in ("first", "second"):
+        np.testing.assert_allclose(read[name][..., :3], samples / 255, atol=1e-6)
 
 
 @pytest.mark.parametrize("depth, kind, payload", [

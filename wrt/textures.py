@@ -37,6 +37,7 @@ import contextlib
 import io
 import math
 import struct
+import threading
 import warnings
 
 import numpy as np
@@ -289,6 +290,11 @@ def _warn_unread_gamma(name: str, gamma: float) -> None:
                   stacklevel=4)
 
 
+# Pillow's decompression-bomb limit, lifted while textures are read (_pillow_size_limit_lifted): the readers inside
+# and the limit to put back when the last of them is done
+_PILLOW_LIFT = {"lock": threading.Lock(), "readers": 0, "limit": None}
+
+
 @contextlib.contextmanager
 def _pillow_size_limit_lifted():
     """Pillow's decompression-bomb limit (``PIL.Image.MAX_IMAGE_PIXELS``) lifted while a texture is read with it, and
@@ -296,15 +302,23 @@ def _pillow_size_limit_lifted():
     named with words of a "decompression bomb DOS attack") and warned of them past 89 million (a 16k x 8k panorama):
     Storm's readers take them, and wrt reads the whole image anyway (:func:`pack_images` refuses more than 2^31
     texels). The limit is Pillow's module state: an image another thread opens with Pillow meanwhile goes without it
-    too."""
+    too. Reads in several threads share one lift (:data:`_PILLOW_LIFT`): the first in keeps the limit and the last out
+    puts it back. Each kept its own, so where the first out was the first in, the second put back the None it found
+    and the limit stayed lifted for good."""
     from PIL import Image as PilImage
 
-    limit = PilImage.MAX_IMAGE_PIXELS
-    PilImage.MAX_IMAGE_PIXELS = None
+    with _PILLOW_LIFT["lock"]:
+        if not _PILLOW_LIFT["readers"]:
+            _PILLOW_LIFT["limit"] = PilImage.MAX_IMAGE_PIXELS
+            PilImage.MAX_IMAGE_PIXELS = None
+        _PILLOW_LIFT["readers"] += 1
     try:
         yield
     finally:
-        PilImage.MAX_IMAGE_PIXELS = limit
+        with _PILLOW_LIFT["lock"]:
+            _PILLOW_LIFT["readers"] -= 1
+            if not _PILLOW_LIFT["readers"]:
+                PilImage.MAX_IMAGE_PIXELS = _PILLOW_LIFT["limit"]
 
 
 def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np.ndarray, tuple[int, ...], bool,
