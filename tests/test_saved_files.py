@@ -2,6 +2,8 @@
 the very float32 array, NaN, infinities and extremes included; ``.png`` is 8-bit RGB tagged sRGB of
 ``rgb * 2^exposure`` through the IEC 61966-2-1 curve, NaN as 0 and +inf as white, as the module docstring states."""
 
+import struct
+
 import numpy as np
 import pytest
 from PIL import Image as PilImage
@@ -51,3 +53,16 @@ def test_png_is_8_bit_srgb_of_the_exposed_image(tmp_path, exposure):
         pixels = np.asarray(png)
     np.testing.assert_array_equal(pixels, srgb8(rgb.astype(np.float64) * 2.0**exposure))
     assert pixels.reshape(-1)[0] == 0  # NaN, at any exposure
+
+
+@pytest.mark.parametrize("ratio", [1.5e9 + 0.5, 2147483646 + 1 / 3, 1 / (1.5e9 + 0.5), 50000.12345])
+def test_png_pixel_aspect_of_a_long_ratio_stays_within_phys_fields(tmp_path, ratio):
+    """A pHYs field holds at most 2^31 - 1 (PNG specification, clause 7.1). Past a ratio of 21475 the fraction of
+    denominator up to 10^5 wrote a numerator past it (3000000001 for 1.5e9 + 0.5) or failed in ``to_bytes``
+    (2147483646.33: OverflowError, no file). Now both fields are within it and say the ratio within 10^-5."""
+    from png_chunks import pixel_aspect_ratio, read_chunks
+
+    chunks = read_chunks(str(wrt.Image(rgb=image_of(2, 3), pixel_aspect_ratio=ratio).save(tmp_path / "x.png")))
+    (data,) = [data for kind, data, _ in chunks if kind == b"pHYs"]
+    assert max(struct.unpack(">II", data[:8])) <= 2**31 - 1
+    assert pixel_aspect_ratio(chunks) == pytest.approx(ratio, rel=1e-5)

@@ -99,12 +99,16 @@ def depth_grey(depth: np.ndarray) -> np.ndarray:
 def png_aspect_chunk(pixel_aspect_ratio: float) -> tuple[bytes, bytes] | None:
     """The PNG ``pHYs`` chunk (specification 11.3.5.3) of pixels ``pixel_aspect_ratio`` times as wide as they are
     tall: pixels per unit along x and y in the inverse ratio, unit 0 (unknown: the aspect alone), the ratio as the
-    nearest fraction of terms up to 10^5 (within 10^-5 of it); None for square pixels, square without the chunk."""
+    nearest fraction of denominator up to 10^5, fewer past 21475 so that its numerator stays within the field (within
+    10^-5 of it); None for square pixels, square without the chunk."""
     from fractions import Fraction
 
     wide = pixel_aspect_ratio >= 1.0
-    ratio = Fraction(min(pixel_aspect_ratio if wide else 1.0 / pixel_aspect_ratio, 2**31 - 1)).limit_denominator(
-        100_000)  # at least 1; the fields are below 2^31
+    largest = 2**31 - 1  # the fields' largest value (clause 7.1)
+    long_side = min(pixel_aspect_ratio if wide else 1.0 / pixel_aspect_ratio, largest)  # at least 1
+    # Denominators that keep the numerator within the field: past 21475, 10^5 of them let it overflow (2147483646.3
+    # failed in to_bytes, 1.5e9 + 0.5 wrote 3000000001).
+    ratio = Fraction(long_side).limit_denominator(max(1, min(100_000, largest // math.ceil(long_side) - 1)))
     if ratio == 1:
         return None
     many, few = ratio.numerator, ratio.denominator  # pixels per unit along the short side of a pixel, the long one
