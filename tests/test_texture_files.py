@@ -66,6 +66,7 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
 
 
 @pytest.mark.parametrize("dtype, sample_format, full, values", [
+    (np.int8, 2, 127.0, [[0, 100, 127], [-1, -30, -128]]),
     (np.int16, 2, 32767.0, [[0, 1000, 20000], [7, -300, -32768]]),
     (np.uint32, None, 4294967295.0, [[0, 1000, 70000], [7, 5, 4_000_000_000]]),
 ])
@@ -73,7 +74,8 @@ def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path,
     """A grey TIFF of 16-bit signed or 32-bit unsigned samples (which Pillow opens as 32-bit signed integers) reads
     each sample over its type's largest value, as Pillow scales 8- and 16-bit ones and OpenImageIO converts integer
     samples to float. They were divided by the image's own largest sample, so the same value read differently in
-    each file, and a 32-bit sample past 2^31, which Pillow wraps negative, read -4214."""
+    each file, and a 32-bit sample past 2^31, which Pillow wraps negative, read -4214. Signed 8-bit samples, which
+    Pillow hands over as unsigned bytes, read -1 as 1.0 and -128 as 0.5."""
     samples = np.array(values, dtype)[..., None]
     image = load_image(write_tiff(tmp_path / "grey.tif", samples, sample_format=sample_format), "auto")
     np.testing.assert_allclose(image[..., 0], samples[..., 0] / full, rtol=1e-6)

@@ -364,6 +364,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
         return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
+    if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
+        # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's
+        grey = np.asarray(img).view(np.int8).astype(np.float32)
+        return *_grey_rgba(grey / 127.0, None), False, tagged
     transparent, depth = img.info.get("transparency"), png_bit_depth(data)
     if mode == "L" and isinstance(transparent, int) and depth in (2, 4):
         # Pillow keeps a 2- or 4-bit grey PNG's tRNS sample as stored but scales the pixels to 8 bits, so its LA
