@@ -66,3 +66,14 @@ def test_png_pixel_aspect_of_a_long_ratio_stays_within_phys_fields(tmp_path, rat
     (data,) = [data for kind, data, _ in chunks if kind == b"pHYs"]
     assert max(struct.unpack(">II", data[:8])) <= 2**31 - 1
     assert pixel_aspect_ratio(chunks) == pytest.approx(ratio, rel=1e-5)
+
+
+def test_png_pixel_aspect_of_a_numpy_float32_ratio(tmp_path):
+    """``write_srgb_png`` (PNG products, AOV previews) took the ratio to ``fractions.Fraction``, which refuses a numpy
+    float32 ("argument should be a string or a Rational instance"): no file. Now its pHYs says it."""
+    from png_chunks import pixel_aspect_ratio, read_chunks
+
+    from wrt.image import write_srgb_png
+
+    write_srgb_png(tmp_path / "x.png", np.zeros((3, 2, 3), np.uint8), np.float32(0.4))
+    assert pixel_aspect_ratio(read_chunks(str(tmp_path / "x.png"))) == pytest.approx(0.4, rel=1e-5)

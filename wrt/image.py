@@ -103,6 +103,7 @@ def png_aspect_chunk(pixel_aspect_ratio: float) -> tuple[bytes, bytes] | None:
     10^-5 of it); None for square pixels, square without the chunk."""
     from fractions import Fraction
 
+    pixel_aspect_ratio = float(pixel_aspect_ratio)  # Fraction takes no numpy float32, which a Camera may hold
     wide = pixel_aspect_ratio >= 1.0
     largest = 2**31 - 1  # the fields' largest value (clause 7.1)
     long_side = min(pixel_aspect_ratio if wide else 1.0 / pixel_aspect_ratio, largest)  # at least 1
