@@ -83,6 +83,31 @@ def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path,
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
+def write_bigtiff(path, grey):
+    """An uncompressed one-strip little-endian BigTIFF (8-byte offsets and counts, 20-byte directory entries) of
+    ``grey`` (``(H, W)`` integers of their dtype's bits), signed where its dtype is; ``path`` as a string."""
+    h, w = grey.shape
+    pixels = grey.astype("<" + grey.dtype.str[1:]).tobytes()
+    tags = [(256, 4, w), (257, 4, h), (258, 3, grey.dtype.itemsize * 8), (259, 3, 1), (262, 3, 1), (273, 16, None),
+            (277, 3, 1), (278, 4, h), (279, 16, len(pixels)), (339, 3, 2 if grey.dtype.kind == "i" else 1)]
+    pixels_at = 16 + 8 + 20 * len(tags) + 8  # after the header, the entry count, the entries and the next offset
+    entries = b"".join(struct.pack("<HHQ", tag, kind, 1)
+                       + struct.pack("<" + {3: "H", 4: "I", 16: "Q"}[kind], pixels_at if value is None
+                                     else value).ljust(8, b"\0") for tag, kind, value in tags)
+    head = b"II+\0" + struct.pack("<HHQ", 8, 0, 16)
+    path.write_bytes(head + struct.pack("<Q", len(tags)) + entries + bytes(8) + pixels)
+    return str(path)
+
+
+def test_an_integer_grey_bigtiff_reads_over_its_sample_types_largest_value(tmp_path):
+    """A BigTIFF (GDAL writes large elevation maps so) was no TIFF to wrt's header reader, though Pillow reads it: its
+    16-bit signed grey was divided by the image's own largest sample (1000 read 0.05 where the largest was 20000).
+    Now over 32767, as a TIFF's, as OpenImageIO converts it."""
+    grey = np.array([[0, 1000, 20000], [7, -300, -32768]], np.int16)
+    image = load_image(write_bigtiff(tmp_path / "grey.tif", grey), "raw")
+    np.testing.assert_allclose(image[..., 0], grey / 32767.0, rtol=1e-6)
+
+
 @pytest.mark.parametrize("byte_order", ["<", ">"])
 @pytest.mark.parametrize("channels", [3, 4])
 def test_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order, channels):

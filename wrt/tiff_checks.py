@@ -3,13 +3,16 @@ a TIFF that Pillow cannot decode, and to scale the integer grey Pillow hands ove
 reads 8- and 16-bit integer colour and grey and 32-bit float grey, but not float colour (16-, 32- or 64-bit), half or
 double grey, nor 32-bit integer colour: it calls those an image it cannot identify, and wrt said no reader it has
 knew the format of a ``.tif`` it plainly named (TIFF 6.0: an 8-byte header pointing at the first image file
-directory, 12-byte entries of tag, type, count and value or offset)."""
+directory, 12-byte entries of tag, type, count and value or offset; BigTIFF: a 16-byte header, 20-byte entries)."""
 
 from __future__ import annotations
 
 import struct
 
-TIFF_MAGIC = {b"II*\0": "<", b"MM\0*": ">"}  # little- and big-endian TIFF headers -> struct byte order
+# Little- and big-endian headers -> struct byte order and the file's layout: the struct codes of an offset and of an
+# entry count, and the bytes of a directory entry's value field (TIFF 6.0; BigTIFF: 8-byte offsets and counts)
+TIFF_MAGIC = {b"II*\0": ("<", "I", "H", 4), b"MM\0*": (">", "I", "H", 4),
+              b"II+\0": ("<", "Q", "Q", 8), b"MM\0+": (">", "Q", "Q", 8)}
 SHORT = 3  # TIFF field type of unsigned 16-bit values
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
@@ -17,27 +20,29 @@ SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "fl
 
 
 def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
-    """``(channels, bits, sample format)`` of the TIFF file ``data``'s first image, from its ``SamplesPerPixel``,
-    ``BitsPerSample`` and ``SampleFormat`` tags (the TIFF defaults 1, 1 and 1, unsigned integer, where a tag is
-    missing); None for data that is no TIFF or whose directory is cut short."""
-    order = TIFF_MAGIC.get(data[:4])
-    if order is None:
+    """``(channels, bits, sample format)`` of the TIFF (or BigTIFF) file ``data``'s first image, from the first value
+    of its ``SamplesPerPixel``, ``BitsPerSample`` and ``SampleFormat`` tags (the TIFF defaults 1, 1 and 1, unsigned
+    integer, where a tag is missing); None for data that is no TIFF or whose directory is cut short. A BigTIFF (a
+    large GDAL elevation map) was no TIFF here: Pillow reads one, and its 16-bit signed grey read over its own
+    largest sample."""
+    layout = TIFF_MAGIC.get(data[:4])
+    if layout is None:
         return None
+    order, offset, counter, inline = layout
+    entry = struct.Struct(f"{order}HH{offset}{inline}s")  # tag, type, count, value or offset
     tags = {}
     try:
-        (directory,) = struct.unpack(order + "I", data[4:8])
-        (count,) = struct.unpack(order + "H", data[directory : directory + 2])
+        (directory,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
+        (count,) = struct.unpack_from(order + counter, data, directory)
         for k in range(count):
-            start = directory + 2 + 12 * k
-            tag, kind, n, field = struct.unpack(order + "HHI4s", data[start : start + 12])
+            tag, kind, n, field = entry.unpack_from(data, directory + struct.calcsize(order + counter) + entry.size * k)
             if tag in (BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT) and kind == SHORT and n > 0:
-                if n > 2:  # values past the entry's 4 bytes lie at the offset it holds
-                    (offset,) = struct.unpack(order + "I", field)
-                    field = data[offset : offset + 2 * n]
-                tags[tag] = struct.unpack(order + f"{n}H", field[: 2 * n])
+                # the first value: in the field, or where it points for values past its bytes
+                source, at = (field, 0) if 2 * n <= inline else (data, struct.unpack(order + offset, field)[0])
+                tags[tag] = struct.unpack_from(order + "H", source, at)[0]
     except struct.error:
         return None
-    return tags.get(SAMPLES_PER_PIXEL, (1,))[0], tags.get(BITS_PER_SAMPLE, (1,))[0], tags.get(SAMPLE_FORMAT, (1,))[0]
+    return tags.get(SAMPLES_PER_PIXEL, 1), tags.get(BITS_PER_SAMPLE, 1), tags.get(SAMPLE_FORMAT, 1)
 
 
 def tiff_sample_layout(data: bytes) -> str | None:
