@@ -455,7 +455,8 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
     from_lower = used_points - lower
 
     def cluster(resolution: int):
-        """``(cluster of each used point, number of clusters, source triangles' clusters, rows kept)``."""
+        """``(cluster of each used point, number of clusters, source triangles' clusters, rows of the triangles of
+        three clusters, their keys)``: a triangle is kept where its key comes first (:func:`first_rows`)."""
         cells = np.minimum(from_lower * (resolution / extent), resolution - 1).astype(np.int64)
         keys = (cells[:, 0] * (resolution + 1) + cells[:, 1]) * (resolution + 1) + cells[:, 2]
         uniq, ids = np.unique(keys, return_inverse=True)
@@ -465,15 +466,31 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
         # Drop duplicates: the same three clusters in any order. The three sorted by min, max and what is left: a
         # row-wise np.sort of three columns took as long as the unique after it.
-        kept_tris = tris[keep]
+        candidates = np.flatnonzero(keep)
+        kept_tris = tris[candidates]
         smallest, largest = kept_tris.min(axis=1), kept_tris.max(axis=1)
         middle = kept_tris.sum(axis=1) - smallest - largest
         if len(uniq) < (1 << 21):  # pack three cluster ids into one int64 key: a much faster unique
-            packed = (smallest << 42) | (middle << 21) | largest
-            first = np.unique(packed, return_index=True)[1]
+            keys = (smallest << 42) | (middle << 21) | largest
         else:
-            first = np.unique(np.column_stack([smallest, middle, largest]), axis=0, return_index=True)[1]
-        return ids.reshape(-1), len(uniq), tris, np.flatnonzero(keep)[np.sort(first)]
+            keys = np.column_stack([smallest, middle, largest])
+        return ids.reshape(-1), len(uniq), tris, candidates, keys
+
+    def distinct(keys) -> int:
+        """How many distinct ``keys`` there are: a sort of the values alone, about a third of the stable argsort
+        that finding the first of each takes (:func:`first_rows`), which only a grid that fits needs."""
+        if keys.ndim == 2:
+            return len(np.unique(keys, axis=0))
+        ordered = np.sort(keys)
+        return int(len(ordered) > 0) + int(np.count_nonzero(ordered[1:] != ordered[:-1]))
+
+    def first_rows(candidates, keys):
+        """The ``candidates`` whose key comes first among equal ones, ascending (a mask, not a sort, puts them in
+        order)."""
+        first = np.unique(keys, axis=0 if keys.ndim == 2 else None, return_index=True)[1]
+        chosen = np.zeros(len(candidates), bool)
+        chosen[first] = True
+        return candidates[chosen]
 
     def placed(ids, clusters: int, tris, rows):
         """The soup that :func:`cluster` chose ``rows`` of: done for the grid picked alone, not for each one tried
@@ -496,11 +513,15 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
     resolution = int(np.clip(extent * math.sqrt(max_triangles / max(2.0 * area, 1e-30)), 2, MAX_CLUSTER_GRID))
     fits, too_fine = None, None  # (resolution, result) of the finest grid that fits; coarsest one that does not
     for _ in range(CLUSTER_STEPS):
-        result = cluster(resolution)
-        n = len(result[3])
+        ids, clusters, tris, candidates, keys = cluster(resolution)
+        # The rows kept are found only for a grid that may be the finest that fits; the others' duplicates are counted.
+        finest = fits is None or resolution > fits[0]
+        n = len(keys) if finest and len(keys) <= max_triangles else distinct(keys)
+        if n <= max_triangles and finest:
+            rows = first_rows(candidates, keys)
+            n = len(rows)
+            fits = (resolution, (ids, clusters, tris, rows))
         if n <= max_triangles:
-            if fits is None or resolution > fits[0]:
-                fits = (resolution, result)
             if n >= 0.7 * max_triangles or resolution >= MAX_CLUSTER_GRID:
                 break
         elif too_fine is None or resolution < too_fine:
