@@ -280,7 +280,8 @@ def test_cluster_vertices_meets_the_budget(bunny):
     assert 200 < len(i) <= 2000
     assert i.min() >= 0 and i.max() < len(p)
     assert np.all((i[:, 0] != i[:, 1]) & (i[:, 1] != i[:, 2]) & (i[:, 0] != i[:, 2]))
-    assert len(np.unique(np.sort(i, axis=1), axis=0)) == len(i)
+    rotated = np.take_along_axis(i, (np.argmin(i, axis=1)[:, None] + np.arange(3)) % 3, axis=1)
+    assert len(np.unique(rotated, axis=0)) == len(i)  # no two alike: the same corners in the same cyclic order
     assert np.all(np.diff(c[:, 0]) > 0)  # surviving triangles keep their attributes, in order
     lower, upper = points.min(axis=0), points.max(axis=0)
     assert np.all(p >= lower - 1e-5) and np.all(p <= upper + 1e-5)
@@ -1188,6 +1189,24 @@ def test_cluster_vertices_keeps_every_triangle_facing_as_its_source(bunny):
         corners = p[i].astype(np.float64)
         facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0), budget
+
+
+def test_cluster_vertices_keeps_both_sides_of_a_thin_card():
+    """A unit card of two single-sided sheets back to back (1e-3 apart, wound opposite ways), simplified: both sides
+    snap to the same clusters, and duplicates in any order were one, so only the first sheet was kept (800 triangles
+    facing +z, none -z), and from below, culled, the card vanished. Each side now covers about the card's area, 1."""
+    n = 40
+    x, y = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
+    top = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    points = np.concatenate([top, top + [0.0, 0.0, 1e-3]]).astype(np.float32)
+    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None]).ravel()
+    up = np.concatenate([np.stack([i, i + n + 1, i + 1], 1), np.stack([i + 1, i + n + 1, i + n + 2], 1)])
+    indices = np.concatenate([up, up[:, [0, 2, 1]] + len(top)]).astype(np.int32)
+    p, t, _ = cluster_vertices(points, indices, np.zeros((len(indices), 1)), 800)
+    normals = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])
+    areas = [0.5 * normals[normals[:, 2] * side > 0, 2].sum() * side for side in (1, -1)]
+    assert len(t) <= 800
+    np.testing.assert_allclose(areas, 1.0, rtol=0.2)
 
 
 def test_simplified_instances_far_from_the_origin_face_outwards():

@@ -432,8 +432,8 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
     """Simplifies a triangle soup to at most ``max_triangles`` by vertex clustering.
 
     Points are snapped to the mean of their cell in a uniform grid, triangles whose corners fall into fewer than
-    three cells are dropped, and duplicates are removed (Rossignac and Borrel 1993); a triangle that the snap turned
-    over is wound back to face as its source did. The grid resolution is
+    three cells are dropped, and duplicates (the same cells in the same cyclic order) are removed (Rossignac and
+    Borrel 1993); a triangle that the snap turned over is wound back to face as its source did. The grid resolution is
     searched (geometric bisection from a guess based on surface area) for a result between 70 % and 100 % of the
     budget, in at most ``CLUSTER_STEPS`` clusterings; the finest grid that fits wins.
 
@@ -464,16 +464,9 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         remap[used] = ids.reshape(-1)
         tris = remap[indices]
         keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
-        # Drop duplicates: the same three clusters in any order. The three sorted by min, max and what is left: a
-        # row-wise np.sort of three columns took as long as the unique after it.
+        # Drop duplicates: the same three clusters in the same cyclic order (triangle_keys).
         candidates = np.flatnonzero(keep)
-        kept_tris = tris[candidates]
-        smallest, largest = kept_tris.min(axis=1), kept_tris.max(axis=1)
-        middle = kept_tris.sum(axis=1) - smallest - largest
-        if len(uniq) < (1 << 21):  # pack three cluster ids into one int64 key: a much faster unique
-            keys = (smallest << 42) | (middle << 21) | largest
-        else:
-            keys = np.column_stack([smallest, middle, largest])
+        keys = triangle_keys(tris[candidates], len(uniq))
         return ids.reshape(-1), len(uniq), tris, candidates, keys
 
     def distinct(keys) -> int:
@@ -505,7 +498,10 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         facing = np.cross(moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0])
         turned = np.einsum("ij,ij->i", facing, normals[rows]) < 0
         kept[turned] = kept[turned][:, [0, 2, 1]]
-        return centres, kept.astype(np.int32), np.asarray(colors)[rows]
+        # Two of the same clusters, in opposite orders, facing one way now (a surface folded over by the snap, one of
+        # them wound back): the first of them is kept.
+        once = first_rows(np.arange(len(rows)), triangle_keys(kept, clusters))
+        return centres, kept[once].astype(np.int32), np.asarray(colors)[rows[once]]
 
     # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles.
     normals = source_normals(points, indices)
@@ -544,6 +540,23 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         keep = np.linspace(0, len(indices) - 1, min(max_triangles, len(indices))).astype(np.int64)
         return points, indices[keep].astype(np.int32), np.asarray(colors)[keep]
     return placed(*fits[1])
+
+
+def triangle_keys(tris: np.ndarray, clusters: int) -> np.ndarray:
+    """One key per row of ``tris`` (``(T, 3)`` int64 cluster ids, each below ``clusters``), equal for the same three
+    ids in the same cyclic order: an int64 (the three sorted and the order's parity packed) below 2^21 clusters, else
+    a row of four. The two sides of a thin sheet (a card of two single-sided faces back to back, wound opposite ways)
+    snap to the same three clusters: keyed in any order, the first side alone was kept, and from the other side,
+    culled, the card vanished. Sorted by min, max and what is left: a row-wise np.sort of three columns took as long
+    as the unique after it."""
+    tris = np.asarray(tris, np.int64)
+    smallest, largest = tris.min(axis=1), tris.max(axis=1)
+    middle = tris.sum(axis=1) - smallest - largest
+    a, b, c = tris.T
+    odd = ((a > b).astype(np.int64) + (a > c) + (b > c)) & 1  # 1 where the order is an odd permutation of the sorted
+    if clusters < (1 << 21):
+        return (odd << 63) | (smallest << 42) | (middle << 21) | largest
+    return np.column_stack([odd, smallest, middle, largest])
 
 
 def source_normals(points: np.ndarray, indices: np.ndarray) -> np.ndarray:
