@@ -302,3 +302,30 @@ def test_lights_of_a_stage_are_drawn_at_their_size_under_a_parents_uneven_scale(
                                        [-read["length"] / 2, read["length"] / 2], atol=1e-9)
     assert sorted(prim.GetTypeName() for prim in map(stage.GetPrimAtPath, (li.path for li in scene.lights))) == [
         "CylinderLight", "DiskLight", "RectLight", "SphereLight"]
+
+
+def test_the_image_hangs_on_the_image_plane_the_right_way_up():
+    """A card fills the top-left quarter of the view of a camera at the origin looking down -Z. The rendered image's
+    texel at each corner of the drawn image quad (read back from the texture VTK holds, at the corner's texture
+    coordinates) is the card's colour exactly where the ray from the eye through that corner meets the card (closed
+    form: it reaches z = -5 at x < 0, y > 0), the background's at the other three: the picture is neither flipped nor
+    mirrored."""
+    points = np.array([[-50, 0, -5], [0, 0, -5], [0, 50, -5], [-50, 50, -5]], np.float32)
+    card = wrt.Mesh("/card", points, np.array([[0, 1, 2], [0, 2, 3]]), np.array([0, 0]), double_sided=True)
+    plotter = wrt.preview(wrt.Scene(meshes=[card]), camera=wrt.Camera(), image=True, width=16, height=12,
+                          window_size=(32, 24), show_text=False)
+    try:
+        actor = plotter.actors["image"]
+        corners = np.asarray(actor.mapper.dataset.points, np.float64)
+        coords = np.asarray(actor.mapper.dataset.active_texture_coordinates, np.float64)
+        image = actor.texture.to_image()
+        w, h = image.dimensions[:2]
+        texels = np.asarray(image.point_data.active_scalars).reshape(h, w, -1)  # VTK's rows: t = 0 first
+    finally:
+        plotter.close()
+    at_card = corners[:, :2] * (-5.0 / corners[:, 2:3])  # where each corner's ray reaches z = -5
+    meets = (at_card[:, 0] < 0) & (at_card[:, 1] > 0)
+    seen = [tuple(texels[round(t * (h - 1)), round(s * (w - 1))]) for s, t in coords]
+    assert meets.sum() == 1
+    assert len({seen[k] for k in np.flatnonzero(~meets)}) == 1  # the background, alike at three corners
+    assert seen[int(np.argmax(meets))] != seen[int(np.argmin(meets))]
