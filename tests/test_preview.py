@@ -1191,6 +1191,19 @@ def test_cluster_vertices_keeps_every_triangle_facing_as_its_source(bunny):
         assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0), budget
 
 
+@pytest.mark.parametrize("bound", [50, 1 << 40, 1 << 62])
+def test_cluster_ids_are_numpys_unique_inverse(bound):
+    """The clustering ranks its points' cell keys with one sort of key and row packed together where both fit in 63
+    bits (np.unique where they do not): the count and the ranks are np.unique's."""
+    from wrt.preview import cluster_ids
+
+    keys = np.random.default_rng(5).integers(0, bound, 3000)
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    count, ids = cluster_ids(keys, bound)
+    assert count == len(uniq)
+    np.testing.assert_array_equal(ids, inverse.reshape(-1))
+
+
 def test_cluster_vertices_keeps_both_sides_of_a_thin_card():
     """A unit card of two single-sided sheets back to back (1e-3 apart, wound opposite ways), simplified: both sides
     snap to the same clusters, and duplicates in any order were one, so only the first sheet was kept (800 triangles

@@ -459,15 +459,15 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         three clusters, their keys)``: a triangle is kept where its key comes first (:func:`first_rows`)."""
         cells = np.minimum(from_lower * (resolution / extent), resolution - 1).astype(np.int64)
         keys = (cells[:, 0] * (resolution + 1) + cells[:, 1]) * (resolution + 1) + cells[:, 2]
-        uniq, ids = np.unique(keys, return_inverse=True)
+        clusters, ids = cluster_ids(keys, (resolution + 1) ** 3)
         remap = np.zeros(len(points), np.int64)
-        remap[used] = ids.reshape(-1)
+        remap[used] = ids
         tris = remap[indices]
         keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
         # Drop duplicates: the same three clusters in the same cyclic order (triangle_keys).
         candidates = np.flatnonzero(keep)
-        keys = triangle_keys(tris[candidates], len(uniq))
-        return ids.reshape(-1), len(uniq), tris, candidates, keys
+        keys = triangle_keys(tris[candidates], clusters)
+        return ids, clusters, tris, candidates, keys
 
     def distinct(keys) -> int:
         """How many distinct ``keys`` there are: a sort of the values alone, about a third of the stable argsort
@@ -540,6 +540,25 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         keep = np.linspace(0, len(indices) - 1, min(max_triangles, len(indices))).astype(np.int64)
         return points, indices[keep].astype(np.int32), np.asarray(colors)[keep]
     return placed(*fits[1])
+
+
+def cluster_ids(keys: np.ndarray, bound: int) -> tuple[int, np.ndarray]:
+    """``(number of distinct keys, (N,) int64 rank of each of the N keys among them)``, as ``np.unique(keys,
+    return_inverse=True)`` gives them, for int64 ``keys`` in ``[0, bound)``. Where each key and its row fit in 63 bits
+    together, one sort of the values packed so takes the place of np.unique's argsort: 0.16 s, not 0.39 s, for the
+    2M points of a clustering of 4M triangles."""
+    shift = max(1, (len(keys) - 1).bit_length())
+    if not len(keys) or (bound - 1).bit_length() + shift > 63:
+        uniq, ids = np.unique(keys, return_inverse=True)
+        return len(uniq), ids.reshape(-1)
+    ordered = np.sort((keys << shift) | np.arange(len(keys), dtype=np.int64))
+    sorted_keys = ordered >> shift
+    new = np.empty(len(keys), bool)
+    new[0] = True
+    np.not_equal(sorted_keys[1:], sorted_keys[:-1], out=new[1:])
+    ids = np.empty(len(keys), np.int64)
+    ids[ordered & ((1 << shift) - 1)] = np.cumsum(new) - 1
+    return int(np.count_nonzero(new)), ids
 
 
 def triangle_keys(tris: np.ndarray, clusters: int) -> np.ndarray:
