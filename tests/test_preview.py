@@ -1204,6 +1204,21 @@ def test_cluster_ids_are_numpys_unique_inverse(bound):
     np.testing.assert_array_equal(ids, inverse.reshape(-1))
 
 
+@pytest.mark.parametrize("clusters", [12, 1 << 21])
+def test_triangle_keys_are_equal_for_the_same_corners_in_the_same_cyclic_order(clusters):
+    """Both forms of the clustering's duplicate keys (one packed int64, or a row of four past 2^21 clusters) group the
+    triangles as their corners rotated to start at the smallest do: the same three in the same cyclic order."""
+    from wrt.preview import triangle_keys
+
+    rng = np.random.default_rng(11)
+    tris = np.array([rng.choice(6, 3, replace=False) for _ in range(400)]) + (clusters - 6)
+    rotated = np.take_along_axis(tris, (np.argmin(tris, axis=1)[:, None] + np.arange(3)) % 3, axis=1)
+    expected = np.unique(rotated, axis=0, return_inverse=True)[1].reshape(-1)
+    found = np.unique(triangle_keys(tris, clusters), axis=0, return_inverse=True)[1].reshape(-1)
+    pairs = set(zip(expected.tolist(), found.tolist()))
+    assert len(pairs) == len(set(expected.tolist())) == len(set(found.tolist())) == 40  # 20 sets of 3, 2 orders
+
+
 def test_cluster_vertices_keeps_both_sides_of_a_thin_card():
     """A unit card of two single-sided sheets back to back (1e-3 apart, wound opposite ways), simplified: both sides
     snap to the same clusters, and duplicates in any order were one, so only the first sheet was kept (800 triangles
