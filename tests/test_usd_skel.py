@@ -487,6 +487,63 @@ def test_mesh_joints_the_skeleton_lacks_are_posed_as_bake_skinning_poses_them(tm
     loaded(write(tmp_path, extra), 7.0)
 
 
+MIRROR_X = "( (-1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
+
+
+def mirrored(body: str, last_op: str) -> str:
+    """``body`` with a scale of -1 along x after the xformOps of the prim whose last op is ``last_op``."""
+    head = f"{last_op}\n        uniform token[] xformOpOrder = ["
+    assert body.count(head) == 1, last_op
+    start = body.index(head)
+    end = body.index("]", start + len(head))
+    return (body[:start] + "float3 xformOp:scale = (-1, 1, 1)\n        " + body[start:end] + ', "xformOp:scale"'
+            + body[end:])
+
+
+@pytest.mark.parametrize("normals", ["authored", "smooth"])
+@pytest.mark.parametrize("mirror", ["mesh", "skeleton"])
+def test_a_mirror_on_the_mesh_or_its_skeleton_shows_the_front_side_usd_shows(tmp_path, mirror, normals):
+    """The front side (by winding: what back-face culling keeps) of a skinned mesh follows the mesh's own transform,
+    as in BakeSkinning's stage, whose points are in the mesh's space, and in Storm (UsdSkelImaging skins into the
+    mesh's space): the bar and the rigid quad mirrored with their geomBindTransforms (as an exporter writes a
+    mirrored mesh) were drawn inside out, their smooth normals pointing in, and the bar under a mirrored skeleton
+    too. (The rigid quad under the mirrored skeleton is left out: BakeSkinning gives it a transform of its own, which
+    a mirror of the skeleton turns over, where Storm keeps the mesh's.)"""
+    body = skel_root()
+    if mirror == "mesh":
+        body = mirrored(body, "double3 xformOp:translate = (5, 5, 5)")
+        body = mirrored(body, "double3 xformOp:translate = (0, 0, 1)")
+        body = body.replace("geomBindTransform = ( (1, 0, 0, 0)", "geomBindTransform = ( (-1, 0, 0, 0)")
+        body = body.replace(RIGID_INDEX, f"matrix4d primvars:skel:geomBindTransform = {MIRROR_X}\n"
+                                         f"        {RIGID_INDEX}")
+        meshes = ("/Root/Bar", "/Root/Rigid", "/Root/Face")
+    else:
+        body = mirrored(body, "float xformOp:rotateY = 30")  # the Skeleton's
+        meshes = ("/Root/Bar", "/Root/Face")
+    if normals == "smooth":  # catmullClark, without normals: smooth ones made from the posed points
+        authored = f'normal3f[] normals = {fmt(bar()[1])} (\n            interpolation = "vertex"\n        )'
+        assert body.count(authored) == 1
+        body = body.replace(authored, "").replace('subdivisionScheme = "none"', 'subdivisionScheme = "catmullClark"')
+    path = write(tmp_path, body)
+    stage = baked(path)
+    time = Usd.TimeCode(5)
+    by_path = {m.path: m for m in loaded(path, 5.0).meshes}
+    for mesh_path in meshes:
+        expected, expected_normals = world_triangles(stage, mesh_path, time)
+        turn = np.sign(np.linalg.det(np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(
+            stage.GetPrimAtPath(mesh_path)))[:3, :3]))
+        front = turn * np.cross(expected[:, 1] - expected[:, 0], expected[:, 2] - expected[:, 0])
+        mesh = by_path[mesh_path]
+        got = mesh.points[mesh.indices]
+        np.testing.assert_allclose(np.sort(got, axis=1), np.sort(expected, axis=1), atol=2e-6, err_msg=mesh_path)
+        drawn = np.cross(got[:, 1] - got[:, 0], got[:, 2] - got[:, 0])
+        assert (np.sum(drawn * front, axis=1) > 0).all(), mesh_path
+        if normals == "smooth":  # on the front side but where the bulge folds the bar (2 of its 32 triangles)
+            assert np.mean(np.sum(mesh.normals.sum(axis=1) * front, axis=1) > 0) > 0.9, mesh_path
+        elif expected_normals is not None:  # authored ones, independent of the winding: the corners in either order
+            np.testing.assert_allclose(mesh.normals.sum(axis=1), expected_normals.sum(axis=1), atol=1e-5)
+
+
 ZERO_MATRIX = "( (0, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0) )"
 FLAT_MATRIX = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 0, 0), (0, 0, 0, 1) )"  # z scaled to 0
 NAN_MATRIX = "( (nan, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"

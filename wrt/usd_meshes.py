@@ -149,9 +149,14 @@ class MeshReading:
         if posed is not None:
             # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
             local.points, local.normals, space = posed
+            own = m
             m = self._to_space(space, ctx)
             if m is None:  # the skeleton cannot be placed: named, and the mesh left out
                 return None
+            # Its front side is still the one its own transform shows, as Storm draws it (UsdSkelImaging skins into
+            # the mesh's space, its transform placing the result) and BakeSkinning bakes it; _bake reads it from the
+            # skeleton's transform, a mirror that one has and the mesh's lacks (or the reverse) turned over.
+            local.flip ^= bool(np.linalg.det(own[:3, :3]) < 0.0) != bool(np.linalg.det(m[:3, :3]) < 0.0)
         if local.refinement is not None:
             local.points = local.refinement.vertex(local.points)
         baked = len(self.skipped)
