@@ -296,6 +296,23 @@ def test_failed_skinning_keeps_unposed_points_with_a_warning(tmp_path, case):
     np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
 
 
+def test_an_inactive_skeleton_leaves_its_meshes_unposed_as_bake_skinning_named_in_the_warning(tmp_path):
+    """A deactivated Skeleton poses nothing (BakeSkinning leaves its meshes as authored); the warning said it had
+    'no animation or rest transforms for its joints', though it has both."""
+    old = 'def Skeleton "Skel" (\n'
+    body = skel_root()
+    assert body.count(old) == 1
+    path = write(tmp_path, body.replace(old, old + "        active = false\n"))
+    with pytest.warns(UserWarning, match=r"skinning failed.*\(the skeleton /Root/Skel is inactive: 2\): "
+                                         r"/Root/Bar, /Root/Rigid$"):
+        scene = load_usd(path, time=5.0)
+    stage = baked(path)
+    by_path = {m.path: m for m in scene.meshes}
+    for mesh_path in ("/Root/Bar", "/Root/Rigid"):
+        expected, _ = world_triangles(stage, mesh_path, Usd.TimeCode(5))
+        np.testing.assert_allclose(by_path[mesh_path].points[by_path[mesh_path].indices], expected, atol=2e-6)
+
+
 REFUSED_INFLUENCES = {  # joint influences UsdSkel's query refuses: (text of skel_root(), its replacement)
     "weights of another interpolation": ('2\n            interpolation = "vertex"\n        )\n        matrix4d',
                                          '2\n            interpolation = "constant"\n        )\n        matrix4d'),

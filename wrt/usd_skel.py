@@ -17,16 +17,16 @@ shape weights have only time samples is read at its first sample, as wrt reads e
 (:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
 A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
 cannot be posed, bind transforms that do not match its joints or cannot be inverted, a ``geomBindTransform`` that is
-not finite or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, a SkelRoot or
-skeleton outside the native prototype that holds it) keeps its unposed points, with a warning naming it. A
-``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the identity as UsdSkel
-does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does not fit its mesh
-(``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
-them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
-BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A ``skel:blendShapes``
-longer than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the shorter goes and
-leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns of the sizes only,
-naming no mesh, and applies none of the mesh's blend shapes.
+not finite or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, an inactive
+skeleton, a SkelRoot or skeleton outside the native prototype that holds it) keeps its unposed points, with a
+warning naming it. A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the
+identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does
+not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
+points without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the
+mesh, the BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A
+``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the
+shorter goes and leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns
+of the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
 """
 
 from __future__ import annotations
@@ -184,7 +184,9 @@ class SkelPoser:
             binds = skel_query.GetJointWorldBindTransforms() if skel_query else []
             singular = [k for k, m in enumerate(binds) if not (np.isfinite(m).all() and m.GetDeterminant() != 0.0)]
             xforms = "the skeleton cannot be posed (no animation or rest transforms for its joints)"
-            if skel_query and len(binds) != joints:
+            if not skeleton.GetPrim().IsActive():  # UsdSkel has no query for it; it has rest transforms all the same
+                xforms = f"the skeleton {skeleton.GetPath()} is inactive"
+            elif skel_query and len(binds) != joints:
                 # ComputeSkinningTransforms then returns the joints' unbound transforms (its failure is not seen here).
                 xforms = f"the skeleton's bindTransforms do not match its {joints} joints"
             elif singular:  # skinning uses their inverses; Gf's inverse of a singular matrix is FLT_MAX scaled
