@@ -236,6 +236,42 @@ def test_skinned_meshes_match_usd_bake_skinning(tmp_path, time):
     assert np.abs(by_path["/Root/Bar"].points[by_path["/Root/Bar"].indices] - later).max() > 0.2
 
 
+def wide_influences(body: str, per_point: int) -> str:
+    """``body`` with the bar's influences spread over ``per_point`` (>= 2) entries a point: its two weights halved,
+    the rest small weights on both joints, so that no point's weights sum to 1."""
+    _, _, joint_indices, joint_weights, _, _ = bar()
+    indices, weights = [], []
+    for k in range(0, len(joint_indices), 2):
+        extra = per_point - 2
+        indices += joint_indices[k : k + 2] + [j % 2 for j in range(extra)]
+        weights += [0.5 * w for w in joint_weights[k : k + 2]] + [0.05 * (j + 1) for j in range(extra)]
+    for name, old, new in (("Indices", joint_indices, indices), ("Weights", joint_weights, weights)):
+        text = f"primvars:skel:joint{name} = {fmt(old)} (\n            elementSize = 2"
+        assert body.count(text) == 1
+        body = body.replace(text, f"primvars:skel:joint{name} = {fmt(new)} (\n            elementSize = {per_point}")
+    return body
+
+
+@pytest.mark.parametrize("case", ["dualQuaternion", "2 per point, not summing to 1", "5 per point", "8 per point"])
+def test_skinning_methods_and_influence_counts_match_bake_skinning(tmp_path, case):
+    """Dual quaternion skinning (of a joint scaled 2 along y by time 10), and up to 8 influences a point whose
+    weights do not sum to 1 (UsdSkel does not normalise them), pose the bar and its normals as BakeSkinning does."""
+    body = skel_root()
+    if case == "dualQuaternion":
+        old = 'uniform token[] skel:joints = ["root/tip", "root"]'
+        assert body.count(old) == 1
+        body = body.replace(old, f'{old}\n        uniform token skel:skinningMethod = "dualQuaternion"')
+    else:
+        body = wide_influences(body, int(case[0]))
+    path = write(tmp_path, body)
+    stage = baked(path)
+    for time in (7.0, 10.0):
+        expected, normals = world_triangles(stage, "/Root/Bar", Usd.TimeCode(time))
+        mesh = {m.path: m for m in loaded(path, time).meshes}["/Root/Bar"]
+        np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+        np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+
+
 def test_influences_whose_indices_have_only_time_samples_are_read_at_their_first_sample(tmp_path):
     """Joint indices and weights stored as indexed primvars whose ``:indices`` have only a time sample (at 1, the
     animation's first) are posed at ``time=None`` as BakeSkinning poses them at time 1. ``ComputeFlattened`` at the
