@@ -300,6 +300,41 @@ def test_skinned_meshes_inside_instances_are_posed(tmp_path):
     np.testing.assert_allclose(points[indices], np.concatenate(expected), atol=2e-6)
 
 
+def test_skinned_meshes_in_a_point_instancer_prototype_are_posed(tmp_path):
+    """A SkelRoot that is a PointInstancer's prototype is posed in place (its meshes as BakeSkinning poses them) and
+    drawn by every instance: each of ``Scene.triangles()`` is one of the posed triangles moved by one instance's
+    transform (``ComputeInstanceTransformsAtTime``, the SkelRoot's own transform applied to the points), one to one."""
+    prototype = "\n".join("        " + line for line in skel_root("/World/PI/Protos/Root").splitlines())
+    path = write(tmp_path, f"""
+def Xform "World"
+{{
+    def PointInstancer "PI"
+    {{
+        rel prototypes = [</World/PI/Protos/Root>]
+        int[] protoIndices = [0, 0]
+        point3f[] positions = [(0, 0, 0), (10, 0, 0)]
+        quath[] orientations = [(1, 0, 0, 0), (0.7071068, 0, 0.7071068, 0)]
+        def Scope "Protos"
+        {{
+{prototype}
+        }}
+    }}
+}}
+""")
+    stage = baked(path)
+    time = Usd.TimeCode(5)
+    instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/PI"))
+    placed = np.array(instancer.ComputeInstanceTransformsAtTime(time, time, UsdGeom.PointInstancer.ExcludeProtoXform))
+    in_place = np.concatenate([world_triangles(stage, f"/World/PI/Protos/Root/{mesh}", time)[0]
+                               for mesh in ("Bar", "Rigid", "Face")]).reshape(-1, 3)
+    expected = np.concatenate([(in_place @ m[:3, :3] + m[3, :3]).reshape(-1, 9) for m in placed])
+    points, indices = loaded(path, 5.0).triangles()
+    got = points[indices].reshape(-1, 9).astype(np.float64)
+    distance = np.abs(got[:, None, :] - expected[None, :, :]).max(axis=2)
+    assert got.shape == expected.shape
+    assert distance.min(axis=1).max() < 2e-6 and sorted(distance.argmin(axis=1)) == list(range(len(expected)))
+
+
 BAD_SKELETONS = {  # a skeleton or influences that cannot pose the bar: (text of skel_root(), its replacement)
     "no animation or rest pose": ("uniform matrix4d[] restTransforms", "uniform matrix4d[] unusedTransforms"),
     # UsdSkel's ComputeSkinningTransforms then returns the joints' unbound skeleton-space transforms (its failure is
