@@ -335,6 +335,24 @@ def Xform "World"
     assert distance.min(axis=1).max() < 2e-6 and sorted(distance.argmin(axis=1)) == list(range(len(expected)))
 
 
+def test_a_skeleton_bound_above_the_skel_root_poses_nothing_as_in_usd(tmp_path):
+    """``skel:skeleton`` authored on an Xform above the SkelRoot binds nothing: UsdSkel resolves bindings from the
+    SkelRoot down, and BakeSkinning leaves the meshes as authored. wrt took it as bound (``GetInheritedSkeleton``
+    walks past the SkelRoot) and drew the bar 5.9 and the rigid quad 1.9 from USD's points."""
+    binding = "rel skel:skeleton = </World/Root/Skel>"
+    inner = skel_root("/World/Root")
+    assert inner.count(binding) == 1
+    inner = "\n".join("    " + line for line in inner.replace(binding, "").splitlines())
+    path = write(tmp_path, f'def Xform "World" (\n    prepend apiSchemas = ["SkelBindingAPI"]\n)\n{{\n'
+                           f"    {binding}\n{inner}\n}}\n")
+    stage = baked(path)
+    by_path = {m.path: m for m in loaded(path, 5.0).meshes}
+    for name in ("Bar", "Rigid", "Face"):
+        expected, _ = world_triangles(stage, f"/World/Root/{name}", Usd.TimeCode(5))
+        mesh = by_path[f"/World/Root/{name}"]
+        np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+
+
 BAD_SKELETONS = {  # a skeleton or influences that cannot pose the bar: (text of skel_root(), its replacement)
     "no animation or rest pose": ("uniform matrix4d[] restTransforms", "uniform matrix4d[] unusedTransforms"),
     # UsdSkel's ComputeSkinningTransforms then returns the joints' unbound skeleton-space transforms (its failure is

@@ -2,15 +2,15 @@
 characters keep their bind pose in ``points`` and move only through their skeleton).
 
 A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``; constant ones may be
-inherited from an ancestor, binding every mesh beneath it rigidly) or blend shapes (``skel:blendShapes``), a skeleton
-bound to it or an ancestor (``skel:skeleton``) and a ``SkelRoot`` above it: the same conditions as UsdSkel's. Its
-points go through its blend shapes (weighted by the skeleton's animation), then through linear blend (or dual
-quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of its ``UsdSkel.SkinningQuery``, after
-``geomBindTransform``; a rigidly bound mesh (constant joint influences) is moved by ``UsdSkel.SkinTransform``. The
-result is in the skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
-``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every interpolation) are skinned with the
-inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``), after blend shapes'
-``normalOffsets``.
+inherited from an ancestor, binding every mesh beneath it rigidly) or blend shapes (``skel:blendShapes``), a
+skeleton bound to it or an ancestor (``skel:skeleton``, authored at or below a ``SkelRoot``) and a ``SkelRoot``
+above it: the same conditions as UsdSkel's. Its points go through its blend shapes (weighted by the skeleton's
+animation), then through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of
+its ``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a rigidly bound mesh (constant joint influences) is
+moved by ``UsdSkel.SkinTransform``. The result is in the skeleton's space: the caller places it with the skeleton
+prim's transform, not the mesh's own, as ``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every
+interpolation) are skinned with the inverse transposes of the same joint transforms and weights
+(``UsdSkel.SkinNormals``), after blend shapes' ``normalOffsets``.
 
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
@@ -95,7 +95,7 @@ class SkelPoser:
             if prim.IsInPrototype() and self._skinned_from_above_its_instance(prim):
                 self.skip(FAILED, prim, "SkelRoot above its instance (each instance would be posed on its own)")
             return None  # USD does not pose it either
-        skeleton = UsdSkel.BindingAPI(prim).GetInheritedSkeleton()
+        skeleton = self._bound_skeleton(prim)
         if not skeleton:
             return None
         if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
@@ -125,11 +125,23 @@ class SkelPoser:
         proxy = prim.GetStage().GetPrimAtPath(self.shown_path(prim))
         if not proxy or proxy.IsInPrototype() or self.skel_root(proxy) is None:
             return False
-        if not UsdSkel.BindingAPI(proxy).GetInheritedSkeleton():
+        if not self._bound_skeleton(proxy):
             return False
         influences = UsdGeom.PrimvarsAPI(proxy).FindPrimvarWithInheritance("skel:jointIndices")
         shapes = proxy.GetAttribute("skel:blendShapes")  # (a Usd.Prim has no HasAuthoredValue of its own)
         return bool(influences and influences.HasAuthoredValue()) or shapes.HasAuthoredValue()
+
+    def _bound_skeleton(self, prim: Usd.Prim) -> UsdSkel.Skeleton | None:
+        """The Skeleton bound to ``prim``: by ``skel:skeleton`` on it or on the nearest ancestor that has one, as
+        ``GetInheritedSkeleton`` finds it, but None where that ancestor has no SkelRoot at or above it. UsdSkel
+        resolves bindings walking down from each SkelRoot, so one authored above every SkelRoot binds nothing
+        (``ComputeSkelBindings`` and BakeSkinning leave the meshes unposed); wrt posed them, 5.9 from USD's."""
+        while prim and not prim.IsPseudoRoot():
+            rel = prim.GetRelationship("skel:skeleton")
+            if rel and rel.HasAuthoredTargets():
+                return UsdSkel.BindingAPI(prim).GetSkeleton() if self.skel_root(prim) is not None else None
+            prim = prim.GetParent()
+        return None
 
     def _populate(self, root: Usd.Prim):
         if str(root.GetPath()) not in self.roots:
