@@ -407,6 +407,13 @@ class _Wavefront:
         return owner.batch.head(m)
 
 
+def used_anywhere(marked: np.ndarray, materials: np.ndarray) -> bool:
+    """Whether any of the ``(T,)`` device ``materials`` of the triangles is ``marked`` (``(M,)`` bool per device
+    material); none marked is answered without a look at the triangles, which took 1 ms per question and million
+    triangles at every Renderer."""
+    return bool(marked.any() and marked[materials].any())
+
+
 def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None:
     """``wp.launch`` of a kernel whose thread ``i`` touches only entry ``i`` of its length-``n`` arrays; on the CPU
     the launch is split into pieces run on a thread pool (Warp runs one CPU launch on one thread)."""
@@ -926,7 +933,7 @@ class Renderer:
         self._upload_cameras(self.cameras, self.batched)
         geometry_materials = scene.triangle_materials()
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
-        emissive_used = bool(glows[geometry_materials].any())
+        emissive_used = used_anywhere(glows, geometry_materials)
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
         # along the viewing direction of each camera of a batch; not one whose author lit it with lights that gave
         # none (hidden, or skipped: Scene.dark_lights), as Hydra renderers add none to a stage that has lights.
@@ -987,7 +994,7 @@ class Renderer:
         # (hidden_hits.intersect_visible).
         cut_outs = np.array([False] + [m.opacity_threshold > 0.0 for m in scene.materials])  # per device material
         # Shadow rays see both sides, but pass through holes too (hidden_hits.occluded_through_holes).
-        self.no_holes = not cut_outs[geometry_materials].any()
+        self.no_holes = not used_anywhere(cut_outs, geometry_materials)
         self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and self.no_holes
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
         n_analytic = self.device_lights.num_analytic

@@ -499,11 +499,15 @@ TRACED_REACH = 2.0**126  # Scene.warn_past_traced_reach: coordinates beyond it c
 
 def has_area(points: np.ndarray, indices: np.ndarray, chunk: int = 1 << 16) -> bool:
     """Whether any of the ``(T, 3)`` triangles ``indices`` into ``(V, 3)`` ``points`` has a nonzero area (in float64);
-    read a chunk at a time, so that a real scene answers after its first chunk, without a copy of every triangle."""
-    for start in range(0, len(indices), chunk):
-        corners = np.asarray(points)[np.asarray(indices[start:start + chunk])].astype(np.float64)
+    read a chunk at a time, so that a real scene answers after its first chunk, without a copy of every triangle. The
+    chunks grow from 64 triangles to ``chunk``: a first chunk of 65,536 took 13 ms of every Renderer of a chess set
+    (800k triangles), where its first triangle answers."""
+    start, size = 0, min(64, chunk)
+    while start < len(indices):
+        corners = np.asarray(points)[np.asarray(indices[start:start + size])].astype(np.float64)
         if np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]).any():
             return True
+        start, size = start + size, min(4 * size, chunk)
     return False
 
 
