@@ -86,6 +86,13 @@ class DeviceScene:
 # A stage's metersPerUnit below this, or not finite, is not a unit: load_usd falls back to centimetres.
 MIN_METERS_PER_UNIT = 1e-30
 
+# Kinds of cache entries made from the meshes, shapes, prototypes, materials and textures alone, which instances that
+# move (instances.to_world given new values, as a robot's links each step) leave as they were: dropped with the rest,
+# a move of one of the chess set's 16 instances searched its 800k triangles for coincident partners again (1.2 s) and
+# uploaded its materials again (Scene._kept_when_moved).
+KEPT_WHEN_INSTANCES_MOVE = frozenset(("geometry", "part_vertex_offsets", "corners", "corner_opacities",
+                                      "triangle_materials", "triangle_partners", "corner_uvs", "shading"))
+
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
 PER_TRIANGLE_ARRAYS = (
     ("face_ids", np.int32, ()),
@@ -713,11 +720,14 @@ class Scene:
         self._frozen = []  # weak references to the arrays this scene made read-only (see freeze); weak, so that
         # the arrays of lights a kept Renderer froze and that were replaced since are freed
         self._frozen_parts = False  # whether the arrays of _cached_parts are among them
+        # Accelerators cached before the instances last moved, by cache key: the next get_accelerator rebuilds their
+        # TLAS alone (wrt.trace.moved_accelerator). Dropped by invalidate() and by any other change.
+        self._moved_accels = {}
 
     def __getstate__(self) -> dict:
         # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable. Nor do
         # the device objects of a traced scene's cache (Warp structs, arrays), which the copy builds again.
-        return {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False}
+        return {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False, "_moved_accels": {}}
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
@@ -804,6 +814,7 @@ class Scene:
         offset``). That trace or render checks every mesh, shape, material and the instances again, as their
         constructors do. Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
         self._cache.clear()
+        self._moved_accels = {}
         self._generation += 1
         self._version = new_token()  # hits traced before name prims by the ids of the scene as it was
         self._recheck = True  # arrays may be edited in place from here on: check every object again (_settle)
@@ -896,13 +907,34 @@ class Scene:
         inverses = self._thicken_flat_instances()
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
+            kept, accels = self._kept_when_moved(parts)
             self.invalidate()
+            self._cache.update(kept)
+            self._moved_accels = accels
         if inverses is not None:  # computed anyway: the first trace needs them
             self._cache[("instance_inverses",)] = inverses
         self._recheck = False
         self._cached_parts = parts
         self._checked = (count, members)
         return parts
+
+    def _kept_when_moved(self, parts: tuple) -> tuple[dict, dict]:
+        """``(cache entries, accelerators)`` that outlive the change from the last record to ``parts`` where the
+        instances' ``to_world`` alone was given new values of its shape (:data:`KEPT_WHEN_INSTANCES_MOVE`, and the
+        two-level accelerators, whose BLASes stay: ``_moved_accels``); ``({}, {})`` for any other change."""
+        old = self._cached_parts
+        if len(old) != len(parts):
+            return {}, {}
+        changed = [k for k, (a, b) in enumerate(zip(old, parts)) if a is not b and not _same_scalar(a, b)]
+        to_world = self.instances.to_world
+        if (len(changed) != 1 or parts[changed[0]] is not to_world
+                or getattr(old[changed[0]], "shape", None) != to_world.shape):
+            return {}, {}
+        from .tlas import InstancedAccelerator
+
+        accels = {key: accel for key, accel in {**self._moved_accels, **self._cache}.items()
+                  if key[0] == "accel" and type(accel) is InstancedAccelerator}
+        return {key: value for key, value in self._cache.items() if key[0] in KEPT_WHEN_INSTANCES_MOVE}, accels
 
     def _thicken_flat_instances(self) -> tuple | None:
         """Gives instances flattened into a plane by a zero scale a thickness, as the USD loader does

@@ -13,6 +13,7 @@ triangles appear once) and ``instance`` the instance hit (-1 for non-instanced g
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import os
@@ -524,6 +525,22 @@ def check_scene(scene) -> None:
         raise ValueError(f"scene {stray}")
 
 
+def moved_accelerator(scene: Scene, key: tuple):
+    """The two-level accelerator cached under ``key`` before ``scene``'s instances last moved, followed to them: its
+    BLASes kept and its TLAS built anew, as a fresh build's (:meth:`wrt.tlas.InstancedAccelerator.update`); None where
+    there is none or it cannot follow (an instance's scale crossed ``2^100``: other BLASes). The update is made on a
+    copy: a CUDA graph recorded with the old one keeps replaying the arrays it was recorded with."""
+    held = scene._moved_accels.pop(key, None)
+    if held is None:
+        return None
+    accel = copy.copy(held)
+    try:
+        accel.update(scene, refit_blas=False)
+    except ValueError:
+        return None
+    return accel
+
+
 def get_accelerator(
     scene: Scene, accel: str = "wrt", builder: str = "sah", device=None, layout: str = "binary"
 ) -> Accelerator:
@@ -550,7 +567,10 @@ def get_accelerator(
     if key not in scene._cache:
         scene.check_vertices()  # named with their mesh here; the builds' own check can name only a row
         scene.warn_past_traced_reach()
-        if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
+        moved = moved_accelerator(scene, key)
+        if moved is not None:
+            scene._cache[key] = moved
+        elif accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
             from .tlas import InstancedAccelerator
 
             scene._cache[key] = InstancedAccelerator(scene, builder, device)
