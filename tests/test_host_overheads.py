@@ -58,6 +58,7 @@ def test_moved_instances_keep_their_blases_and_geometry_caches():
     before = get_accelerator(scene)
     partners = scene.triangle_partners()
     materials = scene.triangle_materials()
+    points = scene.to_device("cpu").points
     scene.instances.to_world = placed([0.5, 1.0, 2.0])
     after = get_accelerator(scene)
     # The prototypes' trees are the same objects (only the TLAS is built again); the old accelerator is left as it
@@ -65,6 +66,7 @@ def test_moved_instances_keep_their_blases_and_geometry_caches():
     assert after is not before and all(a is b for a, b in zip(after.blas, before.blas))
     assert after.tlas is not before.tlas
     assert scene.triangle_partners() is partners and scene.triangle_materials() is materials
+    assert scene.to_device("cpu").points is points  # the instances' transforms are uploaded anew, not the triangles
     origins, directions = down_rays(3)
     np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, [9.5, 9.0, 8.0], rtol=1e-6)
 
@@ -75,6 +77,7 @@ def test_other_edits_build_anew(edit):
 
     scene = squares([0.0, 1.0, 2.0])
     before = get_accelerator(scene)
+    points = scene.to_device("cpu").points
     origins, directions = down_rays(3)
     expected = np.array([10.0, 9.0, 8.0])
     if edit == "points":  # the first prototype's square lifted by 0.25 together with a move: both show
@@ -89,6 +92,9 @@ def test_other_edits_build_anew(edit):
         expected = np.array([10.0, 9.0, np.inf])
     after = get_accelerator(scene)
     assert not any(a is b for a, b in zip(after.blas, before.blas))
+    if edit == "points":
+        np.testing.assert_array_equal(scene.to_device("cpu").points.numpy()[:4], SQUARE + np.float32([0, 0, 0.25]))
+        assert scene.to_device("cpu").points is not points
     np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, expected, rtol=1e-6)
 
 

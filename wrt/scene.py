@@ -91,7 +91,8 @@ MIN_METERS_PER_UNIT = 1e-30
 # a move of one of the chess set's 16 instances searched its 800k triangles for coincident partners again (1.2 s) and
 # uploaded its materials again (Scene._kept_when_moved).
 KEPT_WHEN_INSTANCES_MOVE = frozenset(("geometry", "part_vertex_offsets", "corners", "corner_opacities",
-                                      "triangle_materials", "triangle_partners", "corner_uvs", "shading"))
+                                      "triangle_materials", "triangle_partners", "corner_uvs", "shading",
+                                      "device_geometry"))
 
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
 PER_TRIANGLE_ARRAYS = (
@@ -1638,23 +1639,10 @@ class Scene:
         device = wp.get_device(device)
         key = ("device_scene", str(device))
         if key not in self._cache:
-            points, indices = self.geometry()
-            normals, colors = self.corner_attributes()
-            n = len(indices)
             shapes = self._geometry_shapes()
-            if shapes:  # shapes have geometry ids after the triangles: give them placeholder rows
-                indices = np.concatenate([indices, np.zeros((len(shapes), 3), np.int32)])
-            if len(points) == 0:
-                points = np.zeros((1, 3), np.float32)
-            if len(indices) == 0:  # keep arrays non-empty so kernels can bind them; num_prims = 0 marks the scene empty
-                indices = np.zeros((1, 3), np.int32)
-                normals = colors = np.zeros((1, 3, 3), np.float32)
             s = DeviceScene()
-            s.points = wp.array(points, dtype=wp.vec3, device=device)
-            s.indices = wp.array(indices, dtype=wp.int32, device=device)
-            s.normals = wp.array(normals, dtype=wp.vec3, device=device)
-            s.colors = wp.array(colors, dtype=wp.vec3, device=device)
-            s.num_prims = n
+            s.points, s.indices, s.normals, s.colors = self._device_geometry(device)
+            s.num_prims = len(self.geometry()[1])
             s.world_to_local = self.world_to_local(device)
             s.num_instances = len(self.instances)
             s.shape_kinds, s.shape_params, s.shape_to_local = self.shape_arrays(device)
@@ -1676,6 +1664,28 @@ class Scene:
             s.instance_opacities = wp.array(instance_opacities if len(instance_opacities) else np.full(1, np.nan),
                                             dtype=float, device=device)
             self._cache[key] = s
+        return self._cache[key]
+
+    def _device_geometry(self, device) -> tuple:
+        """``(points, indices, normals, colors)`` of :meth:`to_device` on ``device``, made of the meshes and shapes
+        alone: kept when the instances move (:data:`KEPT_WHEN_INSTANCES_MOVE`), as the upload of the chess set's
+        800k triangles took 50 ms of each move."""
+        key = ("device_geometry", str(device))
+        if key not in self._cache:
+            points, indices = self.geometry()
+            normals, colors = self.corner_attributes()
+            shapes = self._geometry_shapes()
+            if shapes:  # shapes have geometry ids after the triangles: give them placeholder rows
+                indices = np.concatenate([indices, np.zeros((len(shapes), 3), np.int32)])
+            if len(points) == 0:
+                points = np.zeros((1, 3), np.float32)
+            if len(indices) == 0:  # keep arrays non-empty so kernels can bind them; num_prims = 0 marks the scene empty
+                indices = np.zeros((1, 3), np.int32)
+                normals = colors = np.zeros((1, 3, 3), np.float32)
+            self._cache[key] = (wp.array(points, dtype=wp.vec3, device=device),
+                                wp.array(indices, dtype=wp.int32, device=device),
+                                wp.array(normals, dtype=wp.vec3, device=device),
+                                wp.array(colors, dtype=wp.vec3, device=device))
         return self._cache[key]
 
     def _instance_color_arrays(self, device) -> tuple:
