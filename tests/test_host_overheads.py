@@ -122,3 +122,21 @@ def test_has_area_finds_the_one_triangle_with_area(only):
     assert expected == (only is not None)
     assert has_area(points, indices) == expected
     assert has_area(points, indices, chunk=100) == expected
+
+
+def test_bounds_follow_moved_instances_and_new_points_are_checked(monkeypatch):
+    scene = squares([0.0, 1.0, 2.0])
+    scene.meshes = [Mesh("/World/M", SQUARE * 0.5 + np.float32([0, 0, -3]), TRIANGLES)]
+    np.testing.assert_array_equal(np.stack(scene.bounds()), [[-1, -1, -3], [7, 1, 2]])
+    boxes = []  # the prototypes' own boxes made since: none, they did not change
+    monkeypatch.setattr(Prototype, "bounds", lambda self: boxes.append(self.path))
+    scene.instances.to_world = placed([0.0, 5.0, 2.0])
+    np.testing.assert_array_equal(np.stack(scene.bounds()), [[-1, -1, -3], [7, 1, 5]])
+    assert boxes == []
+    monkeypatch.undo()
+    wrt.trace(scene, *down_rays(3))  # checked and kept: the next points must be checked again
+    bad = SQUARE.copy()
+    bad[2, 2] = np.nan
+    scene.meshes[0].points = bad
+    with pytest.raises(wrt.SceneError, match=r"/World/M.*triangle 0 uses vertex 2"):
+        wrt.trace(scene, *down_rays(3))

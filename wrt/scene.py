@@ -92,7 +92,7 @@ MIN_METERS_PER_UNIT = 1e-30
 # uploaded its materials again (Scene._kept_when_moved).
 KEPT_WHEN_INSTANCES_MOVE = frozenset(("geometry", "part_vertex_offsets", "corners", "corner_opacities",
                                       "triangle_materials", "triangle_partners", "corner_uvs", "shading",
-                                      "device_geometry"))
+                                      "device_geometry", "mesh_bounds", "vertices_checked"))
 
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
 PER_TRIANGLE_ARRAYS = (
@@ -1053,9 +1053,14 @@ class Scene:
         return [t for m in self.materials for t in getattr(m, "textures", {}).values()]
 
     def check_vertices(self) -> None:
-        """:meth:`Mesh.check_vertices` of every mesh, prototypes' too: their points may have been edited since."""
+        """:meth:`Mesh.check_vertices` of every mesh, prototypes' too: their points may have been edited since. Once
+        per state of the meshes (a cache entry: an edit drops it; instances moved keep it, as the meshes stay)."""
+        self.drop_stale_caches()
+        if ("vertices_checked",) in self._cache:
+            return
         for mesh in self._geometry_meshes():
             mesh.check_vertices()
+        self._cache[("vertices_checked",)] = True
 
     def check_shape_boxes(self) -> None:
         """Raises ``ValueError`` naming the first shape (in the world or a prototype) whose box its ``to_world`` takes
@@ -1791,22 +1796,11 @@ class Scene:
         self.check_vertices()  # a NaN made the default camera's eye NaN: named here, not as a camera error
         self.check_shape_boxes()  # likewise a shape past float32
         self.check_instance_boxes()  # and an instance whose scale takes its prototype past it
-        points, indices = _concatenate_meshes(self.meshes)
-        lower = np.full(3, np.inf)
-        upper = np.full(3, -np.inf)
-        if len(indices):
-            # The points some triangle uses, each once, reduced column by column: gathering every corner and
-            # reducing the (3T, 3) rows along axis 0 took 0.27 s for 700k triangles, this 0.03 s (the same values).
-            used = np.zeros(len(points), bool)
-            used[indices.reshape(-1)] = True
-            used = points[used]
-            lower = np.array([used[:, k].min() for k in range(3)], np.float64)
-            upper = np.array([used[:, k].max() for k in range(3)], np.float64)
+        lower, upper, prototype_boxes = self._mesh_bounds()
         for shape in self.shapes:
             lo, hi = world_boxes(*shape.local_bounds(), shape.to_world[None])
             lower, upper = np.minimum(lower, lo[0]), np.maximum(upper, hi[0])
-        for proto, mine in zip(self.prototypes, self.instances.rows_of_prototypes(len(self.prototypes))):
-            lo, hi = proto.bounds()
+        for (lo, hi), mine in zip(prototype_boxes, self.instances.rows_of_prototypes(len(self.prototypes))):
             if len(mine) and np.all(lo <= hi):
                 boxes = world_boxes(lo, hi, self.instances.to_world[mine])
                 lower = np.minimum(lower, boxes[0].min(axis=0))
@@ -1817,6 +1811,27 @@ class Scene:
             result = lower.astype(np.float32), upper.astype(np.float32)
         self._cache[key] = result
         return result
+
+    def _mesh_bounds(self) -> tuple:
+        """``(lower, upper, prototype boxes)``: the float64 box of the points the world-space meshes' triangles use
+        (inf and -inf without any) and each prototype's own box (:meth:`Prototype.bounds`), which :meth:`bounds`
+        adds the shapes and the instances to; kept when the instances move (:data:`KEPT_WHEN_INSTANCES_MOVE`), as
+        for the chess set they took 120 ms of each move."""
+        key = ("mesh_bounds",)
+        if key not in self._cache:
+            points, indices = _concatenate_meshes(self.meshes)
+            lower = np.full(3, np.inf)
+            upper = np.full(3, -np.inf)
+            if len(indices):
+                # The points some triangle uses, each once, reduced column by column: gathering every corner and
+                # reducing the (3T, 3) rows along axis 0 took 0.27 s for 700k triangles, this 0.03 s (the same values).
+                used = np.zeros(len(points), bool)
+                used[indices.reshape(-1)] = True
+                used = points[used]
+                lower = np.array([used[:, k].min() for k in range(3)], np.float64)
+                upper = np.array([used[:, k].max() for k in range(3)], np.float64)
+            self._cache[key] = (lower, upper, [prototype.bounds() for prototype in self.prototypes])
+        return self._cache[key]
 
     def stats(self) -> dict:
         """Counts describing the scene, computed without expanding instances: ``meshes`` (non-instanced),
