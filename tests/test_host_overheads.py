@@ -140,3 +140,19 @@ def test_bounds_follow_moved_instances_and_new_points_are_checked(monkeypatch):
     scene.meshes[0].points = bad
     with pytest.raises(wrt.SceneError, match=r"/World/M.*triangle 0 uses vertex 2"):
         wrt.trace(scene, *down_rays(3))
+
+
+def test_instance_scaled_past_2_to_100_after_a_move_is_traced_in_new_blases():
+    # Its BLAS is traced scaled by a power of two past that scale (wrt.tlas.instance_exponents): the kept
+    # accelerator cannot follow such a move, and one is built anew.
+    from wrt.trace import get_accelerator
+
+    scene = squares([0.0, 1.0, 2.0])
+    before = get_accelerator(scene)
+    to_world = placed([0.0, 1.0, 2.0])
+    to_world[1, 0, 0] = to_world[1, 1, 1] = to_world[1, 2, 2] = 2.0**110  # the middle square spread, at its height
+    scene.instances.to_world = to_world
+    after = get_accelerator(scene)
+    assert not any(a is b for a, b in zip(after.blas, before.blas))
+    # The middle square (z = 1) now covers the first (z = 0); the third (z = 2) lies above it.
+    np.testing.assert_allclose(wrt.trace(scene, *down_rays(3)).t, [9.0, 9.0, 8.0], rtol=1e-6)
