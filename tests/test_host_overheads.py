@@ -156,3 +156,31 @@ def test_instance_scaled_past_2_to_100_after_a_move_is_traced_in_new_blases():
     assert not any(a is b for a, b in zip(after.blas, before.blas))
     # The middle square (z = 1) now covers the first (z = 0); the third (z = 2) lies above it.
     np.testing.assert_allclose(wrt.trace(scene, *down_rays(3)).t, [9.0, 9.0, 8.0], rtol=1e-6)
+
+
+def test_far_mesh_warning_follows_point_edits_not_instance_moves(monkeypatch):
+    import warnings
+
+    import wrt.scene as scene_module
+
+    scene = squares([0.0, 1.0, 2.0])
+    far = np.float32([[2e38, 0, 0], [2e38, 1, 0], [2e38, 0, 1]])  # past 2^126 (8.5e37), wrt.scene.TRACED_REACH
+    scene.meshes = [Mesh("/World/Far", far, np.int32([[0, 1, 2]]))]
+
+    def warned() -> list:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrt.trace(scene, *down_rays(3))
+        return [str(w.message) for w in caught if "past 8.5e37" in str(w.message)]
+
+    first = warned()
+    assert len(first) == 1 and "/World/Far" in first[0]
+    assert warned() == []  # a trace of the cached tree says nothing
+    looked_at = []  # meshes looked at again: none, the move changed none
+    reaches_past = scene_module._reaches_past
+    monkeypatch.setattr(scene_module, "_reaches_past", lambda m, reach: looked_at.append(m) or reaches_past(m, reach))
+    scene.instances.to_world = placed([0.5, 1.0, 2.0])
+    assert ["/World/Far" in w for w in warned()] == [True]  # said again at the TLAS rebuild, as at a build
+    assert looked_at == []
+    scene.meshes[0].points = far / np.float32(1e30)
+    assert warned() == []
