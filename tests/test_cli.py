@@ -963,14 +963,20 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     (["render", "--frames", "1:2", "-o", "{dir}/.EXR"], "cannot write .EXR: the file name is an extension alone"),
     (["render", "-o", "{dir}/x.png "], "cannot write '{dir}/x.png ': supported image formats are .png, .exr, .npy"),
     # A file with no image extension is named by the path given: 'cannot write null' for /dev/null named no folder.
-    (["render", "-o", "{dir}/renders/null"], "cannot write {dir}/renders/null: supported image formats are .png"),
+    (["render", "-o", "{dir}/renders/null"], "cannot write {dir}/renders/null: the file name has no extension (e.g. "
+                                             "null.png); supported image formats are .png, .exr, .npy"),
+    # A name without an extension is told so: it was told only the formats, as if its extension were a wrong one.
+    (["render", "-o", "{dir}/out"], "cannot write {dir}/out: the file name has no extension (e.g. out.png); "
+                                    "supported image formats are .png, .exr, .npy"),
+    (["render", "--frames", "1:2", "-o", "{dir}/out"], "cannot write {dir}/out_0001: the file name has no extension"),
+    (["render", "-o", "{dir}/out.tif"], "cannot write {dir}/out.tif: supported image formats are .png, .exr, .npy"),
     (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
     # A folder not yet made: 'cannot write views: previews are written as .png', its / dropped; one that exists said
     # 'it is a directory'.
     (["preview", "-o", "{dir}/views/"], "cannot write {dir}/views/: it names a folder; give the preview a .png file "
                                         "name, e.g. {dir}/views/preview.png"),
 ])
-def test_an_output_name_that_is_an_extension_alone_says_so(tmp_path, capsys, args, message):
+def test_an_output_name_without_an_image_extension_says_what_is_wrong(tmp_path, capsys, args, message):
     (tmp_path / "a.usda").write_text("#usda 1.0\n")  # refused before it is read
     args = [a.replace("{dir}", str(tmp_path)) for a in args]
     assert main([args[0], str(tmp_path / "a.usda"), *args[1:], "-q"]) == 2

@@ -336,7 +336,9 @@ def check_image_path(path) -> Path:
     suffix = path.suffix.lower()
     if suffix not in IMAGE_FORMATS:  # the path as given: the name alone ('null') did not say which file
         shown = given if given == given.strip() else repr(given)  # 'x.png ': a space typed after it
-        raise ValueError(f"cannot write {shown}: supported image formats are {', '.join(IMAGE_FORMATS)}")
+        # A name without one ('-o out') was told only the formats, as if its extension were a wrong one.
+        missing = "" if suffix else f"the file name has no extension (e.g. {path.name}.png); "
+        raise ValueError(f"cannot write {shown}: {missing}supported image formats are {', '.join(IMAGE_FORMATS)}")
     if suffix == ".exr" and importlib.util.find_spec("OpenEXR") is None:
         raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)")
     return path
