@@ -881,6 +881,25 @@ def test_a_row_without_a_thread_count_in_the_output_folder_is_no_row_of_an_earli
     assert [(r["scene"], r["accel"], "mrays" in r) for r in rows] == [("sphere:200", "wrt:sah", True)]
 
 
+def test_an_asset_folder_without_a_manifest_warns_once_naming_the_folder_read_instead(tmp_path, monkeypatch):
+    """WRT_ASSETS set to a folder without manifest.json (a typo) read ../shared/assets without a word where that
+    held one: now one warning names both folders, however many assets are read."""
+    shared = tmp_path / "shared" / "assets"
+    shared.mkdir(parents=True)
+    (shared / "manifest.json").write_text(json.dumps({"assets": [{"id": "chess_set", "path": "chess.usda"},
+                                                                 {"id": "teapot", "path": "teapot.usda"}]}))
+    monkeypatch.setenv("WRT_ASSETS", str(tmp_path / "asets"))
+    (tmp_path / "work").mkdir()
+    monkeypatch.chdir(tmp_path / "work")  # ../shared/assets: the folder read instead
+    monkeypatch.setattr(bench_module, "_warned_asset_folders", set())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        paths = [bench_module.asset_path(asset) for asset in ("chess_set", "teapot", "chess_set")]
+    assert [p.resolve() for p in paths] == [shared.resolve() / n for n in ("chess.usda", "teapot.usda", "chess.usda")]
+    assert [str(w.message) for w in caught] == [
+        f"WRT_ASSETS={tmp_path / 'asets'} holds no manifest.json; the shared assets are read from {paths[0].parent}"]
+
+
 def test_an_asset_folder_without_a_manifest_is_named(tmp_path, monkeypatch):
     """WRT_ASSETS set to a folder without manifest.json said 'no shared asset folder found (set WRT_ASSETS)', as if
     it were not set: now each folder looked in is named, WRT_ASSETS's first."""

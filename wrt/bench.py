@@ -604,13 +604,23 @@ def sphere_count(name: str) -> int:
     return count
 
 
+_warned_asset_folders = set()  # WRT_ASSETS folders without a manifest already warned about: once a run, not per asset
+
+
 def asset_path(asset_id: str) -> Path:
     """Path of a shared asset by manifest id."""
     candidates = [Path(os.environ["WRT_ASSETS"])] if os.environ.get("WRT_ASSETS") else []
     candidates += [Path.cwd().parent / "shared" / "assets", Path(__file__).resolve().parents[2] / "shared" / "assets"]
-    for root in candidates:
+    for k, root in enumerate(candidates):
         manifest = root / "manifest.json"
         if manifest.is_file():
+            given = candidates[0] if k and os.environ.get("WRT_ASSETS") else None
+            if given is not None and given not in _warned_asset_folders:  # a typo read another folder without a word
+                import warnings
+
+                _warned_asset_folders.add(given)
+                warnings.warn(f"WRT_ASSETS={given} holds no manifest.json; the shared assets are read from {root}",
+                              stacklevel=2)
             entries = {e["id"]: e for e in json.loads(manifest.read_text())["assets"]}
             if asset_id not in entries:  # 42 ids in the shared manifest: the one meant, not all of them
                 raise ValueError(f"no asset {asset_id!r}{did_you_mean(asset_id, entries)} in {manifest}")
