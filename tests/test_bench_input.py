@@ -568,13 +568,13 @@ def test_strict_bench_exits_1_when_a_row_disagrees_with_wp_mesh(tmp_path, monkey
 
 
 def test_spellings_of_one_accelerator_are_one_row_checked_against_warp_sah(tmp_path):
-    """'wrt', 'wrt:SAH', 'wrt:sah:binary' and 'wrt:binned_sah' are one tree: each was measured as a row of its own;
+    """'wrt', 'wrt:sah', 'wrt:sah:binary' and 'wrt:binned_sah' are one tree: each was measured as a row of its own;
     and 'warp' (warp:sah) was not taken for the reference, so every row of its group was 'unchecked'."""
-    grid = small_grid(accels=["warp", "wrt", "wrt:SAH:binary", "wrt:binned_sah", "wrt:sah:wide"],
+    grid = small_grid(accels=["warp", "wrt", "wrt:sah:binary", "wrt:binned_sah", "wrt:sah:wide"],
                       scaling={"sizes": [1000], "accels": ["wrt", "wrt:sah"]}).validated()
     assert grid.accels == ["warp:sah", "wrt:sah", "wrt:sah:wide"]
     assert grid.scaling["accels"] == ["wrt:sah"]
-    rows = run_grid(small_grid(accels=["warp", "wrt:SAH", "wrt:sah:binary"]), tmp_path, progress=False)
+    rows = run_grid(small_grid(accels=["warp", "wrt", "wrt:sah:binary"]), tmp_path, progress=False)
     assert sorted(r["accel"] for r in rows) == ["warp:sah", "wrt:sah"]
     assert all(r["agreement"] == 1.0 for r in rows), rows
 

@@ -164,6 +164,31 @@ def test_a_misspelt_choice_names_the_one_meant(capsys, args, message):
     assert line.startswith("wrt: error: ") and message in line, line
 
 
+@pytest.mark.parametrize("args, message", [
+    (["render", "--builder", "SAH"], "invalid choice: 'SAH' (did you mean 'sah'?)"),
+    (["preview", "--builder", "LBVH"], "invalid choice: 'LBVH' (did you mean 'lbvh'?)"),
+    (["bvh-stats", "x.usda", "--builder", "SAH"], "unknown BVH builder 'SAH' (did you mean 'sah'?)"),  # was taken
+    (["bvh-stats", "x.usda", "--builder", "ALL"], "unknown BVH builder 'ALL' (did you mean 'all'?)"),  # was taken
+    (["bench", "--accels", "wrt:SAH"], "unknown BVH builder 'SAH' (did you mean 'sah'?)"),  # was taken
+    (["bench", "--accels", "warp:SAH"], "wp.Mesh has no builder 'SAH' (did you mean 'sah'?)"),
+    (["bench", "--accels", "wrt:sah:WIDE"], "unknown BVH layout 'WIDE' (did you mean 'wide'?)"),
+    (["bench", "--rays", "Primary"], "unknown ray kind 'Primary' (did you mean 'primary'?)"),
+    (["bench", "--threads", "ALL"], "got 'ALL' (did you mean 'all'?)"),  # no hint
+    (["bench", "--devices", "CPU"], "unknown device 'CPU' (did you mean 'cpu'?)"),
+])
+def test_a_name_in_another_case_is_refused_by_every_command_naming_the_one_meant(tmp_path, capsys, args, message):
+    """wrt's names are lower case and exact everywhere (README, Command line): 'bvh-stats --builder SAH' and 'bench
+    --accels wrt:SAH' were taken where 'render --builder SAH' and 'bench --accels warp:SAH' were refused."""
+    try:
+        status = main([*args, "-o", str(tmp_path / "out")] if args[0] == "bench" else args)
+    except SystemExit as e:  # an argparse type's error
+        status = e.code
+    assert status == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: ") and message in line, line
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -219,7 +219,8 @@ class Grid:
         for i, t in enumerate(self.threads):
             count = (os.cpu_count() or 1) if str(t) == "all" else _positive_count(t)
             if count is None:
-                raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}", i)
+                meant = did_you_mean(t, ["all"]) if isinstance(t, str) else ""
+                raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}{meant}", i)
             if count not in threads:
                 threads.append(count)
         scaling = self.scaling
@@ -352,7 +353,7 @@ ACCEL_KINDS = ("wrt", "warp", "embree")  # what an accelerator name starts with
 
 
 def check_accel_spec(spec: str) -> str:
-    """The canonical name of accelerator ``spec`` (``wrt`` -> ``wrt:sah``, ``wrt:SAH:binary`` and ``wrt:binned_sah``
+    """The canonical name of accelerator ``spec`` (``wrt`` -> ``wrt:sah``, ``wrt:sah:binary`` and ``wrt:binned_sah``
     -> ``wrt:sah``, ``warp`` -> ``warp:sah``): rows are named, compared with :data:`REFERENCE`, deduplicated and
     resumed by it. Two spellings of one accelerator were measured twice, and ``warp`` was not taken for the
     reference, so no row of its group was checked. Raises ValueError naming ``spec`` unless it is

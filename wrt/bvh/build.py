@@ -44,9 +44,10 @@ class Builder(enum.Enum):
 
     @classmethod
     def from_str(cls, name: str) -> Builder:
-        """Parses a builder name; raises ``ValueError`` listing the valid names."""
-        key = str(name).lower()
-        key = ALIASES.get(key, key)
+        """Parses a builder name; raises ``ValueError`` listing the valid names. Names are lower case and exact, as
+        every other name wrt takes (``'SAH'`` is refused naming ``'sah'``): ``wrt bvh-stats --builder SAH`` and ``wrt
+        bench --accels wrt:SAH`` were taken where ``wrt render --builder SAH`` and ``--accels warp:SAH`` were not."""
+        key = ALIASES.get(str(name), str(name))
         for b in cls:
             if b.value == key:
                 return b

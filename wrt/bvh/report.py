@@ -30,7 +30,7 @@ def parse_builders(text) -> list[str]:
     names = []
     for item in items:
         for name in str(item).split(","):
-            name = name.strip().lower()
+            name = name.strip()
             if not name:
                 continue
             if name == "all":
