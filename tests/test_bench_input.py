@@ -789,7 +789,7 @@ def test_a_ray_count_past_the_host_memory_names_the_option_typed(tmp_path, monke
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     expected_bytes = 10**12 * bench_module.RAY_BYTES / 2**40  # TiB, as the message rounds them
     assert err == [f"wrt: error: argument --n-rays: 1,000,000,000,000 rays need about {expected_bytes:.1f} TiB of "
-                   "host memory, 1.0 GiB is available"], err
+                   "host memory, 1.0 GiB is available (see 'wrt bench --help')"], err
     assert loaded == [] and not (tmp_path / "out").exists()
     with pytest.raises(MemoryError, match="^n_rays 1000000000000 needs about"):
         small_grid(n_rays=10**12)

@@ -189,6 +189,38 @@ def test_a_name_in_another_case_is_refused_by_every_command_naming_the_one_meant
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("args, message", [
+    (["bench", "--rays", "foo"], "argument --rays: unknown ray kind 'foo'; valid ray kinds: primary, shadow, "),
+    (["bench", "--repeats", "10001"], "argument --repeats: must be at most 10,000 "),
+    (["bench", "--threads", "0"], "argument --threads: must be positive integers or 'all', got '0'"),
+    (["bench", "--accels", "warp:lbvh", "--devices", "cpu"], "arguments --accels and --devices: accelerator "),
+    (["bench", "cpu", "--quick"], "give a suite (cpu) or --quick, not both"),
+    (["render", "--workers", "2"], "--workers sizes the LocalCluster of --dask without an ADDRESS"),
+    (["render", "--builder", "ploc", "--accel", "warp"], "--builder ploc builds wrt's BVH (--accel wrt)"),
+    (["render", "--frames", "2:1"], "--frames range '2:1' is empty (END < START)"),
+    (["preview", "--bvh-instance", "1"], "--bvh-instance 1 draws an instance's BVH boxes"),
+    (["bvh-stats", "x.usda", "--device", "gpu"], "--device gpu: unknown or unavailable device 'gpu' (did you mean "),
+])
+def test_an_error_about_the_options_given_ends_as_argparses_do_in_every_command(tmp_path, capsys, args, message):
+    """The checks made after parsing ('--rays foo', '--repeats 10001', '--threads 0', '--builder ploc --accel warp')
+    ended without the '(see 'wrt bench --help')' that argparse's own errors of the same command end with."""
+    try:
+        status = main([*args, "-o", str(tmp_path / "out")] if args[0] == "bench" else args)
+    except SystemExit as e:
+        status = e.code
+    assert status == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith(f"wrt: error: {message}") and line.endswith(f" (see 'wrt {args[0]} --help')"), line
+
+
+def test_an_error_about_a_file_has_no_help_ending(tmp_path, capsys):
+    """A missing scene or an image format wrt does not write is about the file, which no option's help mends."""
+    for args in (["render", str(tmp_path / "none.usda")], ["render", "-o", str(tmp_path / "x.tif")]):
+        assert main(args) == 2
+        (line,) = error_lines(capsys.readouterr().err)
+        assert line.startswith("wrt: error: ") and "--help" not in line, line
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [
@@ -240,7 +272,7 @@ def test_a_cuda_device_without_cuda_is_one_line_not_warps_native_errors(tmp_path
         assert "CUDA error" not in result.stderr, result.stderr
         (line,) = error_lines(result.stderr)
         assert line == (f"wrt: error: --device {device}: unknown or unavailable device '{device}'; available "
-                        "devices: cpu"), line
+                        "devices: cpu (see 'wrt render --help')"), line
 
 
 def test_a_camera_not_on_the_stage_names_the_file_and_the_prim(tmp_path, capsys):
@@ -490,7 +522,7 @@ def test_a_frame_number_no_file_name_can_spell_is_refused_before_any_render(tmp_
     errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
     # Named by the option typed (it was 'frame_output: frame 1e+300: ...', a function of the library).
     assert errors == ["wrt: error: --frames '1e300': frames must lie within +-999,999,999,999 (a file name spells a "
-                      "frame to 12 significant digits)"], errors
+                      "frame to 12 significant digits) (see 'wrt render --help')"], errors
     assert not out.exists()
 
 
@@ -889,7 +921,7 @@ def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, comm
     (line,) = error_lines(capsys.readouterr().err)  # no 'loaded' line
     # 'gpu' names the one meant, as wrt bench --devices gpu does.
     assert line == (f"wrt: error: {option} gpu: unknown or unavailable device 'gpu' (did you mean 'cuda'?); available "
-                    "devices: " + ", ".join(d.alias for d in wp.get_devices())), line
+                    f"devices: {', '.join(d.alias for d in wp.get_devices())} (see 'wrt {command[0]} --help')"), line
     assert not (tmp_path / "out").exists()
 
 
@@ -1020,7 +1052,8 @@ def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys,
     assert main(args) == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert errors == [f"wrt: error: --log {log}: line 1 is not a JSON row, so the file is no log of wrt's; rows are "
-                      "appended to a log: give a new file, or the log of an earlier wrt render"], errors
+                      "appended to a log: give a new file, or the log of an earlier wrt render (see 'wrt render "
+                      "--help')"], errors
     assert log.read_bytes() == content and not (tmp_path / "out").exists()
     log.write_text("\n" + json.dumps({"run": "r", "scene": "x.usda", "status": "ok"}) + "\n")  # a log: appended to
     assert main(args) == 0 and len(log.read_text().split("\n")) == 4  # "", the row before, the new one, ""
@@ -1077,7 +1110,8 @@ def test_a_builder_the_accelerator_has_not_is_refused_before_the_load(tmp_path, 
     scene.write_text("#usda 1.0\n")
     assert main(["render", str(scene), "-o", str(tmp_path / "a.png"), "--accel", accel, "--builder", builder]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert [line for line in err if line.startswith("wrt: ")] == [f"wrt: error: {message}"], err
+    assert [line for line in err if line.startswith("wrt: ")] == [f"wrt: error: {message} (see 'wrt render --help')"], \
+        err
     assert sorted(tmp_path.iterdir()) == [scene]
 
 
@@ -1109,7 +1143,7 @@ def test_a_log_named_as_an_image_is_refused(tmp_path, capsys, name):
     assert main(["render", str(scene), "-o", str(tmp_path / "a.png"), "--log", str(log), "-q"]) == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert errors == [f"wrt: error: --log {log} names an image; the log is JSON lines: give it a file name of its "
-                      "own, e.g. --log render-log.jsonl, and the image with -o"], errors
+                      "own, e.g. --log render-log.jsonl, and the image with -o (see 'wrt render --help')"], errors
     assert sorted(tmp_path.iterdir()) == [scene]
 
 
@@ -1131,7 +1165,8 @@ def test_a_log_that_is_wrt_bench_rows_is_refused_naming_what_it_holds(tmp_path, 
         errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
         assert errors == [f"wrt: error: --log {rows}: line 1 is a row of wrt bench (sphere:100 / {first['accel']} / "
                           "primary rays), so the file holds benchmark timings, not a render log; rows are appended to "
-                          "a log: give a new file, or the log of an earlier wrt render"], errors
+                          "a log: give a new file, or the log of an earlier wrt render (see 'wrt render --help')"], \
+            errors
         assert rows.read_bytes() == before and not (tmp_path / "out").exists()
 
 
@@ -1169,7 +1204,8 @@ def test_a_log_that_is_a_pipe_is_refused_and_dev_null_taken(tmp_path, capsys):
     args = ["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "out") + "/", "-q", "--width", "4", "--height",
             "4"]
     assert main([*args, "--log", str(fifo)]) == 2
-    assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {fifo}: a pipe or socket, not a file"]
+    assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {fifo}: a pipe or socket, not a file (see "
+                                                    "'wrt render --help')"]
     assert not (tmp_path / "out").exists()
     assert main([*args, "--log", os.devnull]) == 0 and (tmp_path / "out" / "a.png").is_file()
 
@@ -1190,7 +1226,8 @@ def test_a_log_that_is_a_stream_is_refused_as_such_before_a_render(tmp_path, cap
         for log, what in ((pipe, "a pipe or socket, not a file"),
                           (tty, "a terminal or another stream that rows cannot be appended to, not a file")):
             assert main([*args, "--log", log]) == 2
-            assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {log}: {what}"]
+            ending = " (see 'wrt render --help')"
+            assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {log}: {what}{ending}"]
             assert not (tmp_path / "out").exists()
     finally:
         for fd in (read, write, terminal, other_end):
@@ -1332,8 +1369,9 @@ def test_an_image_too_large_names_the_render_settings_that_sized_it(tmp_path, ca
         (line,) = error_lines(capsys.readouterr().err)
         height = int(options[1]) if options else 2
         width = (2**31 - 1) * height // 2
+        ending = " (see 'wrt render --help')" if options else ""  # the error names --height
         assert line == f"wrt: error: {source}: {width}x{height} is {width * height:,} pixels; at most {2**26:,} are " \
-                       "supported", line
+                       f"supported{ending}", line
     assert not (tmp_path / "x.png").exists()
 
 

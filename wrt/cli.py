@@ -1496,9 +1496,20 @@ def _kernel_cache_hint(error: Exception, cache_dir: str | None) -> str:
     return f" (Warp's kernel cache {cache}: set WARP_CACHE_PATH to a writable folder)"
 
 
+def _help_hint(command: argparse.ArgumentParser, message: str) -> str:
+    """`` (see 'wrt bench --help')`` for an error about the options given, as argparse ends its own: one whose first
+    clause names an option of ``command`` (``argument --rays: unknown ray kind 'foo'``, ``--builder lbvh builds ...``,
+    ``give --devices or --dask, not both``); '' for one about a file or a scene (``cannot write x.png: ...``). Checks
+    made after parsing ended without it, argparse's with it, in one command."""
+    clause = re.split(r": |; ", message, maxsplit=1)[0]
+    named = re.findall(r"(?<![\w/.-])--?[A-Za-z][\w-]*", clause)
+    return f" (see '{command.prog} --help')" if any(n in command._option_string_actions for n in named) else ""
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs the ``wrt`` command line; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     args.command_line = list(sys.argv[1:] if argv is None else argv)  # as typed: wrt bench's Ctrl-C line repeats it
     import warp as wp
 
@@ -1522,7 +1533,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BROKEN_PIPE
     except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
         message = error_line(e)
-        print(f"wrt: error: {message}{_kernel_cache_hint(e, wp.config.kernel_cache_dir)}", file=sys.stderr)
+        # Not for an OSError: a file's state, which no option's help mends ('--log x: permission denied').
+        hint = "" if isinstance(e, OSError) else _help_hint(parser._commands()[args.command], message)
+        print(f"wrt: error: {message}{_kernel_cache_hint(e, wp.config.kernel_cache_dir)}{hint}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except DaskUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)
