@@ -235,13 +235,15 @@ def test_usd_camera_aperture_is_expanded_to_the_image_aspect(tmp_path, projectio
     w, h = max(w, h * width / height), max(h, w * height / width)  # expandAperture: grown, never cut
     frustum.SetWindow(Gf.Range2d(centre - Gf.Vec2d(w / 2, h / 2), centre + Gf.Vec2d(w / 2, h / 2)))
     origins, directions = camera_rays(wrt.load_usd(tmp_path / "fit.usda"), "/Cam", width=width, height=height)
-    for k, (o, d) in enumerate(zip(origins, directions)):
-        i, j = divmod(k, width)
-        ray = frustum.ComputePickRay(Gf.Vec2d(2.0 * (j + 0.5) / width - 1.0, 1.0 - 2.0 * (i + 0.5) / height))
-        expected = np.array(ray.direction) / ray.direction.GetLength()
-        np.testing.assert_allclose(d, expected, atol=1e-6)
-        off_ray = (o - np.array(ray.startPoint)) - np.dot(o - np.array(ray.startPoint), expected) * expected
-        np.testing.assert_allclose(off_ray, 0.0, atol=1e-5)  # the origin lies on USD's pick ray
+    rays = [frustum.ComputePickRay(Gf.Vec2d(2.0 * (j + 0.5) / width - 1.0, 1.0 - 2.0 * (i + 0.5) / height))
+            for i in range(height) for j in range(width)]  # pixel k = i * width + j, as camera_rays orders them
+    starts = np.array([ray.startPoint for ray in rays])
+    expected = np.array([ray.direction for ray in rays])
+    expected /= np.linalg.norm(expected, axis=1, keepdims=True)
+    np.testing.assert_allclose(directions, expected, atol=1e-6)  # every pixel at once: the same bound per element
+    from_start = origins - starts
+    off_ray = from_start - np.sum(from_start * expected, axis=1, keepdims=True) * expected
+    np.testing.assert_allclose(off_ray, 0.0, atol=1e-5)  # the origin lies on USD's pick ray
 
 
 def _conformed(window: Gf.Range2d, policy: str, aspect: float) -> Gf.Range2d:
