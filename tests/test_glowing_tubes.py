@@ -368,8 +368,10 @@ def test_a_capped_cone_sunk_to_its_centre_in_the_floor_lights_it_as_the_quadratu
     shape = wrt.Shape("/Cone", "cone", to_world, material_id=1, params=np.array([1.0, taper, 0.0, 1.0], np.float32))
     scene = wrt.Scene(meshes=[floor_mesh()], shapes=[shape], materials=materials())
     means = seed_images(scene, "path", spp=256)[0].mean(axis=(1, 2))
-    # The side above the floor (z in [0, half]), midpoints in (z, phi); nothing else of it faces the floor.
-    n = 256
+    # The side above the floor (z in [0, half]), midpoints in (z, phi); nothing else of it faces the floor. The rule
+    # converges as 1/n^2 (relative steps 2.4e-4, 6.1e-5, 1.4e-5 from n = 32 to 64, 128, 256): n = 128 is within 2e-5
+    # of the integral, far inside the 0.5% margin (n = 256 took 48 s of this test's 69 s).
+    n = 128
     slope = radius * (1.0 - taper) / (2.0 * half)
     zz, pp = np.meshgrid((np.arange(n) + 0.5) / n * half, (np.arange(2 * n) + 0.5) / (2 * n) * 2.0 * math.pi,
                          indexing="ij")
