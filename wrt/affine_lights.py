@@ -29,7 +29,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .glowing_tubes import TUBE_OPEN, sample_tube, tube_point_density
+from .glowing_tubes import TUBE_OPEN
 from .sampling import PI, sample_uniform_cone, to_world
 from .sphere_cone import intersect_sphere
 
@@ -145,28 +145,34 @@ def intersect_elliptic_tube(c: wp.vec3, a: wp.mat33, o: wp.vec3, d: wp.vec3):
 
 
 @wp.func
-def elliptic_tube_pdf(c: wp.vec3, m: wp.mat33, a: wp.mat33, p: wp.vec3, q: wp.vec3, dist: float, cos_l: float):
-    """Solid-angle pdf with which :func:`sample_elliptic_tube` from ``p`` draws point ``q`` on the tube (at
-    ``dist``, cosine ``cos_l`` there), for a point ``p`` sees the front of."""
+def elliptic_tube_pdf_terms(c: wp.vec3, m: wp.mat33, a: wp.mat33, p: wp.vec3, q: wp.vec3, dist: float, cos_l: float):
+    """The terms of the solid-angle pdf with which :func:`elliptic_tube_point` after
+    :func:`wrt.glowing_tubes.sample_tube` draws, from ``p``, point ``q`` on the tube (at ``dist``, cosine ``cos_l``
+    there; for a point ``p`` sees the front of): ``(drawn, to_p, qc, radial, dist^2, divisor)``, where the pdf is
+    ``dist^2 density / divisor`` if ``drawn`` (else 0), ``density`` the unit tube's by area at ``qc`` (normal
+    ``radial``) seen from ``to_p``, all in the canonical frame (:func:`wrt.glowing_tubes.tube_point_density`). The
+    density is left to the caller so that :func:`wrt.light_sampling.area_light_pdf` calls it once for the round and
+    the elliptic tube (each call site compiles it again)."""
     qc = a * (q - c)
     rho = wp.sqrt(qc[1] * qc[1] + qc[2] * qc[2])
-    if cos_l <= 0.0 or rho <= 0.0:
-        return 0.0
-    radial = wp.vec3(0.0, qc[1], qc[2]) / rho
-    stretch = tube_stretch(m, radial)
-    if stretch <= 0.0:
-        return 0.0
-    density = tube_point_density(UNIT_TUBE, UNIT_TUBE_AXIS, 1.0, 1, a * (p - c), qc, radial)  # canonical, by area
-    return dist * dist * density / (cos_l * stretch)
+    radial = wp.vec3(0.0)
+    stretch = float(0.0)
+    drawn = not (cos_l <= 0.0 or rho <= 0.0)  # (written so that a NaN goes on, as it did)
+    if drawn:
+        radial = wp.vec3(0.0, qc[1], qc[2]) / rho
+        stretch = tube_stretch(m, radial)
+        drawn = not (stretch <= 0.0)
+    return drawn, a * (p - c), qc, radial, dist * dist, cos_l * stretch
 
 
 @wp.func
-def sample_elliptic_tube(c: wp.vec3, m: wp.mat33, a: wp.mat33, p: wp.vec3, u1: float, u2: float):
-    """A point on the tube drawn for ``p`` in the canonical frame as :func:`wrt.glowing_tubes.sample_tube` draws an
+def elliptic_tube_point(c: wp.vec3, m: wp.mat33, a: wp.mat33, qc: wp.vec3, radial: wp.vec3, area: float):
+    """``(q, n, area)``: the point ``qc`` that :func:`wrt.glowing_tubes.sample_tube` drew on the unit tube as on an
     open single-sided round tube (uniformly by area over the half facing ``A (p - c)``, and by the angles the side
-    subtends from there), mapped by ``M``; with its unit world normal and the reciprocal of its world area density:
-    the canonical one's (the unit tube's ``down`` is 1) times the area stretch (0: nothing drawn)."""
-    qc, radial, area, down = sample_tube(UNIT_TUBE, UNIT_TUBE_AXIS, 1.0, a * (p - c), 1, u1, u2)
+    subtends from there; canonical normal ``radial``, reciprocal area density ``area``, the unit tube's ``down`` being
+    1), mapped by ``M``; with its unit world normal and the reciprocal of its world area density, the canonical one
+    times the area stretch (0: nothing drawn). :func:`wrt.light_sampling.sample_light` draws the canonical point
+    itself, so that its three tube lights share one call of ``sample_tube`` (each call site compiles it again)."""
     return c + m * qc, tube_normal(a, radial), area * tube_stretch(m, radial)
 
 

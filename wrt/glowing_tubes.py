@@ -463,10 +463,19 @@ def tube_pdf(row: wp.vec4, axis: wp.vec4, taper: float, facing: int, p: wp.vec3,
     """Solid-angle pdf of :func:`sample_tube` (``taper`` and ``facing`` as there) from ``p`` drawing the point
     ``dist`` along unit ``d`` whose unit normal is ``n`` (either side), for a point the ray can hit:
     ``dist^2 density / |cos|`` (:func:`tube_point_density`), lengths times the tube's ``down``."""
-    down, up = tube_scales(row, axis)
-    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
-    cos_l = wp.abs(wp.dot(d, n))
+    to_p, q, dist2, cos_l = tube_pdf_terms(row, axis, p, d, dist, n)
     if cos_l <= 0.0:
         return 0.0
+    return dist2 * tube_point_density(row, axis, taper, facing, to_p, q, n) / cos_l
+
+
+@wp.func
+def tube_pdf_terms(row: wp.vec4, axis: wp.vec4, p: wp.vec3, d: wp.vec3, dist: float, n: wp.vec3):
+    """``(to_p, q, dist^2, |cos|)`` of :func:`tube_pdf`: ``p`` and the point drawn relative to the centre, the squared
+    distance and the cosine at the point, lengths times the tube's ``down``; the pdf is ``dist^2 density / |cos|``.
+    Apart so that a caller with another tube's terms calls :func:`tube_point_density` once for both (each call site
+    compiles it again)."""
+    down, up = tube_scales(row, axis)
+    to_p = (p - wp.vec3(row[0], row[1], row[2])) * down
     scaled = dist * down
-    return scaled * scaled * tube_point_density(row, axis, taper, facing, to_p, to_p + d * scaled, n) / cos_l
+    return to_p, to_p + d * scaled, scaled * scaled, wp.abs(wp.dot(d, n))

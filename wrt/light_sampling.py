@@ -23,18 +23,20 @@ from __future__ import annotations
 import warp as wp
 
 from .affine_lights import (
+    UNIT_TUBE,
+    UNIT_TUBE_AXIS,
     ellipsoid_pdf,
-    elliptic_tube_pdf,
+    elliptic_tube_pdf_terms,
+    elliptic_tube_point,
     intersect_ellipsoid,
     intersect_elliptic_tube,
     sample_ellipsoid,
-    sample_elliptic_tube,
 )
 from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
 from .glowing_hulls import hull_pdf, sample_hull
 from .glowing_spheres import GLOW_HULL
-from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf
+from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf, tube_pdf_terms, tube_point_density
 from .ies import ies_factor
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
@@ -507,16 +509,32 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     if kind == LIGHT_ELLIPSOID:
         return ellipsoid_pdf(lights.position[k] * down, lights.shape_inverses[k] * up, lights.params[k][0] * down,
                              p * down, d)
-    if kind == LIGHT_ELLIPTIC_TUBE:
-        return elliptic_tube_pdf(lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up,
-                                 p * down, (p + dist * d) * down, dist * down, cos_l)
-    if kind == LIGHT_CYLINDER:
-        if cos_l <= 0.0:
+    if kind == LIGHT_ELLIPTIC_TUBE or kind == LIGHT_CYLINDER:
+        # The elliptic tube's pdf (wrt.affine_lights.elliptic_tube_pdf_terms) or the cylinder's (wrt.glowing_tubes.
+        # tube_pdf of its open single-sided tube), through one call of the tubes' density: each call site compiles it
+        # again.
+        tube_row = UNIT_TUBE
+        tube_axis = UNIT_TUBE_AXIS
+        drawn = bool(False)
+        to_p = wp.vec3(0.0)
+        q = wp.vec3(0.0)
+        tube_n = wp.vec3(0.0)
+        dist2 = float(0.0)
+        divisor = float(0.0)
+        if kind == LIGHT_ELLIPTIC_TUBE:
+            drawn, to_p, q, tube_n, dist2, divisor = elliptic_tube_pdf_terms(
+                lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up, p * down,
+                (p + dist * d) * down, dist * down, cos_l)
+        elif not (cos_l <= 0.0):  # (a NaN goes on, as it did)
+            tube_row, tube_axis = cylinder_tube(lights, k)
+            w = wp.normalize(lights.axis_u[k] * down)
+            rel = (p - lights.position[k]) * down + d * (dist * down)
+            tube_n = wp.normalize(rel - wp.dot(rel, w) * w)
+            to_p, q, dist2, divisor = tube_pdf_terms(tube_row, tube_axis, p, d, dist, tube_n)
+            drawn = not (divisor <= 0.0)
+        if not drawn:
             return 0.0
-        row, half = cylinder_tube(lights, k)
-        w = wp.normalize(lights.axis_u[k] * down)
-        rel = (p - lights.position[k]) * down + d * (dist * down)
-        return tube_pdf(row, half, 1.0, 1, p, d, dist, wp.normalize(rel - wp.dot(rel, w) * w))
+        return dist2 * tube_point_density(tube_row, tube_axis, 1.0, 1, to_p, q, tube_n) / divisor
     area = lights.params[k][2]  # times down^2
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
@@ -756,6 +774,49 @@ def sampled_alone(lights: DeviceLights, k: int):
 
 
 @wp.func
+def empty_sample():
+    """A :class:`LightSample` that draws nothing: no light, no pdf, at infinity along +z."""
+    out = LightSample()
+    out.wi = wp.vec3(0.0, 0.0, 1.0)
+    out.dist = float(wp.inf)
+    out.value = wp.vec3(0.0)
+    out.pdf = 0.0
+    return out
+
+
+@wp.func
+def sample_dome(lights: DeviceLights, k: int, n: wp.vec3, u1: float, u2: float):
+    """:func:`sample_light` of the dome, light ``k``, at a point of shading normal ``n`` (zero if none): a constant
+    dome cosine-weighted about ``n``, a textured one by its texels' luminance. Its own function so that whitted's
+    glossy dome term draws the dome without compiling every other light's draw into its kernel again."""
+    out = empty_sample()
+    if lights.dome_textured == 0:
+        if wp.length(n) > 0.0:
+            out.wi = to_world(sample_cosine_hemisphere(u1, u2), n)
+        else:
+            out.wi = sample_uniform_sphere(u1, u2)
+    else:
+        w = lights.texture[k][1]
+        h = lights.texture[k][2]
+        # A row by the marginal CDF, then a column by that row's CDF; where u fell inside each places the
+        # direction in the texel.
+        y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
+        fy = cdf_remainder(lights.dome_row_cdf, 0, h, y, u1)
+        x = sample_cdf(lights.dome_col_cdf, y * (w + 1), w, u2)
+        fx = cdf_remainder(lights.dome_col_cdf, y * (w + 1), w, x, u2)
+        uu = (float(x) + fx) / float(w)
+        vv = (float(y) + fy) / float(h)
+        lon = PI * (1.0 - 2.0 * uu)
+        lat = PI * (0.5 - vv)
+        local = wp.vec3(wp.cos(lat) * wp.sin(lon), wp.sin(lat), wp.cos(lat) * wp.cos(lon))
+        out.wi = wp.normalize(wp.transpose(lights.dome_to_local) * local)
+    out.pdf = dome_pdf(lights, out.wi, n)
+    if out.pdf > 0.0:
+        out.value = dome_radiance(lights, out.wi) / out.pdf
+    return out
+
+
+@wp.func
 def sample_light(
     lights: DeviceLights,
     scene: DeviceScene,
@@ -770,12 +831,14 @@ def sample_light(
     u2: float,
 ):
     """A direction from ``p`` (shading normal ``n``, zero if none) towards light ``k``; see :class:`LightSample`."""
-    out = LightSample()
-    out.wi = wp.vec3(0.0, 0.0, 1.0)
-    out.dist = float(wp.inf)
-    out.value = wp.vec3(0.0)
-    out.pdf = 0.0
+    out = empty_sample()
     kind = light_kind(lights, k)
+    # A glowing shape's emission, from its material at the shape's one texture coordinate (shapes read textures at a
+    # constant st): read here once for the three kinds, since each call site compiled the texture lookups again.
+    glow = wp.vec3(0.0)
+    if kind == LIGHT_GLOWING_SPHERE or kind == LIGHT_GLOWING_HULL or kind == LIGHT_GLOWING_TUBE:
+        glow_prim = lights.prims[k]
+        glow = shape_emission(lights, mats, k, tri_materials[glow_prim], uvs[glow_prim, 0])
     if kind == LIGHT_DISTANT:
         d = -lights.position[k]
         cone = lights.params[k][1]
@@ -839,30 +902,7 @@ def sample_light(
                     out.value = seg_value * (span / out.dist)
         return out
     if kind == LIGHT_DOME:
-        if lights.dome_textured == 0:
-            if wp.length(n) > 0.0:
-                out.wi = to_world(sample_cosine_hemisphere(u1, u2), n)
-            else:
-                out.wi = sample_uniform_sphere(u1, u2)
-        else:
-            w = lights.texture[k][1]
-            h = lights.texture[k][2]
-            # A row by the marginal CDF, then a column by that row's CDF; where u fell inside each places the
-            # direction in the texel.
-            y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
-            fy = cdf_remainder(lights.dome_row_cdf, 0, h, y, u1)
-            x = sample_cdf(lights.dome_col_cdf, y * (w + 1), w, u2)
-            fx = cdf_remainder(lights.dome_col_cdf, y * (w + 1), w, x, u2)
-            uu = (float(x) + fx) / float(w)
-            vv = (float(y) + fy) / float(h)
-            lon = PI * (1.0 - 2.0 * uu)
-            lat = PI * (0.5 - vv)
-            local = wp.vec3(wp.cos(lat) * wp.sin(lon), wp.sin(lat), wp.cos(lat) * wp.cos(lon))
-            out.wi = wp.normalize(wp.transpose(lights.dome_to_local) * local)
-        out.pdf = dome_pdf(lights, out.wi, n)
-        if out.pdf > 0.0:
-            out.value = dome_radiance(lights, out.wi) / out.pdf
-        return out
+        return sample_dome(lights, k, n, u1, u2)
     if kind == LIGHT_SPHERE:
         wi, t, one_minus = sample_sphere_cone(lights.position[k], lights.params[k][0], p, u1, u2)
         if one_minus <= 0.0:
@@ -880,9 +920,7 @@ def sample_light(
         out.wi = wi
         out.dist = t
         out.pdf = 1.0 / (2.0 * PI * g_one_minus)
-        prim = lights.prims[k]
-        # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
-        out.value = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) * (2.0 * PI * g_one_minus)
+        out.value = glow * (2.0 * PI * g_one_minus)
         return out
     if kind == LIGHT_GLOWING_HULL:
         # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls).
@@ -894,7 +932,7 @@ def sample_light(
             out.wi = wi
             out.dist = t
             out.pdf = pdf
-            out.value = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0]) / pdf
+            out.value = glow / pdf
         return out
     if kind == LIGHT_ELLIPSOID:
         ell_down, ell_up = light_scales(lights, k)
@@ -947,29 +985,47 @@ def sample_light(
             if area_share > 0.0:
                 pdf_solid_angle = spherical_rect_pdf(seen, n, q * rect_down)  # 0 where the reach cut it off
         L = wp.cw_mul(L, light_texture(lights, k, q))
-    elif kind == LIGHT_CYLINDER:
-        # An open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p and by the angles
-        # its side subtends, mixed; "area" is one over the mixture's density, in the tube's own lengths (down).
-        row, half = cylinder_tube(lights, k)
-        q, ln, area, down = sample_tube(row, half, 1.0, p, 1, u1, u2)
+    elif kind == LIGHT_CYLINDER or kind == LIGHT_GLOWING_TUBE or kind == LIGHT_ELLIPTIC_TUBE:
+        # Tubes, drawn by one call of sample_tube (a large function: each call site compiled it again) with the
+        # tube's row, axis, taper, side and point of view:
+        # - a cylinder light, an open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p
+        #   and by the angles its side subtends, mixed; "area" is one over the mixture's density, in the tube's own
+        #   lengths (down);
+        # - a glowing tube, likewise over the part of it p can see the front of (the whole of a double-sided one);
+        #   points facing away are dropped below;
+        # - an elliptic tube, in its canonical frame as an open round tube, then mapped to the world
+        #   (wrt.affine_lights; "area" = 1 / its area pdf).
+        tube_row = UNIT_TUBE
+        tube_axis = UNIT_TUBE_AXIS
+        taper = float(1.0)
+        one_sided = int(1)
+        seen_from = p
+        ell_c = wp.vec3(0.0)
+        ell_m = wp.mat33(0.0)
+        ell_a = wp.mat33(0.0)
         L = lights.radiance[k]
-    elif kind == LIGHT_GLOWING_TUBE:
-        # Uniform by area over the part of the tube p can see the front of (the whole of a double-sided one) and by
-        # the angles its side subtends, mixed (wrt.glowing_tubes); "area" is one over the mixture's density. Points
-        # facing away are dropped below.
-        j = k - lights.first_glowing_sphere
-        prim = lights.prims[k]
-        two_sided = tri_double_sided[prim]
-        q, ln, area, down = sample_tube(lights.glowing_spheres[j], lights.glowing_axes[j], lights.glowing_tapers[j], p,
-                                        1 - two_sided, u1, u2)
-        # Its material's emission at the shape's one texture coordinate (shapes read textures at a constant st).
-        L = shape_emission(lights, mats, k, tri_materials[prim], uvs[prim, 0])
-    elif kind == LIGHT_ELLIPTIC_TUBE:
-        # Drawn in the tube's canonical frame as an open round tube (wrt.affine_lights; "area" = 1 / its area pdf).
-        q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
-                                                lights.shape_inverses[k] * up, p * down, u1, u2)
-        q = q_down * up
-        L = lights.radiance[k]
+        if kind == LIGHT_CYLINDER:
+            tube_row, tube_axis = cylinder_tube(lights, k)
+        elif kind == LIGHT_GLOWING_TUBE:
+            j = k - lights.first_glowing_sphere
+            prim = lights.prims[k]
+            two_sided = tri_double_sided[prim]
+            tube_row = lights.glowing_spheres[j]
+            tube_axis = lights.glowing_axes[j]
+            taper = lights.glowing_tapers[j]
+            one_sided = 1 - two_sided
+            L = glow
+        else:
+            ell_c = lights.position[k] * down
+            ell_m = lights.shapes[k] * down
+            ell_a = lights.shape_inverses[k] * up
+            seen_from = ell_a * (p * down - ell_c)
+        q, ln, area, tube_down = sample_tube(tube_row, tube_axis, taper, seen_from, one_sided, u1, u2)
+        if kind == LIGHT_ELLIPTIC_TUBE:
+            q_down, ln, area = elliptic_tube_point(ell_c, ell_m, ell_a, q, ln, area)
+            q = q_down * up
+        else:
+            down = tube_down
     else:
         prim = lights.prims[k]
         a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])

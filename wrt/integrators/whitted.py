@@ -46,7 +46,7 @@ from ..light_sampling import (
     dome_radiance,
     hit_emitter,
     lit_bsdf,
-    sample_light,
+    sample_dome,
     sample_light_in_view,
     shadow_fades,
     shadow_tint,
@@ -157,8 +157,7 @@ def glossy_dome(
     glossy = glossy_lobes(lobes)
     if glossy.weights[1] + glossy.weights[2] + glossy.weights[3] <= 0.0:
         return total, state
-    ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, lights.dome, h.p, h.ns, u1,
-                      u2)
+    ls = sample_dome(lights, lights.dome, h.ns, u1, u2)
     if ls.pdf > 0.0:
         _, f_s, p_bsdf = eval_opaque(s, mats.ggx_albedo, glossy, h.ns, h.ng, wo, ls.wi)
         total += wp.cw_mul(f_s, ls.value) * (wp.dot(h.ns, ls.wi) * power_heuristic(ls.pdf, p_bsdf))
