@@ -60,6 +60,15 @@ def test_the_light_draw_holds_one_copy_of_each_large_draw(path_calls, function):
     assert copies(path_calls, "sample_light", function) == 1
 
 
+def test_a_surface_holds_one_texture_lookup(path_calls):
+    """The eight textured inputs of a surface are read through one lookup (a loop over the slots)."""
+    assert copies(path_calls, "eval_surface", "lookup_binding") == 1
+
+
+def test_a_bilinear_lookup_wraps_each_row_and_column_once(path_calls):
+    assert copies(path_calls, "sample_image", "wrap_coord") == 4
+
+
 def test_a_tube_light_pdf_holds_one_tube_density(path_calls):
     """The cylinder's and the elliptic tube's pdfs, for rays that meet them, share one density."""
     assert copies(path_calls, "area_light_pdf", "tube_point_density") == 1

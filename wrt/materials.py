@@ -697,18 +697,49 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     # A mesh without the primvar keeps the constant: the reader's fallback.
     if (flags & FLAG_DISPLAY_COLOR) != 0 and not wp.isnan(display_color[0]):
         base = wp.cw_mul(display_color, mats.colors[m, 3])
-    s.base_color = input_color(mats, m, SLOT_DIFFUSE, st, base)
-    s.emission = input_color(mats, m, SLOT_EMISSIVE, st, mats.colors[m, 1])
-    s.specular_color = input_color(mats, m, SLOT_SPECULAR, st, mats.colors[m, 2])
-    s.metallic = wp.clamp(input_float(mats, m, SLOT_METALLIC, st, mats.params[m, 0]), 0.0, 1.0)
-    s.roughness = wp.clamp(input_float(mats, m, SLOT_ROUGHNESS, st, mats.params[m, 1]), 0.0, 1.0)
-    s.opacity = wp.clamp(input_float(mats, m, SLOT_OPACITY, st, mats.params[m, 2]), 0.0, 1.0)
+    emission = mats.colors[m, 1]
+    specular = mats.colors[m, 2]
+    metallic = mats.params[m, 0]
+    roughness = mats.params[m, 1]
+    opacity = mats.params[m, 2]
+    clearcoat = mats.params[m, 5]
+    clearcoat_roughness = mats.params[m, 6]
+    # A bound texture replaces its input's constant. One lookup in a loop over the slots (its bound read at run time,
+    # so that Warp does not unroll it), not one per input: a lookup is large, and each call site of it was compiled
+    # again into every kernel that evaluates a surface (CUDA compile time). The normal map is read by the shading.
+    for slot in range(mats.slots.shape[1]):
+        b = mats.slots[m, slot]
+        if b >= 0 and slot != SLOT_NORMAL:
+            c = lookup_binding(mats, b, st)
+            rgb = wp.vec3(c[0], c[1], c[2])
+            if slot == SLOT_DIFFUSE:
+                base = rgb
+            elif slot == SLOT_EMISSIVE:
+                emission = rgb
+            elif slot == SLOT_SPECULAR:
+                specular = rgb
+            elif slot == SLOT_METALLIC:
+                metallic = c[0]
+            elif slot == SLOT_ROUGHNESS:
+                roughness = c[0]
+            elif slot == SLOT_OPACITY:
+                opacity = c[0]
+            elif slot == SLOT_CLEARCOAT:
+                clearcoat = c[0]
+            elif slot == SLOT_CLEARCOAT_ROUGHNESS:
+                clearcoat_roughness = c[0]
+    s.base_color = base
+    s.emission = emission
+    s.specular_color = specular
+    s.metallic = wp.clamp(metallic, 0.0, 1.0)
+    s.roughness = wp.clamp(roughness, 0.0, 1.0)
+    s.opacity = wp.clamp(opacity, 0.0, 1.0)
     if m == 0 and not wp.isnan(display_opacity):
         s.opacity = wp.clamp(display_opacity, 0.0, 1.0)
     s.opacity_threshold = mats.params[m, 3]
     s.ior = wp.max(mats.params[m, 4], MIN_IOR)
-    s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)
-    s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
+    s.clearcoat = wp.clamp(clearcoat, 0.0, 1.0)
+    s.clearcoat_roughness = wp.clamp(clearcoat_roughness, 0.0, 1.0)
     s.clearcoat_ior = wp.max(mats.params[m, 7], MIN_IOR)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
     s.thin_walled = wp.where((flags & FLAG_THIN_WALLED) != 0, 1, 0)

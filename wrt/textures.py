@@ -772,10 +772,16 @@ def sample_image(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, st: wp
     fy = y - y0f
     x0 = int(x0f)
     y0 = int(y0f)
-    c00 = fetch_texel(texels, offset, size, x0, y0, wrap)
-    c10 = fetch_texel(texels, offset, size, x0 + 1, y0, wrap)
-    c01 = fetch_texel(texels, offset, size, x0, y0 + 1, wrap)
-    c11 = fetch_texel(texels, offset, size, x0 + 1, y0 + 1, wrap)
+    # Wrap each column and row once (four wraps, not one per coordinate of each of the four texels: a texture lookup
+    # is compiled into every kernel once per input that can be textured).
+    xa = wrap_coord(x0, size[0], wrap[0])
+    xb = wrap_coord(x0 + 1, size[0], wrap[0])
+    ya = offset + wrap_coord(y0, size[1], wrap[1]) * size[0]
+    yb = offset + wrap_coord(y0 + 1, size[1], wrap[1]) * size[0]
+    c00 = wp.vec4(texels[ya + xa])
+    c10 = wp.vec4(texels[ya + xb])
+    c01 = wp.vec4(texels[yb + xa])
+    c11 = wp.vec4(texels[yb + xb])
     return (c00 * (1.0 - fx) + c10 * fx) * (1.0 - fy) + (c01 * (1.0 - fx) + c11 * fx) * fy
 
 
