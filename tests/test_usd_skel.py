@@ -335,15 +335,18 @@ def Xform "World"
     assert distance.min(axis=1).max() < 2e-6 and sorted(distance.argmin(axis=1)) == list(range(len(expected)))
 
 
-def test_a_skeleton_bound_above_the_skel_root_poses_nothing_as_in_usd(tmp_path):
+@pytest.mark.parametrize("outer", ["Xform", "SkelRoot"])
+def test_a_skeleton_bound_above_the_skel_root_poses_as_in_usd(tmp_path, outer):
     """``skel:skeleton`` authored on an Xform above the SkelRoot binds nothing: UsdSkel resolves bindings from the
     SkelRoot down, and BakeSkinning leaves the meshes as authored. wrt took it as bound (``GetInheritedSkeleton``
-    walks past the SkelRoot) and drew the bar 5.9 and the rigid quad 1.9 from USD's points."""
+    walks past the SkelRoot) and drew the bar 5.9 and the rigid quad 1.9 from USD's points. Authored on an outer
+    SkelRoot, it binds the inner one's meshes (UsdSkel resolves them from the outer one): wrt populated UsdSkel's
+    cache from the inner one and drew the bar 1.39 and the blend-shape quad 0.36 from BakeSkinning's points."""
     binding = "rel skel:skeleton = </World/Root/Skel>"
     inner = skel_root("/World/Root")
     assert inner.count(binding) == 1
     inner = "\n".join("    " + line for line in inner.replace(binding, "").splitlines())
-    path = write(tmp_path, f'def Xform "World" (\n    prepend apiSchemas = ["SkelBindingAPI"]\n)\n{{\n'
+    path = write(tmp_path, f'def {outer} "World" (\n    prepend apiSchemas = ["SkelBindingAPI"]\n)\n{{\n'
                            f"    {binding}\n{inner}\n}}\n")
     stage = baked(path)
     by_path = {m.path: m for m in loaded(path, 5.0).meshes}

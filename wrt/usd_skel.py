@@ -68,9 +68,9 @@ class SkelPoser:
         self.shown_path = shown_path
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
-        # The SkelRoot at or above a prim (within its prototype, for prims inside one), or None; remembered for every
-        # prim walked, as every mesh asks.
-        self.skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
+        # The nearest SkelRoot at or above a prim (within its prototype, for prims inside one), or None; remembered
+        # for every prim walked, as every mesh asks.
+        self.nearest_skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
@@ -117,6 +117,18 @@ class SkelPoser:
         except (RuntimeError, ValueError, IndexError, TypeError) as e:  # RuntimeError: Tf errors, null prims
             self.skip(FAILED, prim, str(e).strip().splitlines()[-1][:120] or type(e).__name__)
             return None
+
+    def skel_root(self, prim: Usd.Prim) -> Usd.Prim | None:
+        """The outermost SkelRoot at or above ``prim`` (within its prototype, for prims inside one), or None: UsdSkel
+        resolves a nested SkelRoot's meshes from the outer one (``ComputeSkelBindings`` of the inner one misses a
+        binding above it, and the cache populated from it posed them without their blend shapes, 1.4 from USD's)."""
+        root = self.nearest_skel_root(prim)
+        while root is not None:
+            outer = self.nearest_skel_root(root.GetParent())
+            if outer is None:
+                return root
+            root = outer
+        return None
 
     def _skinned_from_above_its_instance(self, prim: Usd.Prim) -> bool:
         """Whether USD skins ``prim``, a mesh in a native prototype with no SkelRoot in it, through its proxy in the
