@@ -912,3 +912,16 @@ def test_an_asset_folder_without_a_manifest_is_named(tmp_path, monkeypatch):
         f"asset 'chess_set': no shared asset folder found: no manifest.json in {tmp_path / 'asets'} (WRT_ASSETS), "
         f"{tmp_path.parent / 'shared' / 'assets'}, {tmp_path / 'shared' / 'assets'}; set WRT_ASSETS to the folder "
         "that holds it")
+
+
+def test_an_asset_folder_looked_in_twice_is_named_once(tmp_path, monkeypatch):
+    """Run from the repository's root, ../shared/assets is the folder beside the package: the message named it
+    twice."""
+    monkeypatch.delenv("WRT_ASSETS", raising=False)
+    (tmp_path / "repo").mkdir()
+    monkeypatch.chdir(tmp_path / "repo")
+    monkeypatch.setattr(bench_module, "__file__", str(tmp_path / "repo" / "wrt" / "bench.py"))
+    with pytest.raises(FileNotFoundError) as error:
+        bench_module.asset_path("chess_set")
+    assert str(error.value) == (f"asset 'chess_set': no shared asset folder found: no manifest.json in "
+                                f"{tmp_path / 'shared' / 'assets'}; set WRT_ASSETS to the folder that holds it")

@@ -612,6 +612,7 @@ def asset_path(asset_id: str) -> Path:
     """Path of a shared asset by manifest id."""
     candidates = [Path(os.environ["WRT_ASSETS"])] if os.environ.get("WRT_ASSETS") else []
     candidates += [Path.cwd().parent / "shared" / "assets", Path(__file__).resolve().parents[2] / "shared" / "assets"]
+    candidates = list(dict.fromkeys(candidates))  # run from the repository's root, the last two are one folder
     for k, root in enumerate(candidates):
         manifest = root / "manifest.json"
         if manifest.is_file():
