@@ -454,6 +454,13 @@ def _messages(load) -> list[str]:
     return [str(w.message) for w in caught]
 
 
+def _loaded_with_messages(path: str, **options) -> tuple:
+    """``(wrt.load_usd(path, **options), the warnings it gave)``."""
+    loaded = []
+    messages = _messages(lambda: loaded.append(wrt.load_usd(path, **options)))
+    return loaded[0], messages
+
+
 def test_a_collection_binding_of_six_name_parts_is_named_as_ambiguous(tmp_path):
     """``material:binding:collection:full:a:b`` binds for ``full`` to ``ComputeBoundMaterial`` (which wrt follows),
     while ``GetCollectionBindingRels("")`` lists it among all-purpose bindings: USD's two calls disagree on its
@@ -544,13 +551,7 @@ def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
         assert not rel and not material
     material, rel = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/Reversed")).ComputeBoundMaterial()
     assert rel and material.GetPath() == green.GetPath()
-    scene = None
-
-    def load():
-        nonlocal scene
-        scene = wrt.load_usd(path)
-
-    messages = _messages(load)
+    scene, messages = _loaded_with_messages(path)
     named = [m for m in messages if "USD ignores" in m]
     assert len(named) == 1, messages
     assert named[0].startswith(path) and "3 prim(s)" in named[0]
@@ -587,13 +588,7 @@ def test_a_binding_through_a_relationship_is_named_only_where_usd_ignores_it(tmp
     ignored = {mesh for mesh in meshes
                if not UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(mesh)).ComputeBoundMaterial()[1]}
     assert ignored == {"/World/two", "/World/none"}  # USD's own answer: the stage holds both kinds
-    scene = None
-
-    def load():
-        nonlocal scene
-        scene = wrt.load_usd(path)
-
-    messages = _messages(load)
+    scene, messages = _loaded_with_messages(path)
     named = [m for m in messages if "USD ignores" in m]
     assert len(named) == 1, messages
     assert f"{len(ignored)} prim(s)" in named[0], named[0]
@@ -663,13 +658,8 @@ def test_a_listed_purposes_binding_to_no_material_is_named_and_binds_nothing(tmp
     expected = {mesh: usd_binding(stage.GetPrimAtPath(mesh)) for mesh in bindings}
     unbound = {mesh for mesh, (material, rel) in expected.items() if rel and not material}
     assert unbound == {f"/World/{name}" for name in named_meshes}
-    scene = None
-
-    def load():
-        nonlocal scene
-        scene = wrt.load_usd(path, render_settings="/Render/S")
-
-    named = [m for m in _messages(load) if "no Material" in m]
+    scene, messages = _loaded_with_messages(path, render_settings="/Render/S")
+    named = [m for m in messages if "no Material" in m]
     assert len(named) == 1 and f": {len(unbound)} prim(s)" in named[0], named
     details = collections.Counter(f"{rel.GetName()} -> {rel.GetTargets()[0]}" for mesh, (_, rel) in expected.items()
                                   if mesh in unbound)
