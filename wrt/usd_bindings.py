@@ -106,9 +106,8 @@ def overrides_below(rel) -> bool:
         return True
     if rel.GetName().split(":")[:3] != ["material", "binding", "collection"]:
         return False
-    purpose = binding_purpose(rel)
     prim = rel.GetPrim()
-    direct = prim.GetRelationship(f"material:binding:{purpose}" if purpose else "material:binding")
+    direct = UsdShade.MaterialBindingAPI(prim).GetDirectBindingRel(binding_purpose(rel))
     return bool(direct and direct.GetTargets()) and not is_ignored_binding(prim, direct.GetName()) and is_stronger(
         direct)
 
