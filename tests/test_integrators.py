@@ -339,9 +339,10 @@ def test_thin_lens_rays_of_a_sheared_offset_camera_meet_in_focus_within_their_pi
                             camera=cam, width=width, height=height, device="cpu", integrator="path")
     n = width * height * samples
     kinds = (wp.vec3, wp.vec3, float, float, wp.uint32, wp.vec3, wp.vec3, wp.int32, float, wp.vec3, wp.int32)
-    outputs = [wp.empty(n, dtype=kind, device="cpu") for kind in kinds]  # start_paths_kernel's outputs, in order
+    device = renderer.device  # the renderer's own: a CUDA host's test plugin moves it (benchmarks/render_on_cuda.py)
+    outputs = [wp.empty(n, dtype=kind, device=device) for kind in kinds]  # start_paths_kernel's outputs, in order
     wp.launch(start_paths_kernel, n, inputs=[renderer._cams, renderer._lenses, width, height, 0, 7, FIRST_SPREAD],
-              outputs=outputs, device="cpu")
+              outputs=outputs, device=device)
     o, d, t_min = (a.numpy().astype(np.float64) for a in outputs[:3])
     to_camera = np.linalg.inv(m)
     o = (o - m[:3, 3]) @ to_camera[:3, :3].T
