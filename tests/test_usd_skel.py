@@ -300,14 +300,27 @@ def test_skinned_meshes_inside_instances_are_posed(tmp_path):
     np.testing.assert_allclose(points[indices], np.concatenate(expected), atol=2e-6)
 
 
-def test_skinned_meshes_in_a_point_instancer_prototype_are_posed(tmp_path):
+@pytest.mark.parametrize("outer", ["Xform", "SkelRoot", "SkelRoot bound"])
+def test_skinned_meshes_in_a_point_instancer_prototype_are_posed(tmp_path, outer):
     """A SkelRoot that is a PointInstancer's prototype is posed in place (its meshes as BakeSkinning poses them) and
     drawn by every instance: each of ``Scene.triangles()`` is one of the posed triangles moved by one instance's
-    transform (``ComputeInstanceTransformsAtTime``, the SkelRoot's own transform applied to the points), one to one."""
-    prototype = "\n".join("        " + line for line in skel_root("/World/PI/Protos/Root").splitlines())
+    transform (``ComputeInstanceTransformsAtTime``, the SkelRoot's own transform applied to the points), one to one.
+    Under an outer SkelRoot too: UsdSkel's cache populated from that one leaves out the instancer's subtree, and
+    BakeSkinning poses the prototype from its own SkelRoot; wrt posed from the outer one and drew it unposed (5.9 from
+    BakeSkinning's points), saying its skinning failed. A ``skel:skeleton`` bound on the outer SkelRoot alone binds
+    nothing there (BakeSkinning leaves the meshes as authored): wrt left them so but said their skinning failed."""
+    prototype = skel_root("/World/PI/Protos/Root")
+    binding = "rel skel:skeleton = </World/PI/Protos/Root/Skel>"
+    if outer == "SkelRoot bound":  # the binding moved from the prototype's SkelRoot up to the outer one
+        assert prototype.count(binding) == 1
+        prototype = prototype.replace(binding, "")
+    prototype = "\n".join("        " + line for line in prototype.splitlines())
     path = write(tmp_path, f"""
-def Xform "World"
+def {outer.split()[0]} "World" (
+    prepend apiSchemas = ["SkelBindingAPI"]
+)
 {{
+    {binding if outer == "SkelRoot bound" else ""}
     def PointInstancer "PI"
     {{
         rel prototypes = [</World/PI/Protos/Root>]

@@ -4,13 +4,13 @@ characters keep their bind pose in ``points`` and move only through their skelet
 A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``; constant ones may be
 inherited from an ancestor, binding every mesh beneath it rigidly) or blend shapes (``skel:blendShapes``), a
 skeleton bound to it or an ancestor (``skel:skeleton``, authored at or below a ``SkelRoot``) and a ``SkelRoot``
-above it: the same conditions as UsdSkel's. Its points go through its blend shapes (weighted by the skeleton's
-animation), then through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of
-its ``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a rigidly bound mesh (constant joint influences) is
-moved by ``UsdSkel.SkinTransform``. The result is in the skeleton's space: the caller places it with the skeleton
-prim's transform, not the mesh's own, as ``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every
-interpolation) are skinned with the inverse transposes of the same joint transforms and weights
-(``UsdSkel.SkinNormals``), after blend shapes' ``normalOffsets``.
+above it (below any PointInstancer above it): the same conditions as UsdSkel's. Its points go through its blend
+shapes (weighted by the skeleton's animation), then through linear blend (or dual quaternion) skinning by
+``UsdSkel.SkinPoints`` with the influences of its ``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a rigidly
+bound mesh (constant joint influences) is moved by ``UsdSkel.SkinTransform``. The result is in the skeleton's space:
+the caller places it with the skeleton prim's transform, not the mesh's own, as ``UsdSkel.BakeSkinning`` and
+UsdSkelImaging do. Authored normals (every interpolation) are skinned with the inverse transposes of the same joint
+transforms and weights (``UsdSkel.SkinNormals``), after blend shapes' ``normalOffsets``.
 
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
@@ -68,9 +68,12 @@ class SkelPoser:
         self.shown_path = shown_path
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
-        # The nearest SkelRoot at or above a prim (within its prototype, for prims inside one), or None; remembered
-        # for every prim walked, as every mesh asks.
-        self.nearest_skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
+        # The nearest SkelRoot at or above a prim (within its prototype, for prims inside one) and below any
+        # PointInstancer above it, or None; remembered for every prim walked, as every mesh asks. UsdSkel's cache
+        # populated from a SkelRoot leaves out the subtrees of the PointInstancers below it: a prototype is skinned
+        # by a SkelRoot of its own, or not at all.
+        self.nearest_skel_root = AncestorMemo(
+            lambda p: p if p.IsA(UsdSkel.Root) else None if p.IsA(UsdGeom.PointInstancer) else KEEP_LOOKING)
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
@@ -119,9 +122,11 @@ class SkelPoser:
             return None
 
     def skel_root(self, prim: Usd.Prim) -> Usd.Prim | None:
-        """The outermost SkelRoot at or above ``prim`` (within its prototype, for prims inside one), or None: UsdSkel
-        resolves a nested SkelRoot's meshes from the outer one (``ComputeSkelBindings`` of the inner one misses a
-        binding above it, and the cache populated from it posed them without their blend shapes, 1.4 from USD's)."""
+        """The outermost SkelRoot at or above ``prim`` (within its prototype, for prims inside one, and below any
+        PointInstancer above it), or None: UsdSkel resolves a nested SkelRoot's meshes from the outer one
+        (``ComputeSkelBindings`` of the inner one misses a binding above it, and the cache populated from it posed
+        them without their blend shapes, 1.4 from USD's); but not across a PointInstancer, whose subtree the outer
+        one's cache leaves out (a SkelRoot that is its prototype was drawn unposed, 5.9 from BakeSkinning's)."""
         root = self.nearest_skel_root(prim)
         while root is not None:
             outer = self.nearest_skel_root(root.GetParent())
@@ -145,13 +150,18 @@ class SkelPoser:
 
     def _bound_skeleton(self, prim: Usd.Prim) -> UsdSkel.Skeleton | None:
         """The Skeleton bound to ``prim``: by ``skel:skeleton`` on it or on the nearest ancestor that has one, as
-        ``GetInheritedSkeleton`` finds it, but None where that ancestor has no SkelRoot at or above it. UsdSkel
-        resolves bindings walking down from each SkelRoot, so one authored above every SkelRoot binds nothing
-        (``ComputeSkelBindings`` and BakeSkinning leave the meshes unposed); wrt posed them, 5.9 from USD's."""
-        while prim and not prim.IsPseudoRoot():
+        ``GetInheritedSkeleton`` finds it, but only up to its :meth:`skel_root` (None without one). UsdSkel resolves
+        bindings walking down from that SkelRoot, so one authored above it binds nothing (``ComputeSkelBindings``
+        and BakeSkinning leave the meshes unposed): above every SkelRoot wrt posed them, 5.9 from USD's."""
+        root = self.skel_root(prim)
+        if root is None:
+            return None
+        while prim:
             rel = prim.GetRelationship("skel:skeleton")
             if rel and rel.HasAuthoredTargets():
-                return UsdSkel.BindingAPI(prim).GetSkeleton() if self.skel_root(prim) is not None else None
+                return UsdSkel.BindingAPI(prim).GetSkeleton()
+            if prim == root:
+                return None
             prim = prim.GetParent()
         return None
 
