@@ -21,17 +21,21 @@ import wrt
 from wrt.textures import load_image
 
 
-def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None):
-    """An uncompressed grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for
-    integers) written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per
-    ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag
-    where given (2: signed integers, 3: floats)."""
+def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False):
+    """A grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for integers)
+    written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per ``rows_per_strip``
+    rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag where given (2:
+    signed integers, 3: floats). Uncompressed, or with ``deflate`` each strip zlib-compressed (Compression 8, as
+    libtiff writes it); ``planar``: each channel's strips apart, one plane after another (PlanarConfiguration 2)."""
     samples = np.asarray(samples)
     samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
     bits = samples.dtype.itemsize * 8
     sample_type = byte_order + samples.dtype.str[1:]
-    strips = [samples[r : r + rows_per_strip].astype(sample_type).tobytes() for r in range(0, h, rows_per_strip)]
+    planes = [samples[..., k : k + 1] for k in range(c)] if planar else [samples]
+    strips = [plane[r : r + rows_per_strip].astype(sample_type).tobytes() for plane in planes
+              for r in range(0, h, rows_per_strip)]
+    strips = [zlib.compress(strip) for strip in strips] if deflate else strips
     n_strips = len(strips)
     tags = (11 if c == 4 else 10) + (sample_format is not None)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
@@ -47,9 +51,9 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
     one_offset = pixels_at if n_strips == 1 else offsets_at
     one_count = len(strips[0]) if n_strips == 1 else counts_at
     ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), entry(258, 3, c, bits if c == 1 else bits_at),
-           entry(259, 3, 1, 1),
+           entry(259, 3, 1, 8 if deflate else 1),
            entry(262, 3, 1, 1 if c == 1 else 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
-           entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 1)]
+           entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 2 if planar else 1)]
     if c == 4:
         ifd.append(entry(338, 3, 1, 2))  # extra sample: unassociated alpha
     if sample_format is not None:
@@ -119,6 +123,44 @@ def test_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order,
     expected = np.ones((3, 5, 4))
     expected[..., :channels] = samples / 65535.0
     np.testing.assert_allclose(image, expected, atol=1e-7)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("channels", [3, 4])
+def test_compressed_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order, channels):
+    """A compressed TIFF (deflate here; LZW alike) is decoded by libtiff, which hands its 16-bit samples over in the
+    machine's byte order (Pillow's raw mode ``RGB;16N``): wrt did not know that raw mode, so Pillow kept the high
+    byte and ``auto`` decoded the 8 bits as sRGB: 0.5 read 0.216, as an uncompressed file did before."""
+    samples = np.random.default_rng(8).integers(0, 65536, (3, 5, channels))
+    samples[0, 0, :] = 0x8001
+    image = load_image(write_tiff(tmp_path / "c.tif", samples, byte_order, deflate=True), "auto")
+    expected = np.ones((3, 5, 4))
+    expected[..., :channels] = samples / 65535.0
+    np.testing.assert_allclose(image, expected, atol=1e-7)
+
+
+@pytest.mark.parametrize("dtype, sample_format, full", [(np.int16, 2, 32767.0), (np.int32, 2, 2147483647.0),
+                                                         (np.float32, 3, 1.0)])
+def test_compressed_big_endian_grey_tiffs_read_their_samples(tmp_path, dtype, sample_format, full):
+    """libtiff hands a compressed big-endian file's samples over in the machine's byte order, and Pillow unpacked its
+    signed and float grey in the file's: deflated, 1000 of 16 bits read -6141 (over 32767: -0.19), a float 0.5 read
+    1e34."""
+    grey = np.array([[0, 1000, 20000], [7, -300, -32768]], np.float64)
+    samples = (grey / 32767.0 if dtype == np.float32 else grey).astype(dtype)[..., None]
+    image = load_image(write_tiff(tmp_path / "g.tif", samples, ">", sample_format=sample_format, deflate=True), "raw")
+    np.testing.assert_allclose(image[..., 0], samples[..., 0] / full, rtol=1e-6)
+
+
+@pytest.mark.parametrize("deflate", [False, True])
+def test_a_16_bit_tiff_stored_plane_by_plane_reads_linear_within_8_bits(tmp_path, deflate):
+    """A 16-bit RGB TIFF stored plane by plane (PlanarConfiguration 2): Pillow unpacked each uncompressed plane as
+    8-bit samples (0.5 read 0.0003) and a compressed one, which libtiff decodes, to 8 bits then decoded as sRGB
+    under ``auto`` (0.5 read 0.216). libtiff decodes both now; Pillow keeps 8 bits of such planes (README, Known
+    limits), read linear."""
+    samples = np.random.default_rng(9).integers(0, 65536, (3, 5, 3))
+    image = load_image(write_tiff(tmp_path / "p.tif", samples, planar=True, deflate=deflate), "auto")
+    np.testing.assert_allclose(image[..., :3], samples / 65535.0, atol=1.0 / 255)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
 @pytest.mark.parametrize("bits", [8, 16])

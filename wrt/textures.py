@@ -37,6 +37,7 @@ import contextlib
 import io
 import math
 import struct
+import sys
 import threading
 import warnings
 
@@ -45,7 +46,7 @@ import warp as wp
 
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem, without_unread_chunks
-from .tiff_checks import SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
+from .tiff_checks import PLANAR_CONFIGURATION, SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -64,7 +65,14 @@ SMALLEST_UNSCALED = 2.0**-10
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
-SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGBA;16B", "RGBA;16L", "LA;16B")
+# (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N)
+SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGB;16N", "RGBA;16B", "RGBA;16L", "RGBA;16N", "LA;16B")
+OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"}  # raw mode order -> the other byte's
+# Pillow raw modes of a TIFF's grey samples over 8 bits that name the file's byte order -> the machine's (N), for a
+# file libtiff decodes: libtiff hands samples over in the machine's order, and Pillow renames only the ;16B and ;16L
+# of colour and unsigned grey (TiffImagePlugin: "libtiff always returns the bytes in native order")
+LIBTIFF_NATIVE_RAWMODES = {"I;16S": "I;16NS", "I;16BS": "I;16NS", "I;32S": "I;32NS", "I;32BS": "I;32NS",
+                           "F;32F": "F;32NF", "F;32BF": "F;32NF"}
 # The channel an EXR channel's name (after its layer's ".", lower case) stands for: the single letters and the words
 # Hydra's EXR reader matches (its strIsComponent); Y is luminance.
 EXR_CHANNEL_ROLES = {"r": "R", "red": "R", "g": "G", "green": "G", "b": "B", "blue": "B", "a": "A", "alpha": "A",
@@ -334,6 +342,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     try:
         with _pillow_size_limit_lifted():
             img = PilImage.open(io.BytesIO(data))
+            _tiff_tiles_for_libtiff(img, data)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
                 _warn_unread_gamma(name, img.info["gamma"])
@@ -426,6 +435,40 @@ def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | N
     return alpha if alpha.any() else np.full(shape, 255, np.uint8)
 
 
+def _tiff_tiles_for_libtiff(img, data: bytes) -> None:
+    """Sets the decoder tiles of TIFF ``img`` (opened by Pillow from file ``data``) right where Pillow's are wrong.
+    libtiff decodes a compressed TIFF (LZW, deflate, ...) and hands its samples over in the machine's byte order,
+    where Pillow unpacks a big-endian file's signed or float grey in the file's (:data:`LIBTIFF_NATIVE_RAWMODES`): a
+    deflate-compressed big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. And
+    Pillow unpacks each plane of an uncompressed file stored plane by plane (``PlanarConfiguration`` 2) as 8-bit
+    samples: a 16-bit RGB one read 0.0003 for 0.5; libtiff decodes it whole, as it decodes compressed ones (8 bits
+    of each sample: Pillow's libtiff decoder unpacks separate planes so). A compressed 16-bit colour TIFF's raw mode
+    is ``RGB;16N`` (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8 bits, and as sRGB under
+    ``auto`` (0.5 read 0.216)."""
+    if img.format != "TIFF" or not img.tile:
+        return
+    tile = img.tile[0]
+    if getattr(img, "use_load_libtiff", False):
+        native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile))
+        if native is not None:
+            img.tile = [_tile_with(tile, args=(native, *tile[3][1:]))]
+        return
+    samples = tiff_samples(data)
+    if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.mode in ("RGB", "RGBA") and samples and samples[1] == 16:
+        img.use_load_libtiff = True  # what TiffImagePlugin sets for a compressed file, with its one tile below
+        img.tile = [_tile_with(tile, codec_name="libtiff", extents=(0, 0, *img.size), offset=0,
+                               args=(f"{img.mode};16N", False, img.tag_v2.offset))]
+
+
+def _tile_with(tile, **fields):
+    """Pillow decoder tile ``tile`` with ``fields`` (codec_name, extents, offset, args) replaced: a named ``_Tile``, or
+    a plain tuple in older Pillow versions."""
+    if hasattr(tile, "_replace"):
+        return tile._replace(**fields)
+    names = ("codec_name", "extents", "offset", "args")
+    return tuple(fields.get(name, value) for name, value in zip(names, tile))
+
+
 def _tile_rawmode(tile) -> str:
     """The raw mode (Pillow's unpacking of the file's samples) of one decoder tile: its arguments, or their first."""
     return tile[3] if isinstance(tile[3], str) else tile[3][0]
@@ -454,6 +497,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
 
     def decode(mode):
         img = PilImage.open(io.BytesIO(data))
+        _tiff_tiles_for_libtiff(img, data)
         tiles = []
         for tile in img.tile:  # Pillow's named _Tile (the TIFF reader reads its fields by name), or a plain tuple
             args = mode if isinstance(tile[3], str) else (mode,) + tuple(tile[3][1:])
@@ -466,7 +510,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
         b = decode("RGBA")  # bytes: grey high, grey low, alpha high, alpha low
         return _grey_rgba((b[..., 0] * 256 + b[..., 1]) / 65535.0, (b[..., 2] * 256 + b[..., 3]) / 65535.0)
     high = decode(rawmode)
-    low = decode(rawmode[:-1] + {"B": "L", "L": "B"}[rawmode[-1]])
+    low = decode(rawmode[:-1] + OTHER_BYTE[rawmode[-1]])
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
     samples = high * 256 + low  # whole numbers, exact in float32
     rgba[..., : high.shape[2]] = samples / 65535.0
