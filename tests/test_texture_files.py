@@ -21,12 +21,14 @@ import wrt
 from wrt.textures import load_image
 
 
-def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False):
+def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False,
+               extra_sample=2):
     """A grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for integers)
     written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per ``rows_per_strip``
     rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag where given (2:
     signed integers, 3: floats). Uncompressed, or with ``deflate`` each strip zlib-compressed (Compression 8, as
-    libtiff writes it); ``planar``: each channel's strips apart, one plane after another (PlanarConfiguration 2)."""
+    libtiff writes it); ``planar``: each channel's strips apart, one plane after another (PlanarConfiguration 2);
+    ``extra_sample``: the ExtraSamples value of a fourth channel."""
     samples = np.asarray(samples)
     samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
@@ -55,7 +57,7 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
            entry(262, 3, 1, 1 if c == 1 else 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
            entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 2 if planar else 1)]
     if c == 4:
-        ifd.append(entry(338, 3, 1, 2))  # extra sample: unassociated alpha
+        ifd.append(entry(338, 3, 1, extra_sample))  # 2: unassociated alpha, 0: a sample of no stated meaning
     if sample_format is not None:
         ifd.append(entry(339, 3, 1, sample_format))
     ifd.sort()
@@ -137,6 +139,18 @@ def test_compressed_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, 
     expected = np.ones((3, 5, 4))
     expected[..., :channels] = samples / 65535.0
     np.testing.assert_allclose(image, expected, atol=1e-7)
+
+
+@pytest.mark.parametrize("deflate", [False, True])
+def test_a_16_bit_rgb_tiff_with_an_unnamed_fourth_sample_is_linear_at_full_precision(tmp_path, deflate):
+    """A 16-bit TIFF of four samples whose fourth has no stated meaning (ExtraSamples 0) is RGB to Pillow (raw mode
+    ``RGBX;16L``), which kept the high byte: ``auto`` decoded the 8 bits as sRGB, 0.5 read 0.216. Its colour reads
+    at full precision and linear, as a 16-bit RGB TIFF's; alpha 1, as for RGB."""
+    samples = np.random.default_rng(10).integers(0, 65536, (3, 5, 4))
+    samples[0, 0, :] = 0x8001
+    image = load_image(write_tiff(tmp_path / "x.tif", samples, deflate=deflate, extra_sample=0), "auto")
+    np.testing.assert_allclose(image[..., :3], samples[..., :3] / 65535.0, atol=1e-7)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
 @pytest.mark.parametrize("dtype, sample_format, full", [(np.int16, 2, 32767.0), (np.int32, 2, 2147483647.0),

@@ -65,8 +65,8 @@ SMALLEST_UNSCALED = 2.0**-10
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
-# (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N)
-SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGB;16N", "RGBA;16B", "RGBA;16L", "RGBA;16N", "LA;16B")
+# (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N; RGBX: a fourth sample of no stated meaning)
+SIXTEEN_BIT_RAWMODES = tuple(f"{mode};16{order}" for mode in ("RGB", "RGBA", "RGBX") for order in "BLN") + ("LA;16B",)
 OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"}  # raw mode order -> the other byte's
 # Pillow raw modes of a TIFF's grey samples over 8 bits that name the file's byte order -> the machine's (N), for a
 # file libtiff decodes: libtiff hands samples over in the machine's order, and Pillow renames only the ;16B and ;16L
