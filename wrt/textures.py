@@ -367,7 +367,11 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
         if mode.startswith("I;16") or png_bit_depth(data) == 16:
-            full, grey = 65535.0, np.asarray(img, dtype=np.float32)
+            # Pillow holds a 12-bit TIFF's samples as they are (raw mode I;12) in this 16-bit mode: they read over
+            # 4095, as OpenImageIO scales them to full range (over 65535 a white of 4095 read 0.06)
+            samples = tiff_samples(data)
+            bits = samples[1] if samples is not None and 1 < samples[1] < 16 else 16
+            full, grey = float((1 << bits) - 1), np.asarray(img, dtype=np.float32)
         else:
             full, grey = _integer_grey(data, img)
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged

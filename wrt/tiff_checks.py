@@ -1,9 +1,10 @@
 """The sample layout of a TIFF file's first image (channels, bits and sample format), read from its header: to name
-a TIFF that Pillow cannot decode, and to scale the integer grey Pillow hands over as 32-bit signed numbers. Pillow
-reads 8- and 16-bit integer colour and grey and 32-bit float grey, but not float colour (16-, 32- or 64-bit), half or
-double grey, nor 32-bit integer colour: it calls those an image it cannot identify, and wrt said no reader it has
-knew the format of a ``.tif`` it plainly named (TIFF 6.0: an 8-byte header pointing at the first image file
-directory, 12-byte entries of tag, type, count and value or offset; BigTIFF: a 16-byte header, 20-byte entries)."""
+a TIFF that Pillow cannot decode, and to scale the integer grey Pillow hands over as 32-bit signed numbers (or,
+of 12 bits, unscaled). Pillow reads 8- and 16-bit integer colour and grey and 32-bit float grey, but not float colour
+(16-, 32- or 64-bit), half or double grey, nor 32-bit integer colour: it calls those an image it cannot identify,
+and wrt said no reader it has knew the format of a ``.tif`` it plainly named (TIFF 6.0: an 8-byte header pointing at
+the first image file directory, 12-byte entries of tag, type, count and value or offset; BigTIFF: a 16-byte header,
+20-byte entries)."""
 
 from __future__ import annotations
 
