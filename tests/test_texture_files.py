@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 from PIL import Image as PilImage
 from PIL import PngImagePlugin
+from png_chunks import chunk as png_chunk
 from png_chunks import rgb_png
 from png_files import png
 from test_materials import textured_stage
 
 import wrt
-from wrt.textures import load_image
+from wrt.textures import PNG_SIGNATURE, TextureError, load_image
 
 
 def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False,
@@ -106,6 +107,27 @@ def test_a_12_bit_grey_tiff_reads_over_4095(tmp_path):
     path = tmp_path / "grey12.tif"
     path.write_bytes(b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4) + rows)
     np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], grey / 4095.0, rtol=1e-6)
+
+
+def test_an_image_of_more_texels_than_textures_hold_is_refused_before_it_is_decoded(tmp_path, monkeypatch):
+    """Pillow's decompression-bomb limit is lifted for textures, so a PNG whose header claims 46341 x 46341 pixels
+    (past the 2^31 texels ``pack_images`` holds; a damaged width reads so) was decoded first, into gigabytes that
+    ran the process out of memory (60000 x 60000: an error of no words after 11 s under a 4 GB limit). It is refused
+    from its header, named with its size. Pillow's decoding is replaced by an error here, so that the test would
+    allocate nothing where the file reached it."""
+    from PIL import ImageFile
+
+    def decoded(self):
+        raise RuntimeError("decoded")
+
+    monkeypatch.setattr(ImageFile.ImageFile, "load", decoded)
+    side = 46341  # side * side >= 2^31
+    path = tmp_path / "huge.png"
+    header = struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0)  # 8-bit RGB
+    path.write_bytes(PNG_SIGNATURE + png_chunk(b"IHDR", header)
+                     + png_chunk(b"IDAT", zlib.compress(bytes(1 + 3 * side))) + png_chunk(b"IEND", b""))
+    with pytest.raises(TextureError, match=f"huge.png: it is {side} x {side} pixels, more than the 2\\^31 texels"):
+        load_image(str(path), "raw")
 
 
 def write_bigtiff(path, grey):

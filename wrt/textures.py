@@ -64,6 +64,7 @@ HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 SMALLEST_UNSCALED = 2.0**-10
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
+MAX_TEXELS = 2**31  # texels of all a scene's images together: offsets into them are int32 (pack_images)
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
 # (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N; RGBX: a fourth sample of no stated meaning)
 SIXTEEN_BIT_RAWMODES = tuple(f"{mode};16{order}" for mode in ("RGB", "RGBA", "RGBX") for order in "BLN") + ("LA;16B",)
@@ -342,6 +343,11 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     try:
         with _pillow_size_limit_lifted():
             img = PilImage.open(io.BytesIO(data))
+            if img.width * img.height >= MAX_TEXELS:
+                # Its header's size, refused before Pillow, whose own limit is lifted, allocates it: a damaged size
+                # (60000 x 60000, 10.8 GB of 8-bit RGB) was decoded before pack_images refused it, or ran out of memory
+                raise TextureError(f"cannot read image {name}: it is {img.width} x {img.height} pixels, more than "
+                                   "the 2^31 texels wrt's textures hold together")
             _tiff_tiles_for_libtiff(img, data)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
@@ -361,8 +367,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                                "not decode; an EXR holds such samples") from None
         raise TextureError(f"cannot read image {name}: no image reader wrt has (Pillow, OpenEXR, Radiance) knows its "
                            "format") from None
+    except TextureError:
+        raise
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
-        raise TextureError(f"cannot read image {name}: {e}") from None
+        raise TextureError(f"cannot read image {name}: {str(e) or type(e).__name__}") from None
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
@@ -727,7 +735,7 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
         offsets.append(total)
         sizes.append((w, h))
         total += w * h
-    if total >= 2**31:
+    if total >= MAX_TEXELS:
         raise ValueError(f"textures hold {total} texels; at most 2^31 are supported")
     # Filled in slices of at most PACK_TEXELS texels: whole-image float32 temporaries took 2 GB more than the
     # result for one 8k x 8k texture.
