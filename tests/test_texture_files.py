@@ -23,13 +23,13 @@ from wrt.textures import PNG_SIGNATURE, TextureError, load_image
 
 
 def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False,
-               extra_sample=2):
+               extra_sample=2, orientation=None):
     """A grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for integers)
     written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per ``rows_per_strip``
     rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag where given (2:
     signed integers, 3: floats). Uncompressed, or with ``deflate`` each strip zlib-compressed (Compression 8, as
     libtiff writes it); ``planar``: each channel's strips apart, one plane after another (PlanarConfiguration 2);
-    ``extra_sample``: the ExtraSamples value of a fourth channel."""
+    ``extra_sample``: the ExtraSamples value of a fourth channel; ``orientation``: its Orientation tag where given."""
     samples = np.asarray(samples)
     samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
@@ -40,7 +40,7 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
               for r in range(0, h, rows_per_strip)]
     strips = [zlib.compress(strip) for strip in strips] if deflate else strips
     n_strips = len(strips)
-    tags = (11 if c == 4 else 10) + (sample_format is not None)
+    tags = (11 if c == 4 else 10) + (sample_format is not None) + (orientation is not None)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
     offsets_at = bits_at + 2 * c
     counts_at = offsets_at + 4 * n_strips
@@ -61,7 +61,9 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
         ifd.append(entry(338, 3, 1, extra_sample))  # 2: unassociated alpha, 0: a sample of no stated meaning
     if sample_format is not None:
         ifd.append(entry(339, 3, 1, sample_format))
-    ifd.sort()
+    if orientation is not None:
+        ifd.append(entry(274, 3, 1, orientation))
+    ifd.sort(key=lambda e: struct.unpack(byte_order + "H", e[:2]))
     starts = np.cumsum([pixels_at] + [len(s) for s in strips[:-1]])
     body = struct.pack(byte_order + "H" * c, *([bits] * c))
     body += struct.pack(byte_order + "I" * n_strips, *starts) + struct.pack(byte_order + "I" * n_strips,
@@ -216,6 +218,18 @@ def test_a_16_bit_tiff_stored_plane_by_plane_reads_linear_within_8_bits(tmp_path
     image = load_image(write_tiff(tmp_path / "p.tif", samples, planar=True, deflate=deflate), "auto")
     np.testing.assert_allclose(image[..., :3], samples / 65535.0, atol=1.0 / 255)
     np.testing.assert_array_equal(image[..., 3], 1.0)
+
+
+@pytest.mark.parametrize("dtype, deflate", [(np.uint8, False), (np.uint16, False), (np.uint16, True)])
+def test_tiff_orientation_is_ignored(tmp_path, dtype, deflate):
+    """Storm's TIFF reader (OpenImageIO's read_image) hands the pixels over as stored, whatever the file's
+    Orientation tag, as Storm's JPEG reader ignores EXIF orientation (test_jpeg_exif_orientation_is_ignored). Pillow
+    turned the pixels by it as it loaded them: orientation 3 (a half turn) drew the texture upside down and
+    mirrored, 8-bit, 16-bit and compressed alike."""
+    full = np.iinfo(dtype).max
+    samples = np.random.default_rng(11).integers(0, full, (3, 4, 3)).astype(dtype)
+    image = load_image(write_tiff(tmp_path / "o.tif", samples, deflate=deflate, orientation=3), "raw")
+    np.testing.assert_allclose(image[..., :3], samples / full, atol=1e-7)
 
 
 @pytest.mark.parametrize("bits", [8, 16])

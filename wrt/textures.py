@@ -72,6 +72,7 @@ OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"
 # Pillow raw modes of a TIFF's grey samples over 8 bits that name the file's byte order -> the machine's (N), for a
 # file libtiff decodes: libtiff hands samples over in the machine's order, and Pillow renames only the ;16B and ;16L
 # of colour and unsigned grey (TiffImagePlugin: "libtiff always returns the bytes in native order")
+EXIF_ORIENTATION = 0x0112  # the EXIF (and TIFF) tag of the turn or mirroring a viewer applies
 LIBTIFF_NATIVE_RAWMODES = {"I;16S": "I;16NS", "I;16BS": "I;16NS", "I;32S": "I;32NS", "I;32BS": "I;32NS",
                            "F;32F": "F;32NF", "F;32BF": "F;32NF"}
 # The channel an EXR channel's name (after its layer's ".", lower case) stands for: the single letters and the words
@@ -348,7 +349,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 # (60000 x 60000, 10.8 GB of 8-bit RGB) was decoded before pack_images refused it, or ran out of memory
                 raise TextureError(f"cannot read image {name}: it is {img.width} x {img.height} pixels, more than "
                                    "the 2^31 texels wrt's textures hold together")
-            _tiff_tiles_for_libtiff(img, data)
+            _tiff_decoded_as_stored(img, data)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
                 _warn_unread_gamma(name, img.info["gamma"])
@@ -447,18 +448,23 @@ def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | N
     return alpha if alpha.any() else np.full(shape, 255, np.uint8)
 
 
-def _tiff_tiles_for_libtiff(img, data: bytes) -> None:
-    """Sets the decoder tiles of TIFF ``img`` (opened by Pillow from file ``data``) right where Pillow's are wrong.
-    libtiff decodes a compressed TIFF (LZW, deflate, ...) and hands its samples over in the machine's byte order,
-    where Pillow unpacks a big-endian file's signed or float grey in the file's (:data:`LIBTIFF_NATIVE_RAWMODES`): a
-    deflate-compressed big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. And
-    Pillow unpacks each plane of an uncompressed file stored plane by plane (``PlanarConfiguration`` 2) as 8-bit
-    samples: a 16-bit RGB one read 0.0003 for 0.5; libtiff decodes it whole, as it decodes compressed ones (8 bits
-    of each sample: Pillow's libtiff decoder unpacks separate planes so). A compressed 16-bit colour TIFF's raw mode
-    is ``RGB;16N`` (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8 bits, and as sRGB under
-    ``auto`` (0.5 read 0.216)."""
+def _tiff_decoded_as_stored(img, data: bytes) -> None:
+    """Sets TIFF ``img`` (opened by Pillow from file ``data``) to decode its samples as the file stores them.
+
+    Its ``Orientation`` (an EXIF tag, or XMP's) is ignored, as Storm's reader (OpenImageIO's ``read_image``) and wrt
+    for a JPEG's EXIF ignore it: Pillow turned the pixels by it as it loaded them, so a TIFF of orientation 3 was
+    drawn upside down and mirrored. And the decoder tiles are set right where Pillow's are wrong. libtiff decodes a
+    compressed TIFF (LZW, deflate, ...) and hands its samples over in the machine's byte order, where Pillow unpacks
+    a big-endian file's signed or float grey in the file's (:data:`LIBTIFF_NATIVE_RAWMODES`): a deflate-compressed
+    big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. And Pillow unpacks each
+    plane of an uncompressed file stored plane by plane (``PlanarConfiguration`` 2) as 8-bit samples: a 16-bit RGB
+    one read 0.0003 for 0.5; libtiff decodes it whole, as it decodes compressed ones (8 bits of each sample:
+    Pillow's libtiff decoder unpacks separate planes so). A compressed 16-bit colour TIFF's raw mode is ``RGB;16N``
+    (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8 bits, and as sRGB under ``auto`` (0.5
+    read 0.216)."""
     if img.format != "TIFF" or not img.tile:
         return
+    img.getexif().pop(EXIF_ORIENTATION, None)  # what load_end's exif_transpose reads (Pillow keeps this one)
     tile = img.tile[0]
     if getattr(img, "use_load_libtiff", False):
         native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile))
@@ -509,7 +515,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
 
     def decode(mode):
         img = PilImage.open(io.BytesIO(data))
-        _tiff_tiles_for_libtiff(img, data)
+        _tiff_decoded_as_stored(img, data)
         tiles = []
         for tile in img.tile:  # Pillow's named _Tile (the TIFF reader reads its fields by name), or a plain tuple
             args = mode if isinstance(tile[3], str) else (mode,) + tuple(tile[3][1:])
