@@ -1,28 +1,42 @@
 """wrt: a ray tracer for USD scenes written in NVIDIA Warp kernels.
 
 Pipeline: USD stage -> :class:`Scene` -> BVH -> trace kernels (:class:`Hits`) -> shade kernels -> :class:`Image`.
+
+``import wrt`` imports none of the modules behind its names: each is imported the first time one of its names is
+used (PEP 562), so that ``wrt --help`` and a script that needs a few names do not wait for all of them. Importing
+every module took 1.7 s (on a 2-core VM) of Warp parsing the source of their kernels, and Warp, numpy and usd-core
+themselves took as long again.
 """
 
-import warp as _wp
+import importlib
+import importlib.util
+import sys
+import types
 
-from .batch import BatchImage, render_batch
-from .bvh import FlatBvh, build_bvh
-from .camera import Camera
-from .errors import SceneError
-from .ies import IesError, IesProfile, read_ies
-from .image import Image
-from .instancing import Instances, Prototype
-from .light_links import LinkCollection
-from .light_shaping import Shaping
-from .lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
-from .materials import Material, TextureInput
-from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
-from .primitives import Shape
-from .render import Renderer, render
-from .render_products import render_products
-from .scene import DistantLight, Mesh, Scene
-from .trace import Hits, occluded, trace
-from .usd import load_usd
+from .warp_log_level import raise_default_level_of_warp
+
+# Each submodule and the public names it gives (``wrt.render`` is the function, ``wrt.render.render`` in the module).
+_NAMES_OF_MODULE = {
+    "batch": ("BatchImage", "render_batch"),
+    "bvh": ("FlatBvh", "build_bvh"),
+    "camera": ("Camera",),
+    "errors": ("SceneError",),
+    "ies": ("IesError", "IesProfile", "read_ies"),
+    "image": ("Image",),
+    "instancing": ("Instances", "Prototype"),
+    "light_links": ("LinkCollection",),
+    "light_shaping": ("Shaping",),
+    "lights": ("CylinderLight", "DiskLight", "DomeLight", "MeshLight", "RectLight", "SphereLight"),
+    "materials": ("Material", "TextureInput"),
+    "preview": ("preview", "to_pyvista"),  # pyvista itself is imported only when these are called
+    "primitives": ("Shape",),
+    "render": ("Renderer", "render"),
+    "render_products": ("render_products",),
+    "scene": ("DistantLight", "Mesh", "Scene"),
+    "trace": ("Hits", "occluded", "trace"),
+    "usd": ("load_usd",),
+}
+_MODULE_OF_NAME = {name: module for module, names in _NAMES_OF_MODULE.items() for name in names}
 
 __all__ = [
     "BatchImage",
@@ -63,11 +77,35 @@ __all__ = [
 ]
 __version__ = "0.1.0"
 
-# A library prints nothing unless asked: a first render printed Warp's start-up banner and a "Module ... load" line
-# per kernel module (14 lines), which are Warp's info messages; its warnings and errors still show. Only Warp's default
-# level is raised: a level set before importing wrt is kept, and ``wp.config.log_level = wp.LOG_INFO`` after it shows
-# them again. (Warp 1.19 has no ``wp.config.quiet``; setting it does nothing.)
-# This covers ``wrt`` command lines and the bench and animation worker processes too: their tasks are functions
-# of wrt modules, pickled by reference, so a worker imports wrt before it runs one.
-if _wp.config.log_level == _wp.LOG_INFO:
-    _wp.config.log_level = _wp.LOG_WARNING
+raise_default_level_of_warp()
+
+
+def __getattr__(name: str):
+    """A public name, imported from its module on first use (and kept); else a submodule, imported, as ``import wrt``
+    made ``wrt.scene`` or ``wrt.bvh`` an attribute when it imported them all."""
+    if name in _MODULE_OF_NAME:
+        value = getattr(importlib.import_module(f".{_MODULE_OF_NAME[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list:
+    return sorted({*globals(), *__all__})
+
+
+class _Package(types.ModuleType):
+    """wrt's module type: a public function named as its own module (``render``, ``trace``, ``preview``,
+    ``render_products``) stays the package's attribute when its module is imported. Python's import sets
+    ``wrt.render`` to the module ``wrt.render`` after the module runs; the eager imports here rebound it to the
+    function, and a lazy import must keep it so."""
+
+    def __setattr__(self, name, value):
+        if isinstance(value, types.ModuleType) and value.__name__ == f"{__name__}.{name}" and name in _MODULE_OF_NAME:
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

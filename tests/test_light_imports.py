@@ -1,0 +1,96 @@
+"""``import wrt`` imports no Warp kernels: each public name is imported from its module on first use.
+
+Each check runs in a fresh interpreter, where no other test has imported a module yet. No timings are asserted: what
+is checked is that the lazily imported names are the objects they were.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import warp as wp
+
+# Where each public name was imported from when ``wrt/__init__.py`` imported them all (the oracle: written out here,
+# not read from the package).
+PUBLIC_NAMES = {
+    "batch": ["BatchImage", "render_batch"],
+    "bvh": ["FlatBvh", "build_bvh"],
+    "camera": ["Camera"],
+    "errors": ["SceneError"],
+    "ies": ["IesError", "IesProfile", "read_ies"],
+    "image": ["Image"],
+    "instancing": ["Instances", "Prototype"],
+    "light_links": ["LinkCollection"],
+    "light_shaping": ["Shaping"],
+    "lights": ["CylinderLight", "DiskLight", "DomeLight", "MeshLight", "RectLight", "SphereLight"],
+    "materials": ["Material", "TextureInput"],
+    "preview": ["preview", "to_pyvista"],
+    "primitives": ["Shape"],
+    "render": ["Renderer", "render"],
+    "render_products": ["render_products"],
+    "scene": ["DistantLight", "Mesh", "Scene"],
+    "trace": ["Hits", "occluded", "trace"],
+    "usd": ["load_usd"],
+}
+
+# The submodules named as functions imported first, as other modules import them; then every public name, and *.
+NAMES_IMPORTED = """
+import importlib, json, sys
+import wrt.render, wrt.trace
+from wrt.preview import preview
+from wrt import render_products
+names = json.loads(sys.argv[1])
+report = {"different": [], "star": []}
+for module, public in names.items():
+    for name in public:
+        if getattr(wrt, name) is not getattr(importlib.import_module(f"wrt.{module}"), name):
+            report["different"].append(name)
+star = {}
+exec("from wrt import *", star)
+report["star"] = sorted(name for name in star if name != "__builtins__")
+report["all"] = sorted(wrt.__all__)
+report["submodule"] = wrt.scene.__name__  # a submodule, as 'import wrt' made it an attribute
+print(json.dumps(report))
+"""
+
+# The log level Warp has after 'import wrt' and then Warp's import (wrt quietens it), and after a level set then,
+# followed by a wrt module's import (kept).
+LOG_LEVELS = """
+import wrt
+import warp as wp
+quietened = wp.config.log_level
+wp.config.log_level = wp.LOG_INFO
+wrt.Camera
+print(quietened, wp.config.log_level)
+"""
+
+
+def run_python(script: str, *args: str) -> str:
+    """The standard output of ``script`` run with ``args`` in a fresh interpreter."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    result = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, env=env,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_every_public_name_is_its_modules_object():
+    """Imported on first use, each name of ``wrt.__all__`` is the object its module defines, as when
+    ``wrt/__init__.py`` imported them all; ``wrt.render`` and ``wrt.trace`` stay the functions after their modules are
+    imported, and ``from wrt import *`` gives every name."""
+    report = json.loads(run_python(NAMES_IMPORTED, json.dumps(PUBLIC_NAMES)))
+    every = sorted(name for names in PUBLIC_NAMES.values() for name in names)
+    assert report["different"] == []
+    assert report["all"] == every and report["star"] == every
+    assert report["submodule"] == "wrt.scene"
+
+
+def test_warp_imported_after_wrt_is_quietened_and_a_level_set_then_kept():
+    """``import wrt`` no longer imports Warp; Warp's default log level is still raised when Warp is imported after
+    it, and a level set after that is kept when a wrt module is imported."""
+    quietened, kept = map(int, run_python(LOG_LEVELS).split())
+    assert (quietened, kept) == (wp.LOG_WARNING, wp.LOG_INFO)
+

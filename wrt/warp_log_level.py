@@ -1,0 +1,49 @@
+"""Warp's default log level, raised by wrt: a library prints nothing unless asked.
+
+A first render printed Warp's start-up banner and a "Module ... load" line per kernel module (14 lines), which are
+Warp's info messages; its warnings and errors still show. Only Warp's default level is raised: a level set before
+importing wrt is kept, and ``wp.config.log_level = wp.LOG_INFO`` after it shows them again. (Warp 1.19 has no
+``wp.config.quiet``; setting it does nothing.)
+
+``import wrt`` does not import Warp (see ``wrt/__init__.py``): where Warp is not imported yet, the level is raised the
+moment it is, by whichever module imports it, so the rule above holds as it did when ``import wrt`` imported Warp.
+This covers ``wrt`` command lines and the bench and animation worker processes too: their tasks are functions of wrt
+modules, pickled by reference, so a worker imports wrt before it runs one.
+"""
+
+import importlib.util
+import sys
+
+
+def raise_default_level(wp) -> None:
+    """Raises module ``wp``'s (Warp's) log level from its default ``LOG_INFO`` to ``LOG_WARNING``; others are kept."""
+    if wp.config.log_level == wp.LOG_INFO:
+        wp.config.log_level = wp.LOG_WARNING
+
+
+class _RaiseOnImport:
+    """A ``sys.meta_path`` finder that finds nothing itself: when ``warp`` is first imported it hands on the spec the
+    other finders give, with a loader that raises the level as soon as Warp's ``__init__`` has run, then steps aside."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "warp":
+            return None
+        sys.meta_path.remove(self)  # once; and the finders after it find Warp's own spec
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.loader is not None:
+            run = spec.loader.exec_module
+
+            def exec_module(module):
+                run(module)
+                raise_default_level(module)
+
+            spec.loader.exec_module = exec_module
+        return spec
+
+
+def raise_default_level_of_warp() -> None:
+    """Raises Warp's default log level now if Warp is imported, else when it is."""
+    if "warp" in sys.modules:
+        raise_default_level(sys.modules["warp"])
+    elif not any(isinstance(finder, _RaiseOnImport) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _RaiseOnImport())
