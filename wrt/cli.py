@@ -19,8 +19,7 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
-from .errors import did_you_mean
-from .wording import counted, counted_of
+from .wording import counted, counted_of, did_you_mean
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
 EXIT_BROKEN_PIPE = 128 + 13  # exit status when stdout's reader is gone, as a shell reports a process SIGPIPE ended
@@ -340,8 +339,7 @@ def _seed(text: str) -> int:
 
 
 def _add_render(sub) -> None:
-    from .bvh.build import Builder
-    from .trace import ACCELERATORS, WARP_BUILDERS
+    from .options import ACCELERATORS, WARP_BUILDERS, Builder
 
     p = sub.add_parser(
         "render",
@@ -379,7 +377,7 @@ def _add_render(sub) -> None:
                    "resolution, else 480 (given alone: the camera's aspect fixes the width)")
     p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
     add_stage_options(p)
-    from .render import MAX_SPP
+    from .options import MAX_SPP
 
     p.add_argument("--spp", type=int_at_least(1, "an integer from 1 to 2^31 - 1", MAX_SPP), default=1,
                    help="samples per pixel")
@@ -408,7 +406,7 @@ def _add_render(sub) -> None:
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
-    from .render import AOV_NAMES
+    from .options import AOV_NAMES
 
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
                    f"its subfolder STEM/ ({', '.join(AOV_NAMES)})", type=_non_empty)
@@ -421,15 +419,14 @@ def _add_render(sub) -> None:
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
-    from .render import DEFAULT_MAX_DEPTH, MAX_DEPTH
+    from .options import DEFAULT_MAX_DEPTH, MAX_DEPTH
 
     depths = ", ".join(f"{depth} ({name})" for name, depth in DEFAULT_MAX_DEPTH.items())
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
                    help=f"bounces per path; default {depths}")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
                    help="ao distance, in scene units; default a tenth of the diagonal of the scene's box")
-    from .image import MAX_EXPOSURE
-    from .render import DATA_INTEGRATORS
+    from .options import DATA_INTEGRATORS, MAX_EXPOSURE
 
     p.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"PNG only: scale the image by 2^EXPOSURE (in stops, from -{MAX_EXPOSURE:g} to "
@@ -457,8 +454,6 @@ def _check_not_an_existing_folder(output: str) -> None:
 def _warn_unknown_placeholders(output: str) -> None:
     """A warning for each ``{word}`` of ``-o`` other than ``{stem}``: braces are kept in the file name as they are, so a
     misspelt placeholder ('{steam}') named the image '{steam}.png' without a word."""
-    from .errors import did_you_mean
-
     for token in dict.fromkeys(re.findall(r"\{\w*\}", output)):
         if token != "{stem}":
             warnings.warn(f"-o {output}: {token} is no placeholder, kept in the file name as it is"
@@ -554,7 +549,7 @@ def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> No
     as they are, or the integrator's image is data (:data:`wrt.render.DATA_INTEGRATORS`), which a PNG stores as it
     is: a user asking for a brighter image would otherwise get the same file without a word."""
     from .image import DATA_EXPOSURE_WARNING
-    from .render import DATA_INTEGRATORS
+    from .options import DATA_INTEGRATORS
 
     linear = [Path(o) for o in outputs if Path(o).suffix.lower() != ".png"]
     if exposure != 0.0 and integrator in DATA_INTEGRATORS:
@@ -568,7 +563,7 @@ def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> No
 def _png_exposure(args) -> float:
     """The exposure a render's PNGs get: none for a data image (said once by :func:`_warn_unused_exposure`, before the
     render, and not again by each ``Image.save``)."""
-    from .render import DATA_INTEGRATORS
+    from .options import DATA_INTEGRATORS
 
     return 0.0 if args.integrator in DATA_INTEGRATORS else args.exposure
 
@@ -577,7 +572,7 @@ def _warn_unused_integrator_options(args) -> None:
     """A warning for ``--ao-radius``, ``--max-depth`` or ``--spp`` above 1 given to an integrator that does not read
     it: the image was the one without it, without a word."""
     from .integrators import INTEGRATORS
-    from .render import DEFAULT_MAX_DEPTH, QUICK_LOOKS  # the integrators that bounce; those of one sample
+    from .options import DEFAULT_MAX_DEPTH, QUICK_LOOKS  # the integrators that bounce; those of one sample
 
     if args.spp > 1 and args.integrator in QUICK_LOOKS:
         sampled = [name for name in INTEGRATORS if name not in QUICK_LOOKS]
@@ -594,8 +589,7 @@ def _check_builder(args) -> None:
     """Refuses, before any load, a ``--builder`` that ``--accel`` has not (wrt's ploc for wp.Mesh was refused after
     the load, in the library's words, ``accel='warp'``); warns once where wp.Mesh builds another tree than the one
     asked for: lbvh on the CPU, which Warp itself said in its own raw words (see :func:`_built_builder`)."""
-    from .bvh.build import ALIASES, Builder
-    from .trace import WARP_BUILDERS
+    from .options import ALIASES, WARP_BUILDERS, Builder
 
     if args.accel == "warp" and args.builder not in (*WARP_BUILDERS, *ALIASES):
         raise ValueError(f"--builder {args.builder} builds wrt's BVH (--accel wrt); --accel warp builds Warp's "
@@ -627,7 +621,7 @@ def _built_builder(args) -> str:
 
 def _drawn_spp(args) -> int:
     """The samples per pixel a render draws: ``--spp``, but one for the quick looks, whatever ``--spp`` says."""
-    from .render import QUICK_LOOKS
+    from .options import QUICK_LOOKS
 
     return 1 if args.integrator in QUICK_LOOKS else args.spp
 
@@ -645,7 +639,7 @@ def _aov_folder(args, path: Path) -> Path:
 def _files_written(args, path: Path, output: Path) -> list[Path]:
     """Every file a render of scene ``path`` writes: its image ``output`` first, then the ``--aov`` previews and the
     ``--aov-dir`` arrays (one per AOV of :data:`wrt.render.AOV_NAMES`, as ``Image.save_aovs`` writes them)."""
-    from .render import AOV_NAMES
+    from .options import AOV_NAMES
 
     files = [output] + [_aov_png(output, name) for name in args.aov]
     if args.aov_dir:
@@ -1133,8 +1127,7 @@ def _instance_choice(text: str) -> int | str:
 
 
 def _add_preview(sub) -> None:
-    from .bvh.build import Builder
-    from .preview import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
+    from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET, Builder
 
     p = sub.add_parser(
         "preview",
@@ -1447,6 +1440,103 @@ def _run_bench(args) -> int:
     return 1 if failed or (args.strict and disagreeing) else 0
 
 
+def _builders(text: str) -> str:
+    """An argparse type: one ``--builder`` value of ``wrt bvh-stats``, comma-separated names
+    :func:`wrt.options.parse_builders` reads."""
+    from .options import parse_builders
+
+    try:
+        parse_builders(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
+
+
+def _non_negative_float(text: str) -> float:
+    """An argparse type: a finite number at least 0 (``--traversal-cost``)."""
+    value = _finite_float(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a number at least 0, got {text}")
+    return value
+
+
+def _add_bvh_stats(sub) -> None:
+    from .options import (
+        ACCELERATOR_PRESPLIT,
+        DEFAULT_BINS,
+        DEFAULT_LEAF_SIZE,
+        EPO_SAMPLES,
+        LAYOUTS,
+        MAX_BINS,
+        MAX_EPO_SAMPLES,
+        MAX_LEAF_SIZE,
+        MAX_SPLIT_LEVELS,
+        MAX_WARP_LEAF_SIZE,
+        builder_names,
+    )
+
+    # Each value is checked as it is read, so an error names the option typed (it named the Python argument, as
+    # 'presplit must lie in [0, 6]', and came after the scene's load).
+    def up_to(lo: int, hi: int):
+        return int_at_least(lo, f"an integer from {lo} to {hi}", hi)
+
+    p = sub.add_parser(
+        "bvh-stats",
+        help="BVH quality and size statistics of a scene, for wrt's builders and Warp's",
+        description="Build BVHs over a USD scene's triangles (gprims tessellated) and report SAH cost, EPO "
+        "(end-point overlap, estimated), node and leaf counts, depths, leaf sizes, bytes and build time. Warp's "
+        "own trees are read from wp.Mesh with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
+        formatter_class=HelpFormatter,
+    )
+    p.add_argument("scene", type=_non_empty, help="USD file (.usd, .usda, .usdc, .usdz)")
+    p.add_argument(
+        "--builder",
+        action="append",
+        type=_builders,
+        help=f"builders, comma-separated or repeated: {', '.join(builder_names())}, all, or warp:<name> for "
+        "wp.Mesh's tree (default: sah)",
+    )
+    p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
+    # The builders' defaults (build_bvh_device's), which an option left out keeps.
+    p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
+                   help=f"wrt's most triangles per leaf (default {DEFAULT_LEAF_SIZE})")
+    p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
+                   help="Warp's bvh_leaf_size (default: Warp's)")
+    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default "
+                   f"{DEFAULT_BINS})")
+    p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
+    p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
+    p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=EPO_SAMPLES,
+                   help="surface samples of the EPO estimate")
+    p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0,
+                   help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
+                   f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
+    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device to build on, e.g. cpu or cuda:0")
+    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
+    add_stage_options(p)
+    p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
+    p.set_defaults(run=_run_bvh_stats)
+
+
+def _run_bvh_stats(args) -> int:
+    from .bvh.report import run_bvh_stats
+
+    return run_bvh_stats(args)
+
+
+class _VersionAction(argparse._VersionAction):
+    """argparse's ``--version``, its line made when it is asked for: it names Warp's version, and importing Warp for
+    it made every ``wrt`` command line, ``--help`` too, wait for Warp's import."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import warp as wp
+
+        from . import __version__
+
+        self.version = f"wrt {__version__} (warp-lang {wp.config.version}, Python {sys.version.split()[0]})"
+        super().__call__(parser, namespace, values, option_string)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``wrt`` argument parser with every subcommand."""
     parser = _Parser(
@@ -1454,21 +1544,14 @@ def build_parser() -> argparse.ArgumentParser:
         description="wrt: a ray tracer for USD scenes written in NVIDIA Warp kernels.",
         epilog="Run 'wrt COMMAND --help' for the options of a command.",
     )
-    import warp as wp
-
-    from . import __version__
-
     # For bug reports; without it 'wrt --version' said that a COMMAND is required.
-    parser.add_argument("--version", action="version", version=f"wrt {__version__} (warp-lang {wp.config.version}, "
-                        f"Python {sys.version.split()[0]})")
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     _add_render(sub)
     _add_preview(sub)
     _add_bench(sub)
-    from .bvh.report import add_bvh_stats
-
-    add_bvh_stats(sub)
+    _add_bvh_stats(sub)
     return parser
 
 

@@ -1,11 +1,12 @@
 """Errors that wrt raises for bad input, so callers can tell them from bugs, and the checks that raise them."""
 
 import dataclasses
-import difflib
 import os
 import sys
 
 import numpy as np
+
+from .wording import did_you_mean
 
 _PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep  # wrt's own files start with this
 
@@ -93,18 +94,6 @@ def _dataclass_init(frame) -> bool:
         return False
     owner = frame.f_locals.get("self")
     return owner is not None and type(owner).__module__.startswith("wrt.")
-
-
-def did_you_mean(value, valid) -> str:
-    """`` (did you mean 'path'?)`` for the name of ``valid`` closest to a mistyped ``value`` (``"pth"``, ``"Path"``,
-    ``"wide_8"``) or the one it is the start of (``"fov"``), or an empty string when none is close; for messages that
-    then list every valid name."""
-    names = {str(v).lower(): str(v) for v in valid}
-    key = str(value).lower()
-    close = difflib.get_close_matches(key, list(names), n=1, cutoff=0.6)
-    if not close and len(key) >= 3:
-        close = [n for n in names if n.startswith(key)][:2]
-    return f" (did you mean {names[close[0]]!r}?)" if len(close) == 1 else ""
 
 
 _FIELD_NAMES: dict = {}  # dataclass -> frozenset of its field names (stray_field)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import did_you_mean, flag, not_a_file
+from .options import MAX_EXPOSURE
 
 IMAGE_FORMATS = (".png", ".exr", ".npy")  # extensions Image.save writes
 # The sRGB chunk (rendering intent 0, perceptual) and the gAMA and cHRM values the PNG specification (11.3.3.5)
@@ -44,8 +45,6 @@ def linear_to_srgb(x: np.ndarray) -> np.ndarray:
 # Said where an exposure is given for a data image (Image.data), whose PNG it leaves unscaled.
 DATA_EXPOSURE_WARNING = ("{what} does not scale {image}: it is data (a normals or depth quick look), which a PNG "
                          "stores as it is, not as colour")
-# Beyond +-150 stops every float32 radiance is 0 or white after scaling; 2.0**1024 overflows a Python float.
-MAX_EXPOSURE = 150.0
 
 
 def check_exposure(exposure) -> float:

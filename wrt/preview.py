@@ -62,6 +62,7 @@ from .far_views import shown_across_renderers
 from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
+from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
@@ -71,7 +72,6 @@ from .tlas import TLAS_LEAF_SIZE
 from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_device
 from .wording import counted, counted_of
 
-TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
 EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only instances within the budget, spread
 INSTANCE_BLOCK_BUDGET = 10_000  # most instance blocks to_pyvista makes: each costs about a millisecond of pyvista
 # bookkeeping, so the 2M one-triangle instances the triangle budget lets in took over half an hour
@@ -83,8 +83,6 @@ MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side 
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
 NORMAL_CHUNK = 1 << 20  # triangles whose float64 corners are gathered at once (72 MB)
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
-MAX_RAYS = 1_000_000  # most sample rays: each is a drawn line (3e5 take 2 s to draw; 1e8 would need GBs)
-BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
 BAR_WIDTH = 0.6  # colour bar length, a fraction of the window's width (pyvista's default)
 BAR_FONT_SIZES = (18, 16, 14, 12, 10)  # colour bar label sizes tried, pixels (18 is pyvista's default)
 BAR_CHARACTER_EM = 0.6  # width of a label character in ems: Arial's digits and 'e' are 0.556, '.' and '-' less

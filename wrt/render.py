@@ -46,6 +46,8 @@ from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
 from .materials import emission_estimates, upload_materials, wholly_cut_out
+from .options import AOV_NAMES as AOV_NAMES  # re-exported: see wrt.options
+from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QUICK_LOOKS
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
@@ -73,13 +75,8 @@ from .wording import counted
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
 MAX_LAUNCH_PATHS = (1 << 31) - 1  # Warp's arrays and wp.tid() are 32-bit: no launch can index more paths
-DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
-QUICK_LOOKS = ("normals", "depth", "albedo")  # integrators whose image is made from the AOVs (one sample)
-DATA_INTEGRATORS = ("normals", "depth")  # their images are data (Image.data): a PNG stores them unencoded
-MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
-MAX_SPP = 0x7FFFFFFF  # the kernels number samples with a 32-bit int: sample 2^31 wrapped to -2^31 (unjittered)
 # Most back-face cull passes of camera rays in a frame of launch_frame in a scene without cut-outs (outside a graph
 # capture all of them run: no host reads); with cut-outs up to MAX_CULL_PASSES, to pass as many holes as render.
 CAPTURE_CULL_PASSES = 2
@@ -1710,8 +1707,6 @@ class _AovBuffers:
             out[name] = a.reshape(h, w, *a.shape[1:])
         return out
 
-
-AOV_NAMES = (*_AovBuffers.SPEC, "coverage")  # the keys of Image.aovs
 
 
 def render(

@@ -35,6 +35,7 @@ from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean, stray_field, user_stacklevel
 from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
+from .options import ACCELERATOR_PRESPLIT, ACCELERATORS
 from .ray_batch import upload_rays
 from .scene import Scene
 from .traced_in import TracedIn
@@ -47,13 +48,8 @@ from .traced_in import TracedIn
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 
-ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
 MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threads
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
-# Pre-split levels of the SAH trees that accelerators build (``bvh/presplit.py``): the same hits, and on an H200 a
-# 2M-triangle UV sphere's primary rays traced 1.52x faster (its poles' slivers), other ray kinds 0.96-1.04x
-# (GPU_NOTES.md, row 41).
-ACCELERATOR_PRESPLIT = 6
 
 
 trace_bvh_kernel, trace_bvh_kernel_uncounted = closest_hit_kernels(

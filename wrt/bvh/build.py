@@ -15,7 +15,6 @@ mean the same thing (``sah``, ``median``, ``lbvh``). Every builder keeps the dep
 
 from __future__ import annotations
 
-import enum
 import inspect
 import math
 import os
@@ -25,39 +24,11 @@ import numpy as np
 import warp as wp
 
 from ..errors import did_you_mean
-from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, resolve_device, stage
+from ..options import ALIASES as ALIASES  # re-exported: see wrt.options
+from ..options import DEFAULT_BINS, DEFAULT_LEAF_SIZE, MAX_BINS, MAX_LEAF_SIZE, Builder, builder_names
+from .common import MAX_DEPTH, BuildInput, resolve_device, stage
 from .layout import DeviceFlatBvh, FlatBvh
 from .presplit import MAX_SPLIT_LEVELS, References, map_slots_kernel, split_plan, write_references
-
-ALIASES = {"binned_sah": "sah"}  # alternative names -> canonical builder name
-
-
-class Builder(enum.Enum):
-    """Builder names shared by wrt and Warp's ``wp.Mesh(bvh_constructor=...)`` where they mean the same thing."""
-
-    SAH = "sah"  # binned SAH ("binned_sah" is an alias)
-    SWEEP_SAH = "sweep_sah"  # full-sweep SAH over presorted centroids
-    MEDIAN = "median"  # object median on the axis of largest centroid extent
-    MIDDLE = "middle"  # spatial median of the centroid bounds on the widest axis
-    LBVH = "lbvh"  # Morton codes + Karras radix tree
-    PLOC = "ploc"  # bottom-up agglomerative clustering
-
-    @classmethod
-    def from_str(cls, name: str) -> Builder:
-        """Parses a builder name; raises ``ValueError`` listing the valid names. Names are lower case and exact, as
-        every other name wrt takes (``'SAH'`` is refused naming ``'sah'``): ``wrt bvh-stats --builder SAH`` and ``wrt
-        bench --accels wrt:SAH`` were taken where ``wrt render --builder SAH`` and ``--accels warp:SAH`` were not."""
-        key = ALIASES.get(str(name), str(name))
-        for b in cls:
-            if b.value == key:
-                return b
-        raise ValueError(f"unknown BVH builder {name!r}{did_you_mean(name, builder_names())}; valid builders: "
-                         f"{', '.join(builder_names())}")
-
-
-def builder_names() -> list[str]:
-    """Every accepted builder name, canonical names first, then aliases."""
-    return [b.value for b in Builder] + list(ALIASES)
 
 
 def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
@@ -181,8 +152,8 @@ def build_bvh_device(
     indices,
     builder: str = "sah",
     *,
-    leaf_size: int = 8,
-    bins: int = 16,
+    leaf_size: int = DEFAULT_LEAF_SIZE,
+    bins: int = DEFAULT_BINS,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
     morton_bits: int = 30,

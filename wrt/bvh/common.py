@@ -17,11 +17,12 @@ import threading
 import numpy as np
 import warp as wp
 
+from ..options import MAX_BINS as MAX_BINS  # re-exported: see wrt.options
+from ..options import MAX_LEAF_SIZE as MAX_LEAF_SIZE
+
 wp.set_module_options({"enable_backward": False})
 
 MAX_DEPTH = 64  # deepest leaf is at depth MAX_DEPTH - 1; traversal stacks hold MAX_DEPTH entries
-MAX_BINS = 64  # upper bound on SAH bins per axis
-MAX_LEAF_SIZE = 1 << 16  # upper bound on leaf_size
 REDUCE_THREADS = 1 << 16  # threads of the bounds reduction (each folds a grid-strided share)
 
 ACTION_LEAF = wp.constant(0)  # node becomes a leaf

@@ -19,6 +19,7 @@ import numpy as np
 import warp as wp
 
 from ..errors import did_you_mean
+from ..options import LAYOUTS
 from .packed import pack_child
 
 wp.set_module_options({"enable_backward": False})
@@ -461,9 +462,6 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, np.int64)
     starts = np.repeat(np.cumsum(counts) - counts, counts)
     return np.arange(total) - starts
-
-
-LAYOUTS = ("binary", "compact", "wide", "wide8")  # names accepted by layout=
 
 
 def check_layout(layout: str) -> str:

@@ -28,13 +28,13 @@ import math
 import warp as wp
 
 from ..floats import unit_scales
+from ..options import MAX_SPLIT_LEVELS
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
 # A piece whose box surface area is below this multiple of its triangle's area is not split. A tilted, well-shaped
 # triangle has 6-12; 16 split far more of chess_set and slowed its diffuse rays on an H200 (GPU_NOTES.md, row 41).
 SPLIT_RATIO = 32.0
-MAX_SPLIT_LEVELS = 6  # at most 2^6 references per triangle
 MAX_REFERENCES_PER_TRIANGLE = 2.0  # on average: above it, fewer levels are allowed (memory stays bounded)
 MAX_REFERENCES = (1 << 30) - 1  # the builders' limit on primitives
 

@@ -7,50 +7,13 @@ canonical layout), so both sides are measured by the same code under the same co
 
 from __future__ import annotations
 
-import inspect
 import math
 
-from ..errors import did_you_mean
+from ..options import WARP_PREFIX, parse_builders
 from ..strict_json import strict_json
 from ..wording import counted
-from .build import Builder, build_bvh, build_bvh_device, builder_names, check_costs
-from .layout import LAYOUTS, convert_layout
-from .warp_mesh import WARP_BUILDERS
-
-WARP_PREFIX = "warp:"  # builder names of the form "warp:<bvh_constructor>" read wp.Mesh's tree
-
-
-def parse_builders(text) -> list[str]:
-    """Builder names from a comma-separated list (or a list of them); ``all`` means every wrt builder.
-
-    Raises:
-        ValueError: for an unknown wrt or Warp builder name.
-    """
-    items = text if isinstance(text, (list, tuple)) else [text]
-    names = []
-    for item in items:
-        for name in str(item).split(","):
-            name = name.strip()
-            if not name:
-                continue
-            if name == "all":
-                names += [b.value for b in Builder]
-            elif name.startswith(WARP_PREFIX):
-                if name[len(WARP_PREFIX) :] not in WARP_BUILDERS:
-                    valid = [WARP_PREFIX + b for b in WARP_BUILDERS]
-                    raise ValueError(f"unknown Warp builder {name!r}{did_you_mean(name, valid)}; valid Warp builders: "
-                                     f"{', '.join(valid)}")
-                names.append(name)
-            else:
-                try:
-                    names.append(Builder.from_str(name).value)
-                except ValueError:  # matched against wrt's builders alone, 'wrp:sah' meant 'sweep_sah'
-                    every = [*builder_names(), "all", *(WARP_PREFIX + b for b in WARP_BUILDERS)]
-                    raise ValueError(f"unknown BVH builder {name!r}{did_you_mean(name, every)}; valid builders: "
-                                     f"{', '.join(every)}") from None
-    if not names:
-        raise ValueError(f"no builder given; valid builders: {', '.join(builder_names())}, all, warp:<name>")
-    return list(dict.fromkeys(names))
+from .build import build_bvh, check_costs
+from .layout import convert_layout
 
 
 def collect_stats(
@@ -140,81 +103,6 @@ def format_table(rows: list[dict]) -> str:
             f"| {histogram_text(r['leaf_size_histogram'])} |"
         )
     return "\n".join(lines)
-
-
-def _builders(text: str) -> str:
-    """An argparse type: one ``--builder`` value, comma-separated names :func:`parse_builders` reads."""
-    import argparse
-
-    try:
-        parse_builders(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-    return text
-
-
-def _non_negative_float(text: str) -> float:
-    """An argparse type: a finite number at least 0 (``--traversal-cost``)."""
-    import argparse
-
-    from ..cli import _finite_float
-
-    value = _finite_float(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a number at least 0, got {text}")
-    return value
-
-
-def add_bvh_stats(sub) -> None:
-    """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import HelpFormatter, _finite_float, _non_empty, _positive_float, add_stage_options, int_at_least
-    from ..trace import ACCELERATOR_PRESPLIT
-    from .common import MAX_BINS, MAX_LEAF_SIZE
-    from .presplit import MAX_SPLIT_LEVELS
-    from .stats import MAX_EPO_SAMPLES
-    from .warp_mesh import MAX_WARP_LEAF_SIZE
-
-    # Each value is checked as it is read, so an error names the option typed (it named the Python argument, as
-    # 'presplit must lie in [0, 6]', and came after the scene's load).
-    def up_to(lo: int, hi: int):
-        return int_at_least(lo, f"an integer from {lo} to {hi}", hi)
-
-    p = sub.add_parser(
-        "bvh-stats",
-        help="BVH quality and size statistics of a scene, for wrt's builders and Warp's",
-        description="Build BVHs over a USD scene's triangles (gprims tessellated) and report SAH cost, EPO "
-        "(end-point overlap, estimated), node and leaf counts, depths, leaf sizes, bytes and build time. Warp's "
-        "own trees are read from wp.Mesh with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
-        formatter_class=HelpFormatter,
-    )
-    p.add_argument("scene", type=_non_empty, help="USD file (.usd, .usda, .usdc, .usdz)")
-    p.add_argument(
-        "--builder",
-        action="append",
-        type=_builders,
-        help=f"builders, comma-separated or repeated: {', '.join(builder_names())}, all, or warp:<name> for "
-        "wp.Mesh's tree (default: sah)",
-    )
-    p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
-    built = inspect.signature(build_bvh_device).parameters  # the builders' defaults, which an option left out keeps
-    p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
-                   help=f"wrt's most triangles per leaf (default {built['leaf_size'].default})")
-    p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
-                   help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default "
-                   f"{built['bins'].default})")
-    p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
-    p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
-    p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=1 << 16,
-                   help="surface samples of the EPO estimate")
-    p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0,
-                   help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
-                   f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
-    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device to build on, e.g. cpu or cuda:0")
-    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
-    add_stage_options(p)
-    p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
-    p.set_defaults(run=run_bvh_stats)
 
 
 def warn_unused_builder_options(args, builders: list[str]) -> None:

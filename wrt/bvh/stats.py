@@ -22,12 +22,12 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..options import EPO_SAMPLES
+from ..options import MAX_EPO_SAMPLES as MAX_EPO_SAMPLES  # re-exported: see wrt.options
 from .common import MAX_DEPTH
 
 wp.set_module_options({"enable_backward": False})
 
-EPO_SAMPLES = 1 << 16  # default number of surface samples for the EPO estimate
-MAX_EPO_SAMPLES = 1 << 24  # most samples: about 80 bytes of host arrays each; 1e9 asked for 80 GB (stderr ~ 1/sqrt(n))
 NODE_BYTES = 32  # canonical node: lower (12) + upper (12) + left_first (4) + prim_count (4)
 
 

@@ -19,9 +19,9 @@ import time
 import numpy as np
 import warp as wp
 
+from ..options import MAX_WARP_LEAF_SIZE
+from ..options import WARP_BUILDERS as WARP_BUILDERS  # re-exported: see wrt.options
 from .layout import FlatBvh
-
-WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
 
 
 class _ArrayT(ctypes.Structure):
@@ -180,9 +180,6 @@ def check_warp_builder(builder: str, device) -> None:
     if builder == "lbvh" and wp.get_device(device).is_cpu:
         raise ValueError("wp.Mesh has no lbvh builder on the CPU (Warp builds its sah tree instead); use a CUDA "
                          "device for warp:lbvh, or warp:sah")
-
-
-MAX_WARP_LEAF_SIZE = 2**31 - 1  # Warp reads bvh_leaf_size as a C int: 2^31 wrapped and crashed the process
 
 
 def check_warp_leaf_size(leaf_size) -> None:
