@@ -70,10 +70,12 @@ report["submodule"] = wrt.scene.__name__  # a submodule, as 'import wrt' made it
 print(json.dumps(report))
 """
 
-# The log level Warp has after 'import wrt' and then Warp's import (wrt quietens it), and after a level set then,
-# followed by a wrt module's import (kept).
+# The log level Warp has after 'import wrt' and then Warp's import (wrt quietens it), also where Warp's spec was
+# looked up first (whether it is installed), and after a level set then, followed by a wrt module's import (kept).
 LOG_LEVELS = """
+import importlib.util
 import wrt
+assert importlib.util.find_spec("warp") is not None
 import warp as wp
 quietened = wp.config.log_level
 wp.config.log_level = wp.LOG_INFO

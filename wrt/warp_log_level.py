@@ -11,7 +11,6 @@ This covers ``wrt`` command lines and the bench and animation worker processes t
 modules, pickled by reference, so a worker imports wrt before it runs one.
 """
 
-import importlib.util
 import sys
 
 
@@ -22,19 +21,23 @@ def raise_default_level(wp) -> None:
 
 
 class _RaiseOnImport:
-    """A ``sys.meta_path`` finder that finds nothing itself: when ``warp`` is first imported it hands on the spec the
-    other finders give, with a loader that raises the level as soon as Warp's ``__init__`` has run, then steps aside."""
+    """A ``sys.meta_path`` finder that finds nothing itself: asked for ``warp``, it hands on the spec the other
+    finders give, with a loader that raises the level as soon as Warp's ``__init__`` has run, and then steps aside.
+    Until Warp is imported it stays: ``importlib.util.find_spec("warp")``, asking whether Warp is installed, finds a
+    spec that is never loaded."""
 
     def find_spec(self, name, path=None, target=None):
         if name != "warp":
             return None
-        sys.meta_path.remove(self)  # once; and the finders after it find Warp's own spec
-        spec = importlib.util.find_spec(name)
+        others = (finder for finder in sys.meta_path if finder is not self and hasattr(finder, "find_spec"))
+        spec = next((spec for spec in (f.find_spec(name, path, target) for f in others) if spec is not None), None)
         if spec is not None and spec.loader is not None:
             run = spec.loader.exec_module
 
             def exec_module(module):
                 run(module)
+                if self in sys.meta_path:
+                    sys.meta_path.remove(self)
                 raise_default_level(module)
 
             spec.loader.exec_module = exec_module
