@@ -4,8 +4,8 @@ Pipeline: USD stage -> :class:`Scene` -> BVH -> trace kernels (:class:`Hits`) ->
 
 ``import wrt`` imports none of the modules behind its names: each is imported the first time one of its names is
 used (PEP 562), so that ``wrt --help`` and a script that needs a few names do not wait for all of them. Importing
-every module took 1.7 s (on a 2-core VM) of Warp parsing the source of their kernels, and Warp, numpy and usd-core
-themselves took as long again.
+them all took 2.0 s of CPU on a 2-core VM: Warp parsing the source of 464 kernels, functions and structs as they were
+decorated, importing Warp, numpy and usd-core, compiling wrt's own source, and tearing it all down at exit.
 """
 
 import importlib
