@@ -7,11 +7,9 @@ Usage, on the GPU host: ``PYTHONPATH=$PWD:$PWD/benchmarks python -m pytest -p re
 (``-s`` shows the line it prints, proof that it is active).
 """
 
-import sys
+import importlib
 
-import wrt  # noqa: F401  (imports wrt.render)
-
-_render_module = sys.modules["wrt.render"]
+_render_module = importlib.import_module("wrt.render")  # the module: ``wrt.render`` is the function
 _resolve = _render_module.resolve_device
 
 

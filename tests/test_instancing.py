@@ -1481,9 +1481,9 @@ def test_device_memory_grows_by_at_most_128_bytes_per_instance(np_rng):
 
 
 def test_warp_accel_refuses_to_flatten_huge_instanced_scenes(np_rng, monkeypatch):
-    import sys
+    import importlib
 
-    monkeypatch.setattr(sys.modules["wrt.trace"], "WARP_MAX_TRIANGLES", 100)
+    monkeypatch.setattr(importlib.import_module("wrt.trace"), "WARP_MAX_TRIANGLES", 100)
     scene = python_scene(np_rng)
     with pytest.raises(ValueError, match="accel='wrt'"):
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel="warp")

@@ -1,6 +1,7 @@
 """Previews with pyvista, rendered off-screen: PNGs from ``wrt preview``, ``to_pyvista`` counts, and the geometry
 of what is drawn (frustum, BVH cut, rays) checked against the camera, the tree and the renderer."""
 
+import importlib
 import os
 import subprocess
 import sys
@@ -37,7 +38,7 @@ from wrt.primitives import Shape  # noqa: E402
 from wrt.render import resolve_camera  # noqa: E402
 from wrt.trace import get_accelerator  # noqa: E402
 
-preview_module = sys.modules["wrt.preview"]  # ``wrt.preview`` itself is the function
+preview_module = importlib.import_module("wrt.preview")  # ``wrt.preview`` itself is the function
 
 
 @pytest.fixture(scope="module")

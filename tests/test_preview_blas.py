@@ -3,8 +3,8 @@ instance's transform; before, only the top level of a scene with instances could
 node boxes of the accelerator the renderer traces, their eight corners moved by the instance matrix in float64
 numpy."""
 
+import importlib
 import itertools
-import sys
 
 import numpy as np
 import pytest
@@ -181,7 +181,7 @@ def test_an_instance_without_a_blas_is_refused_first_naming_the_option_and_one_t
     kinds = [stage.GetPrimAtPath(targets[k]).GetTypeName() for k in pi.GetProtoIndicesAttr().Get()]
     assert kinds == ["Sphere", "Mesh", "Sphere"]
     scene = wrt.load_usd(tmp_path / "mixed.usda")
-    preview_module = sys.modules["wrt.preview"]
+    preview_module = importlib.import_module("wrt.preview")
     monkeypatch.setattr(preview_module, "get_accelerator", lambda *a, **k: pytest.fail("built the accelerator first"))
     with pytest.raises(ValueError, match=r"bvh_instance='/PI\[0\]'.*no BLAS.*such as '/PI\[1\]'"):
         wrt.preview(scene, bvh_leaves=True, bvh_instance="/PI[0]", window_size=(32, 24))

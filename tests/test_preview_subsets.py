@@ -2,7 +2,7 @@
 how many of how many it draws. The first ones in order were drawn: a scene written corner first showed one corner.
 The oracle is the scene's own box, computed with float64 numpy from the transforms given."""
 
-import sys
+import importlib
 
 import numpy as np
 import pytest
@@ -17,7 +17,7 @@ from wrt.preview_lights import light_glyphs  # noqa: E402
 from wrt.primitives import Shape  # noqa: E402
 from wrt.scene import Mesh  # noqa: E402
 
-preview_module = sys.modules["wrt.preview"]
+preview_module = importlib.import_module("wrt.preview")  # ``wrt.preview`` itself is the function
 EXTENT = 100.0  # the scene spans [0, EXTENT] on every axis; its first CORNER things lie within [0, 1]
 CORNER, TOTAL = 300, 1000
 
