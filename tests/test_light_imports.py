@@ -57,7 +57,7 @@ import wrt.render, wrt.trace
 from wrt.preview import preview
 from wrt import render_products
 names = json.loads(sys.argv[1])
-report = {"different": [], "star": []}
+report = {"different": []}
 for module, public in names.items():
     for name in public:
         if getattr(wrt, name) is not getattr(importlib.import_module(f"wrt.{module}"), name):
