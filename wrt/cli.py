@@ -19,6 +19,34 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
+from .options import (
+    ACCELERATOR_PRESPLIT,
+    ACCELERATORS,
+    ALIASES,
+    AOV_NAMES,
+    BVH_COLORINGS,
+    DATA_INTEGRATORS,
+    DEFAULT_BINS,
+    DEFAULT_LEAF_SIZE,
+    DEFAULT_MAX_DEPTH,
+    EPO_SAMPLES,
+    LAYOUTS,
+    MAX_BINS,
+    MAX_DEPTH,
+    MAX_EPO_SAMPLES,
+    MAX_EXPOSURE,
+    MAX_LEAF_SIZE,
+    MAX_RAYS,
+    MAX_SPLIT_LEVELS,
+    MAX_SPP,
+    MAX_WARP_LEAF_SIZE,
+    QUICK_LOOKS,
+    TRIANGLE_BUDGET,
+    WARP_BUILDERS,
+    Builder,
+    builder_names,
+    parse_builders,
+)
 from .wording import counted, counted_of, did_you_mean
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
@@ -339,8 +367,6 @@ def _seed(text: str) -> int:
 
 
 def _add_render(sub) -> None:
-    from .options import ACCELERATORS, WARP_BUILDERS, Builder
-
     p = sub.add_parser(
         "render",
         help="render a USD scene to an image",
@@ -377,8 +403,6 @@ def _add_render(sub) -> None:
                    "resolution, else 480 (given alone: the camera's aspect fixes the width)")
     p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
     add_stage_options(p)
-    from .options import MAX_SPP
-
     p.add_argument("--spp", type=int_at_least(1, "an integer from 1 to 2^31 - 1", MAX_SPP), default=1,
                    help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
@@ -406,8 +430,6 @@ def _add_render(sub) -> None:
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
-    from .options import AOV_NAMES
-
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
                    f"its subfolder STEM/ ({', '.join(AOV_NAMES)})", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
@@ -419,15 +441,11 @@ def _add_render(sub) -> None:
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
-    from .options import DEFAULT_MAX_DEPTH, MAX_DEPTH
-
     depths = ", ".join(f"{depth} ({name})" for name, depth in DEFAULT_MAX_DEPTH.items())
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
                    help=f"bounces per path; default {depths}")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
                    help="ao distance, in scene units; default a tenth of the diagonal of the scene's box")
-    from .options import DATA_INTEGRATORS, MAX_EXPOSURE
-
     p.add_argument("--exposure", type=_exposure, default=0.0,
                    help=f"PNG only: scale the image by 2^EXPOSURE (in stops, from -{MAX_EXPOSURE:g} to "
                    f"{MAX_EXPOSURE:g}) before sRGB; not the {' and '.join(DATA_INTEGRATORS)} integrators' images, "
@@ -549,7 +567,6 @@ def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> No
     as they are, or the integrator's image is data (:data:`wrt.render.DATA_INTEGRATORS`), which a PNG stores as it
     is: a user asking for a brighter image would otherwise get the same file without a word."""
     from .image import DATA_EXPOSURE_WARNING
-    from .options import DATA_INTEGRATORS
 
     linear = [Path(o) for o in outputs if Path(o).suffix.lower() != ".png"]
     if exposure != 0.0 and integrator in DATA_INTEGRATORS:
@@ -563,8 +580,6 @@ def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> No
 def _png_exposure(args) -> float:
     """The exposure a render's PNGs get: none for a data image (said once by :func:`_warn_unused_exposure`, before the
     render, and not again by each ``Image.save``)."""
-    from .options import DATA_INTEGRATORS
-
     return 0.0 if args.integrator in DATA_INTEGRATORS else args.exposure
 
 
@@ -572,7 +587,6 @@ def _warn_unused_integrator_options(args) -> None:
     """A warning for ``--ao-radius``, ``--max-depth`` or ``--spp`` above 1 given to an integrator that does not read
     it: the image was the one without it, without a word."""
     from .integrators import INTEGRATORS
-    from .options import DEFAULT_MAX_DEPTH, QUICK_LOOKS  # the integrators that bounce; those of one sample
 
     if args.spp > 1 and args.integrator in QUICK_LOOKS:
         sampled = [name for name in INTEGRATORS if name not in QUICK_LOOKS]
@@ -589,8 +603,6 @@ def _check_builder(args) -> None:
     """Refuses, before any load, a ``--builder`` that ``--accel`` has not (wrt's ploc for wp.Mesh was refused after
     the load, in the library's words, ``accel='warp'``); warns once where wp.Mesh builds another tree than the one
     asked for: lbvh on the CPU, which Warp itself said in its own raw words (see :func:`_built_builder`)."""
-    from .options import ALIASES, WARP_BUILDERS, Builder
-
     if args.accel == "warp" and args.builder not in (*WARP_BUILDERS, *ALIASES):
         raise ValueError(f"--builder {args.builder} builds wrt's BVH (--accel wrt); --accel warp builds Warp's "
                          f"wp.Mesh, whose builders are {', '.join(WARP_BUILDERS)}")
@@ -621,8 +633,6 @@ def _built_builder(args) -> str:
 
 def _drawn_spp(args) -> int:
     """The samples per pixel a render draws: ``--spp``, but one for the quick looks, whatever ``--spp`` says."""
-    from .options import QUICK_LOOKS
-
     return 1 if args.integrator in QUICK_LOOKS else args.spp
 
 
@@ -639,8 +649,6 @@ def _aov_folder(args, path: Path) -> Path:
 def _files_written(args, path: Path, output: Path) -> list[Path]:
     """Every file a render of scene ``path`` writes: its image ``output`` first, then the ``--aov`` previews and the
     ``--aov-dir`` arrays (one per AOV of :data:`wrt.render.AOV_NAMES`, as ``Image.save_aovs`` writes them)."""
-    from .options import AOV_NAMES
-
     files = [output] + [_aov_png(output, name) for name in args.aov]
     if args.aov_dir:
         files += [_aov_folder(args, path) / f"{name}.npy" for name in AOV_NAMES]
@@ -1127,8 +1135,6 @@ def _instance_choice(text: str) -> int | str:
 
 
 def _add_preview(sub) -> None:
-    from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET, Builder
-
     p = sub.add_parser(
         "preview",
         help="show a USD scene, its camera, BVH and rays in a 3D view (pyvista)",
@@ -1443,8 +1449,6 @@ def _run_bench(args) -> int:
 def _builders(text: str) -> str:
     """An argparse type: one ``--builder`` value of ``wrt bvh-stats``, comma-separated names
     :func:`wrt.options.parse_builders` reads."""
-    from .options import parse_builders
-
     try:
         parse_builders(text)
     except ValueError as e:
@@ -1461,20 +1465,6 @@ def _non_negative_float(text: str) -> float:
 
 
 def _add_bvh_stats(sub) -> None:
-    from .options import (
-        ACCELERATOR_PRESPLIT,
-        DEFAULT_BINS,
-        DEFAULT_LEAF_SIZE,
-        EPO_SAMPLES,
-        LAYOUTS,
-        MAX_BINS,
-        MAX_EPO_SAMPLES,
-        MAX_LEAF_SIZE,
-        MAX_SPLIT_LEVELS,
-        MAX_WARP_LEAF_SIZE,
-        builder_names,
-    )
-
     # Each value is checked as it is read, so an error names the option typed (it named the Python argument, as
     # 'presplit must lie in [0, 6]', and came after the scene's load).
     def up_to(lo: int, hi: int):
