@@ -970,3 +970,30 @@ def test_an_animation_that_names_no_blend_shapes_moves_none_as_bake_skinning(tmp
     expected, _ = world_triangles(baked(path), "/Root/Face", Usd.TimeCode(5.0))
     mesh = {m.path: m for m in scene.meshes}["/Root/Face"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("target, why", [
+    ("<{root}/Nope>", "no prim is there"),
+    ("<{root}/Over>", r"it is only an 'over' \(defined nowhere\)"),
+    ("<{root}/Typeless>", "it is a prim with no type, not a Skeleton"),
+    ("<{root}/Bar/bulge>", "it is a BlendShape, not a Skeleton"),
+])
+def test_a_skeleton_binding_to_no_skeleton_leaves_the_meshes_unposed_named_with_the_target(tmp_path, target, why):
+    """A ``skel:skeleton`` that targets a missing prim, an ``over`` or a prim of another type poses nothing (USD warns
+    of the target alone); wrt said nothing. The meshes stay where USD's own transforms put their authored points."""
+    old = "rel skel:skeleton = </Root/Skel>"
+    body = skel_root()
+    assert body.count(old) == 1
+    body = body.replace(old, "rel skel:skeleton = " + target.format(root="/Root"))
+    body = body.replace('    def Skeleton "Skel"', '    over "Over"\n    {\n    }\n    def "Typeless"\n    {\n    }\n\n'
+                        '    def Skeleton "Skel"', 1)
+    path = write(tmp_path, body)
+    named = rf"skel:skeleton targets {target[1:-1].format(root='/Root')}, but {why}"
+    meshes = "/Root/Bar, /Root/Rigid, /Root/Face"
+    with pytest.warns(UserWarning, match=rf"UsdSkel skinning failed.*\({named}: 3\): {meshes}$"):
+        scene = load_usd(path, time=5.0)
+    stage = Usd.Stage.Open(path)
+    by_path = {m.path: m for m in scene.meshes}
+    for mesh_path in ("/Root/Bar", "/Root/Rigid", "/Root/Face"):
+        expected, _ = world_triangles(stage, mesh_path, Usd.TimeCode(5))
+        np.testing.assert_allclose(by_path[mesh_path].points[by_path[mesh_path].indices], expected, atol=1e-6)

@@ -15,18 +15,19 @@ transforms and weights (``UsdSkel.SkinNormals``), after blend shapes' ``normalOf
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
 (:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
-A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
-cannot be posed, bind transforms that do not match its joints or cannot be inverted, a ``geomBindTransform`` that is
-not finite or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, an inactive
-skeleton, a SkelRoot or skeleton outside the native prototype that holds it) keeps its unposed points, with a
-warning naming it. A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the
-identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does
-not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
+A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that cannot
+be posed, bind transforms that do not match its joints or cannot be inverted, a ``geomBindTransform`` that is not finite
+or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, an inactive skeleton, a
+``skel:skeleton`` that targets no Skeleton (a missing prim, an ``over``: USD warns naming no mesh), a SkelRoot or
+skeleton outside the native prototype that holds it) keeps its unposed points, with a warning naming it (and the target,
+for a binding to no Skeleton). A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points
+with the identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that
+does not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
 points without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the
 mesh, the BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A
 ``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the
-shorter goes and leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns
-of the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
+shorter goes and leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns of
+the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
 """
 
 from __future__ import annotations
@@ -100,6 +101,8 @@ class SkelPoser:
             return None  # USD does not pose it either
         skeleton = self._bound_skeleton(prim)
         if not skeleton:
+            if skeleton is not None and self._has_influences_or_shapes(prim, own):  # a target that is no Skeleton
+                self.skip(FAILED, prim, _not_a_skeleton(prim.GetStage(), self._skeleton_target(prim)))
             return None
         if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
             try:
@@ -164,6 +167,19 @@ class SkelPoser:
                 return None
             prim = prim.GetParent()
         return None
+
+    @staticmethod
+    def _skeleton_target(prim: Usd.Prim) -> Sdf.Path:
+        """The first target of the ``skel:skeleton`` that binds ``prim`` (its own or the nearest ancestor's)."""
+        while not prim.GetRelationship("skel:skeleton").HasAuthoredTargets():
+            prim = prim.GetParent()
+        return prim.GetRelationship("skel:skeleton").GetTargets()[0]
+
+    @staticmethod
+    def _has_influences_or_shapes(prim: Usd.Prim, own: bool) -> bool:
+        """``prim`` has joint influences (its own or constant ones inherited) or blend shapes: USD would pose it."""
+        inherited = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("skel:jointIndices")
+        return own or bool(inherited and inherited.HasAuthoredValue())
 
     def _populate(self, root: Usd.Prim):
         if str(root.GetPath()) not in self.roots:
@@ -380,6 +396,20 @@ class _Influences:
     def rigid_transform(self) -> np.ndarray:
         """``(4, 4)`` row-vector transform of a rigidly bound mesh (constant influences) into the skeleton's space."""
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
+
+
+def _not_a_skeleton(stage: Usd.Stage, target: Sdf.Path) -> str:
+    """Why ``target`` of a ``skel:skeleton`` binds no skeleton, in words naming it (USD warns without the mesh)."""
+    found = stage.GetPrimAtPath(target)
+    if not found:
+        why = "no prim is there"
+    elif not found.HasDefiningSpecifier():
+        why = "it is only an 'over' (defined nowhere)"
+    elif not found.GetTypeName():
+        why = "it is a prim with no type, not a Skeleton"
+    else:
+        why = f"it is a {found.GetTypeName()}, not a Skeleton"
+    return f"skel:skeleton targets {target}, but {why}"
 
 
 def _unusable_influences(query: UsdSkel.SkinningQuery, time: Usd.TimeCode) -> str | None:
