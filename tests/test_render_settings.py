@@ -771,3 +771,82 @@ def test_an_edit_of_the_camera_wrt_frames_the_scene_with_is_named_not_drawn_sile
     with pytest.warns(UserWarning, match=r"^renderer\.camera \(to_world\) edited"):
         image = kept.render(seed=1)
     np.testing.assert_array_equal(image.rgb, wrt.render(scene, width=12, height=9, device="cpu", seed=1).rgb)
+
+
+UNREAD_CAMERAS = """
+def Xform "World"
+{
+    def Cube "Box"
+    {
+    }
+    def Camera "Front"
+    {
+        double3 xformOp:translate = (0, 0, 5)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Camera "Off" (
+        active = false
+    )
+    {
+    }
+    def Xform "Gone" (
+        active = false
+    )
+    {
+        def Camera "Cam"
+        {
+        }
+    }
+    def PointInstancer "Scatter"
+    {
+        rel prototypes = </World/Scatter/Protos/Cam>
+        int[] protoIndices = [0]
+        point3f[] positions = [(0, 0, 0)]
+        def Scope "Protos"
+        {
+            def Camera "Cam"
+            {
+            }
+        }
+    }
+}
+def RenderSettings "Settings"
+{
+    rel camera = <CAMERA>
+    uniform int2 resolution = (8, 6)
+}
+"""
+
+
+@pytest.mark.parametrize("camera, why", [
+    ("/World/Off", "it is inactive"),
+    ("/World/Scatter/Protos/Cam", "it is inside PointInstancer /World/Scatter"),
+])
+def test_a_settings_camera_wrt_does_not_read_is_named_with_the_reason(tmp_path, camera, why):
+    """Render settings whose camera is inactive, under an inactive prim or in a PointInstancer's prototypes (which
+    USD's own ``UsdGeom.Camera`` reads: the oracle that it is one) failed with 'is not among the cameras wrt reads',
+    saying nothing of why; the error names the settings prim, the camera and the reason. A render by the path says
+    the same."""
+    from pxr import Usd, UsdGeom
+
+    path = write(tmp_path, UNREAD_CAMERAS.replace("CAMERA", camera))
+    assert Usd.Stage.Open(path).GetPrimAtPath(camera).IsA(UsdGeom.Camera)
+    scene = load(path, render_settings="/Settings")
+    assert list(scene.cameras) == ["/World/Front"]
+    with pytest.raises(wrt.SceneError, match=rf"/Settings renders camera {camera}, which wrt cannot use: "
+                                             rf"the Camera at {camera} is not read: {why}"):
+        resolve_view(scene)
+    with pytest.raises(wrt.SceneError, match=rf"{why}"):
+        wrt.render(scene, camera=camera, width=8, height=6, device="cpu")
+
+
+def test_a_settings_camera_under_an_inactive_prim_is_named_with_it(tmp_path):
+    """A camera under an inactive prim is no prim to USD (the settings' load fails, as for any missing camera); the
+    error says which ancestor made it so."""
+    from pxr import Usd
+
+    path = write(tmp_path, UNREAD_CAMERAS.replace("CAMERA", "/World/Gone/Cam"))
+    assert not Usd.Stage.Open(path).GetPrimAtPath("/World/Gone/Cam")
+    with pytest.raises(wrt.SceneError, match=r"/Settings: camera relationship targets /World/Gone/Cam, which is no "
+                                             r"prim \(it is under /World/Gone, which is inactive\), not a Camera"):
+        load(path, render_settings="/Settings")

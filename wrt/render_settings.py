@@ -384,7 +384,11 @@ def _check_camera(stage, camera: str | None, where: dict) -> None:
         return
     target = stage.GetPrimAtPath(camera)
     if not (target and target.IsA(UsdGeom.Camera)):
+        from .usd_cameras import why_not_read
+
         what = f"a {target.GetTypeName() or 'typeless prim'}" if target else "no prim"
+        why = why_not_read(stage, camera)  # a camera under an inactive prim is none to USD
+        what = f"{what} ({why})" if why else what
         raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", **where)
 
 

@@ -114,7 +114,7 @@ from .usd_ancestors import KEEP_LOOKING, AncestorMemo, ComputedPurposes, Inherit
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_bindings import CollectionsInside
-from .usd_cameras import CameraReading
+from .usd_cameras import CameraReading, why_not_read
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, named, place_instances
 from .usd_draw_modes import stand_in_draw_mode
 from .usd_gprims import GprimReading
@@ -221,6 +221,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     try:
         with instance_spaces_kept():
             scene = reader.read()
+        _name_unread_settings_cameras(scene, stage)
         scene._variants = variants  # to open the stage as it was read again: what_is_at (a camera it lacks)
         return scene
     finally:
@@ -232,6 +233,21 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         reader.skel = None
         reader.tubes = None
         reader.surfaces = None
+
+
+def _name_unread_settings_cameras(scene: Scene, stage: Usd.Stage) -> None:
+    """Keeps in ``scene.skipped_cameras`` why a Camera the render settings (or a product) render is not read (an
+    inactive one, one in a PointInstancer's prototypes: :func:`wrt.usd_cameras.why_not_read`), which a render from
+    it raises; it said only that the camera was not among the cameras wrt reads."""
+    from .usd_cameras import why_not_read
+
+    settings = scene.render_settings
+    named = [] if settings is None else [settings.camera, *(product.camera for product in settings.products)]
+    for path in dict.fromkeys(p for p in named if p is not None):
+        if path not in scene.cameras and path not in scene.skipped_cameras:
+            why = why_not_read(stage, path)
+            if why is not None:
+                scene.skipped_cameras[path] = f"the Camera at {path} is not read: {why}"
 
 
 def open_variants(source: str, variants, posted: list | None = None) -> Usd.Stage:

@@ -206,15 +206,50 @@ def what_is_at(source: str, path: str, variants=None) -> str | None:
             if variants:
                 apply_variants(stage, source, variants)
             prim = stage.GetPrimAtPath(path)
+            why = why_not_read(stage, path)
         except (SceneError, Tf.ErrorException, OSError):
-            prim = None
+            prim = why = None
         finally:
             if trap is not None:
                 trap.EraseMatching(lambda d: True)
+    if why is not None:
+        return f"the Camera at {path!r} is not among the scene's cameras: {why}"
     if not prim or not prim.IsDefined():
         return None
-    if prim.IsA(UsdGeom.Camera):  # on the stage, but not read: say why it may be so
-        return (f"the Camera at {path!r} is not among the scene's cameras (wrt reads none that is inactive or "
-                "abstract, in a PointInstancer's prototypes or under a Material; or it was taken out of scene.cameras)")
+    if prim.IsA(UsdGeom.Camera):
+        return f"the Camera at {path!r} is not among the scene's cameras (it was taken out of scene.cameras)"
     kind = prim.GetTypeName()
     return f"{path!r} is {'a prim of no type' if not kind else f'a {kind}'}, not a camera"
+
+
+def why_not_read(stage: Usd.Stage, path: str) -> str | None:
+    """Why the loader reads no camera at ``path`` where ``stage`` has a Camera there, or one under an inactive
+    ancestor, in words (``"it is inactive"``); None where nothing of the kind is there. A render that names it, by
+    path or through render settings, says this, where it said the camera was not among those wrt reads."""
+    from pxr import Sdf
+
+    prim = stage.GetPrimAtPath(path)
+    if not prim:  # the children of an inactive prim are not composed
+        for prefix in Sdf.Path(path).GetParentPath().GetPrefixes():
+            above = stage.GetPrimAtPath(prefix)
+            if above and not above.IsActive():
+                return f"it is under {prefix}, which is inactive"
+        return None
+    if not prim.IsA(UsdGeom.Camera):
+        return None
+    if not prim.IsActive():
+        return "it is inactive"
+    if not prim.HasDefiningSpecifier():
+        return "it is only an 'over' (defined nowhere)"
+    if prim.IsAbstract():
+        return "it is abstract (a class, or under one)"
+    if not prim.IsLoaded():
+        return "it is in a payload that is not loaded"
+    above = prim.GetParent()
+    while above and not above.IsPseudoRoot():
+        if above.IsA(UsdGeom.PointInstancer):
+            return f"it is inside PointInstancer {above.GetPath()} (wrt reads no camera in a PointInstancer's prototypes)"
+        if above.IsA(UsdShade.Material):
+            return f"it is under Material {above.GetPath()} (wrt reads no camera there)"
+        above = above.GetParent()
+    return None
