@@ -1497,3 +1497,77 @@ def test_cli_frames_number_only_the_patterns_own_hashes(animated, tmp_path, monk
     monkeypatch.chdir(tmp_path)
     assert main(["render", str(scene), "--frames", "1:2", "-o", output, "-q"]) == 0
     assert [str(file) for file in given] == [str(Path(name)) for name in names]
+
+
+CAMERA_BAD_AT_2 = """#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 3
+    upAxis = "Y"
+)
+def Cube "Box"
+{
+}
+def Camera "Cam"
+{
+    float focalLength.timeSamples = { 1: 50, 2: FOCAL, 3: 50 }
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Camera "Other"
+{
+    double3 xformOp:translate = (5, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+@pytest.mark.parametrize("bad, why", [
+    ({"FOCAL": "0"}, "camera needs finite positive focalLength"),
+    ({"FOCAL": "nan"}, "camera needs finite positive focalLength"),
+    ({"FOCAL": "50", "double3 xformOp:translate = (0, 0, 10)":
+      "double3 xformOp:translate.timeSamples = { 1: (0, 0, 10), 2: (nan, 0, 10), 3: (0, 0, 10) }"}, "not finite"),
+])
+def test_a_first_camera_bad_at_one_frame_refuses_that_frame_naming_the_camera_and_the_frame(tmp_path, bad, why):
+    """The stage's first camera, whose focal length USD's own GetCamera reads as 0 or NaN (or whose transform
+    XformCache gives as not finite) at frame 2 alone: frame 2 was drawn from /Other under a warning that only said
+    /Cam was skipped, one view unlike the rest of the animation. It is refused with an error naming the camera, the
+    frame and why; frames 1 and 3 are drawn from /Cam."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "cam.usda"
+    text = CAMERA_BAD_AT_2
+    for old, new in bad.items():
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    stage = Usd.Stage.Open(str(path))
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))
+    assert [np.isfinite(np.array(camera.GetCamera(t).transform)).all() and camera.GetCamera(t).focalLength > 0
+            for t in (1.0, 2.0, 3.0)] == [True, False, True]
+    renderer = FrameRenderer(path, width=8, height=6, device="cpu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the load's word that the camera was skipped
+        renderer.render(1.0)
+        with pytest.raises(wrt.SceneError, match=r"/Cam: the stage's first camera, which draws the frames, cannot be "
+                                                 rf"used at frame 2: .*{why}.*; the frame is not drawn from another"):
+            renderer.render(2.0)
+        renderer.render(3.0)
+    assert [row["drawn_camera"] for row in renderer.log] == ["camera /Cam", "camera /Cam"]
+    # Given by path, the other camera draws every frame, frame 2 too.
+    other = FrameRenderer(path, camera="/Other", width=8, height=6, device="cpu")
+    with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
+        other.render(2.0)
+    assert other.log[-1]["drawn_camera"] == "camera /Other"
+
+
+def test_a_first_camera_bad_at_every_time_leaves_the_frames_to_the_next_camera(tmp_path):
+    """A first camera that is bad whatever the time (an unanimated zero focal length) is skipped for every frame
+    alike, as for a still render: the frames are drawn from the next camera, with the load's warning."""
+    path = tmp_path / "cam.usda"
+    path.write_text(CAMERA_BAD_AT_2.replace("float focalLength.timeSamples = { 1: 50, 2: FOCAL, 3: 50 }",
+                                            "float focalLength = 0"))
+    renderer = FrameRenderer(path, width=8, height=6, device="cpu")
+    with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
+        renderer.render(2.0)
+    assert renderer.log[-1]["drawn_camera"] == "camera /Other"

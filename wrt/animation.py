@@ -334,6 +334,7 @@ class FrameRenderer:
             warnings.warn(f"{os.path.basename(self.path)}: {settings.path} has {len(settings.products)} "
                           f"RenderProducts; each frame is the first's, {settings.product} (--products DIR --time T "
                           "writes them all at one time)", stacklevel=3)
+        _check_first_camera(scene, self.camera, frame)
         # Forgotten until this frame is done: following refits the accelerators in place, so after a frame that
         # failed past this point (a camera missing at its time, out of memory) they hold its vertices, not the last
         # good frame's, and a later frame equal to that one was drawn with them as 'static'.
@@ -382,6 +383,22 @@ class FrameRenderer:
             }
         )
         return image
+
+
+def _check_first_camera(scene, camera, frame: float) -> None:
+    """SceneError naming the camera, the frame and why, where ``camera`` is None, the render settings name none and
+    the stage's first camera, which draws the frames, cannot be used at this frame's time (a zero focal length, a
+    transform that is not finite: ``Scene.skipped_cameras``) and is animated (one bad at every time draws no frame,
+    and the next camera draws them all, as it draws a still render). The frame was drawn from the next camera, or
+    from one wrt frames the scene with, under a warning that only said the camera was skipped: a view unlike the other
+    frames', found when the animation is watched. Refused, the frame gets an error row and no file, as a frame whose
+    named camera is bad at its time does; the other frames go on."""
+    first = getattr(scene, "_first_camera_skipped", None)
+    settings = scene.render_settings
+    if camera is None and first is not None and (settings is None or settings.camera is None):
+        raise SceneError(f"the stage's first camera, which draws the frames, cannot be used at frame {frame:g}: "
+                         f"{scene.skipped_cameras[first]}; the frame is not drawn from another view (camera= or "
+                         "--camera chooses one for every frame)", path=scene.source, prim=first)
 
 
 def _camera_label(scene, camera) -> str:

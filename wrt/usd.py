@@ -239,8 +239,6 @@ def _name_unread_settings_cameras(scene: Scene, stage: Usd.Stage) -> None:
     """Keeps in ``scene.skipped_cameras`` why a Camera the render settings (or a product) render is not read (an
     inactive one, one in a PointInstancer's prototypes: :func:`wrt.usd_cameras.why_not_read`), which a render from
     it raises; it said only that the camera was not among the cameras wrt reads."""
-    from .usd_cameras import why_not_read
-
     settings = scene.render_settings
     named = [] if settings is None else [settings.camera, *(product.camera for product in settings.products)]
     for path in dict.fromkeys(p for p in named if p is not None):

@@ -45,6 +45,10 @@ class CameraReading:
                 # (Values of the wrong type are ValueErrors naming the attribute; a TypeError is a bug, not skipped.)
                 reason = str(e) if isinstance(e, ValueError) else f"camera cannot be read ({tf_message(e)})"
                 self.scene.skipped_cameras[path] = reason
+                if not (self.scene.cameras or hasattr(self.scene, "_first_camera_skipped")) and _might_vary(proxy):
+                    # The stage's first camera, bad at this time only, perhaps: frames refuse to draw another
+                    # (wrt.animation); one bad at every time draws none of them, as a still render does.
+                    self.scene._first_camera_skipped = path
                 self._skip(UNUSABLE_CAMERA, proxy, reason)
 
         self._read_through_instances(prim, cameras, ctx, "cameras", read, "cameras")
@@ -185,6 +189,17 @@ def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
 
 
 
+def _might_vary(prim: Usd.Prim) -> bool:
+    """A camera attribute of ``prim`` or a transform that places it (its own or an ancestor's) has time samples."""
+    if any(a.ValueMightBeTimeVarying() for a in prim.GetAttributes()):
+        return True
+    while prim and not prim.IsPseudoRoot():
+        if UsdGeom.Xformable(prim) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
+            return True
+        prim = prim.GetParent()
+    return False
+
+
 def what_is_at(source: str, path: str, variants=None) -> str | None:
     """Words for what the stage at ``source`` (with ``variants`` selected, as it was loaded) holds at ``path``, where
     the scene has no camera: ``"'/Box' is a Cube, not a camera"``; None where there is no prim there or the stage
@@ -248,7 +263,7 @@ def why_not_read(stage: Usd.Stage, path: str) -> str | None:
     above = prim.GetParent()
     while above and not above.IsPseudoRoot():
         if above.IsA(UsdGeom.PointInstancer):
-            return f"it is inside PointInstancer {above.GetPath()} (wrt reads no camera in a PointInstancer's prototypes)"
+            return f"it is inside PointInstancer {above.GetPath()} (wrt reads no camera in its prototypes)"
         if above.IsA(UsdShade.Material):
             return f"it is under Material {above.GetPath()} (wrt reads no camera there)"
         above = above.GetParent()
