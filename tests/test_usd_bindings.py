@@ -22,7 +22,7 @@ pxr = pytest.importorskip("pxr")
 import warp.examples  # noqa: E402
 from binding_oracle import compare, face_material, material_key, rendered_rows  # noqa: E402
 from binding_stages import preview_material, tint_material, write_stage  # noqa: E402
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 
@@ -667,3 +667,43 @@ def test_a_listed_purposes_binding_to_no_material_is_named_and_binds_nothing(tmp
         assert f"{detail}: {count}" in named[0], named[0]
     drawn = _drawn_materials(scene)
     assert drawn == {(mesh, 0): str(material.GetPath()) if material else "" for mesh, (material, _) in expected.items()}
+
+
+@pytest.mark.parametrize("target", ["/Group.collection:absent", "/Group.collection:unapplied", "/Gone.collection:c",
+                                    "/Group.points"])
+@pytest.mark.parametrize("instanced", [False, True])
+def test_a_collection_binding_to_no_collection_binds_nothing_as_usd_and_is_named(tmp_path, target, instanced):
+    """A collection binding whose collection target is no collection USD finds (a collection the prim does not apply,
+    one of a missing prim, an attribute) binds nothing to ``ComputeBoundMaterial``: its prims take the direct binding
+    above (red). wrt said nothing of the first ones, and failed the whole load on an attribute ('cannot read this
+    prim', USD's Python API raising the coding error its C++ only reports). One warning names the binding prim, the relationship and the target.
+    Oracle: ComputeBoundMaterial; for the attribute, on the stage with it replaced by a collection the prim does not
+    apply, which USD's C++ resolves through the same empty membership of an invalid collection (its Python raises on
+    the attribute itself). (A relationship of a collection, which USD forwards to its prims, is a binding of two prims:
+    :func:`test_a_binding_through_a_relationship_is_named_only_where_usd_ignores_it`.)"""
+    path = str(tmp_path / "collections.usda")
+    stage = Usd.Stage.CreateNew(path)
+    red, green = preview_material(stage, "/Looks/Red", (1, 0, 0)), preview_material(stage, "/Looks/Green", (0, 1, 0))
+    group = stage.DefinePrim("/Group", "Xform")
+    _bind(group, red)
+    Usd.CollectionAPI.Apply(group, "inside").CreateIncludesRel().SetTargets(["/Group"])
+    group.CreateRelationship("collection:unapplied:includes").SetTargets(["/Group"])
+    group.CreateRelationship("material:binding:collection:looks").SetTargets([target, green.GetPath()])
+    _quads(stage, "/Group/Mesh", 1)
+    if instanced:
+        stage.DefinePrim("/Group/Inst").GetReferences().AddInternalReference("/Group/Mesh")
+        stage.GetPrimAtPath("/Group/Inst").SetInstanceable(True)
+    stage.GetRootLayer().Save()
+    oracle = Usd.Stage.Open(path)
+    if target == "/Group.points":
+        with pytest.raises(Tf.ErrorException, match="Invalid collection path"):
+            UsdShade.MaterialBindingAPI(oracle.GetPrimAtPath("/Group/Mesh")).ComputeBoundMaterial()
+        with Usd.EditContext(oracle, oracle.GetSessionLayer()):  # the file's layer, shared with wrt's load, kept
+            oracle.GetPrimAtPath("/Group").GetRelationship("material:binding:collection:looks").SetTargets(
+                ["/Group.collection:absent", green.GetPath()])
+    scene, messages = _loaded_with_messages(path)
+    drawn = _drawn_materials(scene)
+    assert drawn == _usd_materials(oracle, drawn)
+    assert set(drawn.values()) == {"/Looks/Red"}, drawn
+    named = [m for m in messages if "bind nothing" in m]
+    assert len(named) == 1 and named[0].endswith(f"(material:binding:collection:looks -> {target}: 1): /Group"), messages

@@ -1072,9 +1072,13 @@ class MaterialReader:
         """Whether ``prim`` or an ancestor binds anything (:attr:`bindings_above`); where one does, a warning names
         each binding on them, not named before in this load, whose purpose USD's calls disagree on, or whose
         targets USD ignores."""
+        from .usd_bindings import NOT_A_COLLECTION, hold_back
+
         binds = self.bindings_above.any(prim)
-        for p, name, problem in self.bindings_above.problems(prim) if binds else ():
-            self.skip(problem, p, name)
+        for p, name, problem, *detail in self.bindings_above.problems(prim) if binds else ():
+            self.skip(problem, p, detail[0] if detail else name)
+            if problem == NOT_A_COLLECTION:
+                hold_back(p, name)
         return binds
 
     def _material_at(self, path: str):

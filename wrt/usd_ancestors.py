@@ -187,10 +187,18 @@ class BindingsAbove:
         return bool(self.memo(prim))
 
     def problems(self, prim: Usd.Prim) -> list:
-        """``[(p, name, problem)]``: the binding relationships of ``prim`` and its ancestors not asked before whose
-        purpose USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`) or whose targets USD ignores
-        (:func:`wrt.usd_bindings.is_ignored_binding`), with the words that say which; each prim looked at once."""
-        from .usd_bindings import AMBIGUOUS_PURPOSE, IGNORED_BINDING, has_ambiguous_purpose, is_ignored_binding
+        """``[(p, name, problem[, detail])]``: the binding relationships of ``prim`` and its ancestors not asked
+        before whose purpose USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`) or whose
+        targets USD ignores (:func:`wrt.usd_bindings.is_ignored_binding`; :func:`wrt.usd_bindings.not_a_collection`,
+        naming the target in ``detail``), with the words that say which; each prim looked at once."""
+        from .usd_bindings import (
+            AMBIGUOUS_PURPOSE,
+            IGNORED_BINDING,
+            NOT_A_COLLECTION,
+            has_ambiguous_purpose,
+            is_ignored_binding,
+            not_a_collection,
+        )
 
         found = []
         p = prim
@@ -201,5 +209,7 @@ class BindingsAbove:
                     found.append((p, name, AMBIGUOUS_PURPOSE))
                 elif is_ignored_binding(p, name):
                     found.append((p, name, IGNORED_BINDING))
+                elif (target := not_a_collection(p, name)) is not None:
+                    found.append((p, name, NOT_A_COLLECTION, f"{name} -> {target}"))
             p = p.GetParent()
         return found

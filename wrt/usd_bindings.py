@@ -17,7 +17,7 @@ from __future__ import annotations
 import bisect
 from typing import NamedTuple
 
-from pxr import Usd, UsdShade
+from pxr import Sdf, Usd, UsdShade
 
 ALL_PURPOSE = ""  # UsdShade.Tokens.allPurpose
 
@@ -89,6 +89,43 @@ def is_ignored_binding(prim: Usd.Prim, name: str) -> bool:
         # A collection (a property) and a prim, whichever comes first.
         return sorted((t.IsPrimPath(), t.IsPropertyPath()) for t in targets) != [(False, True), (True, False)]
     return not (len(targets) == 1 and targets[0].IsPrimPath())
+
+
+NOT_A_COLLECTION = ("collection material bindings whose collection target is no collection (an attribute, a "
+                    "collection its prim does not apply, a missing prim) bind nothing, as USD ignores them; their "
+                    "prims are drawn as bound to what is bound above them")  # warning reason
+
+
+def not_a_collection(prim: Usd.Prim, name: str) -> Sdf.Path | None:
+    """The target of collection binding ``name`` of ``prim`` in place of a collection where it names none that USD
+    finds (``Usd.CollectionAPI.Get``: an attribute, ``collection:NAME`` of a prim that does not apply it, a missing
+    prim): ``ComputeBoundMaterial`` then finds no prim in it and goes on to the bindings above, without a word (an
+    attribute: a coding error that USD's Python API raises, failing the load). None for any other relationship, and
+    for one :func:`is_ignored_binding` names."""
+    if name.split(":")[:3] != ["material", "binding", "collection"] or is_ignored_binding(prim, name):
+        return None
+    collection = next((t for t in prim.GetRelationship(name).GetForwardedTargets() if t.IsPropertyPath()), None)
+    if collection is None:  # no targets: deliberately unbound
+        return None
+    if Usd.CollectionAPI.IsCollectionAPIPath(collection) and Usd.CollectionAPI.Get(prim.GetStage(), collection):
+        return None
+    return collection
+
+
+def hold_back(prim: Usd.Prim, name: str) -> None:
+    """Sets collection binding ``name`` of ``prim``, whose collection target is no collection path at all (an
+    attribute: :func:`not_a_collection`), to target its material alone in the stage's session layer (wrt's own stage:
+    the user's files are untouched), a binding USD ignores alike without the coding error: USD's C++ finds no prim in
+    such a collection (an invalid collection's membership is empty), but its Python API raises the error and with it
+    the whole ``ComputeBoundMaterial``, which failed the load. Not inside a native prototype, whose prims take no
+    opinions: there the load still fails, naming the prim and USD's error."""
+    rel = prim.GetRelationship(name)
+    targets = rel.GetForwardedTargets()
+    raising = [t for t in targets if t.IsPropertyPath() and not Usd.CollectionAPI.IsCollectionAPIPath(t)]
+    if raising and not (prim.IsInstanceProxy() or prim.IsInPrototype()):
+        stage = prim.GetStage()
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            rel.SetTargets([t for t in rel.GetTargets() if t.IsPrimPath()])
 
 
 def is_stronger(rel) -> bool:
@@ -189,7 +226,8 @@ class CollectionsInside:
                     # a collection binding's two targets apart.
                     collection = next((t for t in (rel.GetForwardedTargets() if rel else []) if t.IsPropertyPath()),
                                       None)
-                    if collection is not None:
+                    # (an attribute binds nothing, and Usd.CollectionAPI.Get raises on it)
+                    if collection is not None and Usd.CollectionAPI.IsCollectionAPIPath(collection):
                         found.append(collection)
             self.collections[path] = found
         return self.collections[path]
