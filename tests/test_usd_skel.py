@@ -997,3 +997,35 @@ def test_a_skeleton_binding_to_no_skeleton_leaves_the_meshes_unposed_named_with_
     for mesh_path in ("/Root/Bar", "/Root/Rigid", "/Root/Face"):
         expected, _ = world_triangles(stage, mesh_path, Usd.TimeCode(5))
         np.testing.assert_allclose(by_path[mesh_path].points[by_path[mesh_path].indices], expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("target, why", [
+    ("</Root/NopeAnim>", "no prim is there"),
+    ("</Root/OverAnim>", r"it is only an 'over' \(defined nowhere\)"),
+    ("</Root/Bar>", "it is a Mesh, not a SkelAnimation"),
+    ("</Root/Anim>", "it is inactive"),
+])
+def test_an_animation_source_that_is_no_animation_poses_at_rest_named_with_the_target(tmp_path, target, why):
+    """A Skeleton whose ``skel:animationSource`` targets a missing prim, an ``over``, a prim of another type or an
+    inactive SkelAnimation poses its meshes at its rest transforms, as BakeSkinning does: a still character, of
+    which wrt said nothing (USD warns of a missing target alone, naming no mesh). One warning names the skeleton, the
+    target and why."""
+    old = "rel skel:animationSource = </Root/Anim>"
+    body = skel_root()
+    assert body.count(old) == 1
+    body = body.replace(old, f"rel skel:animationSource = {target}")
+    body = body.replace('    def SkelAnimation "Anim"\n',
+                        '    over "OverAnim"\n    {\n    }\n    def SkelAnimation "Anim" (\n'
+                        + ('        active = false\n' if why == "it is inactive" else "") + '    )\n', 1)
+    path = write(tmp_path, body)
+    named = rf"skel:animationSource targets {target[1:-1]}, but {why}"
+    with pytest.warns(UserWarning, match=rf"targets no SkelAnimation.*\({named}: 1\): /Root/Skel$"):
+        scene = load_usd(path, time=5.0)
+    stage = baked(path)
+    by_path = {m.path: m for m in scene.meshes}
+    for mesh_path in ("/Root/Bar", "/Root/Rigid"):
+        expected, _ = world_triangles(stage, mesh_path, Usd.TimeCode(5))
+        np.testing.assert_allclose(by_path[mesh_path].points[by_path[mesh_path].indices], expected, atol=2e-6)
+    (tmp_path / "animated").mkdir()
+    animated, _ = world_triangles(baked(write(tmp_path / "animated", skel_root())), "/Root/Bar", Usd.TimeCode(5))
+    assert np.abs(by_path["/Root/Bar"].points[by_path["/Root/Bar"].indices] - animated).max() > 0.2  # at rest

@@ -20,14 +20,16 @@ be posed, bind transforms that do not match its joints or cannot be inverted, a 
 or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, an inactive skeleton, a
 ``skel:skeleton`` that targets no Skeleton (a missing prim, an ``over``: USD warns naming no mesh), a SkelRoot or
 skeleton outside the native prototype that holds it) keeps its unposed points, with a warning naming it (and the target,
-for a binding to no Skeleton). A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points
-with the identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that
-does not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
-points without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the
-mesh, the BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A
-``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the
-shorter goes and leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns of
-the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
+for a binding to no Skeleton). A skeleton whose ``skel:animationSource`` targets no SkelAnimation (a missing prim, an
+``over``, another type, an inactive one) poses its meshes at its rest transforms, as UsdSkel does, with a warning naming
+it and the target. A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the
+identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does not
+fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points
+without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
+BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A ``skel:blendShapes`` longer
+than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the shorter goes and leaves out the
+rest, with a warning naming the mesh and the names (or targets) left out; USD warns of the sizes only, naming no mesh,
+and applies none of the mesh's blend shapes.
 """
 
 from __future__ import annotations
@@ -50,6 +52,8 @@ BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the 
 UNPAIRED_SHAPES = ("UsdSkel skel:blendShapes and skel:blendShapeTargets differ in length; the entries past the "
                    "shorter list were left out (USD leaves out every blend shape of the mesh); the rest of its pose "
                    "applies")  # warning reason: skel:blendShapes[i] pairs with skel:blendShapeTargets[i]
+NO_ANIMATION = ("UsdSkel skel:animationSource targets no SkelAnimation; these skeletons pose their meshes at their "
+                "rest transforms, as UsdSkel does")  # warning reason (the skeleton's prim named)
 MISSING_JOINTS = ("UsdSkel skel:joints name joints their skeleton lacks; points weighted to them take the identity, "
                   "as UsdSkel's")  # warning reason: the mesh is posed as BakeSkinning poses it
 
@@ -102,7 +106,8 @@ class SkelPoser:
         skeleton = self._bound_skeleton(prim)
         if not skeleton:
             if skeleton is not None and self._has_influences_or_shapes(prim, own):  # a target that is no Skeleton
-                self.skip(FAILED, prim, _not_a_skeleton(prim.GetStage(), self._skeleton_target(prim)))
+                target = self._skeleton_target(prim)
+                self.skip(FAILED, prim, _not_a("Skeleton", "skel:skeleton", prim.GetStage(), target))
             return None
         if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
             try:
@@ -230,6 +235,8 @@ class SkelPoser:
                 attrs = [anim.GetPrim().GetAttribute(name) for name in _ANIMATED]
                 if any(a and read_time(a, self.time) != self.time for a in attrs):
                     anim_time = Usd.TimeCode.EarliestTime()
+            if skel_query and not anim:
+                self._name_missing_animation(skeleton.GetPrim())
             joints = len(skel_query.GetJointOrder()) if skel_query else 0
             binds = skel_query.GetJointWorldBindTransforms() if skel_query else []
             singular = [k for k, m in enumerate(binds) if not (np.isfinite(m).all() and m.GetDeterminant() != 0.0)]
@@ -246,6 +253,21 @@ class SkelPoser:
                 xforms = computed if computed is not None and len(computed) == joints else xforms
             self.poses[key] = (xforms, anim_time, anim or None)
         return self.poses[key]
+
+    def _name_missing_animation(self, skeleton: Usd.Prim):
+        """Names ``skeleton`` where its ``skel:animationSource`` (its own, else the nearest ancestor's) targets no
+        SkelAnimation UsdSkel takes: its meshes are posed at its rest transforms, as UsdSkel poses them, a still
+        character where an animation was meant (USD warns of a missing target naming no mesh; of others, nothing)."""
+        prim = skeleton
+        while prim and not prim.IsPseudoRoot():
+            rel = prim.GetRelationship("skel:animationSource")
+            if rel and rel.HasAuthoredTargets():
+                targets = rel.GetForwardedTargets()
+                if targets:
+                    self.skip(NO_ANIMATION, skeleton,
+                              _not_a("SkelAnimation", "skel:animationSource", prim.GetStage(), targets[0]))
+                return
+            prim = prim.GetParent()
 
     def _blend(self, prim, query, anim, anim_time, points, normals, vertex_ids):
         """``points`` moved and ``normals`` (as :meth:`pose` takes them, or None) turned by the blend shapes of
@@ -398,18 +420,21 @@ class _Influences:
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
-def _not_a_skeleton(stage: Usd.Stage, target: Sdf.Path) -> str:
-    """Why ``target`` of a ``skel:skeleton`` binds no skeleton, in words naming it (USD warns without the mesh)."""
+def _not_a(kind: str, rel_name: str, stage: Usd.Stage, target: Sdf.Path) -> str:
+    """Why ``target`` of relationship ``rel_name`` is no prim of type ``kind`` USD takes (``Skeleton`` or
+    ``SkelAnimation``), in words naming it (USD warns of a missing target without the mesh or skeleton)."""
     found = stage.GetPrimAtPath(target)
     if not found:
         why = "no prim is there"
     elif not found.HasDefiningSpecifier():
         why = "it is only an 'over' (defined nowhere)"
     elif not found.GetTypeName():
-        why = "it is a prim with no type, not a Skeleton"
+        why = f"it is a prim with no type, not a {kind}"
+    elif found.GetTypeName() != kind:
+        why = f"it is a {found.GetTypeName()}, not a {kind}"
     else:
-        why = f"it is a {found.GetTypeName()}, not a Skeleton"
-    return f"skel:skeleton targets {target}, but {why}"
+        why = "it is inactive"
+    return f"{rel_name} targets {target}, but {why}"
 
 
 def _unusable_influences(query: UsdSkel.SkinningQuery, time: Usd.TimeCode) -> str | None:
