@@ -263,7 +263,8 @@ class SkelPoser:
             rel = prim.GetRelationship("skel:animationSource")
             if rel and rel.HasAuthoredTargets():
                 targets = rel.GetForwardedTargets()
-                if targets:
+                found = prim.GetStage().GetPrimAtPath(targets[0]) if targets else None
+                if targets and not (found and found.IsA(UsdSkel.Animation) and found.IsActive()):  # (else: unbound)
                     self.skip(NO_ANIMATION, skeleton,
                               _not_a("SkelAnimation", "skel:animationSource", prim.GetStage(), targets[0]))
                 return
