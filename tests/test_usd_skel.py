@@ -1029,3 +1029,34 @@ def test_an_animation_source_that_is_no_animation_poses_at_rest_named_with_the_t
     (tmp_path / "animated").mkdir()
     animated, _ = world_triangles(baked(write(tmp_path / "animated", skel_root())), "/Root/Bar", Usd.TimeCode(5))
     assert np.abs(by_path["/Root/Bar"].points[by_path["/Root/Bar"].indices] - animated).max() > 0.2  # at rest
+
+
+@pytest.mark.parametrize("targets, why", [
+    ("</Root/Bar/nope>", "no prim is there"),
+    ("</Root/Bar/ov>", r"it is only an 'over' \(defined nowhere\)"),
+    ("</Root/Skel>", "it is a Skeleton, not a BlendShape"),
+    ("[</Root/Bar/bulge>, </Root/Bar/nope>]", "no prim is there"),  # beside one that fits, which still applies
+])
+def test_a_blend_shape_target_that_is_no_blend_shape_is_left_out_and_the_mesh_posed(tmp_path, targets, why):
+    """A ``skel:blendShapeTargets`` entry that is no BlendShape (missing, an ``over``, another type): USD's query keeps
+    it with no sub-shape, yet gives it a weight for a sub-shape past the end, and wrt's skinning failed on it
+    (IndexError), the whole mesh drawn unposed, 6.2 from BakeSkinning's pose. It is left out with a warning naming
+    the mesh, the entry and why; the mesh is posed as BakeSkinning poses it."""
+    old = "rel skel:blendShapeTargets = </Root/Bar/bulge>"
+    body = skel_root()
+    assert body.count(old) == 1
+    body = body.replace(old, f"rel skel:blendShapeTargets = {targets}")
+    if targets.startswith("["):
+        names = 'uniform token[] skel:blendShapes = ["bulge"]\n        rel skel:blendShapeTargets = ['
+        body = body.replace(names, names.replace('["bulge"]', '["bulge", "gone"]'))
+    over = '        over "ov"\n        {\n        }\n'
+    body = body.replace('        def BlendShape "bulge"', over + '        def BlendShape "bulge"', 1)
+    path = write(tmp_path, body)
+    k, bad = (1, "/Root/Bar/nope") if targets.startswith("[") else (0, targets[1:-1])
+    named = rf"skel:blendShapeTargets\[{k}\] = {bad}: {why}"
+    with pytest.warns(UserWarning, match=rf"do not fit.*\({named}: 1\): /Root/Bar$"):
+        scene = load_usd(path, time=5.0)
+    stage = baked(path)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
+    expected, _ = world_triangles(stage, "/Root/Bar", Usd.TimeCode(5))
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)

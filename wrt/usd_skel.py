@@ -25,11 +25,11 @@ for a binding to no Skeleton). A skeleton whose ``skel:animationSource`` targets
 it and the target. A ``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the
 identity as UsdSkel does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does not
 fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points
-without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
-BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A ``skel:blendShapes`` longer
-than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the shorter goes and leaves out the
-rest, with a warning naming the mesh and the names (or targets) left out; USD warns of the sizes only, naming no mesh,
-and applies none of the mesh's blend shapes.
+without them; a point index out of range; offsets that are not finite; a ``skel:blendShapeTargets`` entry that is no
+BlendShape) is left out, with a warning naming the mesh, the BlendShape and what is wrong; the mesh's other blend shapes
+and its skinning still apply. A ``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them
+entry by entry as far as the shorter goes and leaves out the rest, with a warning naming the mesh and the names (or
+targets) left out; USD warns of the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
 """
 
 from __future__ import annotations
@@ -107,7 +107,8 @@ class SkelPoser:
         if not skeleton:
             if skeleton is not None and self._has_influences_or_shapes(prim, own):  # a target that is no Skeleton
                 target = self._skeleton_target(prim)
-                self.skip(FAILED, prim, _not_a("Skeleton", "skel:skeleton", prim.GetStage(), target))
+                why = _not_a("Skeleton", prim.GetStage(), target)
+                self.skip(FAILED, prim, f"skel:skeleton targets {target}, but {why}")
             return None
         if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
             try:
@@ -265,8 +266,8 @@ class SkelPoser:
                 targets = rel.GetForwardedTargets()
                 found = prim.GetStage().GetPrimAtPath(targets[0]) if targets else None
                 if targets and not (found and found.IsA(UsdSkel.Animation) and found.IsActive()):  # (else: unbound)
-                    self.skip(NO_ANIMATION, skeleton,
-                              _not_a("SkelAnimation", "skel:animationSource", prim.GetStage(), targets[0]))
+                    why = _not_a("SkelAnimation", prim.GetStage(), targets[0])
+                    self.skip(NO_ANIMATION, skeleton, f"skel:animationSource targets {targets[0]}, but {why}")
                 return
             prim = prim.GetParent()
 
@@ -290,6 +291,13 @@ class SkelPoser:
         point_indices = shapes.ComputeBlendShapePointIndices()
         sub_offsets = shapes.ComputeSubShapePointOffsets()
         misfits = {}  # blend shape index -> what is wrong with it (at weight 0 it moves nothing, and USD skips it)
+        targets = UsdSkel.BindingAPI(prim).GetBlendShapeTargetsRel().GetTargets()
+        for shape in range(shapes.GetNumBlendShapes()):
+            # A target that is no BlendShape has no sub-shape, yet ComputeSubShapeWeights gives it one past the end
+            # (wrt's skinning failed on it, IndexError, the mesh unposed): left out, as BakeSkinning poses the mesh.
+            if not shapes.GetBlendShape(shape):
+                misfits[shape] = _not_a("BlendShape", prim.GetStage(), targets[shape])
+                self.skip(BAD_SHAPE, prim, f"skel:blendShapeTargets[{shape}] = {targets[shape]}: {misfits[shape]}")
         for weight, shape, sub in zip(sub_weights, shape_ids, sub_ids):
             why = None if weight == 0.0 or shape in misfits else _misfit(
                 shapes, shape, sub, point_indices[shape], sub_offsets[sub], len(points), normals is not None)
@@ -421,9 +429,9 @@ class _Influences:
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
-def _not_a(kind: str, rel_name: str, stage: Usd.Stage, target: Sdf.Path) -> str:
-    """Why ``target`` of relationship ``rel_name`` is no prim of type ``kind`` USD takes (``Skeleton`` or
-    ``SkelAnimation``), in words naming it (USD warns of a missing target without the mesh or skeleton)."""
+def _not_a(kind: str, stage: Usd.Stage, target: Sdf.Path) -> str:
+    """Why relationship target ``target`` is no prim of type ``kind`` USD takes (``Skeleton``, ``SkelAnimation``,
+    ``BlendShape``), in words (USD warns of a missing target without the mesh or skeleton)."""
     found = stage.GetPrimAtPath(target)
     if not found:
         why = "no prim is there"
@@ -435,7 +443,7 @@ def _not_a(kind: str, rel_name: str, stage: Usd.Stage, target: Sdf.Path) -> str:
         why = f"it is a {found.GetTypeName()}, not a {kind}"
     else:
         why = "it is inactive"
-    return f"{rel_name} targets {target}, but {why}"
+    return why
 
 
 def _unusable_influences(query: UsdSkel.SkinningQuery, time: Usd.TimeCode) -> str | None:
