@@ -1071,7 +1071,8 @@ class MaterialReader:
     def _name_binding_problems(self, prim) -> bool:
         """Whether ``prim`` or an ancestor binds anything (:attr:`bindings_above`); where one does, a warning names
         each binding on them, not named before in this load, whose purpose USD's calls disagree on, or whose
-        targets USD ignores."""
+        targets USD ignores; a collection binding of an attribute is held back (:func:`wrt.usd_bindings.hold_back`)
+        before any walk meets it."""
         from .usd_bindings import NOT_A_COLLECTION, hold_back
 
         binds = self.bindings_above.any(prim)

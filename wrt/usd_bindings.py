@@ -118,7 +118,8 @@ def hold_back(prim: Usd.Prim, name: str) -> None:
     the user's files are untouched), a binding USD ignores alike without the coding error: USD's C++ finds no prim in
     such a collection (an invalid collection's membership is empty), but its Python API raises the error and with it
     the whole ``ComputeBoundMaterial``, which failed the load. Not inside a native prototype, whose prims take no
-    opinions: there the load still fails, naming the prim and USD's error."""
+    opinions: there the load still fails, naming the prim and USD's error. (Frames keep no such stage: the edit is a
+    change to it, so the next frame opens it again, and names the binding again.)"""
     rel = prim.GetRelationship(name)
     targets = rel.GetForwardedTargets()
     raising = [t for t in targets if t.IsPropertyPath() and not Usd.CollectionAPI.IsCollectionAPIPath(t)]
