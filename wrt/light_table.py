@@ -185,10 +185,41 @@ class UnsampledEmitters:
                 f"{self.cap:,} instanced emitters sampled")
 
 
-def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
+class _TriangleEmission:
+    """The emission estimate of each triangle: its material's row of ``materials_emission`` (``(M, 3)``, per device
+    material), or where given its row of ``triangle_emission`` (``(T, 3)``, per triangle: a textured emitter's
+    triangles read on themselves, :func:`wrt.sampled_emission.sampled_emission`); ``tri_materials`` ``(T,)``."""
+
+    def __init__(self, materials_emission, tri_materials: np.ndarray, triangle_emission: np.ndarray | None = None):
+        self.materials = np.asarray(materials_emission, np.float64).reshape(-1, 3)
+        self.tri_materials = tri_materials
+        self.triangles = None if triangle_emission is None else np.asarray(triangle_emission, np.float64)
+
+    def rgb(self, ids: np.ndarray) -> np.ndarray:
+        """``(N, 3)`` float64 emission of triangles ``ids``."""
+        return self.materials[self.tri_materials[ids]] if self.triangles is None else self.triangles[ids]
+
+    def glow(self, ids: np.ndarray) -> np.ndarray:
+        """``(N,)`` float64 luminance of the emission of triangles ``ids``."""
+        return self.rgb(ids) @ LUMINANCE
+
+    def emissive(self) -> np.ndarray:
+        """``(T,)`` bool: the triangles whose emission has a luminance above 0."""
+        if self.triangles is not None:
+            return self.triangles @ LUMINANCE > 0.0
+        # Looked up in a table of the materials' answers (a float gather and a compare per triangle, twice, took 9 ms
+        # of every Renderer of a chess set of 800k triangles and no glow at all).
+        glowing = self.materials @ LUMINANCE > 0.0
+        return glowing[self.tri_materials] if glowing.any() else np.zeros(len(self.tri_materials), bool)
+
+
+def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None,
+                      triangle_emission: np.ndarray | None = None) -> EmitterTriangles:
     """Every emissive world-space triangle, then the triangles of each of ``mesh_lights`` that emit (a mesh light's
     triangles are its, not plain emissive ones), then the same for each instance's prototype triangles, in world
-    space, for the first instances whose rows fit in ``cap`` (None: :data:`MAX_INSTANCED_EMITTERS`).
+    space, for the first instances whose rows fit in ``cap`` (None: :data:`MAX_INSTANCED_EMITTERS`). A triangle's
+    emission is its material's (``materials_emission``, per device material), or its row of ``triangle_emission``
+    (``(T, 3)`` per triangle, :func:`wrt.sampled_emission.sampled_emission`) where given.
 
     Raises:
         SceneError: a mesh light that names no mesh of the scene.
@@ -198,12 +229,9 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
     geometry = len(indices)
     tri_materials = scene.triangle_materials()[:geometry]
     sided = scene.triangle_double_sided()[:geometry]
-    emission = np.asarray(materials_emission, np.float64).reshape(-1, 3)
-    glow = emission @ LUMINANCE  # per material
-    # Whether each triangle's material glows, looked up in a table of the materials' answers (a float gather and a
-    # compare per triangle, twice, took 9 ms of every Renderer of a chess set of 800k triangles and no glow at all).
-    glowing = glow > 0.0
-    emissive = glowing[tri_materials] if glowing.any() else np.zeros(geometry, bool)
+    emission = _TriangleEmission(materials_emission, tri_materials,
+                                 None if triangle_emission is None else triangle_emission[:geometry])
+    emissive = emission.emissive()
 
     def crosses(ids):
         a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
@@ -229,7 +257,7 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
 
     # Emissive materials: radiance factor 1 times the material's emission (params[0] = 1).
     ids = np.nonzero(emissive[:flat] & (world_owner < 0))[0]
-    rows = [(ids, math.pi * areas(ids) * glow[tri_materials[ids]], np.ones((len(ids), 3)), (1, 0, 0, 0), -1)]
+    rows = [(ids, math.pi * areas(ids) * emission.glow(ids), np.ones((len(ids), 3)), (1, 0, 0, 0), -1)]
     for j, light in enumerate(mesh_lights):
         ids = np.nonzero(world_owner == j)[0]
         area = areas(ids)
@@ -237,7 +265,7 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
         if not np.isfinite(L).all():  # left out, as a rect light of the kind is (_too_small)
             _warn_unbounded([light], len(ids))
             continue
-        keep, lum, params = _mesh_light_terms(light, L, tri_materials[ids], emission, glow)
+        keep, lum, params = _mesh_light_terms(light, L, tri_materials[ids], emission.rgb(ids))
         ids, area = ids[keep], area[keep]
         rows.append((ids, math.pi * area * lum[keep], np.tile(L, (len(ids), 1)), params, j))
     ids = np.concatenate([r[0] for r in rows]).astype(np.int32)
@@ -248,7 +276,7 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
         params=np.concatenate([np.tile(np.asarray(r[3], np.float32), (len(r[0]), 1)) for r in rows]),
         owner=np.concatenate([np.full(len(r[0]), r[4], np.int32) for r in rows]),
     )
-    return _with_instances(scene, world, owner, crosses, tri_materials, sided, emission, glow, emissive, mesh_lights,
+    return _with_instances(scene, world, owner, crosses, tri_materials, sided, emission, emissive, mesh_lights,
                            MAX_INSTANCED_EMITTERS if cap is None else cap)
 
 
@@ -280,19 +308,20 @@ def _unsampled(instances, counts: np.ndarray, sampled: np.ndarray, cap: int) -> 
     return UnsampledEmitters(int(counts[left].sum()), cap, named)
 
 
-def _mesh_light_terms(light: MeshLight, L, materials: np.ndarray, emission: np.ndarray, glow: np.ndarray):
+def _mesh_light_terms(light: MeshLight, L, materials: np.ndarray, emission: np.ndarray):
     """``(keep, luminance, params)`` of mesh light ``light`` of radiance ``L`` (``(3,)``, normalized) on triangles
-    of device ``materials``: a light that tints its material's glow keeps only the triangles that glow."""
+    of device ``materials`` that emit ``emission`` (``(N, 3)``, :class:`_TriangleEmission`): a light that tints its
+    material's glow keeps only the triangles that glow."""
     # A mesh bound to no material has no glow to sync with: noMaterialResponse whatever its mode.
     sync = light.material_sync if (materials > 0).any() else NO_MATERIAL_RESPONSE
     params = (float(sync == GLOW_TINTS_LIGHT), float(sync == NO_MATERIAL_RESPONSE), 1, 0)
     if sync == GLOW_TINTS_LIGHT:
-        return glow[materials] > 0.0, (L * emission[materials]) @ LUMINANCE, params
+        return emission @ LUMINANCE > 0.0, (L * emission) @ LUMINANCE, params
     return np.ones(len(materials), bool), np.full(len(materials), float(L @ LUMINANCE)), params
 
 
-def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_materials, sided, emission, glow, emissive,
-                    mesh_lights: list, cap: int) -> EmitterTriangles:
+def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_materials, sided,
+                    emission: _TriangleEmission, emissive, mesh_lights: list, cap: int) -> EmitterTriangles:
     """``world`` followed by the rows of the instances' emissive prototype triangles, each sampled instance's in
     its prototype's order (geometry ids ascending), the first instances whose rows fit in ``cap``. Areas are the world
     areas of the moved triangles, ``|cof(A) ((b - a) x (c - a))| / 2`` for an instance's linear part ``A``; a
@@ -313,14 +342,15 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
         first, count = ranges[p]
         ids = np.arange(first, first + count)
         own = owner[ids]
-        emits = np.where(own < 0, glow[tri_materials[ids]] > 0.0, False)
-        per_area = np.where(emits, math.pi * glow[tri_materials[ids]], 0.0)
+        glow = emission.glow(ids)
+        emits = np.where(own < 0, glow > 0.0, False)
+        per_area = np.where(emits, math.pi * glow, 0.0)
         radiance, params = np.ones((count, 3)), np.tile(np.float32([1, 0, 0, 0]), (count, 1))
         for j in np.unique(own[own >= 0]):
             mine = own == j
             light = mesh_lights[j]
             keep, lum, terms = _mesh_light_terms(light, np.asarray(light.color, np.float64), tri_materials[ids[mine]],
-                                                 emission, glow)
+                                                 emission.rgb(ids[mine]))
             emits[mine], per_area[mine] = keep, math.pi * lum
             radiance[mine], params[mine] = np.asarray(light.color, np.float64), np.float32(terms)
         keep = np.flatnonzero(emits)
@@ -392,8 +422,8 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
-def build_lights(lights: list, scene, material_emission: list, device,
-                 glow: np.ndarray | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
+def build_lights(lights: list, scene, material_emission: list, device, glow: np.ndarray | None = None,
+                 triangle_emission: np.ndarray | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
     and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`. Radiance is held times
     ``radiance_scale`` (:func:`wrt.radiance_scale.radiance_scale` of the brightest light or glow): the materials'
@@ -406,6 +436,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
         device: Warp device.
         glow: ``(M,)`` per device material a bound on the radiance it emits (:func:`wrt.radiance_scale.glow_bounds`);
             None: the largest component of its estimate.
+        triangle_emission: ``(T, 3)`` per triangle an emission estimate that replaces its material's
+            (:func:`wrt.sampled_emission.sampled_emission`), or None.
     """
     lights = [light for light in lights if not _too_small(light)]
     lower, upper = scene.bounds()
@@ -514,7 +546,7 @@ def build_lights(lights: list, scene, material_emission: list, device,
 
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
-    tris = emitter_triangles(scene, material_emission, mesh_lights)
+    tris = emitter_triangles(scene, material_emission, mesh_lights, triangle_emission=triangle_emission)
     _drop_unbounded(tris, mesh_lights)
     # Glowing analytic spheres, round tubes and other shapes (hulls) after them (wrt.glowing_spheres), within what the
     # cap leaves of instanced entries.
@@ -586,7 +618,8 @@ def build_lights(lights: list, scene, material_emission: list, device,
     d.axis_v = arr(h.axis_v, wp.vec3)
     d.normal = arr(h.normal, wp.vec3)
     tri_params = tris.params.copy()
-    tri_params[:, 3] = _emitted_luminance(tris, material_emission, scene.triangle_materials())
+    tri_params[:, 3] = _emitted_luminance(tris, _TriangleEmission(material_emission, scene.triangle_materials(),
+                                                                  triangle_emission))
     d.params = arr(h.params, wp.vec4, 4, tri_params)
     d.prims = arr(h.prims, wp.int32, 1, tris.ids)
     d.instances = arr(np.full(num_analytic, -1), wp.int32, 1, tris.instances)
@@ -678,7 +711,7 @@ def _scaled_radiance(h: HostLights, textured: dict, tris: EmitterTriangles, glow
     return scale, np.where(tris.params[:, :1] > 0.0, tris.radiance, tris.radiance * np.float32(scale))
 
 
-def _emitted_luminance(tris: EmitterTriangles, material_emission: list, tri_materials: np.ndarray) -> np.ndarray:
+def _emitted_luminance(tris: EmitterTriangles, emission: _TriangleEmission) -> np.ndarray:
     """``(E,)`` float32: the luminance of the radiance each row of ``tris`` emits (its power over pi, its area and its
     sides), over the largest of them, at least 2^-32: the resampling target of :mod:`wrt.emitter_resampling` reads it
     with a triangle's solid angle. A radiance, not a power: dimensionless, so the same at every scene scale, where
@@ -686,9 +719,8 @@ def _emitted_luminance(tris: EmitterTriangles, material_emission: list, tri_mate
     a point (a row of no light has none to give; one of little light is only drawn more often than it is worth)."""
     if len(tris.ids) == 0:
         return np.zeros(0, np.float32)
-    emission = np.asarray(material_emission, np.float64).reshape(-1, 3)
     follows = tris.params[:, :1] > 0.0  # radiance times the material's emission
-    rgb = tris.radiance.astype(np.float64) * np.where(follows, emission[tri_materials[tris.ids]], 1.0)
+    rgb = tris.radiance.astype(np.float64) * np.where(follows, emission.rgb(tris.ids), 1.0)
     lum = np.nan_to_num(np.maximum(rgb @ LUMINANCE, 0.0), posinf=FLOAT32_MAX)
     brightest = lum.max()
     return np.maximum(lum / brightest if brightest > 0.0 else lum, 2.0**-32).astype(np.float32)

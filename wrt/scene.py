@@ -92,6 +92,7 @@ MIN_METERS_PER_UNIT = 1e-30
 # uploaded its materials again (Scene._kept_when_moved).
 KEPT_WHEN_INSTANCES_MOVE = frozenset(("geometry", "part_vertex_offsets", "corners", "corner_opacities",
                                       "triangle_materials", "triangle_partners", "corner_uvs", "shading",
+                                      "sampled_emission",
                                       "device_geometry", "mesh_bounds", "vertices_checked",
                                       "meshes_past_traced_reach"))
 

@@ -1,0 +1,119 @@
+"""The light table's emission estimate of textured emitters read on their triangles (wrt/sampled_emission.py): a
+glowing quad whose texture returns its fallback (a UDIM tile without a file, the ``fallback`` wrap outside [0, 1] that
+MaterialX's ``constant`` address mode reads) over black texels lights the floor below as the closed form of a uniform
+emitter says; triangles are drawn by what their own texture returns; materials that emit nothing get no light
+entries."""
+
+import numpy as np
+import pytest
+from shading_helpers import quad, top_down_camera
+
+import wrt
+from wrt.materials import Material, TextureInput
+from wrt.textures import UDIM_TILES
+
+RADIANCE = 2.0  # the fallback's, each channel
+HEIGHT = 1.0  # of the lamp (a unit square centred over the origin) above the floor
+BLACK = np.zeros((4, 4, 4), np.float32)  # the texels of every image
+
+
+def floor_irradiance(x, y, n=200):
+    """Irradiance at floor point ``(x, y, 0)`` from the lamp emitting :data:`RADIANCE` uniformly: the midpoint rule
+    (``n`` x ``n``, float64) over the square of ``cos cos' / r^2``."""
+    s = (np.arange(n) + 0.5) / n - 0.5
+    dx, dy = np.meshgrid(s - x, s - y)
+    r2 = dx * dx + dy * dy + HEIGHT * HEIGHT
+    return RADIANCE * float(np.sum(HEIGHT * HEIGHT / (r2 * r2))) / (n * n)
+
+
+def lamp_scene(texture: TextureInput, st_corner=(0.0, 0.0)) -> wrt.Scene:
+    """A white floor (10 x 10) under a double-sided unit lamp at :data:`HEIGHT` whose emissiveColor is ``texture``
+    (image 0: :data:`BLACK`) at ``st`` over ``[0, 1]^2 + st_corner``."""
+    lamp = quad((0, 0, HEIGHT), (1, 0, 0), (0, 1, 0), name="/lamp", material=0)
+    corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32) + np.float32(st_corner)
+    lamp.uvs = corners[np.array([[0, 1, 2], [0, 2, 3]])]
+    floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
+    glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
+    white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
+    return wrt.Scene(meshes=[floor, lamp], materials=[glow, white],
+                     textures=[BLACK])
+
+
+def udim_table(**tiles) -> np.ndarray:
+    """A UDIM table (:attr:`TextureInput.tiles`) of image ``k`` at tile ``1001 + u + 10 v`` for each ``t<tile>=k``."""
+    table = np.full(UDIM_TILES, -1, np.int32)
+    for name, image in tiles.items():
+        table[int(name[1:]) - 1001] = image
+    return table
+
+
+FALLBACK = np.array([RADIANCE, RADIANCE, RADIANCE, 1.0], np.float32)
+CASES = {
+    # tile 1001 exists (black), the lamp reads tile 1002, which has no file
+    "udim tile without a file": (TextureInput(image=0, tiles=udim_table(t1001=0), fallback=FALLBACK), (1.0, 0.0)),
+    # MaterialX's constant address mode: the image's default outside [0, 1]
+    "fallback wrap outside [0, 1]": (TextureInput(image=0, wrap=("fallback", "fallback"), fallback=FALLBACK),
+                                     (2.0, 0.0)),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_a_lamp_that_glows_by_its_fallback_lights_the_floor(case):
+    """The lamp's texels are black, but what its texture returns on it is the fallback, :data:`RADIANCE`: under
+    ``whitted`` (light samples alone) the floor beside the lamp shows the irradiance of a uniform emitter over pi
+    (white Lambertian). The texels' mean, 0, made it no light: not sampled, and the stage, lit by nothing as far as
+    wrt could tell, got the default lights instead (a floor of 1.0 where 0.033 is right)."""
+    texture, st_corner = CASES[case]
+    scene = lamp_scene(texture, st_corner)
+    height, res = 3.0, 12
+    img = wrt.render(scene, camera=top_down_camera(center=(0, 2.25, 0), height=height), width=res, height=res,
+                     spp=8, seed=1, device="cpu").rgb.mean(axis=2)
+    # Pixel centres over y in [0.75, 3.75], x in [-1.5, 1.5]: the floor beside the lamp (|y| > 0.5).
+    offsets = ((np.arange(res) + 0.5) / res - 0.5) * height
+    want = np.array([[floor_irradiance(x, 2.25 - y) for x in offsets] for y in offsets]) / np.pi
+    assert img.mean() == pytest.approx(want.mean(), rel=0.02)
+    np.testing.assert_allclose(img, want, rtol=0.25)  # each pixel, within the noise of 8 samples
+
+
+def triangle_pmf(scene) -> np.ndarray:
+    """The selection probability of each geometry triangle (0 for those not in the light table)."""
+    r = wrt.Renderer(scene, camera=top_down_camera(height=1.0), width=2, height=2, device="cpu")
+    lights = r.device_lights
+    first, count = lights.num_analytic, lights.count
+    pmf = np.zeros(scene.num_geometry_triangles)
+    pmf[lights.prims.numpy()[first:count]] = lights.pmf.numpy()[first:count]
+    return pmf
+
+
+def test_each_triangle_is_drawn_by_what_its_own_tile_emits():
+    """A lamp of two unit squares side by side, st over tiles 1001 (an image of 0.5) and 1002 (no file: the fallback,
+    :data:`RADIANCE`): the triangles on the missing tile take 4 times the power share of those on the image, their
+    emissions' ratio (each triangle's power is its area times its emission, the four areas equal), the lights being
+    drawn half by power share, half uniformly. The material's estimate, the image's mean, drew all four alike."""
+    texture = TextureInput(image=0, tiles=udim_table(t1001=0), fallback=FALLBACK)
+    lamp = wrt.Mesh("/lamp", np.array([[x, y, 1.0] for y in (0, 1) for x in (0, 1, 2)], np.float64),
+                    np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]]), [0, 0, 1, 1],
+                    uvs=np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]] * 2, np.float32)
+                    + np.float32([0, 0, 1, 1])[:, None, None] * np.float32([1, 0]),
+                    material_ids=np.zeros(4, np.int32))
+    grey = np.full((4, 4, 4), 0.5, np.float32)
+    scene = wrt.Scene(meshes=[lamp], materials=[Material(path="/Glow", diffuse_color=0.0,
+                                                         textures={"emissiveColor": texture})], textures=[grey])
+    pmf = triangle_pmf(scene)
+    np.testing.assert_allclose(pmf, 0.5 / 4 + 0.5 * np.array([0.5, 0.5, 2.0, 2.0]) / 5.0, rtol=1e-6)
+
+
+def test_materials_that_emit_nothing_get_no_light_entries():
+    """Beside a lamp of constant emission: a quad whose emission texture is black with a black fallback, even where it
+    reads the fallback (st on a tile without a file), and a floor with a diffuse texture only, take no light entries
+    (selection probability 0); the lamp takes all of it."""
+    dark = TextureInput(image=0, tiles=udim_table(t1001=0))  # the default fallback: black
+    meshes = [quad((0, 0, 0), (6, 0, 0), (0, 6, 0), name="/floor", material=0),
+              quad((0, 0, 1), (1, 0, 0), (0, 1, 0), name="/dark", material=1),
+              quad((2, 0, 1), (1, 0, 0), (0, 1, 0), name="/lamp", material=2)]
+    meshes[1].uvs = np.full((2, 3, 2), 1.5, np.float32)  # tile 1002
+    materials = [Material(path="/Floor", textures={"diffuseColor": TextureInput(image=0)}),
+                 Material(path="/Dark", textures={"emissiveColor": dark}),
+                 Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
+    pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK]))
+    np.testing.assert_array_equal(pmf, [0, 0, 0, 0, 0.5, 0.5])
