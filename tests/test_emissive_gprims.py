@@ -219,8 +219,8 @@ def test_gprims_sharing_a_textured_glow_read_its_texture_once(tmp_path, monkeypa
     import wrt.usd
 
     calls = []
-    estimate = wrt.usd.emission_estimate
-    monkeypatch.setattr(wrt.usd, "emission_estimate", lambda *a: calls.append(a) or estimate(*a))
+    estimate = wrt.usd.can_emit
+    monkeypatch.setattr(wrt.usd, "can_emit", lambda *a: calls.append(a) or estimate(*a))
     lamps = [gprim("Sphere", 0.1, name=f"Lamp{i}") for i in range(40)]
     scene, _ = load(tmp_path, white_plane(), glow("texture"), *lamps)
     assert sorted(m.path for m in scene.meshes) == sorted(["/Floor"] + [f"/Lamp{i}" for i in range(40)])

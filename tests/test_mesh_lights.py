@@ -171,6 +171,27 @@ def test_material_sync_mode_with_an_emissive_material(tmp_path, sync, lights_wit
     np.testing.assert_allclose(whitted, lit, rtol=0.03)
 
 
+def test_a_light_that_tints_a_glow_its_texture_gives_by_its_fallback_is_not_named(tmp_path):
+    """materialGlowTintsLight with a material whose UDIM emission texture has no file for the tile the mesh reads
+    (tile 1001: a mesh without st reads st (0, 0); tile 1002 is black) glows by the texture's fallback, 1: the light
+    lights the floor as its intensity times that glow, and is not named as a light that emits nothing (its texels'
+    mean, 0, named it though it lit the floor)."""
+    from PIL import Image
+
+    Image.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "glow.1002.png")
+    material = ('def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
+                '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+                "        color3f inputs:emissiveColor.connect = </Glow/Image.outputs:rgb>\n"
+                "        token outputs:surface\n    }\n"
+                '    def Shader "Image"\n    {\n        uniform token info:id = "UsdUVTexture"\n'
+                "        asset inputs:file = @./glow.<UDIM>.png@\n        float4 inputs:fallback = (1, 1, 1, 1)\n"
+                "        float3 outputs:rgb\n    }\n}\n")
+    scene, messages = load(tmp_path, floor(), material, mesh_light(intensity=2.0, material="/Glow"))
+    assert not any("materialGlowTintsLight" in m for m in messages), messages
+    lit = render_floor(scene, "whitted", spp=16).mean()
+    assert abs(lit / closed_form(2.0).mean() - 1) < 0.02, lit
+
+
 def test_a_light_that_tints_a_glow_the_material_has_not_is_named(tmp_path):
     """materialGlowTintsLight with a material that does not glow emits nothing, as UsdLux defines it: named."""
     scene, messages = load(tmp_path, floor(), glowing_material((0.0, 0.0, 0.0)), mesh_light(material="/Glow"))

@@ -117,3 +117,47 @@ def test_materials_that_emit_nothing_get_no_light_entries():
                  Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
     pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK]))
     np.testing.assert_array_equal(pmf, [0, 0, 0, 0, 0.5, 0.5])
+
+
+def glowing_bulb_stage(tmp_path, name: str, by_fallback: bool) -> str:
+    """A USD stage: a Lambertian floor under a ``Sphere`` gprim (radius 0.2, at height 1) that glows with radiance
+    :data:`RADIANCE`: by a plain ``emissiveColor`` or, ``by_fallback``, by the fallback of a UDIM texture whose one
+    tile (1002, black) is not the one a gprim reads (st (0, 0): tile 1001, which has no file)."""
+    from PIL import Image
+    from pxr import Gf, Sdf, UsdGeom, UsdShade
+    from test_materials import add_quad, bind, new_stage, preview_material
+
+    stage, path = new_stage(tmp_path, f"{name}.usda")
+    bind(add_quad(stage, "/Floor", size=4.0), preview_material(stage, "/Looks/White", diffuseColor=Gf.Vec3f(1),
+                                                               useSpecularWorkflow=1, specularColor=Gf.Vec3f(0))[0])
+    bulb = UsdGeom.Sphere.Define(stage, "/Bulb")
+    bulb.CreateRadiusAttr(0.2)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(0, 0, HEIGHT))
+    glow = Gf.Vec3f(RADIANCE)
+    material, shader = preview_material(stage, "/Looks/Glow", diffuseColor=Gf.Vec3f(0),
+                                        **({} if by_fallback else {"emissiveColor": glow}))
+    if by_fallback:
+        Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(tmp_path / "glow.1002.png")
+        tex = UsdShade.Shader.Define(stage, "/Looks/Glow/Image")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./glow.<UDIM>.png")
+        tex.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(RADIANCE, RADIANCE, RADIANCE, 1))
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(bulb, material)
+    stage.Save()
+    return path
+
+
+def test_a_gprim_that_glows_by_its_fallback_is_a_bulb(tmp_path):
+    """A ``Sphere`` whose UDIM emission texture gives it its fallback (tile 1001 has no file) is drawn as its
+    tessellation and sampled, as a gprim of constant emission is: under ``whitted`` it lights the floor as the same
+    sphere with the fallback as its ``emissiveColor`` does. Its texels' mean, 0, left it an analytic shape that no
+    light sample reached: the stage got the default lights (a floor of 1.0 for 0.03)."""
+    cam = top_down_camera(center=(1.0, 0, 0), height=1.0)
+    floors = []
+    for by_fallback in (True, False):
+        scene = wrt.load_usd(glowing_bulb_stage(tmp_path, f"fallback{by_fallback}", by_fallback))
+        floors.append(wrt.render(scene, camera=cam, width=8, height=8, spp=4, seed=1, device="cpu").rgb)
+    assert floors[1].mean() > 0.0
+    np.testing.assert_allclose(floors[0], floors[1], rtol=1e-5)

@@ -2113,6 +2113,21 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
     return np.maximum(value.astype(np.float32), 0.0)
 
 
+def can_emit(mat: Material, textures: list[np.ndarray]) -> bool:
+    """Whether ``mat`` can emit light anywhere: its :func:`emission_estimate` is above 0, or its emission texture's
+    fallback (after scale and bias) glows where the lookup returns it, on a UDIM tile without a file (or outside the
+    tiles) or outside the unit square under a ``fallback`` wrap (MaterialX's ``constant`` address mode). Which
+    triangles glow is then read on them (:mod:`wrt.sampled_emission`); a texels' mean of 0 left a gprim that glows
+    by its fallback analytic and unsampled."""
+    if emission_estimate(mat, textures).max() > 0.0:
+        return True
+    tex = mat.textures.get("emissiveColor")
+    if tex is None or (tex.tiles is None and "fallback" not in tex.wrap):
+        return False
+    value = np.asarray(tex.fallback, np.float64) * np.asarray(tex.scale, np.float64) + np.asarray(tex.bias, np.float64)
+    return bool(np.max(value[:3] if tex.channel == "rgb" else value[CHANNELS[tex.channel]]) > 0.0)
+
+
 def _stored_as_is(image: np.ndarray) -> bool:
     """Every texel of ``image`` is in [0, 65504]: the device stores it as it is, and its float32 mean holds (a NaN
     fails the comparisons)."""

@@ -105,7 +105,7 @@ from .errors import SceneError, prim_path, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
 from .lights import MeshLight
-from .materials import MaterialReader, emission_estimate
+from .materials import MaterialReader, can_emit
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape
 from .render_settings import RenderSettings, read_render_settings
 from .scene import Mesh, Scene
@@ -640,8 +640,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
     def _glows(self, shape: Shape) -> bool:
         """``shape``'s material emits: a constant ``emissiveColor`` above 0, or a texture on it whose mean emission
-        (each texel after scale and bias, negatives read as 0) is; the estimate the render uses to find the emissive
-        triangles it samples."""
+        (each texel after scale and bias, negatives read as 0) is, or whose fallback glows where the texture reads it
+        (:func:`wrt.materials.can_emit`); the render reads on its triangles which of them glow."""
         return self._material_glows(shape.material_id)
 
     def _material_glows(self, material_id: int) -> bool:
@@ -651,8 +651,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         glows = self.glowing_materials.get(material_id)
         if glows is None:
             material = self.materials.materials[material_id]
-            glows = self.glowing_materials[material_id] = bool(
-                emission_estimate(material, self.materials.textures).max() > 0.0)
+            glows = self.glowing_materials[material_id] = can_emit(material, self.materials.textures)
         return glows
 
     def _skipped_emitter(self, prim: Usd.Prim, face_materials: np.ndarray | None):

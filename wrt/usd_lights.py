@@ -229,12 +229,11 @@ def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> N
     ``materialGlowTintsLight`` and the material bound to it (``materials``: a :class:`wrt.materials.MaterialReader`)
     does not glow: it emits nothing. How the light and the material relate otherwise is settled where the lights
     are built, for scenes read and built in Python alike (:func:`wrt.light_table.emitter_triangles`)."""
-    from .materials import emission_estimates
+    from .materials import can_emit
 
     used = [] if mesh.material_ids is None else sorted(set(mesh.material_ids[mesh.material_ids >= 0].tolist()))
     if used and light.material_sync == GLOW_TINTS_LIGHT:  # a mesh bound to no material has no glow to tint
-        glows = emission_estimates([materials.materials[k] for k in used], materials.textures)[1:]
-        if not any(float(np.max(glow)) > 0.0 for glow in glows):
+        if not any(can_emit(materials.materials[k], materials.textures) for k in used):
             skip('mesh lights of light:materialSyncMode "materialGlowTintsLight" (MeshLightAPI\'s fallback) whose '
                  "material has no emissiveColor emit nothing (the light tints the material's glow); author "
                  '"independent" to emit the light\'s colour', prim)
