@@ -376,6 +376,42 @@ def test_open_pbr_emission_is_luminance_times_colour(tmp_path):
     np.testing.assert_allclose(img.rgb, np.broadcast_to([3, 1.5, 0.75], (4, 4, 3)), rtol=1e-5)
 
 
+@pytest.mark.parametrize("source", ["ND_constant_color3", "ND_noise2d_color3"])
+def test_an_image_default_fed_by_a_constant_node_is_its_value(tmp_path, source):
+    """An emission_color image node (a black texel, ``constant`` address mode) whose ``default`` comes from an
+    ``ND_constant_color3`` of (2, 1, 0.5) shows that default where st lies outside [0, 1], as MaterialX defines the
+    constant node's output: the quad (st over [2, 3]) glows (2, 1, 0.5). The connected default was read as
+    unauthored, 0, without a word: the quad was black. A node that folds to no constant (``ND_noise2d_color3``)
+    leaves MaterialX's default, 0, with a note naming it."""
+    write_png(tmp_path / "black.png", [[(0, 0, 0)]])
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    st = quad.GetPrim().GetAttribute("primvars:st")
+    st.Set([Gf.Vec2f(2 + u, v) for u, v in st.Get()])
+    material, shader = mtlx_material(stage, "/Looks/Panel", base=0.0, specular=0.0, emission=1.0)
+    node = UsdShade.Shader.Define(stage, "/Looks/Panel/Source")
+    node.CreateIdAttr(source)
+    node.CreateInput("value", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(2, 1, 0.5))
+    node.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    image = UsdShade.Shader.Define(stage, "/Looks/Panel/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./black.png")
+    image.CreateInput("default", Sdf.ValueTypeNames.Color3f).ConnectToSource(node.ConnectableAPI(), "out")
+    for key in ("uaddressmode", "vaddressmode"):
+        image.CreateInput(key, Sdf.ValueTypeNames.String).Set("constant")
+    image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu")
+    folded = source == "ND_constant_color3"
+    np.testing.assert_allclose(img.rgb, np.broadcast_to([2, 1, 0.5] if folded else 0.0, (2, 2, 3)), rtol=1e-5)
+    noted = [m for m in messages if "/Looks/Panel/Image's default comes from a ND_noise2d_color3 node" in m]
+    assert len(noted) == (0 if folded else 1), messages
+
+
 def test_an_unsupported_node_keeps_the_constant_with_one_warning(tmp_path):
     """base_color from a node wrt cannot fold (ND_noise3d_color3; math nodes are folded: test_primvar_colors.py)
     keeps the value authored beside the connection, with one warning naming the material and the node type; the old

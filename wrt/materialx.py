@@ -523,13 +523,7 @@ class _Graph:
         normal map's flat (0.5, 0.5, 1), for its missing UDIM tiles)."""
         reader = self.reader
         size = TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)]
-        default = _array(reader._constant(node, "default"), size)
-        if default is not None:  # in its colorSpace, if any: the specification's example default is in lin_rec709
-            default = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default",
-                                    color=node_id.endswith(("_color3", "_color4")))
-            if default is None:
-                self.notes.append(f"{node.GetPath()}'s default decoded from its colour space is past float32's range; "
-                                  "MaterialX's default is used")
+        default = self._image_default(node, size, color=node_id.endswith(("_color3", "_color4")))
         if default is not None:
             fallback = default
         elif unauthored_default is not None:
@@ -578,6 +572,36 @@ class _Graph:
         if size in (2, 3):  # nor a fourth: a convert to four gives it 1, not the file's alpha
             texture.scale[3], texture.bias[3] = 0.0, 1.0
         return fallback, texture
+
+    def _image_default(self, node, size: int, color: bool) -> np.ndarray | None:
+        """Image node ``node``'s ``default`` (``size`` channels, a ``color`` type's decoded from its colour space):
+        its value, or the constant the nodes feeding it fold to (an ``ND_constant_color3``, math of constants:
+        :func:`wrt.materialx_fold.fold`); None where it is unauthored, or where no constant comes out or it passes
+        float32's range (named in a note). A default fed by a constant node was read as unauthored, 0, without a
+        word: an image's glow outside [0, 1] (the ``constant`` address mode) or on a missing UDIM tile was lost."""
+        found = self.reader._producer(node, "default")
+        if found is None:
+            return None
+        if found[0] == "shader":  # each constant folded in its own colour space
+            try:
+                folded = fold(self.reader, found[1], lambda source, source_id: None, output=found[2])
+            except Unfoldable as e:
+                why = f"whose {e.problem}" if e.problem else "which is not supported"
+                self.notes.append(f"{node.GetPath()}'s default comes from a {e.node.GetShaderId() or 'node'} node "
+                                  f"({e.node.GetPath()}), {why}; MaterialX's default is used")
+                return None
+            default = _array(folded.value, size)
+            if default is None:
+                self.notes.append(f"{node.GetPath()}'s default is past float32's range after its nodes; MaterialX's "
+                                  "default is used")
+            return default
+        default = _array(found[1], size)
+        if default is not None:  # in its colorSpace, if any: the specification's example default is in lin_rec709
+            default = self._decoded(node.GetInput("default"), default, f"{node.GetPath()}'s default", color=color)
+            if default is None:
+                self.notes.append(f"{node.GetPath()}'s default decoded from its colour space is past float32's range; "
+                                  "MaterialX's default is used")
+        return default
 
     def _address_mode(self, node, key: str, modes: dict) -> str:
         """wrt's wrap mode for image node ``node``'s ``uaddressmode`` or ``vaddressmode`` (``key``; unauthored:
