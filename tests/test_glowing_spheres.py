@@ -63,7 +63,7 @@ def closed_form(spheres, sub=32):
     return total.reshape(RES, sub, RES, sub).mean(axis=(1, 3))
 
 
-def no_glowing_spheres(scene, glow, cap):
+def no_glowing_spheres(scene, glow, cap, shape_glow=None):
     """A stand-in for :func:`wrt.glowing_spheres.glowing_spheres` that samples none: path then finds glowing spheres
     only by the rays that hit them, as before they were lights."""
     empty = np.zeros(0, np.int32)

@@ -161,3 +161,28 @@ def test_a_gprim_that_glows_by_its_fallback_is_a_bulb(tmp_path):
         floors.append(wrt.render(scene, camera=cam, width=8, height=8, spp=4, seed=1, device="cpu").rgb)
     assert floors[1].mean() > 0.0
     np.testing.assert_allclose(floors[0], floors[1], rtol=1e-5)
+
+
+def test_an_analytic_sphere_that_glows_by_its_fallback_is_sampled():
+    """A ``wrt.Shape`` sphere (radius 0.2, at height 1) whose UDIM emission texture has no file for tile 1001, where a
+    shape reads its glow (st (0, 0)), glows by the fallback, :data:`RADIANCE`: under ``whitted`` it lights the floor
+    as the same sphere of constant emission does (the same image). Its texels' mean, 0, left it out of the light
+    table: the floor stayed black (2e-16 where its mean is 0.028)."""
+    from wrt.lights import SphereLight
+
+    far = SphereLight(position=(100, 100, 100), radius=0.1, color=np.full(3, 1e-9))  # no default lights
+    lamp = np.diag([0.2, 0.2, 0.2, 1.0])
+    lamp[:3, 3] = (0, 0, HEIGHT)
+    floors = []
+    for glow in (TextureInput(image=0, tiles=udim_table(t1002=0), fallback=FALLBACK), None):
+        scene = wrt.Scene(
+            meshes=[quad((0, 0, 0), (4, 0, 0), (0, 4, 0), name="/floor", material=0)],
+            shapes=[wrt.Shape("/Bulb", "sphere", lamp, material_id=1)],
+            materials=[Material(path="/White", diffuse_color=1.0, use_specular_workflow=True),
+                       Material(path="/Glow", diffuse_color=0.0, emissive_color=np.zeros(3) if glow else RADIANCE,
+                                textures={"emissiveColor": glow} if glow else {})],
+            textures=[BLACK], lights=[far])
+        floors.append(wrt.render(scene, camera=top_down_camera(center=(1.0, 0, 0), height=1.0), width=4, height=4,
+                                 spp=4, seed=1, device="cpu").rgb)
+    assert floors[1].mean() > 0.01
+    np.testing.assert_allclose(floors[0], floors[1], rtol=1e-5)

@@ -98,13 +98,13 @@ def _similar(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (s2 > 0.0) & np.isfinite(s2) & (off <= SIMILARITY_TOLERANCE * s2), np.sqrt(np.maximum(s2, 0.0))
 
 
-def _candidates(shapes: list, materials: np.ndarray, glow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(indices, kinds)``: the glowing ``shapes`` (``materials`` their device materials) and their ``(K, 12)``
+def _candidates(shapes: list, glows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(indices, kinds)``: the glowing ``shapes`` (``glows`` their luminance) and their ``(K, 12)``
     float64 rows: ``(GLOW_* code, capsule's H, taper)`` (a cone is a cylinder of taper rho, a tapered capsule's rho,
     every other shape's 1; ``GLOW_HULL`` for boxes, planes, disks and shapes that glow inwards), the shape's
     ``SHAPE_KINDS`` code and ``params[0:2]``, and the centre and semi-axes of the canonical ellipsoid around it
     (:data:`HULL_FACTORS`; a flat shape's third semi-axis 0)."""
-    take = np.flatnonzero(glow[materials] > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
+    take = np.flatnonzero(glows > 0.0)  # (a loop over a million shapes that do not glow took 0.5 s)
     kinds = np.zeros((len(take), 12))
     kinds[:, 2] = 1.0
     if not len(take):
@@ -248,10 +248,14 @@ def _areas(spheres: np.ndarray, axes: np.ndarray, tapers: np.ndarray) -> np.ndar
                      [side, side + caps, side + 4.0 * math.pi * r * r, cone + zones], 4.0 * math.pi * r * r)
 
 
-def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
+def glowing_spheres(scene, glow: np.ndarray, cap: int, shape_glow: np.ndarray | None = None) -> GlowingSpheres:
     """The :class:`GlowingSpheres` of ``scene`` (``glow``: per device material the luminance of its emission
-    estimate), at most ``cap`` rows of instances."""
+    estimate; ``shape_glow``, where given, per row of ``scene.triangle_materials()`` instead: a textured glow read at
+    the shape's ``st``, :func:`wrt.sampled_emission.sampled_emission`), at most ``cap`` rows of instances."""
     materials = scene.triangle_materials()
+
+    def glow_of(rows):
+        return glow[materials[rows]] if shape_glow is None else shape_glow[rows]
     first_shape = scene.num_geometry_triangles
     ids, insts, spheres, axes, tapers, slots = [], [], [], [], [], []
     maps, hull_areas = [], []  # the hull rows' (wrt.glowing_hulls), which their axes rows index from 0 on
@@ -267,7 +271,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
         return np.where(hull, 1.0, shape_tapers)
 
     world = list(scene.shapes)
-    take, kinds = _candidates(world, materials[first_shape : first_shape + len(world)], glow)
+    take, kinds = _candidates(world, glow_of(np.arange(first_shape, first_shape + len(world))))
     if len(take):
         to_world = np.stack([np.asarray(world[k].to_world, np.float64) for k in take])
         ok, rows, shape_axes, hulls = _placed(to_world, kinds)
@@ -292,7 +296,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
             if not shapes:
                 continue
             first = int(ranges[p, 0])
-            take, kinds = _candidates(shapes, materials[first : first + len(shapes)], glow)
+            take, kinds = _candidates(shapes, glow_of(np.arange(first, first + len(shapes))))
             if len(take):
                 local = np.stack([np.asarray(shapes[k].to_world, np.float64) for k in take])
                 per_proto[p] = (first + take, local, kinds)
@@ -353,6 +357,6 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int) -> GlowingSpheres:
     if maps:
         areas[hull] = np.concatenate(hull_areas)[used]
     axes_all[hull, 0] = np.arange(len(used))
-    power = math.pi * areas * glow[materials[ids_all]]
+    power = math.pi * areas * glow_of(ids_all)
     return GlowingSpheres(ids_all, insts_all, spheres_all, power, instance_first, slots_all, left_out, past_cap,
                           axes_all, tapers_all, hull_maps)

@@ -552,7 +552,8 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     # cap leaves of instanced entries.
     first_sphere = num_analytic + len(tris.ids)
     lum = np.asarray(material_emission, np.float64).reshape(-1, 3) @ LUMINANCE
-    spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())))
+    spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())),
+                              None if triangle_emission is None else triangle_emission @ LUMINANCE)
     tris = _with_spheres(tris, spheres)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.

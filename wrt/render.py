@@ -943,8 +943,7 @@ class Renderer:
         if key not in scene._cache:
             textured = np.array([False] + ["emissiveColor" in m.textures and not wholly_cut_out(m)
                                            for m in scene.materials])
-            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, lit, textured,
-                                                 scene.num_geometry_triangles, dev)
+            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, lit, textured, dev)
         triangle_emission = scene._cache[key]
         emissive_used = used_anywhere(glows, geometry_materials) or (
             triangle_emission is not None and bool((triangle_emission > 0.0).any()))

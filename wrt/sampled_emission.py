@@ -1,6 +1,6 @@
-"""The emission each triangle of a textured emitter shows, read at points of the triangle by the render's own lookup
-(:func:`wrt.materials.eval_emission`), for the light table's choice of which triangles to sample and how often
-(:mod:`wrt.light_table`).
+"""The emission each triangle (and analytic shape) of a textured emitter shows, read at points of the triangle (at
+the shape's one ``st``) by the render's own lookup (:func:`wrt.materials.eval_emission`), for the light table's choice
+of which triangles and shapes to sample and how often (:mod:`wrt.light_table`, :mod:`wrt.glowing_spheres`).
 
 A material's emission estimate (:func:`wrt.materials.emission_estimate`) is the mean of its texture's texels, which
 misses what the lookup returns besides them: a UDIM texture's fallback on a tile without a file (or outside the
@@ -41,27 +41,26 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
 
 
 def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materials: np.ndarray,
-                     estimates: np.ndarray, sampled: np.ndarray, triangles: int, device) -> np.ndarray | None:
-    """``(T, 3)`` float64 emission estimate per triangle (``T = len(tri_materials)``): its material's ``estimates``
-    row, or for the first ``triangles`` (the geometry's; analytic shapes after them read their texture at one ``st``
-    and keep their material's) of a material marked in ``sampled`` the larger of that and the mean emission at
-    :data:`BARYCENTRIC_POINTS` (:func:`sample_emission_kernel`); None where no triangle is of a ``sampled`` material.
+                     estimates: np.ndarray, sampled: np.ndarray, device) -> np.ndarray | None:
+    """``(T, 3)`` float64 emission estimate per triangle (``T = len(tri_materials)``, the geometry's triangles then
+    one row per analytic shape): its material's ``estimates`` row, or for a material marked in ``sampled`` the larger
+    of that and the mean emission at :data:`BARYCENTRIC_POINTS` (:func:`sample_emission_kernel`; a shape's three
+    corners are its one ``st``, where the render reads its glow); None where no row is of a ``sampled`` material.
 
     Args:
         mats: the scene's device materials (:func:`wrt.materials.upload_materials`).
         uvs: ``(T, 3)`` texture coordinates per corner on ``device`` (:meth:`wrt.Scene.corner_uvs`).
-        tri_materials: ``(T,)`` int device material of each triangle.
+        tri_materials: ``(T,)`` int device material of each row.
         estimates: ``(M, 3)`` emission estimate per device material (:func:`wrt.materials.emission_estimates`).
         sampled: ``(M,)`` bool, the materials whose emission is read on their triangles (those with an emission
             texture).
-        triangles: how many rows of ``tri_materials`` are triangles of the geometry.
         device: the Warp device of ``mats`` and ``uvs``.
     """
     sampled = np.asarray(sampled, bool)
     if not sampled.any():  # (no per-triangle gather: most scenes have no textured emitter)
         return None
     tri_materials = np.asarray(tri_materials)
-    ids = np.flatnonzero(sampled[tri_materials[:triangles]]).astype(np.int32)
+    ids = np.flatnonzero(sampled[tri_materials]).astype(np.int32)
     if len(ids) == 0:
         return None
     read = wp.empty(len(ids), dtype=wp.vec3, device=device)
