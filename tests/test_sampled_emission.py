@@ -2,7 +2,8 @@
 glowing quad whose texture returns its fallback (a UDIM tile without a file, the ``fallback`` wrap outside [0, 1] that
 MaterialX's ``constant`` address mode reads) over black texels lights the floor below as the closed form of a uniform
 emitter says; triangles are drawn by what their own texture returns; materials that emit nothing get no light
-entries."""
+entries; a USD ``Sphere`` gprim and a ``wrt.Shape`` sphere that glow by the fallback light the floor as the same
+sphere of constant emission does."""
 
 import numpy as np
 import pytest
@@ -35,8 +36,7 @@ def lamp_scene(texture: TextureInput, st_corner=(0.0, 0.0)) -> wrt.Scene:
     floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
     glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
     white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
-    return wrt.Scene(meshes=[floor, lamp], materials=[glow, white],
-                     textures=[BLACK])
+    return wrt.Scene(meshes=[floor, lamp], materials=[glow, white], textures=[BLACK])
 
 
 def udim_table(**tiles) -> np.ndarray:
@@ -111,6 +111,7 @@ def test_materials_that_emit_nothing_get_no_light_entries():
     meshes = [quad((0, 0, 0), (6, 0, 0), (0, 6, 0), name="/floor", material=0),
               quad((0, 0, 1), (1, 0, 0), (0, 1, 0), name="/dark", material=1),
               quad((2, 0, 1), (1, 0, 0), (0, 1, 0), name="/lamp", material=2)]
+    meshes[0].uvs = np.zeros((2, 3, 2), np.float32)
     meshes[1].uvs = np.full((2, 3, 2), 1.5, np.float32)  # tile 1002
     materials = [Material(path="/Floor", textures={"diffuseColor": TextureInput(image=0)}),
                  Material(path="/Dark", textures={"emissiveColor": dark}),

@@ -256,6 +256,7 @@ def glowing_spheres(scene, glow: np.ndarray, cap: int, shape_glow: np.ndarray | 
 
     def glow_of(rows):
         return glow[materials[rows]] if shape_glow is None else shape_glow[rows]
+
     first_shape = scene.num_geometry_triangles
     ids, insts, spheres, axes, tapers, slots = [], [], [], [], [], []
     maps, hull_areas = [], []  # the hull rows' (wrt.glowing_hulls), which their axes rows index from 0 on
