@@ -19,6 +19,9 @@ import warp as wp
 
 from .materials import DeviceMaterials, eval_emission
 
+# The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})
+
 # Points read on each triangle (barycentric weights of corners 0, 1, 2): the centroid and one towards each corner.
 BARYCENTRIC_POINTS = np.array([[1, 1, 1], [4, 1, 1], [1, 4, 1], [1, 1, 4]], np.float64) / np.array([[3], [6], [6], [6]])
 

@@ -32,6 +32,8 @@ from .binned import (
 from .common import MAX_DEPTH, BuildInput
 from .layout import FlatBvh
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 BATCH_MAX_TRIANGLES = SUBTREE_SIZE  # meshes above this are built alone (their root is split in the level phase)
 # Most triangles in one pass: a pass holds about 350 bytes per triangle of node and slot scratch, and one pass over
 # all of teapot_scene_1000's 133 prototypes (329k triangles) raised the build's peak memory by 113 MB where building
