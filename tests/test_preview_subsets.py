@@ -91,6 +91,23 @@ def test_instances_past_the_budget_are_drawn_spread_over_the_scene():
         plotter.close()
 
 
+def test_shapes_of_instances_cut_to_the_budget_are_counted_of_the_whole_scene(monkeypatch):
+    """40 instances of a prototype of a triangle and a ball, over four times a budget of 8 triangles: the 8 that fit
+    hold 8 balls, of which a shape budget of 5 draws 5, and the title said 'showing 5 of 8 analytic shapes' of a scene
+    of 40 (the shapes of the kept instances alone were counted). The total is the scene's: one ball per instance."""
+    monkeypatch.setattr(preview_module, "SHAPE_BUDGET", 5)
+    triangle = Mesh("/P/tri", np.float32([[0, 0, 0], [0.5, 0, 0], [0, 0.5, 0]]), np.int32([[0, 1, 2]]), [0])
+    prototype = Prototype("/P", [triangle], [Shape("/P/ball", "sphere", np.diag([0.2, 0.2, 0.2, 1.0]))])
+    n = 40
+    scene = wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms(
+        np.zeros(n, int), translations(np.column_stack([np.arange(n), np.zeros(n), np.zeros(n)]))))
+    plotter = wrt.preview(scene, max_triangles=8, window_size=(64, 48), show_lights=False)
+    try:
+        assert f"showing 8 of {n} instances, spread evenly" in plotter.title, plotter.title
+        assert f"showing 5 of {n} analytic shapes" in plotter.title, plotter.title
+    finally:
+        plotter.close()
+
 def test_lights_past_the_budget_are_drawn_spread_over_the_scene():
     """1,000 point lights along x, the first 300 within one unit of the origin, the others out to 100, and a budget
     of 10: the ten drawn were the first. The drawn ones run the row's length, and the note counts the others."""

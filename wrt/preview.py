@@ -955,6 +955,7 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     from outside a room, its walls vanish and show the inside.
     """
     note = ""
+    all_shapes = shape_count(scene)  # before any cut of the instances: of 40 shapes, 5 of the 8 kept read '5 of 8'
     if len(scene.instances) and scene.stats()["rendered_triangles"] > EXPAND_FACTOR * max_triangles:
         # Too many to flatten for display: those that fit in the budget, spread over the scene (the first ones filled
         # one corner of a PointInstancer written row by row).
@@ -977,11 +978,11 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
         _add_sided(pv, plotter, shapes.points, shapes.regular_faces, shapes.cell_data["color"],
                    shapes.cell_data["double_sided"], "shapes")
         # A Points prim of a million spheres was cut to the budget unsaid.
-        drawn, total = int(shapes.field_data["shapes_drawn"][0]), int(shapes.field_data["shapes_total"][0])
-        cut = f"showing {drawn:,} of {total:,} analytic shapes, spread evenly" if drawn < total else ""
+        drawn = int(shapes.field_data["shapes_drawn"][0])
+        cut = f"showing {drawn:,} of {all_shapes:,} analytic shapes, spread evenly" if drawn < all_shapes else ""
         segments = int(shapes.field_data["segments"][0])
         if segments < SHAPE_SEGMENTS:
-            cut = f"{cut or 'analytic shapes'} with {segments} segments per circle"
+            cut = f"{cut + ',' if cut else 'analytic shapes'} with {segments} segments per circle"
         note = ", ".join(filter(None, [note, cut]))
     return note
 
@@ -996,6 +997,15 @@ def _add_sided(pv, plotter, points, indices, colors, double_sided, label: str) -
             mesh.cell_data["color"] = colors[rows]
             culling = None if sided else "back"
             plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=name)
+
+
+def shape_count(scene: Scene) -> int:
+    """How many analytic shapes :func:`shape_meshes` draws of ``scene`` within every budget: its own, then those of
+    each instance's prototype."""
+    per_prototype = np.array([len(getattr(p, "shapes", [])) for p in getattr(scene, "prototypes", [])] or [0], np.int64)
+    instances = getattr(scene, "instances", ())
+    instanced = int(per_prototype[instances.prototype].sum()) if len(instances) else 0
+    return len(getattr(scene, "shapes", [])) + instanced
 
 
 def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET,
