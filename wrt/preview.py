@@ -89,7 +89,8 @@ BAR_CHARACTER_EM = 0.6  # width of a label character in ems: Arial's digits and 
 BAR_LABEL_GAP = 0.25  # least space between two colour bar labels, a fraction of a label's width
 MAX_WINDOW = 16384  # largest window side, pixels: OpenGL's usual framebuffer limit (Mesa's); beyond it VTK draws
 # nothing or aborts allocating the picture
-TEXT_PIXELS_PER_CHARACTER = 3  # summary lines are wrapped to the window's width over this many pixels a character
+TEXT_PIXELS_PER_CHARACTER = 4  # summary lines are wrapped to the window's width over this many pixels a character:
+# at 3 (VTK's smallest font is about 3 wide) the longest lines ran past the window's right side, cut off there
 MIN_TEXT_COLUMNS = 20  # ... and to no fewer characters a line
 IMAGE_PLANE_FRACTION = 0.8  # image plane depth, as a fraction of the nearest sample hit's depth
 GREY = 0.5  # linear albedo shown for meshes without displayColor (the renderer's default)
