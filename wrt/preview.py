@@ -1003,10 +1003,9 @@ def _add_sided(pv, plotter, points, indices, colors, double_sided, label: str) -
 def shape_count(scene: Scene) -> int:
     """How many analytic shapes :func:`shape_meshes` draws of ``scene`` within every budget: its own, then those of
     each instance's prototype."""
-    per_prototype = np.array([len(getattr(p, "shapes", [])) for p in getattr(scene, "prototypes", [])] or [0], np.int64)
-    instances = getattr(scene, "instances", ())
-    instanced = int(per_prototype[instances.prototype].sum()) if len(instances) else 0
-    return len(getattr(scene, "shapes", [])) + instanced
+    per_prototype = np.array([len(p.shapes) for p in scene.prototypes] or [0], np.int64)
+    instanced = int(per_prototype[scene.instances.prototype].sum()) if len(scene.instances) else 0
+    return len(scene.shapes) + instanced
 
 
 def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET,
