@@ -108,6 +108,7 @@ def test_shapes_of_instances_cut_to_the_budget_are_counted_of_the_whole_scene(mo
     finally:
         plotter.close()
 
+
 def test_lights_past_the_budget_are_drawn_spread_over_the_scene():
     """1,000 point lights along x, the first 300 within one unit of the origin, the others out to 100, and a budget
     of 10: the ten drawn were the first. The drawn ones run the row's length, and the note counts the others."""
