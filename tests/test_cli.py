@@ -1028,6 +1028,10 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     (["render", "--frames", "1:2", "-o", "{dir}/out"], "cannot write {dir}/out_0001: the file name has no extension"),
     (["render", "-o", "{dir}/out.tif"], "cannot write {dir}/out.tif: supported image formats are .png, .exr, .npy"),
     (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
+    # Named as render names it: 'cannot write out: previews are written as .png' read as a wrong extension.
+    (["preview", "-o", "{dir}/out"], "cannot write {dir}/out: the file name has no extension (e.g. out.png); "
+                                     "previews are written as .png"),
+    (["preview", "-o", "{dir}/out.jpg"], "cannot write {dir}/out.jpg: previews are written as .png"),
     # A folder not yet made: 'cannot write views: previews are written as .png', its / dropped; one that exists said
     # 'it is a directory'.
     (["preview", "-o", "{dir}/views/"], "cannot write {dir}/views/: it names a folder; give the preview a .png file "
