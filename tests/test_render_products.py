@@ -1026,6 +1026,12 @@ def test_an_overscanned_product_is_placed_in_its_shot_past_its_edges(tmp_path):
         ("...", True, "P.png", None),  # no name at all: the prim's, as for '.' and '..'
         (".beauty.png", True, "P.beauty.png", "begins with a dot"),  # was the hidden file .beauty.png
         ("..beauty.0001.exr", False, "P.beauty.0001.exr", "begins with a dot"),
+        # A dotted word that is no image format is part of the name: '.beauty' was written as P.png, 'an extension
+        # alone', and 'shot.beauty' and 'shot.diffuse' both as shot (shot.png and shot_2.png).
+        (".beauty", True, "P.beauty.png", "begins with a dot"),
+        ("shot.beauty", True, "shot.beauty.png", None),
+        ("shot.diffuse", False, "shot.diffuse.exr", None),
+        ("shot.TIFF", True, "shot.png", "wrt writes PNG or EXR"),
     ],
 )
 def test_a_product_name_ending_in_a_dot_or_an_extension_alone_names_a_sensible_file(product_name, png, name, said):

@@ -11,7 +11,8 @@ that begins with a dot, such as ``.png`` or ``.beauty.png``, which would hide th
 caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the
 beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage``
 AOV, the colour unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact
-below 2^24), the name's extension replaced with a warning where it is another, and a name past 255 bytes shortened.
+below 2^24), the name's extension replaced with a warning where it is another image format's (:data:`IMAGE_EXTENSIONS`;
+``shot.beauty`` is ``shot.beauty.exr``), and a name past 255 bytes shortened.
 The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
 ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X, N.Y,
 N.Z``, ``albedo.R, albedo.G, albedo.B``, ... (``_2`` where an earlier layer has the name or writes one of its
@@ -79,6 +80,13 @@ CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", 
 NAMED_IDS = ("primId", "instance")  # ids whose prim paths the EXR header names (attribute "<layer>/paths")
 EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
 NUMBER_BYTES = 8  # room left in a long file name for the "_k" that tells products of one name apart
+# Extensions of image formats a productName may end in: PNG and EXR, which wrt writes, those of OpenImageIO (the image
+# library of USD's renderers), replaced by the one wrt writes (".tif" by ".png"), and wrt's own .npy. Any other dotted
+# word is part of the name: "shot.beauty" and "shot.diffuse" were both taken for "shot" in another format, and
+# written as shot.png and shot_2.png.
+IMAGE_EXTENSIONS = frozenset(
+    ".png .exr .bmp .cin .dds .dpx .gif .hdr .heic .avif .iff .jpg .jpeg .jpe .jp2 .j2k .pbm .pgm .ppm .pnm .psd .pic "
+    ".rla .rgbe .sgi .rgb .rgba .tga .tif .tiff .tx .webp .npy".split())
 # Longest layer name: its channels (".triangles" the longest) and its "/paths" attribute within the 255 bytes of an
 # EXR name, where OpenEXR cut channel names (two long layers wrote one channel) and dropped attributes without a word.
 MAX_LAYER_BYTES = MAX_NAME_BYTES - len(".triangles") - NUMBER_BYTES
@@ -182,19 +190,20 @@ def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
     # A leading dot hides the file: ".png" was the hidden ".png.png", ".beauty.png" the hidden ".beauty.png" (an empty
     # shot variable in a templated name). The prim's name goes before it, as where there is no name.
     hidden = name.startswith(".")
-    hides = "is an extension alone, no file name" if name[1:].isalpha() else "begins with a dot, which hides the file"
+    alone = name.lower() in IMAGE_EXTENSIONS  # ".beauty" is a name that would hide the file, not an extension
+    hides = "is an extension alone, no file name" if alone else "begins with a dot, which hides the file"
     if not name or hidden:
         name = product.product.rsplit("/", 1)[-1] + "." * hidden + name.lstrip(".")
     stem, suffix = os.path.splitext(name)
     wanted = ".exr" if not png or suffix.lower() == ".exr" else ".png"
     if suffix.lower() != wanted:
-        if suffix[1:].isalpha():  # another format's extension (".tif", or ".png" of more than the beauty): replaced
+        if suffix.lower() in IMAGE_EXTENSIONS:  # another format's (".tif", or ".png" of more than the beauty): replaced
             # Not 'several channels': a product of depth alone is one channel, and still no PNG (8-bit colour).
             what = "PNG or EXR" if png else "PNG for a product of the beauty alone, EXR for any other RenderVar"
             warnings.warn(f"{where}: {product.product} productName {product.product_name!r}: wrt writes {what}; "
                           f"written as {stem}{wanted}", stacklevel=3)
             name = stem
-        name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
+        name += wanted  # none, or a dot that is part of the name ("shot.0001", "shot.beauty"): appended
     if hidden:
         warnings.warn(f"{where}: {product.product} productName {product.product_name!r} {hides}; written as "
                       f"{name}, after the prim", stacklevel=3)
