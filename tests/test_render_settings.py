@@ -454,6 +454,39 @@ def test_a_settings_value_of_another_type_than_the_schemas_is_an_error_and_a_pro
     assert scene.render_settings.products == () and scene.render_settings.resolution == (64, 32)
 
 
+@pytest.mark.parametrize("authored, words", [
+    ('string productName = "beauty.exr"', "string productName = 'beauty.exr', not the schema's token"),
+    ('uniform string productType = "raster"', "string productType = 'raster', not the schema's token"),
+    ("uniform int dataType = 3", "RenderVar /Render/Product/V: int dataType = 3, not the schema's token"),
+    ('uniform token sourceName = "depth"', "RenderVar /Render/Product/V: token sourceName = 'depth', not the "
+                                           "schema's string"),
+    ('uniform string sourceType = "raw"', "RenderVar /Render/Product/V: string sourceType = 'raw', not the schema's "
+                                          "token"),
+])
+def test_a_product_name_type_or_render_var_of_another_type_than_the_schemas_leaves_the_product_out(tmp_path,
+                                                                                                   authored, words):
+    """productName, productType and a RenderVar's sourceName, sourceType and dataType of another type than the
+    schema's (USD's own: the ``UsdRender.Product`` and ``UsdRender.Var`` attribute's ``GetTypeName``) were read as
+    authored (a ``string productName`` named the file, an ``int dataType`` was '3'), where UsdRenderComputeSpec's
+    typed reads pass them over. Now the product is left out with a warning naming it, the RenderVar, the attribute,
+    its type and value, as for the product's other values."""
+    from pxr import Sdf, Usd, UsdRender
+
+    kind, name = authored.removeprefix("uniform ").split()[:2]
+    memory = Usd.Stage.CreateInMemory()
+    schema = UsdRender.Var.Define(memory, "/V") if "RenderVar" in words else UsdRender.Product.Define(memory, "/P")
+    schema_type = schema.GetPrim().GetAttribute(name).GetTypeName()
+    assert words.endswith(str(schema_type)) and schema_type != Sdf.ValueTypeNames.Find(kind)
+    var = 'def RenderVar "V"\n        {\n            %s\n        }' % authored
+    product = (f"rel orderedVars = </Render/Product/V>\n        {var}" if "RenderVar" in words else authored)
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        rel products = [</Render/Product>]",
+                        product=product)
+    with pytest.warns(UserWarning, match=rf"stage.usda: /Render/Product: {words}: UsdRenderComputeSpec passes .*; "
+                      "this RenderProduct is left out"):
+        scene = wrt.load_usd(stage)
+    assert scene.render_settings.products == ()
+
+
 def test_a_bad_settings_camera_is_one_error_naming_the_settings_though_a_product_takes_it(tmp_path):
     """The settings' own camera was checked in each product that took it: every such product was left out with a
     warning naming the settings prim as the product ('/Render/Settings: camera relationship targets /World/Box ...;

@@ -364,10 +364,10 @@ def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> Re
         overrides, mistyped = _read_base(schema, time, authored_only=True)
         _check_camera(stage, overrides.get("camera"), dict(path=source, prim=product))  # (the settings' one: checked)
         values.update(overrides, product=product,
-                      product_name=str(value_at(schema.GetProductNameAttr(), time) or ""),
-                      product_type=str(value_at(schema.GetProductTypeAttr(), time) or "raster"))
+                      product_name=str(_typed(schema.GetProductNameAttr(), time, mistyped) or ""),
+                      product_type=str(_typed(schema.GetProductTypeAttr(), time, mistyped) or "raster"))
         where = f"{os.path.basename(source)}: {product}"
-        values["render_vars"] = tuple(_read_var(UsdRender.Var(var), time)
+        values["render_vars"] = tuple(_read_var(UsdRender.Var(var), time, mistyped)
                                       for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
     if product_prim is not None:  # the merged values: a bad one now comes from the product
         _check_values(values, dict(path=source, prim=values["product"]))
@@ -392,15 +392,29 @@ def _check_camera(stage, camera: str | None, where: dict) -> None:
         raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", **where)
 
 
-def _read_var(var, time) -> RenderVar:
+def _read_var(var, time, mistyped: list[str]) -> RenderVar:
     """The :class:`RenderVar` of a ``UsdRender.Var`` at ``time`` (the schema's fallbacks where nothing is
-    authored)."""
+    authored); words for each value of another type than the schema's are added to ``mistyped``, naming the
+    RenderVar (:func:`_check_types` names the product)."""
     aov_name = var.GetPrim().GetAttribute("driver:parameters:aov:name")  # a driver parameter: no schema getter
     aov_name = value_at(aov_name, time) if aov_name else None
-    return RenderVar(path=str(var.GetPath()), source_name=str(value_at(var.GetSourceNameAttr(), time) or ""),
-                     source_type=str(value_at(var.GetSourceTypeAttr(), time) or "raw"),
-                     data_type=str(value_at(var.GetDataTypeAttr(), time) or "color3f"),
+    wrong = []
+    read = RenderVar(path=str(var.GetPath()), source_name=str(_typed(var.GetSourceNameAttr(), time, wrong) or ""),
+                     source_type=str(_typed(var.GetSourceTypeAttr(), time, wrong) or "raw"),
+                     data_type=str(_typed(var.GetDataTypeAttr(), time, wrong) or "color3f"),
                      aov_name=aov_name.strip() if isinstance(aov_name, str) else "")
+    mistyped.extend(f"RenderVar {read.path}: {words}" for words in wrong)
+    return read
+
+
+def _typed(attr, time, mistyped: list[str]):
+    """``attr``'s value at ``time`` as USD's typed read gives it (:func:`wrt.usd_values.schema_typed_value`); words
+    for a value of another type than the schema's are added to ``mistyped``. Python's ``Get`` handed back a ``string
+    productName``, an ``int dataType`` as authored, which ``UsdRenderComputeSpec`` passes over."""
+    value, wrong = schema_typed_value(attr, time)
+    if wrong is not None:
+        mistyped.append(f"{wrong}, not the schema's {attr.GetTypeName()}")
+    return value
 
 
 def _warn_color_space(space: str, where: str) -> None:
