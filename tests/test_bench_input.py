@@ -671,6 +671,29 @@ def test_a_misspelt_asset_id_names_the_one_meant(tmp_path, monkeypatch):
     assert bench_module.asset_path("chess_set") == tmp_path / "chess.usda"
 
 
+@pytest.mark.parametrize("content, message", [
+    (b'{"assets": [{"id": "a", "path": "a.usda"},]}', "not valid JSON: Expecting value at line 1 column 43"),
+    (b"\xff\xfe{}", "not UTF-8 JSON text (byte 0 is no UTF-8)"),
+    (b'[{"id": "a", "path": "a.usda"}]', 'must be a JSON object with an "assets" list'),
+    (b'{"assets": {"a": "a.usda"}}', 'must be a JSON object with an "assets" list'),
+    (b'{"assets": [{"id": "a", "path": "a.usda"}, {"id": "b"}]}', 'assets[1] must be an object with text "id" and '
+                                                                  '"path", got {"id": "b"}'),
+])
+def test_a_malformed_manifest_is_named_with_what_is_wrong(tmp_path, monkeypatch, content, message):
+    """A manifest.json that is no JSON failed with Python's words alone ('Expecting value: line 1 column 42 (char
+    41)'), one without an assets list or an entry without a path with a bare KeyError ('assets', 'path'): none named
+    the file. The position is json's own (the oracle: json.loads of the same text)."""
+    (tmp_path / "manifest.json").write_bytes(content)
+    monkeypatch.setenv("WRT_ASSETS", str(tmp_path))
+    if message.startswith("not valid JSON"):
+        with pytest.raises(json.JSONDecodeError) as error:
+            json.loads(content)
+        assert message.endswith(f"{error.value.msg} at line {error.value.lineno} column {error.value.colno}")
+    with pytest.raises(ValueError) as error:
+        bench_module.asset_path("a")
+    assert str(error.value).startswith(f"{tmp_path / 'manifest.json'}: {message}"), str(error.value)
+
+
 def test_quick_suite_duration_is_stated_alike_in_help_suite_and_readme(capsys):
     """--help said 'about a minute' and wrt/suites/quick.json 'under 2 minutes' for the same run."""
     from wrt.cli import build_parser

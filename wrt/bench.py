@@ -623,16 +623,41 @@ def asset_path(asset_id: str) -> Path:
                 _warned_asset_folders.add(given)
                 warnings.warn(f"WRT_ASSETS={given} holds no manifest.json; the shared assets are read from {root}",
                               stacklevel=2)
-            entries = {e["id"]: e for e in json.loads(manifest.read_text())["assets"]}
+            entries = manifest_entries(manifest)
             if asset_id not in entries:  # 42 ids in the shared manifest: the one meant, not all of them
                 raise ValueError(f"no asset {asset_id!r}{did_you_mean(asset_id, entries)} in {manifest}")
-            return root / entries[asset_id]["path"]
+            return root / entries[asset_id]
     # Each folder looked in, WRT_ASSETS's named as such: 'set WRT_ASSETS' was all it said, also where it was set to a
     # folder without the manifest (a typo, or the repository's folder above the assets).
     looked = [f"{root} (WRT_ASSETS)" if k == 0 and os.environ.get("WRT_ASSETS") else str(root)
               for k, root in enumerate(candidates)]
     raise FileNotFoundError(f"asset {asset_id!r}: no shared asset folder found: no manifest.json in "
                             f"{', '.join(looked)}; set WRT_ASSETS to the folder that holds it")
+
+
+def manifest_entries(manifest: Path) -> dict[str, str]:
+    """``{id: path}`` of the asset manifest ``manifest`` (``{"assets": [{"id": ..., "path": ...}, ...]}``).
+
+    Raises:
+        ValueError: naming the file and what is wrong with it: not UTF-8 JSON, no ``assets`` list, an entry without
+            a text ``id`` or ``path`` (Python's words, 'Expecting value: line 1 column 1 (char 0)' or a KeyError
+            'assets', named no file).
+    """
+    try:
+        data = json.loads(manifest.read_bytes().decode("utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{manifest}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{manifest}: not UTF-8 JSON text (byte {e.start} is no UTF-8)") from None
+    assets = data.get("assets") if isinstance(data, dict) else None
+    if not isinstance(assets, list):
+        raise ValueError(f'{manifest}: must be a JSON object with an "assets" list of {{"id": ..., "path": ...}} '
+                         "entries")
+    for k, entry in enumerate(assets):
+        if not (isinstance(entry, dict) and all(isinstance(entry.get(key), str) for key in ("id", "path"))):
+            raise ValueError(f'{manifest}: assets[{k}] must be an object with text "id" and "path", got '
+                             f"{json.dumps(entry)[:80]}")
+    return {entry["id"]: entry["path"] for entry in assets}
 
 
 class _Subject:
