@@ -70,3 +70,34 @@ def test_frames_render_each_frame_at_its_settings(tmp_path):
         (width, height), window = usd_values(path, frame)[:2]
         shown = round(width * (window[2] - window[0])), round(height * (window[3] - window[1]))
         assert np.load(tmp_path / f"f_{frame}.npy").shape == (shown[1], shown[0], 3)
+
+
+def test_frames_say_each_view_once_as_a_still_render_does(tmp_path, capsys):
+    """A still render says 'view: camera ... (render settings), WxH (resolution of ...)'; --frames said nothing of
+    the camera or size. Now each view is said once, with its frames where they differ (the sizes from USD's own
+    resolution and dataWindowNDC at each time), and the warning about mixed sizes names the render settings, not the
+    camera's aperture, which plays no part here. Frames of one view are one line, the still render's."""
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    out = str(tmp_path / "f_#.npy")
+    assert main(["render", str(path), "--frames", "1:2", "-o", out, "--integrator", "normals"]) == 0
+    err = capsys.readouterr().err
+    expected = []
+    for frame in (1, 2):
+        (width, height), window = usd_values(path, frame)[:2]
+        shown = round(width * (window[2] - window[0])), round(height * (window[3] - window[1]))
+        inside = "" if shown == (width, height) else \
+            f", {shown[0]}x{shown[1]} inside the dataWindowNDC of /Render/Product"
+        expected.append(f"wrt: view: camera /Cam (render settings), {width}x{height} (resolution of /Render/Product)"
+                        f"{inside} (frame {frame})")
+    assert [line for line in err.splitlines() if line.startswith("wrt: view:")] == expected, err
+    said = [line for line in err.splitlines() if "image sizes" in line]
+    assert len(said) == 1 and "render settings' resolution and dataWindowNDC" in said[0] and "aperture" not in said[0]
+    still = tmp_path / "still.usda"
+    still.write_text(STAGE.replace(".timeSamples = {1: (12, 6), 2: (8, 10)}", " = (12, 6)")
+                     .replace(".timeSamples = {1: (0, 0, 1, 1), 2: (0, 0, 0.5, 1)}", " = (0, 0, 1, 1)"))
+    views = []
+    for options in ([], ["--frames", "1:2", "-o", out]):
+        assert main(["render", str(still), "-o", str(tmp_path / "s.npy"), "--integrator", "normals", *options]) == 0
+        views.append([line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: view:")])
+    assert len(views[1]) == 1 and views[0] == views[1], views

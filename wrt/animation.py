@@ -290,7 +290,9 @@ class FrameRenderer:
             anew: all of them on a ``build``, those past the refit limit on a ``refit``), ``load_ms``, ``update_ms``
             (build, refit or TLAS rebuild), ``render_ms``, ``dropped_samples`` (the frame's samples left out as not
             finite: :attr:`wrt.Renderer.dropped_samples`; their warning is said once over the frames),
-            ``image_size`` (``[width, height]``) and ``drawn_camera`` (``camera /Path``: :func:`warn_mixed_sizes`).
+            ``image_size`` (``[width, height]``), ``drawn_camera`` (``camera /Path``: :func:`warn_mixed_sizes`) and
+            ``view`` (on a stage with render settings, where the camera and size came from:
+            :func:`wrt.render.view_summary`; else None).
         last_warnings: the ``warnings.WarningMessage`` of every warning the last frame rendered (or tried) gave, in
             order, those said at an earlier frame and so not shown again included.
     """
@@ -320,7 +322,7 @@ class FrameRenderer:
             return self._render(frame, spp, seed)
 
     def _render(self, frame: float, spp: int, seed: int):
-        from .render import Renderer
+        from .render import Renderer, view_summary
         from .usd_frames import StageFrames
 
         start = _time.perf_counter()
@@ -380,6 +382,11 @@ class FrameRenderer:
                 # which --resume compares.
                 "image_size": [image.width, image.height],
                 "drawn_camera": _camera_label(scene, self.camera),
+                # Where the camera and size came from, as a still render's progress line says it (None: no render
+                # settings): wrt render says each view of its frames once.
+                "view": None if settings is None else view_summary(
+                    settings, renderer.camera, image.width, image.height, self.camera, self.options.get("width"),
+                    self.options.get("height")),
             }
         )
         return image
@@ -420,9 +427,13 @@ def warn_mixed_sizes(path, rows) -> None:
     if len(first) > 1:
         cameras = " and ".join(dict.fromkeys(row["drawn_camera"] for row in first.values()))
         sizes = ", ".join(f"{w}x{h} from frame {row['frame']:g}" for (w, h), row in first.items())
-        warnings.warn(f"{os.path.basename(path)}: the frames have {len(first)} image sizes ({sizes}): the size not "
-                      f"given follows {cameras}'s aperture aspect at each frame; give both --width and --height (or "
-                      "width and height) for one size", UserWarning, stacklevel=3)
+        # On a stage with render settings the size is theirs (the camera's aperture plays no part): it said the
+        # camera's aspect for a time-sampled resolution or dataWindowNDC.
+        cause = ("each frame takes its render settings' resolution and dataWindowNDC at its time" if
+                 any(row.get("view") for row in first.values()) else
+                 f"the size not given follows {cameras}'s aperture aspect at each frame")
+        warnings.warn(f"{os.path.basename(path)}: the frames have {len(first)} image sizes ({sizes}): {cause}; give "
+                      "both --width and --height (or width and height) for one size", UserWarning, stacklevel=3)
 
 
 def warn_frames_outside_range(path, frames) -> None:

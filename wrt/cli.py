@@ -716,26 +716,6 @@ def loaded_summary(name: str, stats: dict) -> str:
     return f"loaded {name}: {contents_summary(stats)}"
 
 
-def _view_summary(args, settings, camera, width: int, height: int) -> str:
-    """The progress line naming the camera and size of a render on a stage with render settings, each with where it
-    came from: an option, or the settings (the first product's, merged, as :func:`wrt.render.resolve_view` takes
-    them, ``--camera`` or not). Without it a ``--camera`` render took the first product's size without a word."""
-    source = settings.product or settings.path
-    if args.camera is not None:
-        shot = f"camera {args.camera} (--camera)"
-    elif settings.camera is not None:
-        shot = f"camera {settings.camera} (render settings)"
-    else:
-        shot = f"camera {camera.path} (the stage's first)" if camera.path else "a camera framing the scene"
-    full_w, full_h = settings.image_size(args.width, args.height)
-    given = [name for name, value in (("--width", args.width), ("--height", args.height)) if value is not None]
-    why = {0: f"resolution of {source}", 1: f"{', '.join(given)}, aspect of {source}", 2: "--width, --height"}
-    size = f"{full_w}x{full_h} ({why[len(given)]})"
-    if (width, height) != (full_w, full_h):
-        size += f", {width}x{height} inside the dataWindowNDC of {source}"
-    return f"view: {shot}, {size}"
-
-
 def _check_view_pixels(args, width: int, height: int, settings=None) -> None:
     """:func:`wrt.render.check_pixels` of the image a stage's ``settings`` and ``--width``/``--height`` make, its error
     naming those options where given and the settings where they gave a side (with -q nothing else said where the
@@ -753,7 +733,7 @@ def _check_view_pixels(args, width: int, height: int, settings=None) -> None:
 def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     import wrt
 
-    from .render import resolve_view
+    from .render import resolve_view, view_summary
     from .resources import check_memory, device_texture_bytes, estimate_render_bytes
 
     start = time.perf_counter()
@@ -767,8 +747,8 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
         warnings.warn(f"{path.name}: {settings.path} has {len(settings.products)} RenderProducts; this image is the "
                       f"first's, {settings.product} (--products DIR writes them all)", stacklevel=2)
     camera, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
-    if settings is not None:
-        progress(_view_summary(args, settings, camera, width, height))
+    if settings is not None:  # without it a --camera render took the first product's size without a word
+        progress(f"view: {view_summary(settings, camera, width, height, args.camera, args.width, args.height)}")
     _check_view_pixels(args, width, height, settings)  # the limit is the clearer error where both apply
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp, device_texture_bytes(scene))
     check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
@@ -1064,6 +1044,12 @@ def _run_frames(args, paths: list, progress) -> int:
         rows = render_frames(paths[0], jobs, devices=devices, **common)
     from .animation import warn_mixed_sizes
 
+    # The view of each frame, as a still render says it: each once, with its frames where they differ.
+    views = collections.defaultdict(list)
+    for row in sorted((row for row in rows if row.get("view")), key=lambda row: row["frame"]):
+        views[row["view"]].append(row["frame"])
+    for view, frames in views.items():
+        progress(f"view: {view}" + (f" ({_frame_list(frames)})" if len(views) > 1 else ""))
     warn_mixed_sizes(paths[0], rows)
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)

@@ -293,6 +293,30 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
     return settings.frame(cam, width, height)
 
 
+def view_summary(settings, camera: Camera, width: int, height: int, given_camera=None, given_width: int | None = None,
+                 given_height: int | None = None) -> str:
+    """The words of a view on a stage with render ``settings``: ``camera`` (drawn, :func:`resolve_view`'s) and the
+    image's ``width x height``, each with where it came from: the ``given_*`` values (named by ``wrt render``'s
+    options), or the settings (the first product's, merged, as :func:`resolve_view` takes them); e.g. ``camera
+    /Cam (render settings), 64x32 (resolution of /Render/Product)``. Said by ``wrt render`` for one image and for
+    each view of its ``--frames`` (:attr:`wrt.animation.FrameRenderer.log`)."""
+    source = settings.product or settings.path
+    if given_camera is not None:
+        shot = f"{given_camera.label()} (camera object)" if isinstance(given_camera, Camera) else \
+            f"camera {given_camera} (--camera)"
+    elif settings.camera is not None:
+        shot = f"camera {settings.camera} (render settings)"
+    else:
+        shot = f"camera {camera.path} (the stage's first)" if camera.path else "a camera framing the scene"
+    full_w, full_h = settings.image_size(given_width, given_height)
+    given = [name for name, value in (("--width", given_width), ("--height", given_height)) if value is not None]
+    why = {0: f"resolution of {source}", 1: f"{', '.join(given)}, aspect of {source}", 2: "--width, --height"}
+    size = f"{full_w}x{full_h} ({why[len(given)]})"
+    if (width, height) != (full_w, full_h):
+        size += f", {width}x{height} inside the dataWindowNDC of {source}"
+    return f"{shot}, {size}"
+
+
 def view_window(scene: Scene, camera, width: int | None, height: int | None) -> tuple[int, int, int, int] | None:
     """:attr:`Image.window` of the image :func:`resolve_view` gives for these arguments: the shot's size and the
     image's top-left pixel in it where the render settings' data window crops it (a stage camera, or the camera that
