@@ -882,16 +882,52 @@ def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path, cap
     ]
 
 
+def test_aov_dir_with_frames_writes_each_frames_aovs_numbered_as_the_images(animated, tmp_path):
+    """--aov-dir was refused with --frames. It writes DIR/NAME_##.npy per frame now, numbered as -o numbers the images
+    (two #: _01), each equal to the AOV of a fresh render of its time (cost left out: a refitted tree visits other
+    nodes), and the log rows name the files."""
+    from wrt.cli import main
+    from wrt.render import AOV_NAMES
+
+    size = {"width": 16, "height": 12}
+    argv = ["render", str(animated), "--frames", "1:2", "-o", str(tmp_path / "f_##.npy"), "--aov-dir",
+            str(tmp_path / "aovs"), "--width", "16", "--height", "12", "-q"]
+    logged = ["--log", str(tmp_path / "log.jsonl")]
+    assert main(argv + logged) == 0
+    assert sorted(p.name for p in (tmp_path / "aovs").iterdir()) == sorted(f"{n}_0{f}.npy" for n in AOV_NAMES
+                                                                          for f in (1, 2))
+    rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    for frame in (1, 2):
+        fresh = wrt.render(wrt.load_usd(animated, time=frame), **size)
+        for name in set(AOV_NAMES) - {"cost"}:
+            np.testing.assert_array_equal(np.load(tmp_path / "aovs" / f"{name}_0{frame}.npy"), fresh.aovs[name])
+        row = next(row for row in rows if row["frame"] == frame)
+        assert sorted(row["aov_files"]) == sorted(str(tmp_path / "aovs" / f"{n}_0{frame}.npy") for n in AOV_NAMES)
+    # --resume renders a frame whose AOV file is gone again, by the log (after a run that skipped every frame, whose
+    # rows carry the files) or, without one, by the files on disk.
+    assert main(argv + logged + ["--resume"]) == 0
+    for gone, options in (("depth_02.npy", logged + ["--resume"]), ("z_01.npy", ["--resume"])):
+        (tmp_path / "aovs" / gone).unlink()
+        assert main(argv + options) == 0 and (tmp_path / "aovs" / gone).is_file(), gone
+
+
 def test_two_jobs_of_one_frame_on_two_devices_write_both_files(animated, tmp_path):
     """A frame asked for as .npy and as .png: the workers' results were matched to files by frame, so both went to the
     last job's file (f_1.png never written, the rows naming f_1.npy twice), where a serial run writes each."""
     from PIL import Image as PilImage
 
+    from wrt.animation import aov_files
+
     jobs = [(1.0, tmp_path / "f_1.png"), (1.0, tmp_path / "f_1.npy")]
-    rows = render_frames(animated, jobs, devices=["cpu", "cpu"], **SIZE)
+    aov_pattern = tmp_path / "aovs" / "{name}_#.npy"  # the AOVs come back from the workers too, written here
+    rows = render_frames(animated, jobs, devices=["cpu", "cpu"], aov_pattern=aov_pattern, **SIZE)
     assert sorted(row["output"] for row in rows) == sorted(str(file) for _, file in jobs)
     serial = FrameRenderer(animated, **SIZE).render(1.0)
     np.testing.assert_array_equal(np.load(tmp_path / "f_1.npy"), serial.rgb)
+    files = aov_files(aov_pattern, 1.0)
+    assert all(sorted(row["aov_files"]) == sorted(map(str, files.values())) for row in rows), rows
+    for name, file in files.items():
+        np.testing.assert_array_equal(np.load(file), serial.aovs[name], err_msg=name)
     with PilImage.open(tmp_path / "f_1.png") as png:
         assert png.format == "PNG" and png.size == (SIZE["width"], SIZE["height"])
 
@@ -992,8 +1028,8 @@ def test_cli_frames_on_dask_log_the_frames_ctrl_c_cut_short(animated, tmp_path, 
 
     frame_writer = animation._frame_writer
 
-    def interrupted_at_frame_2(rows):
-        write = frame_writer(rows)
+    def interrupted_at_frame_2(rows, *args):  # args: the AOV pattern
+        write = frame_writer(rows, *args)
 
         def cut(result, file):
             if result["row"]["frame"] == 2.0:

@@ -242,6 +242,12 @@ def test_an_error_about_a_file_has_no_help_ending(tmp_path, capsys):
         (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["render", "--workers", "3"], "--workers sizes the LocalCluster"),  # was ignored
         (["render", "--frames", "1:2", "--time", "0"], "--time cannot be combined with --frames"),  # 0 was ignored
+        # Saying what writes every frame's AOVs; an AOV file on an image's path is refused before any frame.
+        (["render", "--frames", "1:2", "--aov", "depth"], "--aov cannot be combined with --frames; --aov-dir DIR "
+                                                         "writes every frame's AOVs as arrays"),
+        (["render", "--frames", "1:2", "-o", "d/depth_##.npy", "--aov-dir", "d"],
+         "the AOV file d/depth_01.npy of frame 1 would also be frame 1's image; give the images or the AOV files "
+         "other names"),
         (["render", "--frames", "1:2", "--dask", "tcp://h:8786", "--workers", "3"], "--workers sizes"),
         (["render", "--frames", "1:2", "--devices", "cpu,cpu", "--dask"], "--devices or --dask, not both"),
         (["frobnicate"], "frobnicate"),

@@ -258,8 +258,8 @@ def follow(accel, scene, change: str) -> tuple[str, int]:
 RENDERER_OPTIONS = ("width", "height", "device", "builder", "accel", "integrator", "max_depth", "ao_radius")
 LOAD_OPTIONS = ("camera", "tessellate_gprims", "refine_level", "variants", "render_settings")
 FRAME_OPTIONS = tuple(name for name in LOAD_OPTIONS + RENDERER_OPTIONS if name != "device")
-FRAMES_OWN = ("devices", "spp", "seed", "exposure", "progress", "log", "log_row")  # render_frames' named arguments
-DASK_OWN = ("address", "n_workers", "spp", "seed", "exposure", "progress", "log", "log_row", "task")  # on Dask
+FRAMES_OWN = ("devices", "spp", "seed", "exposure", "progress", "log", "log_row", "aov_pattern")  # render_frames'
+DASK_OWN = ("address", "n_workers", "spp", "seed", "exposure", "progress", "log", "log_row", "aov_pattern", "task")
 
 
 def check_frame_options(options: dict, what: str, valid: tuple) -> None:
@@ -502,13 +502,22 @@ def frame_warnings(messages) -> list[str]:
     return list(dict.fromkeys(messages))
 
 
-def pending_frames(frames, output, resume: bool, stem: str | None = None) -> list[tuple[float, Path]]:
+def pending_frames(frames, output, resume: bool, stem: str | None = None, aov_pattern=None) -> list[tuple[float, Path]]:
     """``(frame, file)`` of every frame to render (``stem`` as :func:`frame_output` takes it); with ``resume``,
     frames whose file exists and is not empty are left out (files are written whole or not at all:
-    :func:`wrt.image.write_atomically`)."""
+    :func:`wrt.image.write_atomically`), and their AOV files too where ``aov_pattern`` names them
+    (:func:`aov_files`)."""
     resume = flag(resume, "pending_frames: resume")  # by its truth, "false" left out the frames already written
+
+    def written(p: Path) -> bool:
+        return p.is_file() and p.stat().st_size > 0
+
+    def done(f, p: Path) -> bool:
+        aovs = aov_files(aov_pattern, f).values() if aov_pattern is not None else ()
+        return written(p) and all(map(written, aovs))
+
     jobs = [(f, frame_output(output, f, stem)) for f in frames]
-    return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
+    return [(f, p) for f, p in jobs if not (resume and done(f, p))]
 
 
 def check_jobs(jobs) -> list[tuple]:
@@ -557,8 +566,40 @@ def check_jobs(jobs) -> list[tuple]:
     return checked
 
 
+def aov_files(pattern, frame: float) -> dict[str, Path]:
+    """``{AOV name: file}`` of the AOV arrays of ``frame``: ``{name}`` in ``pattern`` becomes each name of
+    :data:`wrt.render.AOV_NAMES`, its last run of ``#`` the frame number (:func:`frame_output`), e.g.
+    ``aovs/{name}_####.npy`` -> ``aovs/depth_0012.npy``."""
+    from .render import AOV_NAMES
+
+    return {name: frame_output(str(pattern).replace("{name}", name), frame) for name in AOV_NAMES}
+
+
+def check_aov_pattern(pattern, jobs: list) -> None:
+    """ValueError unless ``pattern`` (see :func:`aov_files`) names ``.npy`` files with ``{name}``, and the AOV files
+    of ``jobs`` (:func:`check_jobs`'s) are no image's and no other frame's (a frame's two jobs write the same ones)."""
+    if not isinstance(pattern, (str, os.PathLike)) or "{name}" not in os.fspath(pattern) or \
+            Path(os.fspath(pattern)).suffix.lower() != ".npy":
+        raise ValueError(f"render_frames: aov_pattern must be a .npy file name with {{name}} (the AOV) and a run of "
+                         f"# (the frame number), e.g. 'aovs/{{name}}_####.npy', got {pattern!r}")
+    images = {file.resolve(): frame for frame, file in jobs}
+    owner = {}
+    for frame, _ in jobs:
+        for file in aov_files(pattern, frame).values():
+            key = file.resolve()
+            if owner.setdefault(key, frame) != frame or key in images:
+                other = f"frame {images[key]:g}'s image" if key in images else f"an AOV file of frame {owner[key]:g}"
+                raise ValueError(f"the AOV file {file} of frame {frame:g} would also be {other}; give the images or "
+                                 "the AOV files other names")
+
+
+def _written_aovs(image, pattern, frame: float) -> list[str]:
+    """Writes ``image``'s AOV arrays of ``frame`` (:func:`aov_files`); their paths."""
+    return [str(image.save_aov(name, file)) for name, file in aov_files(pattern, frame).items()]
+
+
 def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, log=None,
-                  log_row=None, **options) -> list[dict]:
+                  log_row=None, aov_pattern=None, **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
 
     With one device the frames are rendered here, in order, by one :class:`FrameRenderer`. With several, each
@@ -578,10 +619,13 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         progress: show a progress bar.
         log: a JSON-lines file each row is appended to as its frame finishes (see :class:`LogRows`), or None.
         log_row: what of a row is written to ``log`` (see :class:`LogRows`).
+        aov_pattern: also write every AOV of each frame as a ``.npy`` array (:meth:`wrt.Image.save_aov`) to this
+            pattern's file (:func:`aov_files`: ``{name}`` the AOV, the last run of ``#`` the frame number), or None.
         **options: :class:`FrameRenderer` options.
 
     Returns:
-        The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``seconds``
+        The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``aov_files`` (with
+        ``aov_pattern``), ``seconds``
         (render and encode), ``finished_at`` (``time.time()``) and ``warnings`` (:func:`frame_warnings`), in the
         order the frames finished. A frame whose
         stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) gets an error row
@@ -604,6 +648,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     check_frame_options(options, "render_frames", FRAMES_OWN + FRAME_OPTIONS)
     path = os.fspath(path)
     jobs = check_jobs(jobs)
+    if aov_pattern is not None:
+        check_aov_pattern(aov_pattern, jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     rows = LogRows(log, log_row)
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
@@ -614,7 +660,10 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 start = _time.perf_counter()
                 try:
                     with _frame_warnings(shown) as raised:
-                        written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
+                        image = renderer.render(frame, spp=spp, seed=seed)
+                        written = image.save(file, exposure=exposure)
+                        # A row field with aov_pattern only, as the rows of a batch of scenes have it.
+                        aovs = {} if aov_pattern is None else {"aov_files": _written_aovs(image, aov_pattern, frame)}
                 except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
                 except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
@@ -622,7 +671,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     raise
                 else:
                     said = [*renderer.last_warnings, *raised]  # the frame's, and its save's
-                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written),
+                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written), **aovs,
                                warnings=frame_warnings(str(w.message) for w in said))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
                 bar.update(1)
@@ -634,14 +683,15 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             claims = multiprocessing.get_context("spawn").Manager().Queue()
         for device in devices:
             claims.put(str(device))
-        write = _frame_writer(rows)
+        write = _frame_writer(rows, aov_pattern)
         pool = concurrent.futures.ProcessPoolExecutor(
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         )
         futures = {}
         try:
             with _children_ignore_ctrl_c():  # the workers start at the submits
-                futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options)):
+                futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options,
+                                                                aov_pattern is not None)):
                            (frame, file) for frame, file in jobs}
             for future in concurrent.futures.as_completed(futures):
                 try:
@@ -744,9 +794,10 @@ def _stop_pool(pool) -> None:
     pool.shutdown(wait=True, cancel_futures=True)  # returns at once: no worker is left to finish a frame
 
 
-def _frame_writer(rows: list):
+def _frame_writer(rows: list, aov_pattern=None):
     """``write(result, file)`` for results of :func:`render_frame_task`: writes the encoded image to ``file``, its
-    job's, and appends the frame's log row, with ``output``, to ``rows`` (an error row for a frame that failed). By
+    job's, and its AOV arrays where ``aov_pattern`` names them (:func:`aov_files`), and appends the frame's log row,
+    with ``output`` (and ``aov_files``), to ``rows`` (an error row for a frame that failed). By
     its job, not its frame: two jobs of one frame (a .png and an .exr of it) were both written to the last one's
     file, the other never written, where a serial run writes both."""
     said = set()  # the warnings shown: by what a Renderer says each once by (its key), else by their words
@@ -770,8 +821,13 @@ def _frame_writer(rows: list):
             rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
             return
         done = dict(row, output=str(file), warnings=frame_warnings(w[0] for w in result.get("warnings", ())))
+        aovs = {} if aov_pattern is None else aov_files(aov_pattern, row["frame"])
         with _ctrl_c_held():  # a Ctrl-C between the two left a written image logged as interrupted
             write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
+            for name, data in result.get("aovs", {}).items():
+                write_atomically(aovs[name], lambda partial, data=data: partial.write_bytes(data))
+            if aov_pattern is not None:
+                done["aov_files"] = [str(aovs[name]) for name in result.get("aovs", {})]
             rows.append(done)
 
     return write
@@ -820,9 +876,9 @@ def _claim_device(claims) -> None:
     _PROCESS_DEVICE = claims.get()
 
 
-def _task(path, frame, file, spp, seed, exposure, options) -> dict:
+def _task(path, frame, file, spp, seed, exposure, options, aovs: bool = False) -> dict:
     return {"path": path, "frame": float(frame), "file": os.fspath(file), "suffix": Path(file).suffix.lower(),
-            "spp": spp, "seed": seed, "exposure": exposure, "options": options}
+            "spp": spp, "seed": seed, "exposure": exposure, "options": options, "aovs": aovs}
 
 
 _WORKER_RENDERERS: dict = {}  # FrameRenderers kept by a Dask worker process, so its frames share a BVH
@@ -835,10 +891,12 @@ def render_frame_task(job: dict) -> dict:
 
     Args:
         job: ``path``, ``frame``, ``file`` (written by the client), ``suffix`` (``.png``, ``.exr``, ``.npy``), ``spp``,
-            ``seed``, ``exposure`` and ``options`` (:class:`FrameRenderer` options without ``device``).
+            ``seed``, ``exposure``, ``options`` (:class:`FrameRenderer` options without ``device``) and ``aovs``
+            (whether to send the AOV arrays back too).
 
     Returns:
-        ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode),
+        ``{"data": file bytes, "aovs": {AOV name: .npy file bytes} (with the job's aovs), "row": the frame's log row
+        with "device" and "seconds" (render and encode),
         "warnings": ``(message, "module:ClassName", key)`` of each warning the frame raised, ``key`` what the
         Renderer says it once by (:func:`wrt.errors.warn_keyed`) or None}``: the client shows each once over all its
         workers, in its own class (:func:`warning_class`), where each worker printed them to its own log in Python's
@@ -870,10 +928,13 @@ def render_frame_task(job: dict) -> dict:
         with tempfile.TemporaryDirectory() as tmp:
             written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
             data = Path(written).read_bytes()
+            # The bytes a serial run writes (Image.save_aov's), written by the client.
+            aovs = {name: image.save_aov(name, Path(tmp) / f"{name}.npy").read_bytes()
+                    for name in image.aovs} if job.get("aovs") else {}
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
     named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}",
               getattr(w.message, "said_once_key", None)) for w in [*renderer.last_warnings, *raised])
-    return {"data": data, "row": row, "warnings": list(dict.fromkeys(named))}
+    return {"data": data, "aovs": aovs, "row": row, "warnings": list(dict.fromkeys(named))}
 
 
 def warning_class(name: str) -> type[Warning]:
@@ -893,13 +954,13 @@ def warning_class(name: str) -> type[Warning]:
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
-                          log=None, log_row=None, task=render_frame_task, **options) -> list[dict]:
+                          log=None, log_row=None, aov_pattern=None, task=render_frame_task, **options) -> list[dict]:
     """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
     one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
-    arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
-    order (each also appended to ``log`` as it arrives, when given); a frame whose stage is bad at its time has an
-    error row, as in :func:`render_frames`, and any other error (a frame whose workers kept dying too) is raised once
-    every frame has finished."""
+    arrives (its AOV arrays too with ``aov_pattern``, as :func:`render_frames` writes them), and a frame whose worker
+    died is rerun elsewhere. Returns the log rows, with ``output``, in arrival order (each also appended to ``log`` as
+    it arrives, when given); a frame whose stage is bad at its time has an error row, as in :func:`render_frames`,
+    and any other error (a frame whose workers kept dying too) is raised once every frame has finished."""
     from .distributed import run_tasks
     from .image import check_exposure
 
@@ -907,10 +968,12 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     check_frame_options(options, "render_frames_on_dask", DASK_OWN + FRAME_OPTIONS)
     path = os.fspath(path)
     jobs = check_jobs(jobs)
+    if aov_pattern is not None:
+        check_aov_pattern(aov_pattern, jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
-    tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
+    tasks = [_task(path, frame, file, spp, seed, exposure, options, aov_pattern is not None) for frame, file in jobs]
     rows = LogRows(log, log_row)
-    write = _frame_writer(rows)
+    write = _frame_writer(rows, aov_pattern)
     others = []
 
     def failed(job, error):
@@ -937,6 +1000,7 @@ __all__ = [
     "REFIT_SAH_LIMIT",
     "FrameRenderer",
     "LogRows",
+    "aov_files",
     "classify_change",
     "frame_error_row",
     "frame_interrupted_row",

@@ -431,7 +431,8 @@ def _add_render(sub) -> None:
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
-                   f"its subfolder STEM/ ({', '.join(AOV_NAMES)})", type=_non_empty)
+                   "its subfolder STEM/, with --frames as NAME_####.npy numbered as the images "
+                   f"({', '.join(AOV_NAMES)})", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
@@ -964,11 +965,12 @@ def _run_frames(args, paths: list, progress) -> int:
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
-    given = (("--time", args.time is not None), ("--aov", args.aov), ("--aov-dir", args.aov_dir),  # --time 0 too
-             ("--max-memory", args.max_memory))
+    given = (("--time", args.time is not None), ("--aov", args.aov), ("--max-memory", args.max_memory))  # --time 0 too
     unsupported = [name for name, value in given if value]
     if unsupported:
-        raise ValueError(f"{', '.join(unsupported)} cannot be combined with --frames")
+        # --aov's previews are quick looks of one image; every frame's AOVs are --aov-dir's arrays.
+        hint = "; --aov-dir DIR writes every frame's AOVs as arrays" if unsupported == ["--aov"] else ""
+        raise ValueError(f"{', '.join(unsupported)} cannot be combined with --frames{hint}")
     # One line before any frame, in load_usd's words: a folder or a pipe failed at every frame's load, each a row.
     if not paths[0].exists():
         raise SceneError(missing_file(paths[0]), path=str(paths[0]))
@@ -986,16 +988,22 @@ def _run_frames(args, paths: list, progress) -> int:
         output += f"{paths[0].stem}_####.png"
     from .image import check_image_path
 
+    aov_pattern = _aov_pattern(args.aov_dir, output) if args.aov_dir else None
     # Without a log, --resume has only the files to go by: those on disk are skipped, whatever rendered them.
-    jobs = pending_frames(frames, pattern, args.resume and not args.log, paths[0].stem)
+    jobs = pending_frames(frames, pattern, args.resume and not args.log, paths[0].stem, aov_pattern)
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
+    if aov_pattern is not None:
+        from .animation import check_aov_pattern
+
+        _check_output_location(Path(args.aov_dir))
+        check_aov_pattern(aov_pattern, jobs)  # -o d/depth_####.npy --aov-dir d: refused before any frame
     _warn_unused_exposure(args.exposure, [output], args.integrator)
     from .render_log import append_row, mtime_ns, new_run, skipped_fields
     from .strict_json import strict_json
 
-    run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov", "aov_dir")}
+    run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov")}
     fields = {**run, "scene": str(paths[0]), **options, "scene_mtime_ns": mtime_ns(paths[0])}
     finished = {}
     if args.log:
@@ -1008,8 +1016,10 @@ def _run_frames(args, paths: list, progress) -> int:
             for frame, file in jobs:
                 if file in finished:  # a row for it in this run too: each run's rows list every frame
                     before = finished[file]
+                    # Its AOV files too, as a batch's skipped rows carry them: the next --resume checks them.
+                    aovs = {"aov_files": before["aov_files"]} if "aov_files" in before else {}
                     append_row(log, strict_json({**fields, "frame": frame, "output": str(file),
-                                                 **skipped_fields(before)}))
+                                                 **skipped_fields(before), **aovs}))
             jobs = [(frame, file) for frame, file in jobs if file not in finished]
             if finished:
                 progress(f"--resume: skipped {counted_of(len(finished), len(frames), 'frame')}: finished before, with "
@@ -1032,7 +1042,8 @@ def _run_frames(args, paths: list, progress) -> int:
         for device in devices:  # before the first frame loads, naming the option
             resolve_device_option(device, "--devices" if args.devices else "--device")
     common = {"spp": args.spp, "seed": args.seed, "exposure": _png_exposure(args), "progress": progress.bar,
-              "log": args.log, "log_row": log_row}  # a row per frame as it finishes: an interrupted run keeps them
+              "log": args.log, "log_row": log_row,  # a row per frame as it finishes: an interrupted run keeps them
+              "aov_pattern": aov_pattern}
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
     if args.dask is not None:
@@ -1069,6 +1080,15 @@ def _run_frames(args, paths: list, progress) -> int:
         print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _aov_pattern(aov_dir: str, output: str) -> str:
+    """Where ``--aov-dir`` writes the AOVs of ``--frames`` (:func:`wrt.animation.aov_files`): ``DIR/NAME_####.npy``,
+    the frame numbered as in the images (``output``'s last run of #, else ``####``)."""
+    from .animation import FRAME_PATTERN
+
+    runs = FRAME_PATTERN.findall(output)
+    return str(Path(aov_dir) / f"{{name}}_{runs[-1] if runs else '####'}.npy")
 
 
 def _batch_log(outputs: list, resume: bool, progress) -> Path:

@@ -523,16 +523,22 @@ class Image:
         make_folder(directory, directory)
         paths = []
         for name in names:
-            paths.append(directory / f"{name}.npy")
-
-            def write(target, array=self.aovs[name]):
-                with open(target, "wb") as f:  # np.save(path) appends ".npy" to the temporary name
-                    np.save(f, array)
-
-            write_atomically(paths[-1], write)
+            paths.append(self.save_aov(name, directory / f"{name}.npy"))
             if png:
                 paths.append(self.save_aov_png(name, directory / f"{name}.png"))
         return paths
+
+    def save_aov(self, name: str, path) -> Path:
+        """Writes AOV ``name`` as the ``.npy`` array ``path`` (whole or not at all); returns the path."""
+        self._check_aov(name)
+
+        def write(target):
+            with open(target, "wb") as f:  # np.save(path) appends ".npy" to the temporary name
+                np.save(f, self.aovs[name])
+
+        path = Path(path)
+        write_atomically(path, write)
+        return path
 
     def _check_aov(self, name) -> None:
         """Raises ``ValueError`` unless ``name`` is one of :attr:`aovs`, with the name meant where one is close."""
