@@ -73,6 +73,25 @@ def test_help_explains_the_options():
         assert "(default: [])" not in text, command  # --variant, --aov: repeatable, none unless given
 
 
+def test_help_says_what_the_default_time_and_each_commands_options_are(capsys):
+    """--time said 'default: the default time' (which USD's Default time code is, and how wrt reads an attribute of
+    time samples only there, it did not say); bvh-stats' --render-settings listed the camera, resolution and products,
+    which it makes nothing of, not the includedPurposes it follows; preview's --builder said 'BVH builder' alone; and
+    --presplit's K was shown as PRESPLIT."""
+    from wrt.cli import build_parser
+
+    commands = build_parser()._commands()
+    helps = {name: " ".join(commands[name].format_help().split()) for name in ("render", "preview", "bvh-stats")}
+    for name, text in helps.items():
+        assert "default: USD's default time (each value authored without a time, else its first time sample)" in text, \
+            name
+    assert "RenderSettings prim whose includedPurposes choose the prims whose triangles are built over" in \
+        helps["bvh-stats"] and "products" not in helps["bvh-stats"]
+    assert "--presplit K" in helps["bvh-stats"] and "(default: 8)" in helps["bvh-stats"]
+    said = "BVH builder of the boxes drawn (--bvh-depth, --bvh-leaves), the --rays and the --image"
+    assert "".join(said.split()) in "".join(helps["preview"].split())  # argparse breaks lines after a hyphen
+
+
 def test_the_preview_window_size_help_names_its_unit(capsys):
     """--window said 'window (or PNG) size (default: 1280x800)': sizes of what, it did not say, where --width and
     --height say 'in pixels'."""
@@ -1476,13 +1495,13 @@ def test_help_texts_name_the_defaults_the_library_uses(capsys):
     render = help_of("render")
     from wrt.render import AOV_NAMES
 
-    assert f"subfolder STEM/ ({', '.join(AOV_NAMES)})" in render  # the files --aov-dir writes: every Image.aovs key
+    assert f"every AOV ({', '.join(AOV_NAMES)}) as NAME.npy" in render  # the files --aov-dir writes: Image.aovs' keys
     depths = re.search(r"--max-depth MAX_DEPTH bounces per path; default (.*?) --", render).group(1)
     assert dict((name, int(depth)) for depth, name in re.findall(r"(\d+) \((\w+)\)", depths)) == DEFAULT_MAX_DEPTH
     built = inspect.signature(build_bvh_device).parameters
     stats = help_of("bvh-stats")
-    assert f"wrt's most triangles per leaf (default {built['leaf_size'].default})" in stats
-    assert f"SAH bins per axis for sah (default {built['bins'].default})" in stats
+    assert f"wrt's most triangles per leaf (default: {built['leaf_size'].default})" in stats
+    assert f"SAH bins per axis for sah (default: {built['bins'].default})" in stats
 
 
 def test_ao_radius_help_says_what_the_default_measures(capsys):

@@ -333,6 +333,12 @@ REFINE_HELP = ("subdivision steps for meshes by their subdivisionScheme (catmull
 
 CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, else its first camera, else one framing "
                "the scene")
+# 'default: the default time' said nothing to a user who does not know USD's Default time code, nor how wrt reads an
+# attribute that has only time samples there (value_at: its first).
+TIME_HELP = "USD time code to read the stage at; default: USD's default time (each value authored without a time, " \
+    "else its first time sample)"
+SETTINGS_HELP = ("RenderSettings prim to follow (camera, resolution, aspect ratio conform, data window, included and "
+                 "material binding purposes, products)")
 
 
 def _variant(text: str) -> str:
@@ -346,14 +352,14 @@ def _variant(text: str) -> str:
     return text
 
 
-def add_stage_options(p) -> None:
-    """``--variant`` and ``--render-settings``: how a command composes and reads the stages it loads."""
+def add_stage_options(p, settings_help: str = SETTINGS_HELP) -> None:
+    """``--variant`` and ``--render-settings``: how a command composes and reads the stages it loads (``settings_help``:
+    what of the settings the command follows)."""
     p.add_argument("--variant", action="append", default=[], type=_variant, metavar="PRIM:SET=VARIANT",
                    help="select a variant before the stage is read, e.g. /World/Car:paint=red (repeatable; applied "
                    "in order on the session layer, the file is not changed)")
-    p.add_argument("--render-settings", metavar="PRIM", type=_non_empty, help="RenderSettings prim to follow (camera, "
-                   "resolution, aspect ratio conform, data window, included and material binding purposes, products); "
-                   "default: the one the stage's renderSettingsPrimPath names")
+    p.add_argument("--render-settings", metavar="PRIM", type=_non_empty,
+                   help=f"{settings_help}; default: the one the stage's renderSettingsPrimPath names")
 
 
 def _seed(text: str) -> int:
@@ -413,7 +419,7 @@ def _add_render(sub) -> None:
                    "with --accel warp, wp.Mesh's: sah, median, lbvh (CUDA only: sah on the CPU) or cubql")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh (triangles "
                    "only: with warp, gprims such as spheres and cubes are loaded as triangle meshes)")
-    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--time", type=_finite_float, default=None, help=TIME_HELP)
     p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
     p.add_argument("--frames", type=_non_empty,
                    help="render time codes START:END[:STEP] (END included) of an animated stage, one image each; "
@@ -430,9 +436,9 @@ def _add_render(sub) -> None:
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
-    p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
-                   "its subfolder STEM/, with --frames as NAME_####.npy numbered as the images "
-                   f"({', '.join(AOV_NAMES)})", type=_non_empty)
+    p.add_argument("--aov-dir", help=f"also write every AOV ({', '.join(AOV_NAMES)}) as NAME.npy into this folder, "
+                   "with several scenes into its subfolder STEM/, with --frames as NAME_####.npy, numbered as the "
+                   "images", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
@@ -1195,8 +1201,9 @@ def _add_preview(sub) -> None:
     )
     p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
-    p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
-    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--builder", default="sah", choices=builders,
+                   help="BVH builder of the boxes drawn (--bvh-depth, --bvh-leaves), the --rays and the --image")
+    p.add_argument("--time", type=_finite_float, default=None, help=TIME_HELP)
     p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_preview)
@@ -1498,21 +1505,22 @@ def _add_bvh_stats(sub) -> None:
     p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
     # The builders' defaults (build_bvh_device's), which an option left out keeps.
     p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
-                   help=f"wrt's most triangles per leaf (default {DEFAULT_LEAF_SIZE})")
+                   help=f"wrt's most triangles per leaf (default: {DEFAULT_LEAF_SIZE})")
     p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
                    help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default "
+    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default: "
                    f"{DEFAULT_BINS})")
     p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
     p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=EPO_SAMPLES,
                    help="surface samples of the EPO estimate")
-    p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0,
+    p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0, metavar="K",
                    help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
                    f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
     p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device to build on, e.g. cpu or cuda:0")
-    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
-    add_stage_options(p)
+    p.add_argument("--time", type=_finite_float, default=None, help=TIME_HELP)
+    # Only which prims are loaded follows the settings here: no camera, image or material is made.
+    add_stage_options(p, "RenderSettings prim whose includedPurposes choose the prims whose triangles are built over")
     p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
     p.set_defaults(run=_run_bvh_stats)
 
