@@ -646,7 +646,7 @@ def manifest_entries(manifest: Path) -> dict[str, str]:
     try:
         data = json.loads(manifest.read_bytes().decode("utf-8"))
     except json.JSONDecodeError as e:
-        raise ValueError(f"{manifest}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+        raise ValueError(f"{manifest}: not a JSON manifest ({e.msg} at line {e.lineno}, column {e.colno})") from None
     except UnicodeDecodeError as e:
         raise ValueError(f"{manifest}: not UTF-8 JSON text (byte {e.start} is no UTF-8)") from None
     assets = data.get("assets") if isinstance(data, dict) else None
