@@ -112,8 +112,8 @@ def test_ctrl_c_over_two_devices_logs_the_job_of_a_frame_cut_short_beside_its_wr
 
     frame_writer = animation._frame_writer
 
-    def ctrl_c_after_the_first_write(rows):
-        write = frame_writer(rows)
+    def ctrl_c_after_the_first_write(rows, *args):  # args: the AOV pattern
+        write = frame_writer(rows, *args)
 
         def cut(result, file):
             write(result, file)
