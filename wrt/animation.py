@@ -624,8 +624,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         **options: :class:`FrameRenderer` options.
 
     Returns:
-        The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``aov_files`` (with
-        ``aov_pattern``), ``seconds``
+        The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``aov_files`` (none
+        without ``aov_pattern``), ``seconds``
         (render and encode), ``finished_at`` (``time.time()``) and ``warnings`` (:func:`frame_warnings`), in the
         order the frames finished. A frame whose
         stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) gets an error row
@@ -662,8 +662,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     with _frame_warnings(shown) as raised:
                         image = renderer.render(frame, spp=spp, seed=seed)
                         written = image.save(file, exposure=exposure)
-                        # A row field with aov_pattern only, as the rows of a batch of scenes have it.
-                        aovs = {} if aov_pattern is None else {"aov_files": _written_aovs(image, aov_pattern, frame)}
+                        aovs = [] if aov_pattern is None else _written_aovs(image, aov_pattern, frame)
                 except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
                 except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
@@ -671,7 +670,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     raise
                 else:
                     said = [*renderer.last_warnings, *raised]  # the frame's, and its save's
-                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written), **aovs,
+                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written), aov_files=aovs,
                                warnings=frame_warnings(str(w.message) for w in said))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
                 bar.update(1)
@@ -797,7 +796,7 @@ def _stop_pool(pool) -> None:
 def _frame_writer(rows: list, aov_pattern=None):
     """``write(result, file)`` for results of :func:`render_frame_task`: writes the encoded image to ``file``, its
     job's, and its AOV arrays where ``aov_pattern`` names them (:func:`aov_files`), and appends the frame's log row,
-    with ``output`` (and ``aov_files``), to ``rows`` (an error row for a frame that failed). By
+    with ``output`` and ``aov_files``, to ``rows`` (an error row for a frame that failed). By
     its job, not its frame: two jobs of one frame (a .png and an .exr of it) were both written to the last one's
     file, the other never written, where a serial run writes both."""
     said = set()  # the warnings shown: by what a Renderer says each once by (its key), else by their words
@@ -826,8 +825,7 @@ def _frame_writer(rows: list, aov_pattern=None):
             write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
             for name, data in result.get("aovs", {}).items():
                 write_atomically(aovs[name], lambda partial, data=data: partial.write_bytes(data))
-            if aov_pattern is not None:
-                done["aov_files"] = [str(aovs[name]) for name in result.get("aovs", {})]
+            done["aov_files"] = [str(aovs[name]) for name in result.get("aovs", {})]
             rows.append(done)
 
     return write
