@@ -443,10 +443,8 @@ def _read_base(schema, time, authored_only: bool) -> tuple[dict, list[str]]:
     for field, attr in attrs.items():
         if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
-        value = value_or_fallback(attr, time)
-        wrong = schema_typed_value(attr, time)[1]
-        if wrong is not None:
-            mistyped.append(f"{wrong}, not the schema's {attr.GetTypeName()}")
+        value = value_or_fallback(attr, time)  # as authored: _check_values names a value it cannot read
+        _typed(attr, time, mistyped)
         if field in ("resolution", "data_window") and not isinstance(value, str) and hasattr(value, "__len__"):
             value = tuple(value)  # (another type is refused by _check_values, naming the attribute)
         elif field == "conform_policy":
