@@ -872,6 +872,25 @@ def test_triangles_more_than_float32s_range_from_the_ray_origin():
         np.testing.assert_allclose(hits.t, t_ref, rtol=1e-6)
 
 
+def test_the_warning_for_coordinates_past_float32s_traced_reach_names_false_hits_too():
+    """The case above reports a triangle the ray does not meet (float64 Moller-Trumbore: the floor, row 0, at t = 6),
+    and the warning that names such scenes said only that rays can miss triangles."""
+    from test_instancing import closest_hits_numpy
+
+    points = np.float32([[-3.3e38, -3.3e38, -1.0], [3.3e38, -3.3e38, -1.0], [0.0, 3.3e38, -1.0],
+                         [-3.2e38, 0.0, 1.0], [-3.1e38, 0.0, 1.0], [-3.2e38, 1e37, 1.0]])
+    indices = np.arange(6, dtype=np.int32).reshape(-1, 3)
+    origins, directions = np.float32([[1e38, 0.0, 5.0]]), np.float32([[0.0, 0.0, -1.0]])
+    _, row_ref = closest_hits_numpy(points, indices, origins.astype(np.float64), directions.astype(np.float64),
+                                    np.zeros(1), np.full(1, np.inf))
+    with pytest.warns(UserWarning, match="past 8.5e37") as caught:
+        hits = wrt.trace(wrt.Scene.from_triangles(points, indices), origins, directions)
+    (message,) = [str(w.message) for w in caught if "past 8.5e37" in str(w.message)]
+    assert "miss triangles" in message
+    if hits.prim[0] != row_ref[0]:  # what the warning must then say
+        assert "hit ones they do not meet" in message, message
+
+
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide"])
 def test_coplanar_overlaps_follow_the_tie_rule_with_every_builder(layout, np_rng):
     """40 overlapping triangles in one plane ("z-fighting"): the closest t, and at equal t the smallest triangle id,

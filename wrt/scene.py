@@ -981,7 +981,9 @@ class Scene:
         """Warns naming the meshes and instances with a coordinate past :data:`TRACED_REACH` (2^126, 8.5e37), where
         rays can miss their triangles: the watertight test subtracts a ray's origin from each corner and shears the
         difference in float32, which overflows for coordinates near float32's 3.4e38 (7 of 2,025 rays into a soup
-        1.7e38 across missed, 236 at 2.5e38), and the kernels are not slowed down to check for it."""
+        1.7e38 across missed, 236 at 2.5e38), and the kernels are not slowed down to check for it. Its NaN edge
+        functions can also pass the inside test: a ray from x = 1e38 onto a floor spanning +-3.3e38 reported a small
+        triangle 4.2e38 away (``tests/test_robustness.py``)."""
         self.drop_stale_caches()
         key = ("meshes_past_traced_reach",)  # of the meshes alone: kept when instances move (14 ms a move, chess set)
         if key not in self._cache:
@@ -991,7 +993,8 @@ class Scene:
                                                                                 first_only=False, limit=TRACED_REACH)]
         if paths:
             self._warn_prims("coordinates past 8.5e37 (a quarter of float32's range), where rays can miss triangles "
-                             "(the triangle test's differences overflow float32); scale the scene down", paths)
+                             "or hit ones they do not meet (the triangle test's differences overflow float32); scale "
+                             "the scene down", paths)
 
     def _warn_prims(self, what: str, paths: list, count: int | None = None, key=None) -> None:
         """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's
