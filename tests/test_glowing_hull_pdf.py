@@ -1,8 +1,9 @@
-"""The pdf of a glowing hull's draw (wrt.glowing_hulls) against float64 quadrature over the sphere of directions: at
-points around turned boxes (one in a mirrored, sheared instance), an ellipsoid, a sheared tube, a disk and inside a
-sphere glowing inwards, the pdf read back as path reads it (at the shape's first hit along a direction) integrates to
-the share of draws that meet the shape's emitting side, and equals, at each drawn direction, the pdf the draw
-reported; whitted's pick weighs every point a glowing box lights."""
+"""The pdf of a glowing hull's draw (wrt.glowing_hulls; planes and disks drawn as rect and disk lights) against float64
+quadrature over the sphere of directions: at points around turned boxes (one in a mirrored, sheared instance), an
+ellipsoid, a sheared tube, planes and disks (near, beside, grazing, sheared, mirrored) and inside a sphere glowing
+inwards, the pdf read back as path reads it (at the shape's first hit along a direction) integrates to the share of
+draws that meet the shape's emitting side, and equals, at each drawn direction, the pdf the draw reported; whitted's
+pick weighs every point a glowing box lights."""
 
 import numpy as np
 import pytest
@@ -11,18 +12,22 @@ from shading_helpers import quad, top_down_camera
 
 import wrt
 from wrt.emitter_resampling import seen_hull
-from wrt.glowing_hulls import first_hit, sample_hull
-from wrt.light_sampling import DeviceLights, glowing_hull_pdf, hull_frame
+from wrt.glowing_hulls import first_hit
+from wrt.light_sampling import DeviceLights, glowing_hull_pdf, sample_light
+from wrt.materials import DeviceMaterials
 from wrt.scene import DeviceScene
 from wrt.shade import DeviceSurfaces
 
 DRAWS = 100_000
 GRID = 800  # cos(theta) rows of the direction grid (twice as many phi columns)
+PLANE_GRID = 300  # log radius rows of the grid over a plane (twice as many angle columns)
 
 
 @wp.func
-def read_back(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3, d: wp.vec3):
-    """Path's pdf of hull ``k`` along unit ``d`` from ``p``: at the shape's first hit, 0 where none or its back."""
+def read_back(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3, ns: wp.vec3,
+              d: wp.vec3):
+    """Path's pdf of hull ``k`` along unit ``d`` from ``p`` (shading normal ``ns``): at the shape's first hit, 0 where
+    none or its back."""
     prim = lights.prims[k]
     t, n = first_hit(scene, prim, lights.instances[k], p, d, 0.0)
     if t == wp.inf:
@@ -32,33 +37,32 @@ def read_back(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k:
         cos_l = wp.abs(cos_l)
     if cos_l <= 0.0:
         return 0.0
-    return glowing_hull_pdf(lights, scene, k, p, d, t, n)
+    return glowing_hull_pdf(lights, scene, k, p, ns, d, t, n)
 
 
 @wp.kernel
-def draw_hull_kernel(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3,
+def draw_hull_kernel(lights: DeviceLights, scene: DeviceScene, mats: DeviceMaterials, surf: DeviceSurfaces, k: int,
+                     p: wp.vec3, ns: wp.vec3,
                      # outputs
                      pdfs: wp.array[float], read: wp.array[float]):
     i = wp.tid()
     state = wp.rand_init(11, i)
     u1 = wp.randf(state)
     u2 = wp.randf(state)
-    prim = lights.prims[k]
-    c, m, a, g, down = hull_frame(lights, k)
-    w, t, pdf = sample_hull(scene, prim, lights.instances[k], surf.double_sided[prim], c, m, a, g, down, p, u1, u2)
-    pdfs[i] = pdf
+    ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, p, ns, u1, u2)
+    pdfs[i] = ls.pdf
     read[i] = 0.0
-    if pdf > 0.0:
-        read[i] = read_back(lights, scene, surf, k, p, w)
+    if ls.pdf > 0.0:
+        read[i] = read_back(lights, scene, surf, k, p, ns, ls.wi)
 
 
 @wp.kernel
-def hull_pdf_kernel(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3,
+def hull_pdf_kernel(lights: DeviceLights, scene: DeviceScene, surf: DeviceSurfaces, k: int, p: wp.vec3, ns: wp.vec3,
                     dirs: wp.array[wp.vec3],
                     # outputs
                     pdfs: wp.array[float]):
     i = wp.tid()
-    pdfs[i] = read_back(lights, scene, surf, k, p, dirs[i])
+    pdfs[i] = read_back(lights, scene, surf, k, p, ns, dirs[i])
 
 
 def placed(linear, centre):
@@ -76,6 +80,7 @@ def turned(x_degrees, z_degrees):
 
 
 BOX = placed(turned(15, 30) @ np.diag([0.8, 0.6, 0.3]), (0.1, 0.0, 0.55))
+PANEL = placed(turned(180, 20) * 0.5, (0.0, 0.0, 1.0))  # a unit square at z = 1 facing down, turned about Z
 SHEAR = np.array([[1.0, 0.8, 0.3], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -99,11 +104,27 @@ CASES = {
     "inward sphere from inside": ("sphere", placed(np.eye(3) * 3.0, (0, 0, 0)),
                                   {"params": np.array([0.0, 0.0, 0.0, -1.0])}, (0.5, 0.2, 0.1)),
     # A prototype's unit box under an instance that mirrors and shears it (the ray moved by the instance, then the
-    # shape), and a disk 0.01 off its front, outside its ellipsoid (1e-3 of its width thick) but seeing it near flat.
+    # shape).
     "box in a mirrored, sheared instance": ("box", placed(SHEAR @ np.diag([-1.0, 1.0, 1.0]) @ BOX[:3, :3], BOX[:3, 3]),
                                             {"instanced": True}, (1.5, 1.0, -0.5)),
-    "disk just off its front": ("disk", placed(turned(10, 20) @ np.diag([1.0, 0.5, 1.0]), (0.0, 0.0, 1.0)), {},
-                                (0.2, 0.1, 1.01)),
+    # Planes and disks, drawn as rect and disk lights (by solid angle where they look large, with the cosine-weighted
+    # share about the shading normal; by area where they look small, or a plane is sheared into a parallelogram; the
+    # square around a disk, draws off the ellipse dropped): their normal on the side their shape's front lies
+    # (leftHanded, mirrored by an instance), where path reads the pdf back.
+    "ellipse just off its front": ("disk", placed(turned(10, 20) @ np.diag([1.0, 0.5, 1.0]), (0.0, 0.0, 1.0)), {},
+                                   (0.2, 0.1, 1.01)),
+    "plane near, shading normal": ("plane", PANEL, {"normal": (0.3, 0.0, -1.0)}, (0.1, 0.2, 0.99)),
+    # a wall beside a plane 600 wide, 1 below its plane: the draw by solid angle clipped at 256 heights, mixed with
+    # the draw by area over the whole plane
+    "wide plane beside, grazing": ("plane", placed(turned(180, 20) * 300.0, (0.0, 0.0, 1.0)),
+                                   {"normal": (-np.cos(np.radians(20)), -np.sin(np.radians(20)), 0.0)},
+                                   (301.0 * np.cos(np.radians(20)), 301.0 * np.sin(np.radians(20)), 0.0)),
+    "leftHanded plane in a mirrored instance": ("plane", placed(np.diag([-1.0, 1.0, 1.0]) @ PANEL[:3, :3],
+                                                                PANEL[:3, 3]),
+                                                {"instanced": True, "params": np.array([0.0, 0.0, 0.0, -1.0])},
+                                                (0.1, 0.2, 1.05)),
+    "sheared plane": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {}, (0.1, 0.2, 0.95)),
+    "sheared disk": ("disk", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {"double_sided": True}, (0.1, 0.2, 1.02)),
 }
 
 
@@ -120,10 +141,44 @@ def test_a_hit_nearer_than_a_draw_takes_is_read_back_as_not_drawn():
     assert_read_back_as_drawn("box", placed(np.eye(3) * 0.5, (1e4, 0.0, 0.5)), {}, (1e4 + 0.505, 0.1, 0.3), 0.1)
 
 
+def sphere_directions():
+    """``(directions, solid angles)``: the midpoints of a (cos theta, phi) grid over the sphere."""
+    z = 1.0 - (np.arange(GRID) + 0.5) * 2.0 / GRID
+    phi = (np.arange(2 * GRID) + 0.5) * np.pi / GRID
+    zz, ff = (g.reshape(-1) for g in np.meshgrid(z, phi))
+    s = np.sqrt(1.0 - zz * zz)
+    return np.stack([s * np.cos(ff), s * np.sin(ff), zz], axis=1), np.full(len(zz), 4.0 * np.pi / len(zz))
+
+
+def plane_directions(to_world, p):
+    """``(directions, solid angles)`` from ``p`` towards the points of the plane of a plane or disk ``to_world`` (its
+    canonical X and Y columns) out to past the shape: a polar grid about ``p``'s foot, midpoints in log radius (from
+    1e-4 heights) and angle, each point's area ``r^2 d(ln r) d(phi)`` seen as ``cos / d^2``. The integral over the
+    shape resolves every part of it, however near the plane ``p`` lies; the sphere's grid lost the thin band of
+    directions a plane seen nearly edge-on fills."""
+    x, y, c = to_world[:3, 0], to_world[:3, 1], to_world[:3, 3]
+    normal = np.cross(x, y) / np.linalg.norm(np.cross(x, y))
+    h = (p - c) @ normal
+    foot = p - h * normal
+    e1 = x / np.linalg.norm(x)
+    e2 = np.cross(normal, e1)
+    reach = np.linalg.norm(foot - c) + np.linalg.norm(x) + np.linalg.norm(y)
+    log_r = np.linspace(np.log(1e-4 * abs(h)), np.log(reach), PLANE_GRID + 1)
+    phi = (np.arange(2 * PLANE_GRID) + 0.5) * np.pi / PLANE_GRID
+    lr, ff = (g.reshape(-1) for g in np.meshgrid(0.5 * (log_r[1:] + log_r[:-1]), phi))
+    r = np.exp(lr)
+    to_q = foot + r[:, None] * (np.cos(ff)[:, None] * e1 + np.sin(ff)[:, None] * e2) - p
+    d = np.linalg.norm(to_q, axis=1)
+    area = r * r * (log_r[1] - log_r[0]) * (np.pi / PLANE_GRID)
+    return to_q / d[:, None], area * abs(h) / d**3
+
+
 def assert_read_back_as_drawn(kind, to_world, options, p, least_share=0.5):
     """At least ``least_share`` of the draws from ``p`` meet the glowing shape, their pdfs are read back as drawn,
-    and the read-back pdf integrates over the sphere of directions to the share of draws met."""
+    and the read-back pdf integrates over the sphere of directions to the share of draws met, returned."""
     options = dict(options)
+    normal = np.asarray(options.pop("normal", (0.0, 0.0, 0.0)), np.float64)
+    normal = wp.vec3(*(normal / max(np.linalg.norm(normal), 1e-30)).astype(np.float32))
     materials = [wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(1.0, 1.0, 1.0))]
     floor = quad((0, 0, -50), (1, 0, 0), (0, 1, 0))
     if options.pop("instanced", False):
@@ -139,25 +194,32 @@ def assert_read_back_as_drawn(kind, to_world, options, p, least_share=0.5):
     # Launched on the renderer's device: the GPU host's render_on_cuda plugin moves it to cuda:0, where a CPU launch
     # reading its arrays crashed the process.
     pdfs, read = (wp.zeros(DRAWS, dtype=float, device=r.device) for _ in range(2))
-    wp.launch(draw_hull_kernel, DRAWS, inputs=[lights, r.device_scene, r.surfaces, k, point], outputs=[pdfs, read],
-              device=r.device)
+    wp.launch(draw_hull_kernel, DRAWS, inputs=[lights, r.device_scene, r.materials, r.surfaces, k, point, normal],
+              outputs=[pdfs, read], device=r.device)
     drawn, read = pdfs.numpy().astype(np.float64), read.numpy().astype(np.float64)
     met = drawn > 0.0
     np.testing.assert_allclose(read[met], drawn[met], rtol=1e-4)
 
-    z = 1.0 - (np.arange(GRID) + 0.5) * 2.0 / GRID
-    phi = (np.arange(2 * GRID) + 0.5) * np.pi / GRID
-    zz, ff = (g.reshape(-1) for g in np.meshgrid(z, phi))
-    s = np.sqrt(1.0 - zz * zz)
-    dirs = wp.array(np.stack([s * np.cos(ff), s * np.sin(ff), zz], axis=1).astype(np.float32), dtype=wp.vec3,
-                    device=r.device)
-    grid = wp.zeros(len(zz), dtype=float, device=r.device)
-    wp.launch(hull_pdf_kernel, len(zz), inputs=[lights, r.device_scene, r.surfaces, k, point, dirs], outputs=[grid],
-              device=r.device)
-    integral = grid.numpy().astype(np.float64).sum() * 4.0 * np.pi / len(zz)
+    if kind in ("plane", "disk"):
+        directions, weights = plane_directions(to_world, np.asarray(p, np.float64))
+    else:
+        directions, weights = sphere_directions()
+    dirs = wp.array(directions.astype(np.float32), dtype=wp.vec3, device=r.device)
+    grid = wp.zeros(len(dirs), dtype=float, device=r.device)
+    wp.launch(hull_pdf_kernel, len(dirs), inputs=[lights, r.device_scene, r.surfaces, k, point, normal, dirs],
+              outputs=[grid], device=r.device)
+    integral = grid.numpy().astype(np.float64) @ weights
     share = met.mean()
-    assert share > least_share, share
+    assert share >= least_share, share
     assert integral == pytest.approx(share, abs=4.0 * np.sqrt(share * (1 - share) / DRAWS) + 0.005), (integral, share)
+    return share
+
+
+@pytest.mark.parametrize("kind", ["plane", "disk"])
+def test_nothing_is_drawn_from_behind_a_single_sided_plane_or_disk(kind):
+    """From behind a plane or disk (PANEL faces down), where it sends nothing, no draw is kept and no direction reads
+    a pdf back."""
+    assert assert_read_back_as_drawn(kind, PANEL, {"normal": (0.0, 0.0, 1.0)}, (0.1, 0.2, 1.1), 0.0) == 0.0
 
 
 @wp.kernel

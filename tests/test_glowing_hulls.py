@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from light_oracle import polygon_irradiance
 
 import wrt
 
@@ -139,6 +140,32 @@ def test_the_box_quadrature_is_the_closed_form_of_a_square_over_a_point():
                / dist**2)
     s = np.hypot(a, h)
     assert e == pytest.approx(4.0 * (a / s) * np.arctan(a / s), rel=1e-6)
+
+
+def panel_radiance(corners):
+    """``(RES, RES)`` float64 radiance of the white floor under a glowing polygon ``corners`` ``(k, 3)`` facing it,
+    wholly above each floor point's horizon: E / pi by Lambert's closed form, averaged over each pixel."""
+    p = patch_points().reshape(-1, 3)
+    e = np.array([polygon_irradiance(point, (0.0, 0.0, 1.0), corners, RADIANCE) for point in p])
+    return (e / np.pi).reshape(RES, SUB, RES, SUB).mean(axis=(1, 3))
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("kind", ["plane", "disk"])
+def test_a_glowing_panel_just_over_the_floor_lights_it_smoothly_as_lamberts_formula_gives(kind, integrator):
+    """A plane 1.6 wide and a disk of radius 0.8, 0.02 over the floor patch, facing it: drawn in their ellipsoid's
+    cone, as noisy there as by area (a relative noise per draw of 20 to 30), whitted's mean of the patch over 8
+    renders at 32 spp had a standard error of 1.1 (of 3.0); drawn by solid angle as a rect or disk light is, 5e-4.
+    Path's BSDF draws lit the patch smoothly before; its MIS weights read the pdf back at each hit as drawn."""
+    to_world = placed(rotation(180, 30) * 0.8, (0.05, -0.03, 0.02))
+    if kind == "plane":
+        unit = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+    else:
+        phi = np.arange(256) * (2.0 * np.pi / 256)
+        unit = np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    corners = [to_world[:3, 3] + a * to_world[:3, 0] + b * to_world[:3, 1] for a, b in unit]
+    shape = wrt.Shape("/Panel", kind, to_world, material_id=1)
+    assert_within_standard_errors([shape], panel_radiance(corners), integrator, seeds=8, spp=32)
 
 
 @pytest.mark.parametrize("integrator", ["whitted", "path"])

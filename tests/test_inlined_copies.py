@@ -53,10 +53,11 @@ def whitted_calls():
     return calls_in("wrt.integrators.whitted")
 
 
-@pytest.mark.parametrize("function", ["sample_tube", "shape_emission", "sample_dome"])
+@pytest.mark.parametrize("function", ["sample_tube", "shape_emission", "sample_dome", "seen_rect"])
 def test_the_light_draw_holds_one_copy_of_each_large_draw(path_calls, function):
     """The three tube lights (cylinder, glowing tube, elliptic tube) share one tube draw, the three glowing shapes one
-    emission read, and the dome's draw is one function."""
+    emission read, the dome's draw is one function, and rect and disk lights and glowing planes and disks share one
+    rect draw."""
     assert copies(path_calls, "sample_light", function) == 1
 
 

@@ -1,12 +1,13 @@
-"""Device side of glowing hulls (:mod:`wrt.glowing_spheres` builds their rows): a glowing analytic shape not sampled
-as a round sphere or tube (a box, plane or disk; an ellipsoid, an elliptic or sheared tube; a shape that glows
-inwards) is drawn through the ellipsoid around it, the image ``M B`` of the unit ball under its row's map ``M``
-(``A = M^-1``): a direction uniform in the cone the unit ball subtends at the canonical point ``A (p - c)`` (every
-direction from inside it), mapped to the world by ``M``, and the light point is the shape's first hit along it,
-found as camera rays find it (:func:`wrt.primitives.intersect_shape`); nothing where the direction misses the shape
-or meets its back. The direction's solid-angle pdf (:func:`wrt.affine_lights.mapped_cone_pdf`) depends on the
-direction alone, so a ray that hits the shape reads it back exactly, whatever the shape. An ellipsoid is its own
-ellipsoid: every direction hits it.
+"""Device side of glowing hulls (:mod:`wrt.glowing_spheres` builds their rows): a glowing analytic shape not sampled as
+a round sphere or tube (a box; an ellipsoid, an elliptic or sheared tube; a shape that glows inwards) is drawn through
+the ellipsoid around it, the image ``M B`` of the unit ball under its row's map ``M`` (``A = M^-1``): a direction
+uniform in the cone the unit ball subtends at the canonical point ``A (p - c)`` (every direction from inside it), mapped
+to the world by ``M``, and the light point is the shape's first hit along it, found as camera rays find it
+(:func:`wrt.primitives.intersect_shape`); nothing where the direction misses the shape or meets its back (a plane or
+disk is drawn as a rect or disk light is instead, :func:`flat_shape`: in its ellipsoid's cone a point near it was as
+noisy as by area). The direction's solid-angle pdf (:func:`wrt.affine_lights.mapped_cone_pdf`) depends on the direction
+alone, so a ray that hits the shape reads it back exactly, whatever the shape. An ellipsoid is its own ellipsoid: every
+direction hits it.
 
 A box mixes in a draw by area over its faces that face the shading point (:data:`BOX_AREA_SHARE` of the draws;
 none from inside it). Measured in float64 on a floor's irradiance under a cube, a thin panel and a bar, the cone
@@ -33,9 +34,10 @@ import warp as wp
 from .affine_lights import mapped_cone_pdf, sample_mapped_cone, unit_sphere_cone
 from .floats import largest_magnitude
 from .geometry import stable_length
-from .primitives import SHAPE_BOX, intersect_shape
+from .primitives import SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, intersect_shape
 from .scene import DeviceScene
 from .shade import shape_frame, shape_ray
+from .transforms import normal_to_world
 
 # The share of a box's draws by the area of its faces that face the shading point (the rest in its ellipsoid's cone).
 BOX_AREA_SHARE = wp.constant(0.75)
@@ -50,6 +52,28 @@ CONE_TOLERANCE = wp.constant(2.0**-6)
 # The first hit's least distance, over the largest coordinate of the point and the ellipsoid's centre plus its size
 # (in lengths times down): past the rounding of a point on the shape (a few float32 epsilons of them).
 SELF_HIT = wp.constant(2.0**-20)
+
+
+@wp.func
+def flat_shape(scene: DeviceScene, prim: int):
+    """Whether analytic shape ``prim`` is a plane or a disk, drawn as a rect or disk light is
+    (:func:`wrt.light_sampling.flat_hull`), not in its ellipsoid's cone."""
+    kind = scene.shape_kinds[prim - scene.num_prims]
+    return kind == SHAPE_PLANE or kind == SHAPE_DISK
+
+
+@wp.func
+def flat_front(scene: DeviceScene, prim: int, instance: int):
+    """A world vector (not unit) along the front normal of plane or disk ``prim`` drawn by ``instance`` (-1: a world
+    shape): canonical +Z (-Z where ``params[3] < 0``) turned as :func:`wrt.shade.shape_frame` turns a hit's normal.
+    Brought to a largest component of 1 between the shape's and the instance's turn, so that it neither over- nor
+    underflows."""
+    j = prim - scene.num_prims
+    front = wp.where(scene.shape_params[j][3] < 0.0, -1.0, 1.0)
+    n = normal_to_world(scene.shape_to_local[j], wp.vec3(0.0, 0.0, front))
+    if instance >= 0:
+        n = normal_to_world(scene.world_to_local[instance], n / largest_magnitude(n))
+    return n
 
 
 @wp.func

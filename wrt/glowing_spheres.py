@@ -10,12 +10,13 @@ its two spheres, and their zones beyond it) uniformly by area over the part whos
 mixed with a draw of the side by the angles it subtends (:mod:`wrt.glowing_tubes`): the mixture's density, in closed
 form, is the one a ray that hits the shape reads back for MIS.
 
-A shape is sampled so where it emits outwards (``orientation`` rightHanded, or double-sided) and its world
-transform keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a
-cylinder or cone one scale across its axis and any along it. Every other glowing shape (boxes, planes, disks; an
-unevenly scaled sphere, an ellipsoid; a cylinder squeezed across, an elliptic tube; a shape that glows inwards) is a
-hull row (``GLOW_HULL``, :mod:`wrt.glowing_hulls`): drawn in the cone of an ellipsoid around it, the light point its
-first hit. Only a shape squashed flat by its transform is left out (:attr:`GlowingSpheres.left_out` counts them).
+A shape is sampled so where it emits outwards (``orientation`` rightHanded, or double-sided) and its world transform
+keeps it round: a similarity (a rotation times one scale) for spheres and (tapered) capsules, and for a cylinder or cone
+one scale across its axis and any along it. Every other glowing shape (boxes, planes, disks; an unevenly scaled sphere,
+an ellipsoid; a cylinder squeezed across, an elliptic tube; a shape that glows inwards) is a hull row (``GLOW_HULL``,
+:mod:`wrt.glowing_hulls`): drawn in the cone of an ellipsoid around it, the light point its first hit (a plane or disk
+as a rect or disk light). Only a shape squashed flat by its transform is left out (:attr:`GlowingSpheres.left_out`
+counts them).
 The shapes of an instance are sampled all or none, the first instances whose shapes fit in the cap on instanced
 emitter entries.
 """
@@ -42,14 +43,19 @@ GLOW_CAPSULE = 3  # the side of radius r between the centres +-axis, and a hemis
 GLOW_TAPERED_CAPSULE = 4  # spheres of radius r at centre - axis and taper r at centre + axis, and the cone between
 # Any other glowing shape (a box, plane or disk; a shape its transform does not keep round; one that glows inwards):
 # drawn in the cone of an ellipsoid around it, the light point the shape's first hit along the direction
-# (wrt.glowing_hulls). Its row holds the ellipsoid's (world centre, largest semi-axis), its axes row (index of its
-# maps in GlowingSpheres.hulls, cube root of the map's |det|, 0, code).
+# (wrt.glowing_hulls); a plane or disk is drawn as a rect or disk light is (wrt.light_sampling.flat_hull). Its row
+# holds the ellipsoid's (world centre, largest semi-axis), its axes row (index of its maps in GlowingSpheres.hulls,
+# cube root of the map's |det|, 1 for a plane or disk whose edges or radius vectors (the map's first two columns) lie
+# at right angles, else 0, code).
 GLOW_HULL = 5
 ROUND_KINDS = ("sphere", "cylinder", "cone", "capsule", "tapered")  # the wrt.Shape kinds sampled as round shapes
 # The canonical shape lies in the ellipsoid of its box's centre and half extents times this: a box's corners at
 # sqrt(3), a cylinder's rims (and a capsule's, a plane's corners) at sqrt(2), a sphere and a disk on their own.
 HULL_FACTORS = {"box": math.sqrt(3.0), "sphere": 1.0, "disk": 1.0}
 HULL_THICKNESS = 1e-3  # a flat shape's (plane, disk) ellipsoid is this share of its width thick
+# A plane's edges (a disk's radius vectors) are at right angles where their dot product is at most this share of the
+# product of their lengths, as a rect light's must be to be drawn by solid angle (wrt.light_table._right_angled).
+RIGHT_ANGLE_TOLERANCE = 1e-6
 HULL_SEGMENTS = 16  # the tessellation a hull's area (its selection weight) is summed over; boxes and planes exact
 
 
@@ -157,27 +163,39 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray, areas: bool = True) -> tupl
     rows = np.concatenate([to_world[..., :3, 3], radius[..., None]], axis=-1)
     axes = np.concatenate([axis, code[..., None]], axis=-1)
     columns = np.broadcast_to(np.arange(len(kinds)), linear.shape[:-2])[hull]  # each hull row's shape
-    maps, hull_areas, fine, centres, radii, roots = _hulls(linear[hull], to_world[..., :3, 3][hull], kinds, columns,
-                                                           areas)
+    maps, hull_areas, fine, centres, radii, roots, square = _hulls(linear[hull], to_world[..., :3, 3][hull], kinds,
+                                                                   columns, areas)
     rows[hull] = np.concatenate([centres, radii[:, None]], axis=1)
-    axes[hull] = np.stack([np.arange(len(maps)), roots, np.zeros(len(maps)), np.full(len(maps), GLOW_HULL)], axis=1)
+    axes[hull] = np.stack([np.arange(len(maps)), roots, square, np.full(len(maps), GLOW_HULL)], axis=1)
     ok = np.ones(linear.shape[:-2], bool)
     ok[hull] = fine
     return ok, rows, axes, (maps, hull_areas)
 
 
 def _hulls(linear: np.ndarray, origin: np.ndarray, kinds: np.ndarray, columns: np.ndarray, areas: bool) -> tuple:
-    """``(maps, areas, fine, centres, radii, roots)`` of ``H`` shapes drawn as hulls (``(H, 3, 3)`` linear parts and
-    ``(H, 3)`` origins of their world transforms, ``columns`` their rows of :func:`_candidates`' ``kinds``):
+    """``(maps, areas, fine, centres, radii, roots, square)`` of ``H`` shapes drawn as hulls (``(H, 3, 3)`` linear
+    parts and ``(H, 3)`` origins of their world transforms, ``columns`` their rows of :func:`_candidates`' ``kinds``):
     ``(H, 2, 3, 3)`` float64 maps from the unit sphere to the world ellipsoid around each shape and their inverses,
     the shapes' world areas (0 without ``areas``), whether the map can be inverted in float32 (a shape squashed flat
-    cannot), the ellipsoids' world centres, largest semi-axes and the cube roots of the maps' ``|det|``. A plane's or
-    disk's ellipsoid is :data:`HULL_THICKNESS` of its width thick along its normal."""
+    cannot), the ellipsoids' world centres, largest semi-axes and the cube roots of the maps' ``|det|``, and 1 for a
+    plane or disk whose map's first two columns (a plane's half edges times sqrt(2), a disk's radius vectors) lie at
+    right angles (to :data:`RIGHT_ANGLE_TOLERANCE`), which a draw by solid angle needs, else 0. A plane's or
+    disk's ellipsoid is :data:`HULL_THICKNESS` of its width thick along its normal; a disk's radius vectors are its
+    ellipse's axes (a sheared disk is an ellipse whose axes lie at right angles: the same ellipsoid)."""
     from .affine_lights import FLAT_RATIO  # (affine_lights imports this module through wrt.glowing_tubes)
 
     m = linear * kinds[columns, None, 9:12]
     flat = np.isin(kinds[columns, 3], (SHAPE_KINDS["plane"], SHAPE_KINDS["disk"]))
+    square = np.zeros(len(m))
     if flat.any():
+        disk = np.flatnonzero((kinds[columns, 3] == SHAPE_KINDS["disk"]) & np.isfinite(m).all(axis=(1, 2)))
+        if len(disk):
+            # {a u + b v : a^2 + b^2 <= 1} = {M x : |x| <= 1} for M = [u v] = U S V^T is {U S y : |y| <= 1}: the
+            # columns of U S, the second turned where V^T mirrors, so that u x v keeps its side.
+            u, s, vt = np.linalg.svd(m[disk, :, :2], full_matrices=False)
+            axes = u * s[:, None, :]
+            axes[:, :, 1] *= np.sign(np.linalg.det(vt))[:, None]
+            m[disk, :, :2] = axes
         normal = np.cross(m[flat, :, 0], m[flat, :, 1])
         width = np.maximum(np.linalg.norm(m[flat, :, 0], axis=1), np.linalg.norm(m[flat, :, 1], axis=1))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -192,7 +210,12 @@ def _hulls(linear: np.ndarray, origin: np.ndarray, kinds: np.ndarray, columns: n
     centres = origin + np.einsum("nij,nj->ni", linear, kinds[columns, 6:9])
     roots = np.cbrt(np.abs(np.where(fine, np.linalg.det(np.where(fine[:, None, None], m, 0.0)), 0.0)))
     world_areas = _hull_areas(linear, kinds, columns) if areas else np.zeros(len(m))
-    return np.stack([m, inverses], axis=1), world_areas, fine, centres, sizes[:, 0], roots
+    edges = m[flat, :, :2]
+    lengths = np.linalg.norm(edges[:, :, 0], axis=1) * np.linalg.norm(edges[:, :, 1], axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        dots = np.abs(np.einsum("ni,ni->n", edges[:, :, 0], edges[:, :, 1]))
+        square[flat] = (lengths > 0.0) & (dots <= RIGHT_ANGLE_TOLERANCE * lengths)
+    return np.stack([m, inverses], axis=1), world_areas, fine, centres, sizes[:, 0], roots, square
 
 
 @functools.lru_cache(maxsize=64)

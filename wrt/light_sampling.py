@@ -10,8 +10,9 @@ disk lights, rect lights and triangles that look tiny uniformly by area; cylinde
 (:mod:`wrt.glowing_tubes`: uniformly by area over the half facing the shading point and by the angles their side
 subtends, mixed); ellipsoids and elliptic tubes (sphere and cylinder lights under
 a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
-glowing analytic shapes that are not round (boxes, planes, disks, ellipsoids, squeezed tubes, inward shapes) in the
-cone of an ellipsoid around them, the light point their first hit (:mod:`wrt.glowing_hulls`);
+glowing analytic shapes that are not round (boxes, ellipsoids, squeezed tubes, inward shapes) in the cone of an
+ellipsoid around them, the light point their first hit (:mod:`wrt.glowing_hulls`), and glowing planes and disks as
+rect and disk lights (:func:`flat_hull`);
 soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
 luminance of its filtered texture averaged over each texel (piecewise-constant 2D distribution, Pharr et al., PBRT
@@ -34,13 +35,14 @@ from .affine_lights import (
 )
 from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
-from .glowing_hulls import hull_pdf, sample_hull
+from .glowing_hulls import flat_front, flat_shape, hull_pdf, sample_hull
 from .glowing_spheres import GLOW_HULL
 from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf, tube_pdf_terms, tube_point_density
 from .ies import ies_factor
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
 from .materials import DeviceMaterials, cut_out, eval_emission
+from .primitives import SHAPE_DISK
 from .sampling import (
     INV_PI,
     PI,
@@ -60,7 +62,6 @@ from .spherical_rect import (
     solid_angle_usable,
     spherical_rect,
     spherical_rect_pdf,
-    square_around_disk,
 )
 from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
@@ -88,6 +89,9 @@ LIGHT_GLOWING_TUBE = wp.constant(12)
 # ellipsoid around it, the light point its first hit (wrt.glowing_hulls).
 LIGHT_GLOWING_HULL = wp.constant(13)
 GLOWING_HULL = wp.constant(float(GLOW_HULL))
+# A glowing plane's full edges over its hull map's first two columns, which hold its half edges times sqrt(2)
+# (wrt.glowing_spheres.HULL_FACTORS); a disk's columns are its radius vectors.
+ROOT2 = wp.constant(1.4142135623730951)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -203,6 +207,21 @@ class LightSample:
     dist: float  # distance to the sampled point (inf for distant and dome lights)
     value: wp.vec3  # incident radiance / solid-angle pdf; for delta lights the illuminance E (or I / d^2)
     pdf: float  # solid-angle pdf of the light sampling strategy (0 for delta lights)
+
+
+@wp.struct
+class FlatLight:
+    """A rect or disk light (:func:`rect_light`) or a glowing plane or disk (:func:`flat_hull`) as their one draw in
+    :func:`sample_light` takes it: by solid angle where it looks large (:func:`seen_rect`), else by area."""
+
+    centre: wp.vec3  # world centre
+    u: wp.vec3  # a rect's full first edge, a disk's first radius vector (world)
+    v: wp.vec3  # a rect's full second edge, a disk's second radius vector
+    normal: wp.vec3  # unit emitting normal
+    disk: int  # 1: a disk (an ellipse, the points a u + b v with a^2 + b^2 <= 1), 0: a rect (a parallelogram)
+    right_angled: int  # 1: u and v at right angles, which the draw by solid angle needs (else by area alone)
+    down: float  # the power of two its lengths are taken times (light_scales)
+    area: float  # its area times down^2
 
 
 @wp.func
@@ -474,25 +493,66 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
 
 
 @wp.func
-def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
-    """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, whether lights of its kind are
-    sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`), and ``(down, up)``: the
+def rect_light(lights: DeviceLights, k: int):
+    """Rect or disk light ``k`` as a :class:`FlatLight`."""
+    f = FlatLight()
+    f.centre = lights.position[k]
+    f.u = lights.axis_u[k]
+    f.v = lights.axis_v[k]
+    f.normal = lights.normal[k]
+    f.disk = 0
+    if lights.kinds[k] == LIGHT_DISK:
+        f.disk = 1
+    f.right_angled = 0
+    if lights.params[k][3] > 0.0:
+        f.right_angled = 1
+    f.down = lights.params[k][1]  # (light_scales)
+    f.area = lights.params[k][2]
+    return f
+
+
+@wp.func
+def seen_rect(f: FlatLight, p: wp.vec3):
+    """Rect ``f``, or the square around disk ``f``, as seen from ``p``, whether it is sampled by solid angle from
+    there (else by area; see :mod:`wrt.spherical_rect`), and ``(down, up)``: the
     rectangle and ``p`` are in lengths times ``down``, the power of two that brings ``p``'s height above the plane
     into [1, 2) (exact: the same bits where nothing over- or underflows). The rectangle is clipped to a square of
     ``REACH`` heights around ``p``'s foot, so its lengths are near the height: in world units, the edge lengths squared
     overflowed for a light 1e19 wide, and in the light's own (:func:`light_scales`) those of the clipped rectangle
     of one 1e30 wide seen from 3 away underflowed."""
-    down, up = light_scales(lights, k)  # p in the light's plane (height 0, or no finite height): no solid angle
-    height = wp.abs(wp.dot(p - lights.position[k], lights.normal[k]))
+    down = f.down  # p in the light's plane (height 0, or no finite height): no solid angle
+    up = 1.0 / f.down
+    height = wp.abs(wp.dot(p - f.centre, f.normal))
     if height > 0.0 and height < FLOAT32_MAX:
         down, up = power_scales(height)
-    u = lights.axis_u[k] * down
-    v = lights.axis_v[k] * down
-    if lights.kinds[k] == LIGHT_DISK:  # u, v: radius vectors
-        r = square_around_disk(p * down, lights.position[k] * down, u, v)
-        return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, DISK_SOLID_ANGLE_LEAST), down, up
-    r = spherical_rect(p * down, lights.position[k] * down - 0.5 * (u + v), u, v)  # u, v: full edges
-    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, 0.0), down, up
+    u = f.u * down  # full edges
+    v = f.v * down
+    least = float(0.0)
+    if f.disk == 1:  # the square around the disk (square_around_disk: the same bits), in one call of spherical_rect
+        u = 2.0 * u
+        v = 2.0 * v
+        least = DISK_SOLID_ANGLE_LEAST
+    r = spherical_rect(p * down, f.centre * down - 0.5 * (u + v), u, v)
+    return r, f.right_angled == 1 and solid_angle_usable(r, least), down, up
+
+
+@wp.func
+def flat_light_pdf(f: FlatLight, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
+    """Solid-angle pdf with which :func:`sample_light` draws rect or disk ``f`` from ``p`` (shading normal ``n``,
+    zero if none) along unit ``d``, meeting it ``dist`` away at cosine ``cos_l``: by solid angle, mixed with the
+    draw by area where the reach clipped it (:func:`clipped_area_share`), or by area."""
+    if cos_l <= 0.0 or f.area <= 0.0:
+        return 0.0
+    scaled = dist * f.down
+    by_area = scaled * scaled / (cos_l * f.area)
+    r, by_solid_angle, rect_down, _ = seen_rect(f, p)
+    if by_solid_angle:
+        pdf = spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
+        share = clipped_area_share(r, n)
+        if share > 0.0:  # mixed with draws by area (sample_light)
+            pdf = (1.0 - share) * pdf + share * by_area
+        return pdf
+    return by_area
 
 
 @wp.func
@@ -535,20 +595,7 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
         if not drawn:
             return 0.0
         return dist2 * tube_point_density(tube_row, tube_axis, 1.0, 1, to_p, q, tube_n) / divisor
-    area = lights.params[k][2]  # times down^2
-    if cos_l <= 0.0 or area <= 0.0:
-        return 0.0
-    scaled = dist * down
-    by_area = scaled * scaled / (cos_l * area)
-    if kind == LIGHT_RECT or kind == LIGHT_DISK:
-        r, by_solid_angle, rect_down, _ = seen_rect(lights, k, p)
-        if by_solid_angle:
-            pdf = spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
-            share = clipped_area_share(r, n)
-            if share > 0.0:  # mixed with draws by area (sample_light)
-                pdf = (1.0 - share) * pdf + share * by_area
-            return pdf
-    return by_area
+    return flat_light_pdf(rect_light(lights, k), p, n, d, dist, cos_l)  # a rect or disk light
 
 
 @wp.func
@@ -694,10 +741,60 @@ def hull_frame(lights: DeviceLights, k: int):
 
 
 @wp.func
-def glowing_hull_pdf(lights: DeviceLights, scene: DeviceScene, k: int, p: wp.vec3, d: wp.vec3, dist: float,
-                     n: wp.vec3):
-    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing hull ``k`` from ``p`` along unit ``d``, whose
-    first hit of the shape lies ``dist`` away with unit normal ``n`` (:func:`wrt.glowing_hulls.hull_pdf`)."""
+def flat_hull(lights: DeviceLights, scene: DeviceScene, k: int):
+    """Glowing plane or disk ``k`` (a hull row, :func:`wrt.glowing_hulls.flat_shape`) as a :class:`FlatLight`: its
+    edges or radius vectors from its ellipsoid's map (at right angles where its axes row says so), its normal on the
+    shape's front (:func:`wrt.glowing_hulls.flat_front`), its lengths taken times the power of two that brings the
+    ellipsoid's largest semi-axis into [1, 2)."""
+    j = k - lights.first_glowing_sphere
+    row = lights.glowing_spheres[j]
+    axis = lights.glowing_axes[j]
+    m = lights.hull_maps[2 * int(axis[0])]
+    prim = lights.prims[k]
+    f = FlatLight()
+    f.centre = wp.vec3(row[0], row[1], row[2])
+    f.disk = 0
+    scale = ROOT2
+    if scene.shape_kinds[prim - scene.num_prims] == SHAPE_DISK:
+        f.disk = 1
+        scale = 1.0
+    f.u = wp.vec3(m[0, 0], m[1, 0], m[2, 0]) * scale
+    f.v = wp.vec3(m[0, 1], m[1, 1], m[2, 1]) * scale
+    f.right_angled = 0
+    if axis[2] > 0.0:
+        f.right_angled = 1
+    down, up = power_scales(row[3])
+    f.down = down
+    cross = wp.cross(f.u * down, f.v * down)
+    size = stable_length(cross)  # (positive: a plane or disk squashed to a line is left out, wrt.glowing_spheres)
+    f.normal = cross / size
+    if wp.dot(f.normal, flat_front(scene, prim, lights.instances[k])) < 0.0:
+        f.normal = -f.normal
+    f.area = size
+    if f.disk == 1:
+        f.area = PI * size
+    return f
+
+
+@wp.func
+def flat_light(lights: DeviceLights, scene: DeviceScene, k: int):
+    """Rect or disk light ``k`` (:func:`rect_light`) or glowing plane or disk ``k`` (:func:`flat_hull`) as a
+    :class:`FlatLight`."""
+    if light_kind(lights, k) == LIGHT_GLOWING_HULL:
+        return flat_hull(lights, scene, k)
+    return rect_light(lights, k)
+
+
+@wp.func
+def glowing_hull_pdf(lights: DeviceLights, scene: DeviceScene, k: int, p: wp.vec3, shading: wp.vec3, d: wp.vec3,
+                     dist: float, n: wp.vec3):
+    """Solid-angle pdf of :func:`sample_light`'s sampling of glowing hull ``k`` from ``p`` (shading normal
+    ``shading``, zero if none) along unit ``d``, whose first hit of the shape lies ``dist`` away with unit normal
+    ``n``: a plane's or disk's as a rect or disk light's (:func:`flat_light_pdf`), another shape's in its
+    ellipsoid's cone (:func:`wrt.glowing_hulls.hull_pdf`)."""
+    if flat_shape(scene, lights.prims[k]):
+        f = flat_hull(lights, scene, k)
+        return flat_light_pdf(f, p, shading, d, dist, wp.abs(wp.dot(d, f.normal)))
     c, m, a, g, down = hull_frame(lights, k)
     return hull_pdf(scene, lights.prims[k], c, m, a, g, down, p, d, dist, n)
 
@@ -922,8 +1019,9 @@ def sample_light(
         out.pdf = 1.0 / (2.0 * PI * g_one_minus)
         out.value = glow * (2.0 * PI * g_one_minus)
         return out
-    if kind == LIGHT_GLOWING_HULL:
-        # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls).
+    if kind == LIGHT_GLOWING_HULL and not flat_shape(scene, lights.prims[k]):
+        # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls); a plane
+        # or disk is drawn below, as a rect or disk light.
         prim = lights.prims[k]
         h_c, h_m, h_a, h_g, h_down = hull_frame(lights, k)
         wi, t, pdf = sample_hull(scene, prim, lights.instances[k], tri_double_sided[prim], h_c, h_m, h_a, h_g, h_down,
@@ -946,9 +1044,10 @@ def sample_light(
             out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
         return out
 
-    # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle. Lengths and the area
-    # are taken times the light's power of two ``down`` (light_scales; triangles: scaled_cross), exact where nothing
-    # over- or underflows: in world units a scene 1e20 across squared its distances past float32.
+    # Area sampling (rect and disk lights and glowing planes and disks that look large: by solid angle), cylinder,
+    # triangle. Lengths and the area are taken times the light's power of two ``down`` (light_scales; triangles:
+    # scaled_cross), exact where nothing over- or underflows: in world units a scene 1e20 across squared its
+    # distances past float32.
     pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
     area_share = float(0.0)  # > 0: mixed with a draw by area (clipped_area_share), pdf_solid_angle that draw's part
     q = wp.vec3(0.0)
@@ -957,11 +1056,19 @@ def sample_light(
     down, up = light_scales(lights, k)
     L = wp.vec3(0.0)
     two_sided = int(0)
-    if kind == LIGHT_RECT or kind == LIGHT_DISK:
-        ln = lights.normal[k]
-        area = lights.params[k][2]
-        L = lights.radiance[k]
-        seen, by_solid_angle, rect_down, rect_up = seen_rect(lights, k, p)
+    if kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_GLOWING_HULL:
+        # One draw for both: a glowing plane or disk drawn in its ellipsoid's cone was as noisy as by area where a
+        # point lies near it (a relative noise per draw of 41 at 0.01 over a unit square; by solid angle 0.03).
+        f = flat_light(lights, scene, k)
+        if kind == LIGHT_GLOWING_HULL:
+            L = glow
+            two_sided = tri_double_sided[lights.prims[k]]
+        else:
+            L = lights.radiance[k]
+        ln = f.normal
+        area = f.area
+        down = f.down
+        seen, by_solid_angle, rect_down, rect_up = seen_rect(f, p)
         if by_solid_angle:
             area_share = clipped_area_share(seen, n)
         if by_solid_angle and u1 >= area_share:
@@ -971,20 +1078,21 @@ def sample_light(
                 return out
             pdf_solid_angle = spherical_rect_pdf(seen, n, q_down)
             q = q_down * rect_up
-            if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
-                if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
+            if f.disk == 1:  # a point of the square around the disk: keep it if it lies on the disk
+                if wp.length_sq(plane_coords(f.u, f.v, q - f.centre)) > 1.0:
                     return out
         else:
             if area_share > 0.0:  # by area over the whole light, mixed with the draw by solid angle
                 u1 = u1 / area_share
-            if kind == LIGHT_RECT:
-                q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+            if f.disk == 0:
+                q = f.centre + (u1 - 0.5) * f.u + (u2 - 0.5) * f.v
             else:
                 dd = sample_concentric_disk(u1, u2)
-                q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+                q = f.centre + dd[0] * f.u + dd[1] * f.v
             if area_share > 0.0:
                 pdf_solid_angle = spherical_rect_pdf(seen, n, q * rect_down)  # 0 where the reach cut it off
-        L = wp.cw_mul(L, light_texture(lights, k, q))
+        if kind != LIGHT_GLOWING_HULL:
+            L = wp.cw_mul(L, light_texture(lights, k, q))
     elif kind == LIGHT_CYLINDER or kind == LIGHT_GLOWING_TUBE or kind == LIGHT_ELLIPTIC_TUBE:
         # Tubes, drawn by one call of sample_tube (a large function: each call site compiled it again) with the
         # tube's row, axis, taper, side and point of view:
@@ -1082,7 +1190,7 @@ def sample_light(
         out.pdf = pdf_solid_angle
     else:
         out.pdf = d2 * ratio * ratio / (cos_l * area)
-    if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE:  # not shaped (no row of shaping)
+    if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE and kind != LIGHT_GLOWING_HULL:  # (no shaping row)
         L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
     out.value = L / out.pdf
     return out

@@ -224,7 +224,7 @@ def shade_path_kernel(
                 elif e_kind == LIGHT_GLOWING_TUBE:
                     pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], o, d, t_hit, h.ng)
                 elif e_kind == LIGHT_GLOWING_HULL:
-                    pdf_l = lights.pmf[e] * glowing_hull_pdf(lights, scene, e, o, d, t_hit, h.ng)
+                    pdf_l = lights.pmf[e] * glowing_hull_pdf(lights, scene, e, o, prev_normal[i], d, t_hit, h.ng)
                 else:
                     pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
                                                                o, d, t_hit)
