@@ -274,6 +274,24 @@ def test_a_disk_light_wider_than_the_scene_lights_it_evenly(device):
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
 
+@pytest.mark.parametrize("p, n", [((0.6, 0.1, -0.01), (0.0, 0.0, 1.0)), ((0.6, 0.1, -0.01), (-1.0, 0.0, 0.0)),
+                                  ((0.51, 0.1, -0.001), (-1.0, 0.0, 0.0))], ids=["facing it", "wall", "grazing wall"])
+def test_a_disk_light_seen_from_beside_its_rim_is_drawn_by_solid_angle(p, n):
+    """A point 0.01 below a disk light of radius 0.5 and 0.1 beyond its rim (or 1e-3 below and 0.01 beyond) sees the
+    square around the disk under 1 sr, where disks were drawn by area, whose 1 / d^2 varies widely over a disk seen
+    so near: a relative noise per draw of 3 to 14. Drawn by solid angle where the point lies within a radius of the
+    disk, 0.6 to 1.3; the mean is Lambert's closed form, and a ray along each draw reads its pdf back."""
+    light = DiskLight(to_world=tilted(0, (0.0, 0.0, 0.0)), radius=0.5, color=np.full(3, 2.0))
+    phi = np.arange(1024) / 1024 * 2 * np.pi
+    corners = list(np.stack([0.5 * np.cos(phi), 0.5 * np.sin(phi), np.zeros_like(phi)], -1))
+    expected = polygon_irradiance(p, n, corners, 2.0)
+    estimates, ratios = light_estimates(light, p, n)
+    error = estimates.std() / math.sqrt(len(estimates))
+    assert abs(estimates.mean() - expected) < 4 * error, (estimates.mean(), expected, error)
+    assert estimates.std() < 2.0 * expected, estimates.std() / expected
+    np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
+
+
 @pytest.mark.parametrize("kind", ["rect", "disk"])
 def test_light_sampling_reaches_the_far_part_of_a_light_a_wall_beside_it_sees(kind):
     """A wall facing a 2 x 2 rect light (or a disk of radius 1) 0.2 beside its edge and 1e-3 below its plane sees its
