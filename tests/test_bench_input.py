@@ -948,3 +948,15 @@ def test_an_asset_folder_looked_in_twice_is_named_once(tmp_path, monkeypatch):
         bench_module.asset_path("chess_set")
     assert str(error.value) == (f"asset 'chess_set': no shared asset folder found: no manifest.json in "
                                 f"{tmp_path / 'shared' / 'assets'}; set WRT_ASSETS to the folder that holds it")
+
+
+def test_embree_alone_without_embreex_is_refused_naming_why_and_leaves_no_output_folder(tmp_path, monkeypatch,
+                                                                                          capsys):
+    """wrt bench --accels embree without the embreex package said 'the grid measures nothing: accels empty' (embree
+    was given) and left the output folder it had just made behind, empty."""
+    monkeypatch.setattr(bench_module, "_has_embree", lambda: False)
+    out = tmp_path / "new" / "bench-out"
+    assert main(["bench", "--scenes", "sphere:100", "--accels", "embree", "-o", str(out), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and "argument --accels:" in errors[0] and "embreex" in errors[0], errors
+    assert list(tmp_path.iterdir()) == []

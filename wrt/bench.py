@@ -1185,14 +1185,18 @@ def run_grid(
         rows = _as_grid_scenes(rows, grid.scenes)
         resumed = {row_key(r): r for r in rows}
     devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
-    if out is not None:  # made once the devices are known: a misspelt one left an empty folder behind
-        out.mkdir(parents=True, exist_ok=True)
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
     if missing:  # after the checks: a misspelt device was refused under this warning
         import warnings
 
-        warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
-        grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
+        why = "the optional package embreex is not installed (pip install 'wrt[bench]')"
+        warnings.warn(f"embree rows skipped: {why}")
+        try:
+            grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
+        except GridError as e:  # embree alone: 'accels empty' named no reason, as embree was given
+            raise GridError(e.field, f"{e}: embree cannot run, {why}", e.index) from None
+    if out is not None:  # made once the run can start: a misspelt device, or embree alone, left an empty folder
+        out.mkdir(parents=True, exist_ok=True)
     _warn_rows_not_built(grid)
     if not isinstance(dask, str):  # a remote scheduler's workers read the scene files, not this machine
         _warn_scene_files(grid)
