@@ -960,3 +960,20 @@ def test_embree_alone_without_embreex_is_refused_naming_why_and_leaves_no_output
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert len(errors) == 1 and "argument --accels:" in errors[0] and "embreex" in errors[0], errors
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_file_whose_name_holds_a_comma_is_one_scene(tmp_path, monkeypatch):
+    """--scenes is comma-separated: 'a,b.usda' was read as the scenes 'a' and 'b.usda', two error rows ('file not
+    found'), and the file could not be measured at all. Pieces that name a file together are one scene."""
+    from wrt.cli import build_parser
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("a,b.usda", "c.usda"):
+        Path(name).write_text("#usda 1.0\n")
+    parse = lambda text: build_parser().parse_args(["bench", "--scenes", text]).scenes  # noqa: E731
+    assert parse("a,b.usda") == ["a,b.usda"]
+    assert parse("c.usda, a,b.usda,sphere:100") == ["c.usda", "a,b.usda", "sphere:100"]
+    assert parse(f"{tmp_path / 'a,b.usda'},c.usda") == [str(tmp_path / "a,b.usda"), "c.usda"]
+    assert parse("x.usda,y.usda,") == ["x.usda", "y.usda"]  # no such files: the list as written
+    Path("a").write_text("#usda 1.0\n")  # 'a' is a file too: the list is read as written
+    assert parse("a,b.usda") == ["a", "b.usda"]

@@ -1325,6 +1325,22 @@ def _csv(text: str) -> list[str]:
     return items
 
 
+def _scene_list(text: str) -> list[str]:
+    """An argparse type: :func:`_csv` for ``--scenes``, but pieces that name a file when joined by their commas
+    (``a,b.usda``) are one scene, unless the first names a file alone: a file whose name held a comma was measured
+    as the files ``a`` and ``b.usda``, neither of them there."""
+    pieces, names = text.split(","), []
+    while pieces:
+        first = pieces[0].strip()
+        joined = [k for k in range(len(pieces), 1, -1) if Path(",".join(pieces[:k]).strip()).exists()]
+        take = joined[0] if joined and not (first and Path(first).exists()) else 1
+        names.append(",".join(pieces[:take]).strip())
+        del pieces[:take]
+    if not any(names):
+        raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
+    return [name for name in names if name]
+
+
 def _add_bench(sub) -> None:
     p = sub.add_parser(
         "bench",
@@ -1338,7 +1354,8 @@ def _add_bench(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="run the small 'quick' suite (under a minute on a CPU, once the kernels are compiled)")
     suites = "; default: the suite's"  # each of these replaces one field of the suite
-    p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N" + suites)
+    p.add_argument("--scenes", type=_scene_list,
+                   help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N" + suites)
     p.add_argument("--accels", type=_csv,
                    help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree" + suites)
     p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0" + suites)
