@@ -977,3 +977,19 @@ def test_a_scene_file_whose_name_holds_a_comma_is_one_scene(tmp_path, monkeypatc
     assert parse("x.usda,y.usda,") == ["x.usda", "y.usda"]  # no such files: the list as written
     Path("a").write_text("#usda 1.0\n")  # 'a' is a file too: the list is read as written
     assert parse("a,b.usda") == ["a", "b.usda"]
+
+
+def test_two_names_of_one_cuda_device_are_measured_once(monkeypatch):
+    """--devices cuda,cuda:0: both name the current CUDA device (cuda:0), whose rows are named 'cuda:0'; every group
+    of the device was measured twice, each row twice in rows.jsonl and the table under one key."""
+    import warp as wp
+
+    class Gpu:  # what wp.get_device gives for both names on a machine with one GPU
+        def __str__(self):
+            return "cuda:0"
+
+    gpu = Gpu()
+    monkeypatch.setattr(bench_module, "resolve_device", lambda name: gpu if name.startswith("cuda") else
+                        wp.get_device(name))
+    devices, unavailable = bench_module._resolve_devices(["cuda", "cpu", "cuda:0"])
+    assert [str(d) for d in devices] == ["cuda:0", "cpu"] and unavailable == {}

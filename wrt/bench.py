@@ -1349,8 +1349,10 @@ def _warn_rows_not_built(grid: Grid) -> None:
 
 
 def _resolve_devices(names: list[str]) -> tuple[list, dict]:
-    """The Warp devices of ``names``, with a CUDA device this machine does not have kept by name in the second value
-    (name -> the error naming it), so that the other devices' rows still run and its own become error rows.
+    """The Warp devices of ``names``, each once (``cuda`` and ``cuda:0`` are one device, whose rows are named
+    ``cuda:0``: its groups were measured twice), with a CUDA device this machine does not have kept by name in the
+    second value (name -> the error naming it), so that the other devices' rows still run and its own become error
+    rows.
 
     Raises:
         GridError: for a name that is no device (a misspelling), or when no device named is available.
@@ -1358,7 +1360,9 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
     devices, unavailable = [], {}
     for i, name in enumerate(names):
         try:
-            devices.append(resolve_device(name))
+            device = resolve_device(name)
+            if str(device) not in map(str, devices):
+                devices.append(device)
         except ValueError as e:
             if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()):
                 raise GridError("devices", str(e), i) from None
