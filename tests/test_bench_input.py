@@ -993,3 +993,19 @@ def test_two_names_of_one_cuda_device_are_measured_once(monkeypatch):
                         wp.get_device(name))
     devices, unavailable = bench_module._resolve_devices(["cuda", "cpu", "cuda:0"])
     assert [str(d) for d in devices] == ["cuda:0", "cpu"] and unavailable == {}
+
+
+@pytest.mark.parametrize("stop", [PermissionError(1, "Operation not permitted"), KeyboardInterrupt()])
+def test_rows_rewritten_but_not_put_in_place_leave_no_temporary_file(tmp_path, monkeypatch, stop):
+    """A rows.jsonl that could not be replaced (an immutable file), or a Ctrl-C as it was, left rows.jsonl.tmp
+    beside it, in the folder of results, for good; the rows that were there stay."""
+    jsonl = tmp_path / "rows.jsonl"
+    jsonl.write_text('{"scene": "a"}\n')
+
+    def fail(*args):
+        raise stop
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(type(stop)):
+        bench_module._write_rows(jsonl, [{"scene": "b"}])
+    assert [p.name for p in tmp_path.iterdir()] == ["rows.jsonl"] and jsonl.read_text() == '{"scene": "a"}\n'

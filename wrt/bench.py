@@ -1082,10 +1082,10 @@ def _as_grid_scenes(rows: list[dict], scenes: list[str]) -> list[dict]:
 
 
 def _write_rows(jsonl: Path, rows: list[dict]) -> None:
-    """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one."""
-    tmp = jsonl.with_suffix(".jsonl.tmp")
-    tmp.write_text("".join(strict_json(r) + "\n" for r in rows))
-    tmp.replace(jsonl)
+    """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one, and no
+    temporary file (``rows.jsonl.tmp`` stayed when the replace failed or was interrupted)."""
+    text = "".join(strict_json(r) + "\n" for r in rows)
+    write_atomically(jsonl, lambda target: target.write_text(text))
 
 
 # Measured numbers of a row: NaN or infinite ones are written as null and read back as NaN.
