@@ -181,12 +181,15 @@ def test_an_output_folder_that_cannot_be_one_is_refused(tmp_path, monkeypatch, c
     assert not (tmp_path / "rows.jsonl").exists()
 
 
-def test_a_rows_file_that_is_a_folder_is_refused_before_any_row_is_measured(tmp_path, monkeypatch):
+@pytest.mark.parametrize("name, goes", [("rows.jsonl", "the rows go"), ("table.md", "table.md goes"),
+                                        ("mrays.png", "mrays.png goes"), ("settings.json", "settings.json goes")])
+def test_an_output_file_that_is_a_folder_is_refused_before_any_row_is_measured(tmp_path, monkeypatch, name, goes):
     """OUT/rows.jsonl a folder: the run measured its first row, then failed to write it, saying '[Errno 21] Is a
-    directory: 'OUT/rows.jsonl.tmp' -> 'OUT/rows.jsonl''."""
-    (tmp_path / "rows.jsonl").mkdir()
+    directory: 'OUT/rows.jsonl.tmp' -> 'OUT/rows.jsonl''. OUT/table.md or a plot's name a folder: every row was
+    measured, then the run stopped with 'cannot write OUT/table.md: it is a directory', without its summary."""
+    (tmp_path / name).mkdir()
     monkeypatch.setattr(bench_module, "resolve_scene", lambda name: pytest.fail("a scene was loaded"))
-    with pytest.raises(ValueError, match=r"rows.jsonl', where the rows go, is a folder"):
+    with pytest.raises(ValueError, match=f"{re.escape(name)}', where {goes}, is a folder"):
         run_grid(small_grid(), tmp_path, progress=False)
 
 

@@ -1165,8 +1165,12 @@ def run_grid(
         files = [p for p in (out, *out.parents) if p.exists() and not p.is_dir()]
         if files:  # mkdir said only '[Errno 17] File exists'
             raise ValueError(f"output folder {str(out)!r}: {str(files[0])!r} is a file, not a folder")
-        if (out / "rows.jsonl").is_dir():  # found only when the first row was written, after it was measured
-            raise ValueError(f"output folder {str(out)!r}: {str(out / 'rows.jsonl')!r}, where the rows go, is a folder")
+        # Found only when the first row was written, after it was measured, or, for the table and the plots, once
+        # every row was: the run stopped with that error, without its summary, and exited 2.
+        for name in ("rows.jsonl", SETTINGS_FILE, "table.md", *PLOT_FILES):
+            if (out / name).is_dir():
+                what = "the rows go" if name == "rows.jsonl" else f"{name} goes"
+                raise ValueError(f"output folder {str(out)!r}: {str(out / name)!r}, where {what}, is a folder")
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             _check_resumed_settings(out / SETTINGS_FILE, grid)
