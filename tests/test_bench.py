@@ -689,6 +689,29 @@ def test_build_vs_quality_draws_each_tree_once(tmp_path, monkeypatch):
                                                             else 41.4))
 
 
+def test_build_vs_quality_names_scene_files_as_the_rate_plot_does(tmp_path, monkeypatch):
+    """Scenes given as absolute paths labelled each point with the whole path, and tight_layout made room for those
+    labels by squeezing the axes to a sliver at the left of the figure, the labels of its points printed over one
+    another (checked with two files of a 60-character folder). Points are labelled with the file's name, as the bars
+    of mrays.png are, in full where two scenes share it, and the axes keep most of the figure's width."""
+    import matplotlib.pyplot as plt
+
+    folder = "/a/rather/long/folder/of/benchmark/scenes/for/the/build/plot"
+    scenes = [f"{folder}/kitchen_interior.usda", f"{folder}/teapot.usda", f"{folder}/v2/teapot.usda", "sphere:1000"]
+    rows = [tree_row(accel, 2.0 * (1 + k), 20.0 + k, scene=scene) for k, scene in enumerate(scenes)
+            for accel in ("wrt:sah", "wrt:lbvh")]
+    fig = plotted_figures(monkeypatch, rows, tmp_path)["build_vs_quality.png"]
+    try:
+        labels = sorted(t.get_text() for t in fig.axes[0].texts)
+        width = fig.axes[0].get_position().width
+    finally:
+        monkeypatch.undo()
+        plt.close("all")
+    names = ["kitchen_interior.usda", scenes[1], scenes[2], "sphere:1000"]
+    assert labels == sorted(f"{accel} {name}" for name in names for accel in ("wrt:sah", "wrt:lbvh"))
+    assert width > 0.5, width
+
+
 def test_mrays_plot_group_labels_of_scene_files_do_not_overlap(tmp_path, monkeypatch):
     """Scenes given as file paths labelled each group of bars with the whole path, '/tmp/pv_scratch/nested.usda'
     under a group 1.2 inches wide: the labels of neighbouring groups were printed over one another. Each group is

@@ -1622,13 +1622,22 @@ def plot(rows: list[dict], out: Path, earlier=()) -> list[Path]:
         for r in with_sah:
             trees.setdefault((r["accel"], r["scene"], r["device"], is_earlier(r)), []).append(r)
         several = len({device for _, _, device, _ in trees}) > 1
-        for (accel, scene, device, before), builds in trees.items():
-            at = (statistics.median(r["build_ms"] for r in builds), statistics.median(r["sah_cost"] for r in builds))
+        # Scene files by their file names, as mrays.png names them: whole paths made tight_layout squeeze the axes
+        # to a sliver to fit them. Labels stay out of the layout, each running from its point towards the middle of
+        # the build axis (log scale), so that one of the slowest builds does not run past the figure.
+        scenes = sorted({scene for _, scene, _, _ in trees})
+        names = dict(zip(scenes, _plot_scene_names(scenes)))
+        medians = {key: (statistics.median(r["build_ms"] for r in builds),
+                         statistics.median(r["sah_cost"] for r in builds)) for key, builds in trees.items()}
+        middle = math.sqrt(min(x for x, _ in medians.values()) * max(x for x, _ in medians.values()))
+        for (accel, scene, device, before), at in medians.items():
             point = ax.scatter(*at)
             if before:
                 _hollow(point, point.get_facecolor()[0])
-            ax.annotate(f"{accel} {scene}" + (f" {device}" if several else "") + (" (earlier run)" if before else ""),
-                        at, fontsize=6)
+            label = ax.annotate(f"{accel} {names[scene]}" + (f" {device}" if several else "")
+                                + (" (earlier run)" if before else ""), at, fontsize=6,
+                                ha="right" if at[0] > middle else "left")
+            label.set_in_layout(False)
         if any(before for *_, before in trees):
             from matplotlib.lines import Line2D
 
