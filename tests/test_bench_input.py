@@ -133,6 +133,26 @@ def test_an_interrupted_run_leaves_no_plots_of_an_earlier_run(tmp_path, monkeypa
         assert not (tmp_path / name).exists() or (tmp_path / name).read_bytes() != earlier[name]
 
 
+def test_a_summary_interrupted_while_plotting_leaves_no_plot_of_an_earlier_run(tmp_path, monkeypatch):
+    """Ctrl-C while the summary drew its plots (seconds, at the end of every run, and again under the first Ctrl-C's
+    summary) left the plots not drawn yet as an earlier run wrote them, beside this run's table: scaling.png of a
+    sweep this run does not measure. The plots this run did not write are removed, as at the end of a whole run."""
+    assert len(bench_module.plot(sweep_rows(), tmp_path)) == len(bench_module.PLOT_FILES)
+    save = bench_module._save_plot
+
+    def interrupted(fig, path):
+        if path.name != "mrays.png":
+            raise KeyboardInterrupt
+        save(fig, path)
+
+    monkeypatch.setattr(bench_module, "_save_plot", interrupted)
+    rows = [dict(r, scene="sphere:5000", sweep=False) for r in sweep_rows()[:1]]
+    with pytest.raises(KeyboardInterrupt):
+        bench_module.write_summary(rows, tmp_path)
+    assert "sphere:5000" in (tmp_path / "table.md").read_text()
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["mrays.png"]
+
+
 def sweep_rows():
     """Rows that give every plot: a scaling sweep of two sizes with SAH costs."""
     return [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,

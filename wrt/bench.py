@@ -1384,23 +1384,34 @@ def write_summary(rows: list[dict], out: Path, earlier=()) -> None:
     the plots."""
     table = markdown_table(rows, earlier)
     write_atomically(out / "table.md", lambda target: target.write_text(table))
+    before = {name: file_state(out / name) for name in PLOT_FILES}
     try:
-        written = plot(rows, out, earlier)
+        plot(rows, out, earlier)
     except ImportError:
         import warnings
 
         warnings.warn("plots skipped: matplotlib is not installed (pip install 'wrt[bench]')")
-        written = []
-    for name in PLOT_FILES:  # a plot this run has no rows for must not show an earlier run's numbers
-        path = out / name
-        if path in written or not path.exists():
-            continue
-        if written_by_wrt(path):
-            path.unlink()
-        else:  # the user's own file of that name (or a plot edited since): never removed
-            import warnings
+    finally:  # also when stopped (Ctrl-C) before a plot was drawn: it stayed as an earlier run wrote it
+        for name in PLOT_FILES:  # a plot this run has not written must not show an earlier run's numbers
+            path, now = out / name, file_state(out / name)
+            if now is None or now != before[name]:  # none, or written just now
+                continue
+            if written_by_wrt(path):
+                path.unlink()
+            else:  # the user's own file of that name (or a plot edited since): never removed
+                import warnings
 
-            warnings.warn(f"{path} left as is: this run has no rows for it and wrt did not write it (stale?)")
+                warnings.warn(f"{path} left as is: this run has no rows for it and wrt did not write it (stale?)")
+
+
+def file_state(path: Path) -> tuple | None:
+    """What tells a file rewritten (renamed into place) or appended to from the one that was there: its inode, size
+    and time; None where there is none."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_ino, stat.st_size, stat.st_mtime_ns
 
 
 def _ratio(row, rows, accel) -> float | None:

@@ -1386,24 +1386,17 @@ def _add_bench(sub) -> None:
     p.set_defaults(run=_run_bench)
 
 
-def _file_state(path: Path) -> tuple | None:
-    """What tells a file rewritten or appended to from the one that was there: its inode, size and time."""
-    try:
-        stat = path.stat()
-    except OSError:
-        return None
-    return stat.st_ino, stat.st_size, stat.st_mtime_ns
-
-
 def _how_to_resume(args, out: Path, rows_before: tuple | None) -> str:
     """For the lines after Ctrl-C: where the rows measured so far are, and a line with the command that goes on from
     them (the one run, with ``--resume``), to copy. Nothing when there are no rows, or when ``OUT/rows.jsonl`` is
-    still as it was before the run (``rows_before``, :func:`_file_state`) and the run did not resume it: those are
-    an earlier run's rows, maybe of other ray counts, which --resume would refuse."""
+    still as it was before the run (``rows_before``, :func:`wrt.bench.file_state`) and the run did not resume it:
+    those are an earlier run's rows, maybe of other ray counts, which --resume would refuse."""
     import shlex
 
+    from .bench import file_state
+
     rows_file = out / "rows.jsonl"
-    if not rows_file.is_file() or (not args.resume and _file_state(rows_file) == rows_before):
+    if not rows_file.is_file() or (not args.resume and file_state(rows_file) == rows_before):
         return ""
     table = f" (table: {out / 'table.md'})" if (out / "table.md").is_file() else ""
     command = ["wrt", *args.command_line] + ([] if args.resume else ["--resume"])
@@ -1415,14 +1408,14 @@ EARLIER_ROW = "of an earlier run (kept by --resume; not in this grid)"  # of row
 
 
 def _run_bench(args) -> int:
-    from .bench import REFERENCE, Grid, GridError, row_key, run_grid, suite_path
+    from .bench import REFERENCE, Grid, GridError, file_state, row_key, run_grid, suite_path
 
     if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     typed = {k: v for k, v in overrides.items() if v is not None}
     out = Path(args.out)
-    rows_before = _file_state(out / "rows.jsonl")  # set before a Ctrl-C can come: the message reads it
+    rows_before = file_state(out / "rows.jsonl")  # set before a Ctrl-C can come: the message reads it
     try:
         # The options replace the suite's values before they are checked: a value overridden is never used.
         grid = Grid.from_suite(args.suite, overrides=typed).validated()  # a bad field: a one-line error naming it
