@@ -798,6 +798,15 @@ def identity_changes(before: dict, now: dict) -> list[str]:
     return changes
 
 
+def _resumed_row_stands(before: dict | None, now: dict, checkable: bool) -> bool:
+    """Whether ``before``, a resumed row of the key of ``now`` (a row about to be measured, with its hardware),
+    stands for it, so that ``resume`` skips ``now``: measured on what ``now`` would be (:func:`identity_changes`),
+    and checked against :data:`REFERENCE` unless ``now``'s group has no answer of it either (``checkable`` False):
+    kept unchecked, it read 'no warp:sah answer in the group' beside the group's warp:sah row."""
+    return (before is not None and not identity_changes(before, now)
+            and (before.get("agreement") is not None or now["accel"] == REFERENCE or not checkable))
+
+
 def inputs_digest(*arrays: np.ndarray) -> str:
     """A short hash of the bytes of ``arrays`` (the triangles and rays of a row group)."""
     import hashlib
@@ -826,7 +835,9 @@ def _agreement(answer, reference, triangles, origins, directions, scale) -> dict
 
 
 def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_counts, emit, skip) -> None:
-    """Measures every (accel, threads) row of one (scene, device, ray kind) group and hands each row to ``emit``."""
+    """Measures every (accel, threads) row of one (scene, device, ray kind) group and hands each row to ``emit``,
+    but for those ``skip(row, checkable)`` says a resumed row stands for (``checkable``: whether the group measures
+    :data:`REFERENCE`; see :func:`_resumed_row_stands`)."""
     triangles = scene.stats()["rendered_triangles"]
     if not triangles:  # rows of an empty stage timed rays that meet nothing: 0 % hits, 100 % agreement, any Mrays/s
         raise ValueError("the scene has no triangles to trace (no meshes, gprims, points or curves are rendered)")
@@ -849,7 +860,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     rows = [dict(base, accel=spec, threads=threads)
             for spec in ordered if not cannot_build(spec, str(device))  # said once by run_grid
             for threads in (thread_counts if device.is_cpu and spec != "embree" else [1])]  # embreex: one thread
-    pending = [row for row in rows if not skip(row)]
+    pending = [row for row in rows if not skip(row, REFERENCE in accels)]
     if REFERENCE in accels and pending and pending[0]["accel"] != REFERENCE:
         # Resumed with the reference rows done: its answer is still needed for the others' agreement.
         try:
@@ -933,7 +944,7 @@ def _run_group_task(task) -> list[dict]:
     """
     from .distributed import send_partial, worker_device
 
-    (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields
+    (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields, agreement
     device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
     if device_name.startswith("cuda") and not device.is_cuda:  # worker_device() is the CPU without a GPU
         raise ValueError(f"{device_name}: no CUDA device on the Dask worker at {platform.node()}")
@@ -943,9 +954,8 @@ def _run_group_task(task) -> list[dict]:
         rows.append(dict(row, device=device_name, **info))
         send_partial(rows[-1])  # kept by the client when a Ctrl-C there cuts this group short
 
-    def skip(row):
-        before = done.get(row_key(dict(row, device=device_name)))
-        return before is not None and not identity_changes(before, dict(row, **info))
+    def skip(row, checkable):
+        return _resumed_row_stands(done.get(row_key(dict(row, device=device_name))), dict(row, **info), checkable)
 
     _run_group((scene_name, device, kind), grid, thread_counts, collect, skip, _worker_scenes)
     return rows
@@ -1115,7 +1125,8 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set, ou
 
         warned.add(group)
         before = resumed[stale[0]]
-        why = ["the group now fails"] if row["accel"] == "*" else identity_changes(before, row)
+        why = (["the group now fails"] if row["accel"] == "*"
+               else identity_changes(before, row) or [f"it was not checked against {REFERENCE}"])
         warnings.warn(f"{' / '.join(map(str, group))}: rows of the resumed run measured again, as {', '.join(why)}")
     for key in stale:
         rows.remove(resumed.pop(key))
@@ -1215,9 +1226,8 @@ def run_grid(
     # With dask, each row has its worker's hardware.
     info = {} if dask else {str(d): hardware(d) for d in devices if str(d) not in unavailable}
 
-    def skip(row):  # a resumed row of this key, measured on what this row would be measured on
-        before = resumed.get(row_key(row))
-        return before is not None and not identity_changes(before, dict(row, **info.get(row["device"], {})))
+    def skip(row, checkable):
+        return _resumed_row_stands(resumed.get(row_key(row)), dict(row, **info.get(row["device"], {})), checkable)
 
     def begin():
         """Replaces the earlier run's files with this run's, once it has a row (or ends): a run that stops before,
@@ -1252,7 +1262,7 @@ def run_grid(
                 # Nothing measured the group's resumed rows again, so they stay, as a missing device's do.
                 emit(_group_error_row(*task[0], e), replaces=False)
 
-            done = {key: {name: r.get(name) for name in IDENTITY_FIELDS} for key, r in resumed.items()}
+            done = {key: {name: r.get(name) for name in (*IDENTITY_FIELDS, "agreement")} for key, r in resumed.items()}
             tasks = [((s, str(d), k), grid, thread_counts, done) for s, d, k in groups]
             def keep(group_rows):
                 for row in group_rows:
