@@ -1370,7 +1370,8 @@ def _add_bench(sub) -> None:
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
-                   "rows of changed triangles or rays, hardware, wrt source or Warp version are measured again")
+                   "rows of changed triangles or rays, hardware, wrt source or Warp version are measured again, as "
+                   "are rows unchecked against warp:sah where it is measured now")
     p.add_argument(
         "--dask",
         nargs="?",
