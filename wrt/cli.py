@@ -1332,8 +1332,9 @@ def _scene_list(text: str) -> list[str]:
     pieces, names = text.split(","), []
     while pieces:
         first = pieces[0].strip()
-        joined = [k for k in range(len(pieces), 1, -1) if Path(",".join(pieces[:k]).strip()).exists()]
-        take = joined[0] if joined and not (first and Path(first).exists()) else 1
+        alone = first and Path(first).exists()  # then no join is tried: a list of files costs a look per file
+        take = 1 if alone else next((k for k in range(len(pieces), 1, -1)
+                                     if Path(",".join(pieces[:k]).strip()).exists()), 1)
         names.append(",".join(pieces[:take]).strip())
         del pieces[:take]
     if not any(names):
