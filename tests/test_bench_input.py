@@ -509,6 +509,21 @@ def test_the_ratio_to_a_reference_row_that_failed_reads_n_a_not_blank():
     assert cells == {"a": "n/a", "b": "1.50", "c": ""}
 
 
+def test_no_ratio_to_a_reference_row_measured_on_other_triangles_or_rays():
+    """wrt:sah and warp:sah measured, the scene edited, then --resume --accels wrt:sah: the new wrt:sah row (9.9 %
+    hits) got 'x warp:sah 1.03' from the earlier run's warp:sah row, kept outside the grid and measured on the old
+    triangles (33.9 % hits): a ratio of two workloads. Rows are compared only on the same inputs (blank otherwise,
+    as where the reference was not run)."""
+    def row(accel, mrays, inputs):
+        return dict(scene="a", triangles=10, device="cpu", rays="primary", accel=accel, threads=1, build_ms=1.0,
+                    mrays=mrays, mrays_min=mrays, mrays_max=mrays, hit_fraction=0.5, inputs=inputs)
+
+    for reference, ratio in ((row("warp:sah", 2.0, "old"), ""), (row("warp:sah", 2.0, "new"), "1.50")):
+        table = bench_module.markdown_table([reference, row("wrt:sah", 3.0, "new")])
+        (line,) = [line for line in table.splitlines() if "| wrt:sah |" in line]
+        assert line.split("|")[11].strip() == ratio, line
+
+
 def test_a_bad_device_of_a_suite_is_named_with_the_file_and_key(tmp_path, monkeypatch, capsys):
     """Devices are checked when the run starts, after the suite is read: a misspelt one was refused as 'unknown or
     unavailable device' alone, naming neither the suite file nor the key."""

@@ -1426,9 +1426,12 @@ def file_state(path: Path) -> tuple | None:
 
 def _ratio(row, rows, accel) -> float | None:
     """``row``'s rate over that of ``accel`` in its group: NaN (shown as n/a) where that row failed or measured
-    nothing, None (a blank cell) where ``accel`` was not run."""
+    nothing, None (a blank cell) where ``accel`` was not run on the same triangles and rays (``inputs``): an earlier
+    run's row kept by ``resume`` from before the scene was edited gave a ratio of two workloads."""
     for other in rows:
         if other.get("accel") == accel and row_key(other)[2:] == row_key(row)[2:] and other["scene"] == row["scene"]:
+            if None not in (other.get("inputs"), row.get("inputs")) and other["inputs"] != row["inputs"]:
+                continue
             return row["mrays"] / other["mrays"] if other.get("mrays") else math.nan
     return None
 
