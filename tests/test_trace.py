@@ -2,6 +2,7 @@
 
 import os
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -404,10 +405,49 @@ def test_a_hit_beyond_float32_range_is_not_reported_at_t_inf(instanced, layout):
         scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], np.eye(4)[None]))
     origins = np.array([[0, 0, 100], [0, 0, 1]], np.float32)
     directions = np.array([[0, 0, -1e-37], [0, 0, -1e-37]], np.float32)  # t = 1e39 (beyond 3.4e38) and 1e37
-    hits = wrt.trace(scene, origins, directions, layout=layout)
+    with pytest.warns(UserWarning, match="1 of 2 rays .* beyond t = 3.4e38"):  # said: see the next test
+        hits = wrt.trace(scene, origins, directions, layout=layout)
+        blocked = wrt.occluded(scene, origins, directions, layout=layout)
     assert hits.prim[1] == 0 and np.isclose(hits.t[1], 1e37, rtol=1e-6)
     assert np.isfinite(hits.t[hits.hit]).all(), (hits.t, hits.prim)
-    np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, layout=layout), hits.hit)
+    np.testing.assert_array_equal(blocked, hits.hit)
+
+
+@pytest.mark.parametrize("accel,layout,instanced", [("wrt", "binary", False), ("wrt", "binary", True),
+                                                    ("warp", "binary", False)])
+def test_rays_whose_hits_lie_past_float32s_t_are_named_in_a_warning(accel, layout, instanced):
+    """A direction of length 1e-38 towards a triangle 1e4 away: the float64 oracle hits it at t = 1e42, which float32
+    cannot hold, so every accelerator reports a miss, and did so without a word (``wp.Mesh`` too). Now trace and
+    occluded warn naming how many rays pass through the scene's box beyond t = 3.4e38, and the first; a short
+    direction that meets the box within reach, a ``t_max`` that ends the ray first and one pointing away are not
+    counted, and neither is any ray of a batch of unit directions from a scene's far side."""
+    scene = one_triangle_scene(instanced)
+    points, indices = scene.triangles()
+    scene = wrt.Scene.from_triangles(points * np.float32(1e4), indices) if not instanced else scene
+    if instanced:
+        scene.instances.to_world = np.diag([1e4, 1e4, 1e4, 1.0])[None]
+    origins = np.array([[0, 0, 1e4]] * 6, np.float32)
+    directions = np.array([[0, 0, -1], [0, 0, -1e-38], [1e-39, 0, -1e-38], [0, 0, -1e-38], [0, 0, 1e-38],
+                           [0, 0, -1e-30]], np.float32)
+    t_max = np.array([np.inf, np.inf, np.inf, 1e30, np.inf, np.inf], np.float32)
+    t, prim, clear = float64_closest_hits(scene.triangles()[0], scene.triangles()[1], origins, directions,
+                                          np.zeros(6), t_max.astype(np.float64))
+    assert prim.tolist() == [0, 0, 0, -1, -1, 0] and clear.all()
+    np.testing.assert_allclose(t[1:3], 1e4 / -directions[1:3, 2].astype(np.float64), rtol=1e-6)  # 1e42
+    for query in (wrt.trace, wrt.occluded):
+        with pytest.warns(UserWarning) as said:
+            result = query(scene, origins, directions, t_max=t_max, accel=accel, layout=layout)
+        assert len(said) == 1 and re.match(
+            r"2 of 6 rays \(the first: row 1, origin \(0, 0, 10000\), direction \(0, 0, -9.999999e-39\)\) pass "
+            r"through the scene's box beyond t = 3\.4e38, float32's largest value: hits there have no float32 t and "
+            r"are reported as misses\. .* scale such directions up", str(said[0].message)), str(said[0].message)
+        hit = result.hit if query is wrt.trace else result
+        assert hit[:5].tolist() == [True, False, False, False, False]  # the documented miss (wp.Mesh misses row 5)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # rays of unit length, from beyond the scene, and empty batches say nothing
+            far = np.array([[0, 0, 1e5], [0, 0, -1e5], [3e38, 0, 0]], np.float32)
+            query(scene, far, np.array([[0, 0, -1], [0, 0, 1], [-1, 0, 0]], np.float32), accel=accel, layout=layout)
+            query(scene, np.zeros((0, 3)), np.zeros((0, 3)), accel=accel, layout=layout)
 
 
 @pytest.mark.parametrize(

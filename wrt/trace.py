@@ -37,6 +37,7 @@ from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .options import ACCELERATOR_PRESPLIT, ACCELERATORS
 from .ray_batch import upload_rays
+from .ray_reach import RaysPastFloat32T
 from .scene import Scene
 from .traced_in import TracedIn
 
@@ -678,10 +679,13 @@ def trace(
     """
     acc = get_accelerator(scene, accel, builder, device, layout)
     rays = upload_rays(origins, directions, t_min, t_max, acc.device, acc.unit_rays)
+    past_float32 = RaysPastFloat32T(scene, rays, acc.device)
     hits = HitBuffer(len(rays[0]), acc.device)
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
-    return read_hits(scene, hits)
+    result = read_hits(scene, hits)
+    past_float32.warn()
+    return result
 
 
 def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
@@ -723,7 +727,10 @@ def occluded(
     arguments are those of :func:`trace`."""
     acc = get_accelerator(scene, accel, builder, device, layout)
     rays = upload_rays(origins, directions, t_min, t_max, acc.device, acc.unit_rays)
+    past_float32 = RaysPastFloat32T(scene, rays, acc.device)
     blocked = wp.zeros(len(rays[0]), dtype=wp.int32, device=acc.device)
     if len(rays[0]):
         acc.occluded(*rays, blocked, threads=threads)
-    return blocked.numpy().astype(bool)
+    result = blocked.numpy().astype(bool)
+    past_float32.warn()
+    return result
