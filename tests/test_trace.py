@@ -1165,6 +1165,22 @@ def test_float64_t_limits_keep_t_min_le_t_lt_t_max_exactly(accel, layout, instan
         assert wrt.occluded(scene, on_surface, down, t_min=t_min, **query).tolist() == hits.hit.tolist()
 
 
+def test_limits_at_float32s_largest_value_are_taken_without_a_numpy_warning():
+    """``t_max = np.finfo(np.float32).max`` (or ``t_min = -max``) made numpy say "overflow encountered in nextafter"
+    (a RuntimeWarning) at every trace and occluded: rounding the limits up to float32 stepped that value to inf, then
+    kept it (it is a float32). The origin is 1 above the triangle: the hit is at t = 1, none from t_min = max."""
+    scene = one_triangle_scene(False)
+    big = np.finfo(np.float32).max
+    above, down = [[0.0, 0.0, 1.0]], [[0.0, 0.0, -1.0]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for t_min, t_max, expected in ((-big, big, [1.0]), ([float(big)], np.inf, []),
+                                       (np.float64(-big), [big], [1.0])):
+            hits = wrt.trace(scene, above, down, t_min=t_min, t_max=t_max)
+            assert hits.t[hits.hit].tolist() == expected, (t_min, t_max)
+            assert wrt.occluded(scene, above, down, t_min=t_min, t_max=t_max).tolist() == [bool(expected)]
+
+
 @pytest.mark.parametrize("accel, layout, instanced", TRACE_CONFIGS, ids=TRACE_IDS)
 def test_tiny_t_limits_keep_their_meaning_along_short_directions(accel, layout, instanced):
     """wrt's kernels scale a ray's direction by a power of two near ``1 / |d|`` and its limits by ``|d|``

@@ -102,8 +102,11 @@ def as_float32(name: str, values, vectors: bool = False, round_up: bool = False)
     if vectors and raw.dtype.kind == "f" and raw.dtype.itemsize > 4 and raw.shape[-1:] == (3,) and raw.ndim <= 2:
         check_float32_range(name, raw.reshape(-1, 3), array.reshape(-1, 3))  # a (3,) vector is one row
     if round_up and raw.dtype.itemsize > 2:  # wider than float16 and int16: values float32 may not hold
-        # Compared at raw's precision (float32 promotes exactly); NaN compares False and stays NaN.
-        array = np.where(array < raw, np.nextafter(array, np.float32(np.inf)), array)
+        # Compared at raw's precision (float32 promotes exactly); NaN compares False and stays NaN. The step above
+        # float32's largest value is inf, with numpy's "overflow encountered in nextafter" RuntimeWarning: a t_max of
+        # np.finfo(np.float32).max (or -max for t_min) said it at every trace, though that value is kept as it is.
+        with np.errstate(over="ignore"):
+            array = np.where(array < raw, np.nextafter(array, np.float32(np.inf)), array)
     return array
 
 
