@@ -1165,6 +1165,20 @@ def test_float64_t_limits_keep_t_min_le_t_lt_t_max_exactly(accel, layout, instan
         assert wrt.occluded(scene, on_surface, down, t_min=t_min, **query).tolist() == hits.hit.tolist()
 
 
+@pytest.mark.xfail(strict=True, reason="inside the box test (geometry.safe_inverse's FLAT_INVERSE of 1e38, used by "
+                   "every traversal; not changed here): the slab of a zero direction component ends at 1e38 times the "
+                   "origin's distance from the box's faces, 0.5 here, so the box is culled from t = 5e37")
+def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle():
+    """Straight down from ``(0.5, -0.5, z)`` onto a unit triangle at z = 0: the float64 oracle hits it at ``t = z`` for
+    every ``z`` up to 3e38 (float32's t holds them all); wrt misses from 5.1e37 (README, **Triangles**)."""
+    scene = one_triangle_scene(False)
+    origins = np.array([[0.5, -0.5, z] for z in (1e37, 4.9e37, 5.1e37, 1e38, 3e38)], np.float32)
+    directions = np.tile(np.array([[0, 0, -1]], np.float32), (len(origins), 1))
+    t, prim, clear = float64_closest_hits(*scene.triangles(), origins, directions, np.zeros(5), np.full(5, np.inf))
+    assert prim.tolist() == [0] * 5 and clear.all()
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, t, rtol=1e-6)
+
+
 def test_limits_at_float32s_largest_value_are_taken_without_a_numpy_warning():
     """``t_max = np.finfo(np.float32).max`` (or ``t_min = -max``) made numpy say "overflow encountered in nextafter"
     (a RuntimeWarning) at every trace and occluded: rounding the limits up to float32 stepped that value to inf, then

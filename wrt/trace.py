@@ -664,6 +664,8 @@ def trace(
             ``wp.array``s on any device, GPU tensors); a ``vec3`` ``wp.array`` on ``device`` is traced in place. A
             ``(3,)`` vector is one ray, and one origin serves every direction.
         directions: ``(N, 3)`` world space, as ``origins``; need not be unit length. Zero or NaN directions miss.
+            A hit past ``t = 3.4e38`` (a direction of length 1e-38 and a triangle 1e4 away) has no float32 ``t``: a
+            miss, with a warning naming the rays that pass through the scene's box there (:mod:`wrt.ray_reach`).
         t_min: scalar (or ``(1,)``, ``(1, 1)``) or ``(N,)`` (or ``(N, 1)``) lower bound on ``t`` (inclusive; may be
             negative); ``None``: 0.
         t_max: as ``t_min``, the upper bound on ``t`` (exclusive); ``None``: no bound.
