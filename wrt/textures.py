@@ -73,6 +73,7 @@ OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"
 # file libtiff decodes: libtiff hands samples over in the machine's order, and Pillow renames only the ;16B and ;16L
 # of colour and unsigned grey (TiffImagePlugin: "libtiff always returns the bytes in native order")
 EXIF_ORIENTATION = 0x0112  # the EXIF (and TIFF) tag of the turn or mirroring a viewer applies
+IMAGE_WIDTH, IMAGE_LENGTH = 256, 257  # the TIFF tags of the stored width and height
 LIBTIFF_NATIVE_RAWMODES = {"I;16S": "I;16NS", "I;16BS": "I;16NS", "I;32S": "I;32NS", "I;32BS": "I;32NS",
                            "F;32F": "F;32NF", "F;32BF": "F;32NF"}
 # The channel an EXR channel's name (after its layer's ".", lower case) stands for: the single letters and the words
@@ -465,6 +466,10 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
     if img.format != "TIFF" or not img.tile:
         return
     img.getexif().pop(EXIF_ORIENTATION, None)  # what load_end's exif_transpose reads (Pillow keeps this one)
+    img._tile_orientation = None  # what Pillow 9's load_end turned the pixels by, read from the tag at open
+    # Pillow 10+ gives an image of orientation 5 to 8 (a quarter turn) its turned size at open: decoded into it as
+    # stored, a 16-bit grey one failed (SystemError: tile cannot extend outside image)
+    img._size = (img.tag_v2[IMAGE_WIDTH], img.tag_v2[IMAGE_LENGTH])
     tile = img.tile[0]
     if getattr(img, "use_load_libtiff", False):
         native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile))
