@@ -1597,12 +1597,32 @@ def test_a_first_camera_bad_at_one_frame_refuses_that_frame_naming_the_camera_an
     assert other.log[-1]["drawn_camera"] == "camera /Other"
 
 
-def test_a_first_camera_bad_at_every_time_leaves_the_frames_to_the_next_camera(tmp_path):
+MOVING = "double3 xformOp:translate.timeSamples = { 1: (0, 0, 10), 3: (1, 0, 10) }"
+
+
+@pytest.mark.parametrize("moved", [
+    {},
+    {"double3 xformOp:translate = (0, 0, 10)": MOVING},
+    {'def Camera "Cam"\n{': f'def Xform "Rig"\n{{\n{MOVING}\nuniform token[] xformOpOrder = ["xformOp:translate"]\n'
+                            'def Camera "Cam"\n{', '}\ndef Camera "Other"': '}\n}\ndef Camera "Other"'},
+], ids=["still", "moving", "moving-parent"])
+def test_a_first_camera_bad_at_every_time_leaves_the_frames_to_the_next_camera(tmp_path, moved):
     """A first camera that is bad whatever the time (an unanimated zero focal length) is skipped for every frame
-    alike, as for a still render: the frames are drawn from the next camera, with the load's warning."""
+    alike, as for a still render: the frames are drawn from the next camera, with the load's warning. So is one
+    whose transform or parent's moves (USD's GetCamera reads its focal length 0 at every frame): it was taken for a
+    camera animated into its zero focal length, and every frame was refused."""
+    from pxr import Usd, UsdGeom
+
     path = tmp_path / "cam.usda"
-    path.write_text(CAMERA_BAD_AT_2.replace("float focalLength.timeSamples = { 1: 50, 2: FOCAL, 3: 50 }",
-                                            "float focalLength = 0"))
+    text = CAMERA_BAD_AT_2.replace("float focalLength.timeSamples = { 1: 50, 2: FOCAL, 3: 50 }",
+                                   "float focalLength = 0")
+    for old, new in moved.items():
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    stage = Usd.Stage.Open(str(path))
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/Rig/Cam" if "Rig" in text else "/Cam"))
+    assert [camera.GetCamera(t).focalLength for t in (1.0, 2.0, 3.0)] == [0.0, 0.0, 0.0]
     renderer = FrameRenderer(path, width=8, height=6, device="cpu")
     with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
         renderer.render(2.0)

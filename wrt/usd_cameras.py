@@ -45,7 +45,10 @@ class CameraReading:
                 # (Values of the wrong type are ValueErrors naming the attribute; a TypeError is a bug, not skipped.)
                 reason = str(e) if isinstance(e, ValueError) else f"camera cannot be read ({tf_message(e)})"
                 self.scene.skipped_cameras[path] = reason
-                if not (self.scene.cameras or hasattr(self.scene, "_first_camera_skipped")) and _might_vary(proxy):
+                # (what made it unusable: its transform, its values (other ValueErrors), or either (USD's errors))
+                values, transform = not isinstance(e, _TransformError), type(e) is not ValueError
+                if not (self.scene.cameras or hasattr(self.scene, "_first_camera_skipped")) and _might_vary(
+                        proxy, values, transform):
                     # The stage's first camera, bad at this time only, perhaps: frames refuse to draw another
                     # (wrt.animation); one bad at every time draws none of them, as a still render does.
                     self.scene._first_camera_skipped = path
@@ -111,10 +114,10 @@ class CameraReading:
             projection = "perspective"
         world = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)  # row vectors
         if not np.all(np.isfinite(world)):  # (before affine_part, which took NaN for a projective column)
-            raise ValueError("camera transform is not finite")
+            raise _TransformError("camera transform is not finite")
         m = affine_part(world, lambda reason: self._skip(reason, prim))
         if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # as Camera.to_struct refuses it, but skipped: the stage's first
-            raise ValueError("camera transform is singular (a zero scale), so it has no view")  # camera is the default
+            raise _TransformError("camera transform is singular (a zero scale), so it has no view")  # the default one
         loaded = Camera(  # ValueError naming the field it refuses, as "camera needs ...": the caller names the prim
             to_world=m.T,  # column vectors
             focal_length=number(camera.GetFocalLengthAttr()),
@@ -189,11 +192,19 @@ def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
 
 
 
-def _might_vary(prim: Usd.Prim) -> bool:
-    """A camera attribute of ``prim`` or a transform that places it (its own or an ancestor's) has time samples."""
-    if any(a.ValueMightBeTimeVarying() for a in prim.GetAttributes()):
+class _TransformError(ValueError):
+    """A camera's transform, not its values, is what wrt cannot use."""
+
+
+def _might_vary(prim: Usd.Prim, values: bool = True, transform: bool = True) -> bool:
+    """A camera attribute of ``prim`` (``values``) or a transform that places it (``transform``: its own or an
+    ancestor's) has time samples. Asked of what made the camera unusable only: a zero focal length on a moving camera
+    (or under a moving parent) is bad at every time, and was taken for animated, so every frame was refused where the
+    next camera draws them all, as it draws a still render."""
+    moving = (a for a in prim.GetAttributes() if a.ValueMightBeTimeVarying())
+    if values and any(not a.GetName().startswith("xformOp:") for a in moving):  # (the transform: below)
         return True
-    while prim and not prim.IsPseudoRoot():
+    while transform and prim and not prim.IsPseudoRoot():
         if UsdGeom.Xformable(prim) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
             return True
         prim = prim.GetParent()
