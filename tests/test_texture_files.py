@@ -220,6 +220,20 @@ def test_a_16_bit_tiff_stored_plane_by_plane_reads_linear_within_8_bits(tmp_path
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
+def test_the_libtiff_tile_of_a_plane_by_plane_tiff_is_made_as_pillow_makes_it(tmp_path):
+    """wrt hands an uncompressed 16-bit TIFF stored plane by plane to Pillow's libtiff decoder with a tile it makes;
+    Pillow makes that tile itself for a compressed file, so the two are alike whatever Pillow's version: Pillow 9 to
+    12 take the compression's name in it, which Pillow 13 dropped, and wrt's tile of 13's form failed on them
+    ('function takes exactly 5 arguments (4 given)', the tests above under Pillow 9.5)."""
+    from PIL import Image as PilImage
+
+    from wrt.textures import _libtiff_args
+
+    img = PilImage.open(write_tiff(tmp_path / "p.tif", np.zeros((2, 3, 3), np.uint16), planar=True, deflate=True))
+    assert img.tile[0][0] == "libtiff"
+    assert _libtiff_args(img, img.tile[0][3][0]) == tuple(img.tile[0][3])
+
+
 @pytest.mark.parametrize("dtype, deflate, orientation, channels", [
     (np.uint8, False, 3, 3), (np.uint16, False, 3, 3), (np.uint16, True, 3, 3),
     (np.uint8, False, 6, 3), (np.uint16, False, 6, 3), (np.uint16, True, 8, 3), (np.uint16, False, 5, 1)])

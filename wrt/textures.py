@@ -480,7 +480,17 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
     if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.mode in ("RGB", "RGBA") and samples and samples[1] == 16:
         img.use_load_libtiff = True  # what TiffImagePlugin sets for a compressed file, with its one tile below
         img.tile = [_tile_with(tile, codec_name="libtiff", extents=(0, 0, *img.size), offset=0,
-                               args=(f"{img.mode};16N", False, img.tag_v2.offset))]
+                               args=_libtiff_args(img, f"{img.mode};16N"))]
+
+
+def _libtiff_args(img, rawmode: str) -> tuple:
+    """The arguments of Pillow's libtiff decoder tile for TIFF ``img`` read as ``rawmode``, as TiffImagePlugin makes
+    them: Pillow 13 dropped the compression's name from them, which Pillow 9 to 12 take second (without it those
+    failed: 'function takes exactly 5 arguments (4 given)', every 16-bit RGB TIFF stored plane by plane)."""
+    from PIL import __version__ as pillow_version
+
+    compression = (img._compression,) if int(pillow_version.split(".")[0]) < 13 else ()
+    return (rawmode, *compression, False, img.tag_v2.offset)
 
 
 def _tile_with(tile, **fields):
@@ -536,7 +546,10 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     low = decode(rawmode[:-1] + OTHER_BYTE[rawmode[-1]])
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
     samples = high * 256 + low  # whole numbers, exact in float32
-    rgba[..., : high.shape[2]] = samples / 65535.0
+    # An RGBX TIFF's fourth sample has no stated meaning: no alpha (Pillow 9 and 10 open it as RGBX, and it was read
+    # as alpha; later ones as RGB)
+    channels = 3 if rawmode.startswith("RGBX") else high.shape[2]
+    rgba[..., :channels] = samples[..., :channels] / 65535.0
     if isinstance(colour_key, tuple) and len(colour_key) == 3:
         rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
     return rgba, COLOUR_CHANNELS
