@@ -220,6 +220,20 @@ def test_a_16_bit_tiff_stored_plane_by_plane_reads_linear_within_8_bits(tmp_path
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
+@pytest.mark.parametrize("dtype, sample_format, byte_order, full", [
+    (np.uint16, None, "<", 65535.0), (np.int16, 2, "<", 32767.0), (np.float32, 3, ">", 1.0),
+    (np.int32, 2, ">", 2**31 - 1)])
+def test_a_grey_tiff_tagged_plane_by_plane_reads_its_samples(tmp_path, dtype, sample_format, byte_order, full):
+    """A one-sample TIFF tagged PlanarConfiguration 2 is stored as one tagged 1 (TIFF 6.0: the tag is then
+    irrelevant), and libtiff reads it so; Pillow unpacked it by the first letter of its raw mode: 16-bit grey failed
+    ('unknown raw mode for given image mode'), signed 16-bit read 6.5e4 off, big-endian floats 2e38 off."""
+    rng = np.random.default_rng(13)
+    samples = (rng.random((3, 4, 1)) * (1 if dtype == np.float32 else full)).astype(dtype)
+    path = write_tiff(tmp_path / "g.tif", samples, byte_order, rows_per_strip=2, sample_format=sample_format,
+                      planar=True)
+    np.testing.assert_allclose(load_image(path, "raw")[..., 0], samples[..., 0] / full, atol=1e-6)
+
+
 def test_the_libtiff_tile_of_a_plane_by_plane_tiff_is_made_as_pillow_makes_it(tmp_path):
     """wrt hands an uncompressed 16-bit TIFF stored plane by plane to Pillow's libtiff decoder with a tile it makes;
     Pillow makes that tile itself for a compressed file, so the two are alike whatever Pillow's version: Pillow 9 to

@@ -46,7 +46,7 @@ import warp as wp
 
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem, without_unread_chunks
-from .tiff_checks import PLANAR_CONFIGURATION, SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
+from .tiff_checks import PLANAR_CONFIGURATION, SAMPLES_PER_PIXEL, SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -465,6 +465,12 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
     read 0.216)."""
     if img.format != "TIFF" or not img.tile:
         return
+    if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.tag_v2.get(SAMPLES_PER_PIXEL, 1) == 1:
+        # One sample per pixel is stored alike plane by plane or not (TIFF 6.0: the tag is then irrelevant), but
+        # Pillow unpacked an uncompressed one by the first letter of its raw mode: 16-bit grey failed ('unknown raw
+        # mode'), signed 16-bit read 6.5e4 off, big-endian floats 2e38: its tiles are made again as of a plane
+        img.tag_v2[PLANAR_CONFIGURATION] = 1
+        img._setup()  # (what Pillow runs for each frame it seeks to, from the tags)
     img.getexif().pop(EXIF_ORIENTATION, None)  # what load_end's exif_transpose reads (Pillow keeps this one)
     img._tile_orientation = None  # what Pillow 9's load_end turned the pixels by, read from the tag at open
     # Pillow 10+ gives an image of orientation 5 to 8 (a quarter turn) its turned size at open: decoded into it as
