@@ -472,8 +472,8 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
         img.tag_v2[PLANAR_CONFIGURATION] = 1
         img._setup()  # (what Pillow runs for each frame it seeks to, from the tags)
     img.getexif().pop(EXIF_ORIENTATION, None)  # what load_end's exif_transpose reads (Pillow keeps this one)
-    img._tile_orientation = None  # what Pillow 9's load_end turned the pixels by, read from the tag at open
-    # Pillow 10+ gives an image of orientation 5 to 8 (a quarter turn) its turned size at open: decoded into it as
+    img._tile_orientation = None  # what Pillow 9 and 10's load_end turned the pixels by, read from the tag at open
+    # Pillow 11+ gives an image of orientation 5 to 8 (a quarter turn) its turned size at open: decoded into it as
     # stored, a 16-bit grey one failed (SystemError: tile cannot extend outside image)
     img._size = (img.tag_v2[IMAGE_WIDTH], img.tag_v2[IMAGE_LENGTH])
     tile = img.tile[0]
