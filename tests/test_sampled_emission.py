@@ -3,11 +3,12 @@ glowing quad whose texture returns its fallback (a UDIM tile without a file, the
 MaterialX's ``constant`` address mode reads) over black texels lights the floor below as the closed form of a uniform
 emitter says; triangles are drawn by what their own texture returns; materials that emit nothing get no light
 entries; a USD ``Sphere`` gprim and a ``wrt.Shape`` sphere that glow by the fallback light the floor as the same
-sphere of constant emission does."""
+sphere of constant emission does; a lamp whose glow lies only between the points its emission is read at (a
+corner past [0, 1], a missing tile inside the triangle) is sampled too, and lights the floor as the quadrature says."""
 
 import numpy as np
 import pytest
-from shading_helpers import quad, top_down_camera
+from shading_helpers import pixel_points, quad, top_down_camera
 
 import wrt
 from wrt.materials import Material, TextureInput
@@ -187,3 +188,63 @@ def test_an_analytic_sphere_that_glows_by_its_fallback_is_sampled():
                                  spp=4, seed=1, device="cpu").rgb)
     assert floors[1].mean() > 0.01
     np.testing.assert_allclose(floors[0], floors[1], rtol=1e-5)
+
+
+def triangles_irradiance(points: np.ndarray, triangles: list, n: int = 64) -> np.ndarray:
+    """Irradiance at floor ``points`` (``(P, 2)``) from flat ``triangles`` (each ``(3, 2)`` corners in the plane at
+    :data:`HEIGHT`) emitting :data:`RADIANCE`: the centroid rule (float64) over each triangle cut into ``n * n``
+    similar ones, of ``cos cos' / r^2``."""
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    up = (i + j) < n  # the n(n+1)/2 upright sub-triangles, then the n(n-1)/2 upside-down ones
+    centroids = np.concatenate([np.stack([i[up] + 1 / 3, j[up] + 1 / 3], -1),
+                                np.stack([i[(i + j) < n - 1] + 2 / 3, j[(i + j) < n - 1] + 2 / 3], -1)]) / n
+    total = np.zeros(len(points))
+    for a, b, c in (np.asarray(t, np.float64) for t in triangles):
+        q = a + centroids[:, :1] * (b - a) + centroids[:, 1:] * (c - a)  # (n * n, 2)
+        u, v = b - a, c - a
+        area = abs(u[0] * v[1] - u[1] * v[0]) / 2 / (n * n)
+        r2 = ((points[:, None, :] - q[None]) ** 2).sum(-1) + HEIGHT * HEIGHT
+        total += area * (HEIGHT * HEIGHT / (r2 * r2)).sum(-1)
+    return RADIANCE * total
+
+
+SIDE = 1.45  # of the corner lamp: every point its glow is read at lies in [0, 1]^2 (the largest, 4/6 of it, is 0.97)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_lamp_whose_glow_none_of_its_points_reads_lights_the_floor(integrator):
+    """A lamp triangle of legs :data:`SIDE` whose st is its xy, black texels and a ``fallback`` wrap: it glows by the
+    fallback only where st leaves [0, 1] (two corners of legs 0.45), which holds none of the points its emission is
+    read at. It lights the floor beside it as the quadrature of those two corners says. It was estimated as no light:
+    unsampled, and the stage, lit by nothing as far as wrt could tell, got the default lights (a floor of 1.0 where
+    0.018 is right)."""
+    lamp = wrt.Mesh("/lamp", np.array([[0, 0, HEIGHT], [SIDE, 0, HEIGHT], [0, SIDE, HEIGHT]]), np.array([[0, 1, 2]]),
+                    [0], uvs=np.float32([[[0, 0], [SIDE, 0], [0, SIDE]]]), material_ids=np.zeros(1, np.int32),
+                    double_sided=True)
+    floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
+    glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": TextureInput(
+        image=0, wrap=("fallback", "fallback"), fallback=FALLBACK)})
+    white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
+    scene = wrt.Scene(meshes=[floor, lamp], materials=[glow, white], textures=[BLACK])
+    center, height, res = (2.2, 0.0), 1.4, 16
+    img = wrt.render(scene, camera=top_down_camera(center=(*center, 0), height=height), width=res, height=res,
+                     spp=128, seed=1, integrator=integrator, device="cpu").rgb.mean(axis=2)
+    points = pixel_points((*center, 0), height, res, res)[..., :2].reshape(-1, 2)
+    leg = SIDE - 1.0
+    want = triangles_irradiance(points, [[(1, 0), (SIDE, 0), (1, leg)], [(0, 1), (leg, 1), (0, SIDE)]]) / np.pi
+    assert img.mean() == pytest.approx(want.mean(), rel=0.05)
+
+
+def test_a_triangle_over_a_missing_tile_between_its_points_is_sampled():
+    """A triangle whose st runs over tiles 1001, 1002 and 1011 (black images) and, between its corners, tile 1012,
+    which has no file: it glows there by the fallback, where none of the points its emission is read at lie. It
+    takes a share of the light picks (beside a lamp of constant emission); it had none, and ``whitted`` left its
+    light out."""
+    texture = TextureInput(image=0, tiles=udim_table(t1001=0, t1002=0, t1011=0), fallback=FALLBACK)
+    meshes = [wrt.Mesh("/part", np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1]], np.float64), np.array([[0, 1, 2]]), [0],
+                       uvs=np.float32([[[0.5, 0.5], [1.9, 0.5], [0.5, 1.9]]]), material_ids=np.zeros(1, np.int32)),
+              quad((3, 0, 1), (1, 0, 0), (0, 1, 0), name="/lamp", material=1)]
+    materials = [Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture}),
+                 Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
+    pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK]))
+    assert pmf[0] > 0.0

@@ -9,7 +9,11 @@ non-finite texture coordinates. A texture of black texels whose fallback glows w
 triangles were never sampled (``whitted`` left what they light black, and a stage lit by them alone got the default
 lights), and ``path`` found their light only through the rays that happened to hit them. Each such triangle takes
 the larger of its material's estimate and the mean emission at :data:`BARYCENTRIC_POINTS`, so that the estimate and
-the render cannot disagree on where the glow is, and no triangle is estimated below its material's mean.
+the render cannot disagree on where the glow is, and no triangle is estimated below its material's mean. Points can
+all miss a glow that only part of a triangle shows (a corner past [0, 1] along a ``constant`` address mode, a missing
+UDIM tile between the points): a triangle on which the lookup can return its fallback at all takes at least a fifth
+of the fallback's emission (:func:`may_read_fallback`), so that no light is left with no chance of being sampled (such
+a lamp was no light: ``whitted`` left what it lit black, and a stage lit by it alone got the default lights).
 """
 
 from __future__ import annotations
@@ -17,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .materials import DeviceMaterials, eval_emission
+from .materials import SLOT_EMISSIVE, DeviceMaterials, eval_emission
+from .textures import UDIM_COLUMNS, UDIM_ROWS, WRAP_FALLBACK
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
@@ -26,29 +31,85 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 BARYCENTRIC_POINTS = np.array([[1, 1, 1], [4, 1, 1], [1, 4, 1], [1, 1, 4]], np.float64) / np.array([[3], [6], [6], [6]])
 
 
+@wp.func
+def may_read_fallback(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: wp.vec2):
+    """Whether texture binding ``b`` can return its fallback somewhere on the triangle of texture coordinates
+    ``st0, st1, st2``, where :func:`wrt.materials.lookup_binding` returns it: a corner not finite (nor then is any
+    point), the image missing, a ``fallback`` wrap with a corner outside [0, 1] along its axis (the unit interval
+    holds the triangle where it holds its corners), a UDIM tile without a file (or none: outside the tiles) under the
+    box of the corners. Conservative: the box holds every tile the triangle reads, maybe more."""
+    if b < 0:  # a constant: no texture, no fallback
+        return False
+    xf = mats.tex_transform[b]
+    p0 = xf * wp.vec3(st0[0], st0[1], 1.0)
+    p1 = xf * wp.vec3(st1[0], st1[1], 1.0)
+    p2 = xf * wp.vec3(st2[0], st2[1], 1.0)
+    lo = wp.vec2(wp.min(wp.min(p0[0], p1[0]), p2[0]), wp.min(wp.min(p0[1], p1[1]), p2[1]))
+    hi = wp.vec2(wp.max(wp.max(p0[0], p1[0]), p2[0]), wp.max(wp.max(p0[1], p1[1]), p2[1]))
+    if not wp.isfinite(p0[0] + p0[1] + p1[0] + p1[1] + p2[0] + p2[1]):  # (a sum past float32 too: conservative)
+        return True
+    table = mats.tex_tiles[b]
+    if table < 0:
+        wrap = mats.tex_wrap[b]
+        s_out = wrap[0] == WRAP_FALLBACK and (lo[0] < 0.0 or hi[0] > 1.0)
+        t_out = wrap[1] == WRAP_FALLBACK and (lo[1] < 0.0 or hi[1] > 1.0)
+        return mats.tex_image[b] < 0 or s_out or t_out
+    if lo[0] < 0.0 or lo[1] < 0.0 or hi[0] > float(UDIM_COLUMNS) or hi[1] > float(UDIM_ROWS):
+        return True
+    # The tiles whose inside the box meets: a box edge on a tile's edge (st of a tile's corners) reads no further.
+    u0, v0 = int(wp.floor(lo[0])), int(wp.floor(lo[1]))
+    u1 = wp.min(wp.max(u0, int(wp.ceil(hi[0])) - 1), UDIM_COLUMNS - 1)
+    v1 = wp.min(wp.max(v0, int(wp.ceil(hi[1])) - 1), UDIM_ROWS - 1)
+    for v in range(v0, v1 + 1):
+        for u in range(u0, u1 + 1):
+            if mats.tile_images[table + u + UDIM_COLUMNS * v] < 0:
+                return True
+    return False
+
+
 @wp.kernel
 def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids: wp.array[wp.int32],
                            materials: wp.array[wp.int32], weights: wp.array[wp.vec3],
                            # outputs
                            emission: wp.array[wp.vec3]):
     """``emission[i]``: the mean emission of material ``materials[i]`` on triangle ``ids[i]`` at the barycentric
-    points ``weights``, each component clamped to 0 first (a component below 0 adds no light)."""
+    points ``weights``, each component clamped to 0 first (a component below 0 adds no light); at least the
+    fallback's emission over ``len(weights) + 1`` where the texture may return its fallback on the triangle
+    (:func:`may_read_fallback`): a glow that no point read lies between them, on less of the triangle than one
+    point's share, as far as they tell."""
     i = wp.tid()
     t = ids[i]
+    m = materials[i]
+    n = weights.shape[0]
+    fallback = may_read_fallback(mats, mats.slots[m, SLOT_EMISSIVE], uvs[t, 0], uvs[t, 1], uvs[t, 2])
     total = wp.vec3(0.0)
-    for j in range(weights.shape[0]):  # (a bound read at run time: one lookup compiled, not one per point)
-        w = weights[j]
-        e = eval_emission(mats, materials[i], w[0] * uvs[t, 0] + w[1] * uvs[t, 1] + w[2] * uvs[t, 2])
-        total += wp.vec3(wp.max(e[0], 0.0), wp.max(e[1], 0.0), wp.max(e[2], 0.0))
-    emission[i] = total / float(weights.shape[0])
+    least = wp.vec3(0.0)
+    # Each point, then the fallback (what every lookup at a NaN st returns): one lookup compiled, not one per read
+    # (the loop's bound is read at run time).
+    for j in range(n + 1):
+        st = wp.vec2(wp.nan, wp.nan)
+        if j < n:
+            w = weights[j]
+            st = w[0] * uvs[t, 0] + w[1] * uvs[t, 1] + w[2] * uvs[t, 2]
+        elif not fallback:
+            break
+        e = eval_emission(mats, m, st)
+        e = wp.vec3(wp.max(e[0], 0.0), wp.max(e[1], 0.0), wp.max(e[2], 0.0))
+        if j < n:
+            total += e
+        else:
+            least = e / float(n + 1)
+    mean = total / float(n)
+    emission[i] = wp.vec3(wp.max(mean[0], least[0]), wp.max(mean[1], least[1]), wp.max(mean[2], least[2]))
 
 
 def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materials: np.ndarray,
                      estimates: np.ndarray, sampled: np.ndarray, device) -> np.ndarray | None:
     """``(T, 3)`` float64 emission estimate per triangle (``T = len(tri_materials)``, the geometry's triangles then
     one row per analytic shape): its material's ``estimates`` row, or for a material marked in ``sampled`` the larger
-    of that and the mean emission at :data:`BARYCENTRIC_POINTS` (:func:`sample_emission_kernel`; a shape's three
-    corners are its one ``st``, where the render reads its glow); None where no row is of a ``sampled`` material.
+    of that, the mean emission at :data:`BARYCENTRIC_POINTS` and a fifth of a fallback it may read
+    (:func:`sample_emission_kernel`; a shape's three corners are its one ``st``, where the render reads its glow);
+    None where no row is of a ``sampled`` material.
 
     Args:
         mats: the scene's device materials (:func:`wrt.materials.upload_materials`).
