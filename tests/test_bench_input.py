@@ -1047,3 +1047,14 @@ def test_rows_rewritten_but_not_put_in_place_leave_no_temporary_file(tmp_path, m
     with pytest.raises(type(stop)):
         bench_module._write_rows(jsonl, [{"scene": "b"}])
     assert [p.name for p in tmp_path.iterdir()] == ["rows.jsonl"] and jsonl.read_text() == '{"scene": "a"}\n'
+
+
+@pytest.mark.parametrize("suite", sorted(p.stem for p in bench_module.SUITES_DIR.glob("*.json")))
+def test_every_group_of_a_shipped_suite_is_checked_against_the_reference(suite):
+    """Each bundled suite runs the reference (warp:sah) beside the grid's and the scaling sweep's accelerators, so that
+    every row it measures is checked ray by ray against wp.Mesh: the GPU suite's sweep ran without it, and every
+    complete ``wrt bench gpu`` ended warning that 15 rows were not checked."""
+    data = json.loads((bench_module.SUITES_DIR / f"{suite}.json").read_text())
+    assert bench_module.REFERENCE in data["accels"]
+    if "scaling" in data:
+        assert bench_module.REFERENCE in data["scaling"].get("accels", data["accels"])
