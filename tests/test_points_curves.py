@@ -10,10 +10,19 @@ import warnings
 import numpy as np
 import pytest
 from pxr import Sdf, Usd, UsdGeom
-from usda_text import floats, fmt, load, load_recording_warnings, preview_material, trace, write
+from usda_text import (
+    GOOD_QUAD,
+    assert_skipped_as_if_removed,
+    floats,
+    fmt,
+    load,
+    load_recording_warnings,
+    preview_material,
+    trace,
+    write,
+)
 
 import wrt
-from wrt.errors import SceneError
 
 # Polyline tolerance of cubic spans documented in the README (a fraction of the tube's radius).
 CUBIC_TOLERANCE = 0.05
@@ -481,19 +490,24 @@ def test_curves_without_points_are_skipped_with_a_warning(tmp_path):
     [
         ('int[] curveVertexCounts = [3]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]',
          "curveVertexCounts sum to 3 but there are 2 points"),
+        ('uniform token type = "linear"\n    int[] curveVertexCounts = [-1, 3]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0)]', r"curveVertexCounts\[0\] = -1 is negative"),
         ('int[] curveVertexCounts = [3]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]',
          r"curveVertexCounts\[0\] = 3 makes no nonperiodic bezier curve \(it needs 4 \+ 3 k vertices\)"),
         ('uniform token basis = "bspline"\n    uniform token wrap = "periodic"\n    int[] curveVertexCounts = [2]\n'
          '    point3f[] points = [(0, 0, 0), (1, 0, 0)]', r"curveVertexCounts\[0\] = 2 makes no periodic bspline"),
+        # A wrap token USD does not allow is read as nonperiodic (with a warning), as UsdImaging reads it.
+        ('uniform token wrap = "loop"\n    int[] curveVertexCounts = [3]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]', r"= 3 makes no nonperiodic bezier"),
         ('uniform token type = "linear"\n    int[] curveVertexCounts = [2, 1]\n'
          '    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]', r"curveVertexCounts\[1\] = 1 makes no linear"),
     ],
 )
-def test_bad_curve_topology_raises(tmp_path, body, message):
-    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    {body}\n}}\n')
-    with pytest.raises(SceneError, match=message) as e:
-        load(path)
-    assert path in str(e.value) and "/C" in str(e.value)
+def test_bad_curve_topology_skips_the_prim(tmp_path, body, message):
+    """BasisCurves whose topology makes no curves are skipped with a warning naming the file, the prim and the fault,
+    as a mesh of invalid topology is, and the rest of the stage is drawn as without them (it raised SceneError)."""
+    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    {body}\n}}\n' + GOOD_QUAD)
+    assert_skipped_as_if_removed(path, "/C", message)
 
 
 LINES = ('    uniform token type = "linear"\n    int[] curveVertexCounts = [2, 2]\n'

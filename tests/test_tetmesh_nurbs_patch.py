@@ -12,10 +12,9 @@ import warnings
 import numpy as np
 import pytest
 from pxr import Usd, UsdGeom, Vt
-from usda_text import floats, fmt, load, preview_material, trace, write
+from usda_text import GOOD_QUAD, assert_skipped_as_if_removed, floats, fmt, load, preview_material, trace, write
 
 import wrt
-from wrt.errors import SceneError
 
 # A NURBS patch's triangles stay within this fraction of its control points' box diagonal (README).
 PATCH_TOLERANCE = 1e-3
@@ -171,15 +170,15 @@ def test_tet_mesh_points_move_with_time(tmp_path):
     "extra, tets, message",
     [
         ("", "[(0, 1, 2, 4)]", r"tetVertexIndices\[0\] = \(0, 1, 2, 4\) is out of range for 4 points"),
+        ("", "[(0, 1, 2, 3), (0, -1, 2, 3)]", r"tetVertexIndices\[1\] = \(0, -1, 2, 3\) is out of range"),
     ],
 )
-def test_bad_tet_meshes_raise_naming_the_prim(tmp_path, extra, tets, message):
+def test_bad_tet_meshes_are_skipped_naming_the_prim(tmp_path, extra, tets, message):
+    """A TetMesh with a tetVertexIndices entry out of range is skipped with a warning naming the file, the prim and
+    the entry, the rest of the stage drawn as without it (it raised SceneError, which stopped the load)."""
     body = f'def TetMesh "T"\n{{\n    point3f[] points = {fmt(TET)}\n    int4[] tetVertexIndices = {tets}\n{extra}}}\n'
-    path = write(tmp_path, body)
-    with pytest.raises(SceneError, match=message) as e:
-        load(path)
-    assert path in str(e.value) and "/T" in str(e.value)
-
+    path = write(tmp_path, body + GOOD_QUAD)
+    assert_skipped_as_if_removed(path, "/T", message)
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -203,10 +202,11 @@ def test_a_tet_mesh_colour_that_does_not_fit_is_dropped_with_a_warning(tmp_path,
     assert got.colors is None and want.colors is None
     np.testing.assert_array_equal(got.indices, want.indices)
 
-def test_tet_mesh_with_a_point_that_is_not_finite_raises(tmp_path):
-    path = write(tmp_path, tet_body("T", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, math.nan)], [(0, 1, 2, 3)]))
-    with pytest.raises(SceneError, match=r"/T: points\[3\] = \(0.0, 0.0, nan\) is not finite"):
-        load(path)
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_tet_mesh_with_a_point_that_is_not_finite_is_skipped(tmp_path, bad):
+    body = tet_body("T", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, bad)], [(0, 1, 2, 3)])
+    path = write(tmp_path, body + GOOD_QUAD)
+    assert_skipped_as_if_removed(path, "/T", rf"points\[3\] = \(0.0, 0.0, {bad}\) is not finite")
 
 
 # NurbsPatch
@@ -320,13 +320,13 @@ def test_nurbs_patch_colours_uniform_varying_vertex(tmp_path):
          r"v: range \(0.5, 2\) is not an interval inside the knots' domain \[0, 1\]"),
     ],
 )
-def test_bad_nurbs_patches_raise_naming_the_prim(tmp_path, change, message):
+def test_bad_nurbs_patches_are_skipped_naming_the_prim(tmp_path, change, message):
+    """A NurbsPatch whose counts, orders, knots, ranges, weights or points make no surface is skipped with a warning
+    naming the file, the prim and the fault, the rest of the stage drawn as without it (it raised SceneError)."""
     body = cylinder_body()
     assert change[0] in body
-    path = write(tmp_path, body.replace(change[0], change[1]))
-    with pytest.raises(SceneError, match=message) as e:
-        load(path)
-    assert path in str(e.value) and "/P" in str(e.value)
+    path = write(tmp_path, body.replace(change[0], change[1]) + GOOD_QUAD)
+    assert_skipped_as_if_removed(path, "/P", message)
 
 
 @pytest.mark.parametrize("authored, named", [('string[] tetVertexIndices = ["x"]', "tetVertexIndices must be int4"
@@ -340,13 +340,11 @@ def test_bad_nurbs_patches_raise_naming_the_prim(tmp_path, change, message):
                                               '    double[] vKnots = [0, 0, 1, 1]\n    string[] pointWeights = ["x"]',
                                               r"pointWeights must be numbers, not string\[\]")])
 def test_values_of_another_type_are_named_by_the_type_authored(tmp_path, authored, named):
-    """A TetMesh's ``tetVertexIndices`` or a NurbsPatch's ``uOrder``, knots or ``pointWeights`` of another type raises
-    SceneError naming the attribute and the type the file authors: the message named the schema's type
+    """A TetMesh's ``tetVertexIndices`` or a NurbsPatch's ``uOrder``, knots or ``pointWeights`` of another type skips
+    the prim with a warning naming the attribute and the type the file authors: the message named the schema's type
     ("tetVertexIndices must be int4[], not int4[]", "uOrder must be an int, not int"), and string knots or weights
-    raised "could not convert string to float", naming no attribute."""
+    raised "could not convert string to float", naming no attribute; the SceneError stopped the load."""
     kind = "TetMesh" if "tet" in authored else "NurbsPatch"
-    path = tmp_path / "bad.usda"
-    path.write_text(f'#usda 1.0\ndef {kind} "Bad"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), '
-                    f"(1, 1, 0)]\n    {authored}\n}}\n")
-    with pytest.raises(wrt.SceneError, match=rf"bad.usda.*/Bad.*{named}"):
-        wrt.load_usd(str(path))
+    body = (f'def {kind} "Bad"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)]\n'
+            f"    {authored}\n}}\n")
+    assert_skipped_as_if_removed(write(tmp_path, body + GOOD_QUAD), "/Bad", named)

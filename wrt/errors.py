@@ -52,6 +52,7 @@ class SceneError(ValueError):
     def __init__(self, message: str, *, path: str | None = None, prim: str | None = None):
         self.path = path  # file the problem was found in, if any
         self.prim = prim  # prim path the problem was found at, if any
+        self.message = message  # what is wrong, without the file and prim
         parts = [p for p in (path, prim) if p]
         super().__init__(": ".join(parts + [message]))
 

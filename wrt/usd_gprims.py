@@ -10,6 +10,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .color_spaces import linear_colors
+from .errors import SceneError
 from .instancing import world_boxes
 from .primitives import (
     Shape,
@@ -283,8 +284,13 @@ class GprimReading:
         # the instance (ctx.outer_widths) comes next, before the prim's widths attribute.
         if not self.tubes.has_widths_primvar(prim):
             ctx.content.wants_widths = True
-        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element,
-                                           outer_widths=ctx.outer_widths)
+        try:
+            groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element,
+                                               outer_widths=ctx.outer_widths)
+        except SceneError as e:
+            if not self._skipped_unreadable(e, prim):
+                raise
+            return
         axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color
         double_sided = bool(self._typed(prim, UsdGeom.Gprim(prim).GetDoubleSidedAttr()))

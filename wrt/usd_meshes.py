@@ -11,6 +11,7 @@ import copy
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .errors import SceneError
 from .loop_subdivision import LoopRefinement, refined_triangles
 from .materials import used_materials
 from .polygons import clip_concave_faces
@@ -203,10 +204,15 @@ class MeshReading:
         primvar = primvar if primvar and primvar.HasValue() else None
         gprim = UsdGeom.Gprim(prim)
         flip = self._left_handed(prim, gprim, self.time)
-        if prim.IsA(UsdGeom.TetMesh):
-            surface = self.surfaces.tet_mesh(prim, points, primvar, flip, st_primvar)
-        else:
-            surface = self.surfaces.nurbs_patch(prim, points, primvar, st_primvar)
+        try:
+            if prim.IsA(UsdGeom.TetMesh):
+                surface = self.surfaces.tet_mesh(prim, points, primvar, flip, st_primvar)
+            else:
+                surface = self.surfaces.nurbs_patch(prim, points, primvar, st_primvar)
+        except SceneError as e:
+            if not self._skipped_unreadable(e, prim):
+                raise
+            return None
         if surface is None:
             return None
         uvs = surface.uvs

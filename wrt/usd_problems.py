@@ -59,6 +59,15 @@ class ProblemReport:
         shown = self._shown_path(prim) + (f" (and in {others} other instance{'s' * (others > 1)})" if others else "")
         self._skip_path(reason, shown, detail)
 
+    def _skipped_unreadable(self, error: SceneError, prim: Usd.Prim) -> bool:
+        """Whether ``error``, raised while reading the curves, Points, TetMesh or NurbsPatch ``prim``, is about
+        ``prim`` itself (its topology or values); such a prim is then recorded as skipped, the fault in the detail,
+        as a mesh of invalid topology is, so the rest of the stage is drawn (it stopped the whole load)."""
+        if error.prim != self._shown_path(prim):
+            return False
+        self._skip(f"{prim.GetTypeName()} prims of invalid topology or values were skipped", prim, error.message)
+        return True
+
     def _instance_count(self, prim: Usd.Prim) -> int:
         """How many times ``prim`` is on the stage outside classes: 1 outside native prototypes, else the sum over
         its prototype's instances that are not abstract (under a class), each counted as this counts it, so that

@@ -69,7 +69,8 @@ class SurfaceReader(FieldReader):
 
         Raises:
             SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, or a point is not finite
-                (a colour of the wrong length for its interpolation is dropped with a warning).
+                (a colour of the wrong length for its interpolation is dropped with a warning); the caller skips the
+                prim with a warning naming it (:meth:`wrt.usd_problems.ProblemReport._skipped_unreadable`).
         """
         attr = UsdGeom.TetMesh(prim).GetTetVertexIndicesAttr()
         raw = value_at(attr, self.time)
@@ -115,7 +116,7 @@ class SurfaceReader(FieldReader):
         Raises:
             SceneError: vertex counts that do not match the points, orders, knots or ranges that make no B-spline,
                 weights that are not positive numbers, or a point that is not finite (a colour of the wrong length for
-                its interpolation is dropped with a warning).
+                its interpolation is dropped with a warning); the caller skips the prim with a warning naming it.
         """
         patch = UsdGeom.NurbsPatch(prim)
         nu, nv = (self._int(prim, a) for a in (patch.GetUVertexCountAttr(), patch.GetVVertexCountAttr()))

@@ -86,6 +86,11 @@ class TubeReader(FieldReader):
         Returns:
             ``(groups, color)``: :class:`TubeGroup` list, and the ``(3,)`` float32 colour for all of them when the
             colour is one value (constant), else None (the groups carry per-instance colours, or there is none).
+
+        Raises:
+            SceneError: topology or values that make no curves (counts that are negative or do not add up to the
+                points, too few vertices for a curve, NURBS orders or knots that make no B-spline, ...), naming
+                ``prim``; the caller skips the prim with a warning naming it.
         """
         with np.errstate(invalid="ignore", over="ignore"):  # points that are not finite are named below
             centres = points @ to_space[:3, :3].T + to_space[:3, 3]
