@@ -439,8 +439,9 @@ def test_rays_whose_hits_lie_past_float32s_t_are_named_in_a_warning(accel, layou
             result = query(scene, origins, directions, t_max=t_max, accel=accel, layout=layout)
         assert len(said) == 1 and re.match(
             r"2 of 6 rays \(the first: row 1, origin \(0, 0, 10000\), direction \(0, 0, -9.999999e-39\)\) pass "
-            r"through the scene's box beyond t = 3\.4e38, float32's largest value: hits there have no float32 t and "
-            r"are reported as misses\. .* scale such directions up", str(said[0].message)), str(said[0].message)
+            r"through the scene's box beyond t = 3\.4e38, float32's largest value \(or before -3\.4e38\): hits there "
+            r"have no float32 t and are reported as misses \(or at t = -inf\)\. .* scale such directions up",
+            str(said[0].message)), str(said[0].message)
         hit = result.hit if query is wrt.trace else result
         assert hit[:5].tolist() == [True, False, False, False, False]  # the documented miss (wp.Mesh misses row 5)
         with warnings.catch_warnings():
@@ -1163,6 +1164,34 @@ def test_float64_t_limits_keep_t_min_le_t_lt_t_max_exactly(accel, layout, instan
         assert not hits.hit[0] or hits.t[0] >= t_min, hits.t  # wp.Mesh starts its query at t_min: it may hit there
         assert hits.hit[0] == (t_min <= 0) or accel == "warp"
         assert wrt.occluded(scene, on_surface, down, t_min=t_min, **query).tolist() == hits.hit.tolist()
+
+
+def test_rays_past_float32s_t_behind_them_or_across_a_scene_past_half_its_range_are_named_too():
+    """Two rays whose float64 hit has no float32 t went unnamed: with ``t_min = -inf`` a direction of length 1e-38
+    away from a triangle 10 behind it (t = -1e39: wrt reported a hit at t = -inf, ``wp.Mesh`` a miss), and a
+    direction of length 1.2 from x = 2.9e38 across a scene reaching x = -3e38 (t = 4.9e38, a miss), where
+    ``|d| * 3.4e38`` and ``(|o| + reach) * 2`` both overflowed to inf and so looked within reach (the reverse of that
+    ray meets the scene at t = -4.9e38). With ``t_min = -3.4e38`` only the second is named, and a ray whose ``t_max``
+    of 1e30 ends it before the triangle (at t = 1e39) never is."""
+    big = np.float32(3e38)
+    points = np.array([[-big, 0, 0], [-big, 1, 0], [-big, 0, 1], [-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    scene = wrt.Scene.from_triangles(points, np.array([[0, 1, 2], [3, 4, 5]], np.int32))
+    origins = np.array([[0, 0, 10], [2.9e38, 0.2, 0.2], [0, 0, 10], [2.9e38, 0.2, 0.2], [0, 0, 10]], np.float32)
+    directions = np.array([[0, 0, 1e-38], [-1.2, 0, 0], [0, 0, -1e-30], [1.2, 0, 0], [0, 0, -1e-38]], np.float32)
+    t_maxs = np.array([np.inf] * 4 + [1e30], np.float32)  # the last ends before the triangle (at t = 1e39)
+    lowest = np.finfo(np.float32).min
+    for t_min, named in ((-np.inf, [0, 1, 3]), (lowest, [1])):
+        t_mins = np.full(5, t_min, np.float32)
+        t, prim, clear = float64_closest_hits(points, scene.triangles()[1], origins, directions,
+                                              t_mins.astype(np.float64), t_maxs.astype(np.float64))
+        assert clear.all() and np.flatnonzero(np.isfinite(t) & (np.abs(t) > -float(lowest))).tolist() == named, t
+        for query in (wrt.trace, wrt.occluded):
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                query(scene, origins, directions, t_min=t_mins, t_max=t_maxs)
+            reach = [str(w.message) for w in said if "beyond t = 3.4e38" in str(w.message)]
+            assert len(reach) == 1 and reach[0].startswith(f"{len(named)} of 5 rays (the first: row {named[0]},"), \
+                (t_min, [str(w.message) for w in said])
 
 
 @pytest.mark.xfail(strict=True, reason="inside the box test (geometry.safe_inverse's FLAT_INVERSE of 1e38, used by "

@@ -36,23 +36,25 @@ def count_rays_past_float32_t_kernel(
     found: wp.array[wp.int32],
 ):
     """``found[0]``: the rays that meet the box ``lower, upper`` within their ``[t_min, t_max)`` beyond
-    ``t = FLOAT32_MAX``; ``found[1]``: the smallest of their rows (left as it was when there are none). Rays that
-    cannot hit (NaN or infinite, zero directions, empty ranges) and those whose ``t_max`` is a finite float32 (it ends
-    them first) are not counted. In float64, where ``(bound - origin) / direction`` neither overflows nor rounds to
-    0 for float32 operands; most rays are passed over first: along a ray, ``|p - o|`` in the largest norm is ``t``
-    times the direction's largest component, so no point within ``reach`` (the box's largest coordinate) of the world
-    origin has a ``t`` beyond ``(|o| + reach) / |d|`` in that norm."""
+    ``t = FLOAT32_MAX`` (or, with ``t_min = -inf``, before ``-FLOAT32_MAX``); ``found[1]``: the smallest of their rows
+    (left as it was when there are none). Rays that cannot hit (NaN or infinite, zero directions, empty ranges) and
+    those whose limits are finite float32s (they end them first) are not counted. In float64, where
+    ``(bound - origin) / direction`` neither overflows nor rounds to 0 for float32 operands; most rays are passed over
+    first: along a ray, ``|p - o|`` in the largest norm is ``|t|`` times the direction's largest component, so no point
+    within ``reach`` (the box's largest coordinate) of the world origin has a ``|t|`` beyond ``(|o| + reach) / |d|``
+    in that norm (halved on both sides, as ``|o| + reach`` may exceed float32's range)."""
     i = wp.tid()
     o = origins[i]
     d = directions[i]
     t_min = t_mins[i]
     t_max = t_maxs[i]
-    if t_max <= FLOAT32_MAX or not (t_max > t_min and wp.isfinite(o) and wp.isfinite(d)):
+    if (t_max <= FLOAT32_MAX and t_min >= -FLOAT32_MAX) or not (t_max > t_min and wp.isfinite(o) and wp.isfinite(d)):
         return
-    if largest_magnitude(d) * float(FLOAT32_MAX) >= (largest_magnitude(o) + reach) * 2.0:  # 2: past any rounding
+    # |t| <= FLOAT32_MAX / 2 (the 2: past any rounding); the left side overflows only where |t| < FLOAT32_MAX / 2
+    if largest_magnitude(d) * (float(FLOAT32_MAX) * 0.25) >= largest_magnitude(o) * 0.5 + reach * 0.5:
         return
     near = wp.float64(t_min)
-    far = wp.float64(wp.inf)
+    far = wp.float64(t_max)  # a finite t_max with t_min = -inf: the box beyond it is out of reach
     moves = bool(False)
     for k in range(3):
         dk = wp.float64(d[k])
@@ -66,7 +68,7 @@ def count_rays_past_float32_t_kernel(
             b = (upper[k] - ok) / dk
             near = wp.max(near, wp.min(a, b))
             far = wp.min(far, wp.max(a, b))
-    if moves and near <= far and far > wp.float64(FLOAT32_MAX):
+    if moves and near <= far and (far > wp.float64(FLOAT32_MAX) or near < -wp.float64(FLOAT32_MAX)):
         wp.atomic_add(found, 0, 1)
         wp.atomic_min(found, 1, i)
 
@@ -82,10 +84,11 @@ def _largest_magnitudes(vectors: np.ndarray) -> np.ndarray:
 def _may_reach_past_float32(origins, directions, t_mins, t_maxs, reach: float) -> bool:
     """Whether any ray of these host arrays passes the first tests of :func:`count_rays_past_float32_t_kernel`, in
     its float32 arithmetic (NaN rays pass: the kernel passes over them)."""
+    half = np.float32(0.5)
     with np.errstate(over="ignore", invalid="ignore"):
-        bound = _largest_magnitudes(directions) * np.float32(FLOAT32_MAX)
-        within = bound >= (_largest_magnitudes(origins) + np.float32(reach)) * np.float32(2.0)
-    return not (within | (t_maxs <= FLOAT32_MAX)).all()
+        bound = _largest_magnitudes(directions) * (np.float32(FLOAT32_MAX) * np.float32(0.25))
+        within = bound >= _largest_magnitudes(origins) * half + np.float32(reach) * half
+    return not (within | ((t_maxs <= FLOAT32_MAX) & (t_mins >= -FLOAT32_MAX))).all()
 
 
 class RaysPastFloat32T:
@@ -126,8 +129,9 @@ class RaysPastFloat32T:
                              for r in self.rays[:2])
         warnings.warn(
             f"{count:,} of {len(self.rays[0]):,} rays (the first: row {first}, origin {origin}, direction "
-            f"{direction}) pass through the scene's box beyond t = 3.4e38, float32's largest value: hits there have "
-            "no float32 t and are reported as misses. t is in units of each direction's length, so a short "
-            "direction puts near hits at huge t: scale such directions up (only their orientation matters)",
+            f"{direction}) pass through the scene's box beyond t = 3.4e38, float32's largest value (or before "
+            "-3.4e38): hits there have no float32 t and are reported as misses (or at t = -inf). t is in units of "
+            "each direction's length, so a short direction puts near hits at huge t: scale such directions up (only "
+            "their orientation matters)",
             stacklevel=user_stacklevel(),
         )
