@@ -1032,6 +1032,15 @@ def test_an_overscanned_product_is_placed_in_its_shot_past_its_edges(tmp_path):
         ("shot.beauty", True, "shot.beauty.png", None),
         ("shot.diffuse", False, "shot.diffuse.exr", None),
         ("shot.TIFF", True, "shot.png", "wrt writes PNG or EXR"),
+        # OpenImageIO's extensions that the list left out were kept as part of the name without a word (shot.heif.exr,
+        # while shot.heic became shot.exr): HEIF, JPEG, PFM, Photoshop, JPEG 2000 and stereo/multiview EXR files.
+        ("shot.heif", False, "shot.exr", "wrt writes PNG for a product"),
+        ("shot.JFIF", True, "shot.png", "wrt writes PNG or EXR"),
+        ("shot.pfm", False, "shot.exr", "wrt writes PNG for a product"),
+        ("shot.psb", True, "shot.png", "wrt writes PNG or EXR"),
+        ("shot.j2c", True, "shot.png", "wrt writes PNG or EXR"),
+        ("shot.sxr", False, "shot.exr", "wrt writes PNG for a product"),
+        ("shot.env", False, "shot.env.exr", None),  # also a pass's name: kept
     ],
 )
 def test_a_product_name_ending_in_a_dot_or_an_extension_alone_names_a_sensible_file(product_name, png, name, said):

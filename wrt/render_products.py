@@ -83,10 +83,12 @@ NUMBER_BYTES = 8  # room left in a long file name for the "_k" that tells produc
 # Extensions of image formats a productName may end in: PNG and EXR, which wrt writes, those of OpenImageIO (the image
 # library of USD's renderers), replaced by the one wrt writes (".tif" by ".png"), and wrt's own .npy. Any other dotted
 # word is part of the name: "shot.beauty" and "shot.diffuse" were both taken for "shot" in another format, and
-# written as shot.png and shot_2.png.
+# written as shot.png and shot_2.png. OpenImageIO's words that name a pass as well as a format (.env, .int, .bw,
+# .sm, .vsm) are left to the name.
 IMAGE_EXTENSIONS = frozenset(
-    ".png .exr .bmp .cin .dds .dpx .gif .hdr .heic .avif .iff .jpg .jpeg .jpe .jp2 .j2k .pbm .pgm .ppm .pnm .psd .pic "
-    ".rla .rgbe .sgi .rgb .rgba .tga .tif .tiff .tx .webp .npy".split())
+    ".png .exr .sxr .mxr .bmp .cin .dds .dpx .gif .hdr .heic .heif .heics .hif .avif .iff .jpg .jpeg .jpe .jif .jfif "
+    ".jfi .jp2 .j2k .j2c .pbm .pgm .ppm .pnm .pfm .psd .psb .pdd .pic .rla .rgbe .sgi .rgb .rgba .tga .tif .tiff .tx "
+    ".webp .npy".split())
 # Longest layer name: its channels (".triangles" the longest) and its "/paths" attribute within the 255 bytes of an
 # EXR name, where OpenEXR cut channel names (two long layers wrote one channel) and dropped attributes without a word.
 MAX_LAYER_BYTES = MAX_NAME_BYTES - len(".triangles") - NUMBER_BYTES
