@@ -1329,12 +1329,21 @@ def _scene_list(text: str) -> list[str]:
     """An argparse type: :func:`_csv` for ``--scenes``, but pieces that name a file when joined by their commas
     (``a,b.usda``) are one scene, unless the first names a file alone: a file whose name held a comma was measured
     as the files ``a`` and ``b.usda``, neither of them there."""
+
+    def is_file(name: str) -> bool:
+        # Files only: a folder 'a' beside 'a,b.usda' split it. A join of many pieces past 255 bytes (thirty
+        # 'sphere:N') made pathlib raise 'File name too long' out of argparse, a traceback.
+        try:
+            return Path(name).is_file()
+        except OSError:
+            return False
+
     pieces, names = text.split(","), []
     while pieces:
         first = pieces[0].strip()
-        alone = first and Path(first).exists()  # then no join is tried: a list of files costs a look per file
-        take = 1 if alone else next((k for k in range(len(pieces), 1, -1)
-                                     if Path(",".join(pieces[:k]).strip()).exists()), 1)
+        alone = first and is_file(first)  # then no join is tried: a list of files costs a look per file
+        take = 1 if alone else next((k for k in range(len(pieces), 1, -1) if is_file(",".join(pieces[:k]).strip())),
+                                    1)
         names.append(",".join(pieces[:take]).strip())
         del pieces[:take]
     if not any(names):
