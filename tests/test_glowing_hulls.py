@@ -197,6 +197,23 @@ def test_instanced_glowing_boxes_light_the_floor_as_quadrature_gives(integrator)
 
 
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_vast_turned_glowing_disk_lights_the_floor_as_an_endless_plane(integrator):
+    """A double-sided disk of radius 1e5, turned and stretched to an ellipse by its instance, about 0.65 over the
+    patch: the floor sees an endless plane, L (1 + |n_z|) / 2. The solid-angle draw measured the plane's height from
+    the corner of the square around it, rounded at its size (ulp 0.03): the points drawn lay off the plane, and where
+    past it the disk's own surface shadowed them (whitted 2.55 +- 0.02, path 2.72 +- 0.01 of 2.877)."""
+    turn = rotation(30, 40)
+    proto = wrt.Prototype("/Lamp", shapes=[wrt.Shape("/Lamp/Glow", "disk", placed(turn * 1e5, (0.0, 0.0, 0.0)),
+                                                     material_id=1, double_sided=True)])
+    stretch = np.diag([1.0, 2.0, 1.0])
+    instances = wrt.Instances.from_transforms([0], placed(stretch, (0.0, 0.0, 1.0))[None])
+    normal = np.linalg.inv(stretch @ turn).T[:, 2]
+    expected = RADIANCE * (1.0 + abs(normal[2]) / np.linalg.norm(normal)) / 2.0
+    assert_within_standard_errors([], np.full((RES, RES), expected), integrator, seeds=6, spp=32, prototypes=[proto],
+                                  instances=instances)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
 def test_a_floor_inside_an_inward_glowing_sphere_shows_its_radiance(integrator):
     """A sphere glowing inwards (leftHanded) around the floor patch: every direction above the floor sees radiance
     L, so the white floor shows L (E = pi L); whitted showed it black (the sphere was not sampled). Drawn from

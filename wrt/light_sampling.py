@@ -541,7 +541,7 @@ def seen_rect(f: FlatLight, p: wp.vec3):
             least = DISK_SOLID_ANGLE_LEAST
         u = 2.0 * u
         v = 2.0 * v
-    r = spherical_rect(p * down, f.centre * down - 0.5 * (u + v), u, v)
+    r = spherical_rect(p * down, f.centre * down, u, v)
     return r, f.right_angled == 1 and solid_angle_usable(r, least), down, up
 
 
