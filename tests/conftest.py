@@ -18,8 +18,8 @@ import warp as wp
 wp.config.quiet = True
 # The probe kernels that test files define call the renderer's device functions (light sampling, BSDFs), and no test
 # differentiates them: without their adjoints the 19 such modules compile in 133 s, not 336 s, on a cold kernel cache
-# on the 2-core VM (test_affine_lights 11 s, not 66 s). wrt's own modules set this option themselves (all but
-# wrt.bvh.batched, whose one small kernel compiles in about 5 s either way).
+# on the 2-core VM (test_affine_lights 11 s, not 66 s). wrt's own kernel modules set this option themselves
+# (tests/test_cpu_compile_options.py).
 wp.config.enable_backward = False
 
 WARP_USD_ASSETS = ("bunny.usd", "bear.usd", "rocks.usd", "nonuniform.usd", "sphere.usd", "cube.usd")

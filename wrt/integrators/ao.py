@@ -6,9 +6,10 @@ import warp as wp
 from ..geometry import offset_ray_origin
 from ..sampling import rand01, sample_cosine_hemisphere, to_world
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, hit_point
+from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, hit_point
 
-wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 
 @wp.kernel

@@ -47,7 +47,7 @@ from ..light_sampling import (
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, HitPoint, shading_point
+from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, HitPoint, shading_point
 from .emitters import (
     environment,
     light_sample_weight,
@@ -57,7 +57,8 @@ from .emitters import (
     surface_emission,
 )
 
-wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 @wp.func
 def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.vec3, dist: float, u: float):

@@ -55,11 +55,12 @@ from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, power_heuristic, rand01
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, HitPoint, shading_point
+from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
 from .path import aim_shadow_ray, clear_shadow_ray
 
-wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 
 @wp.func
