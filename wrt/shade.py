@@ -69,7 +69,7 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 # CPU compiler flags of the integrators' modules: Warp's default flags (warp.config.cpu_compiler_flags) with LLVM's
 # inline threshold at 1000 instead of 9000. At 9000 clang inlined the surface read, the shading point and the light
 # draws whole into every kernel and call site that uses them: the whitted module's object code was 437 KB and its
-# compile 13 s of CPU, half the default scene's first render; at 1000 it is 286 KB and 7.4 s, and the kernels run
+# compile 11.8 s of CPU, half the default scene's first render; at 1000 it is 286 KB and 7.4 s, and the kernels run
 # faster (the default room at 320 x 240, 8 spp: whitted's shading 1.9-2.0 -> 1.5 s, path's 7.1-7.5 -> 3.8-4.0 s;
 # at LLVM's own 225: 234 KB, 6.5 s, no faster than at 9000). Warp's source holds each function once either way;
 # CUDA builds do not read these flags.

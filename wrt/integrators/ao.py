@@ -8,7 +8,7 @@ from ..sampling import rand01, sample_cosine_hemisphere, to_world
 from ..scene import DeviceScene
 from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, hit_point
 
-# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+# device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
 wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 

@@ -57,7 +57,7 @@ from .emitters import (
     surface_emission,
 )
 
-# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+# device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
 wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 @wp.func

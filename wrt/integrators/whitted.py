@@ -59,7 +59,7 @@ from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
 from .path import aim_shadow_ray, clear_shadow_ray
 
-# device-independent rounding, and LLVM's own inlining on the CPU: see wrt/shade.py
+# device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
 wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
 
 
