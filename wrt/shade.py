@@ -73,10 +73,10 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 # faster (the default room at 320 x 240, 8 spp: whitted's shading 1.9-2.0 -> 1.5 s, path's 7.1-7.5 -> 3.8-4.0 s;
 # at LLVM's own 225: 234 KB, 6.5 s, no faster than at 9000). Warp's source holds each function once either way;
 # CUDA builds do not read these flags.
-SHADING_CPU_FLAGS = (
-    "-march=native -mllvm=-inline-threshold=1000 -mllvm=-inline-cold-callsite-threshold=3000"
-    " -mllvm=-slp-recursion-max-depth=4"
-)
+# Derived from Warp's flags as they are at import, so that its other flags (and a user's own) are kept.
+SHADING_INLINE_THRESHOLD = 1000
+SHADING_CPU_FLAGS = " ".join([*(f for f in wp.config.cpu_compiler_flags.split() if "-inline-threshold=" not in f),
+                              f"-mllvm=-inline-threshold={SHADING_INLINE_THRESHOLD}"])
 
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 # How far a culled hit point may lie outside a coincident partner (wrt.twins), off its plane or past an edge, and still
