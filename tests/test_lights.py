@@ -292,6 +292,29 @@ def test_a_disk_light_seen_from_beside_its_rim_is_drawn_by_solid_angle(p, n):
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
 
+@pytest.mark.parametrize("where", ["centre", "rim"])
+def test_a_sheared_disk_light_seen_from_near_is_drawn_by_solid_angle(where):
+    """A disk light of radius 0.5 under a transform whose Y axis leans into X and shrinks is an ellipse; a point 0.01
+    below its centre, or below and 0.1 beyond the end of its major axis, sees the rectangle around it under a large
+    solid angle. Its radius vectors were not at right angles, so it was drawn by area: a relative noise per draw of
+    19 below the centre and 5.4 beyond the rim. Given its ellipse's axes it is drawn by solid angle: 0.05 and 1.1.
+    The mean is Lambert's closed form for the ellipse as a 2048-gon, and a ray along each draw reads its pdf back."""
+    to_world = np.eye(4)
+    to_world[:3, :3] = [[1.0, 0.8, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 1.0]]
+    x, y = to_world[:3, 0], to_world[:3, 1]
+    light = DiskLight(to_world=to_world, radius=0.5, color=np.full(3, 2.0))
+    axes, semi_axes, _ = np.linalg.svd(0.5 * np.stack([x, y], -1))
+    p = np.array([0.0, 0.0, -0.01]) + (0.0 if where == "centre" else semi_axes[0] + 0.1) * axes[:, 0]
+    n = np.array([0.0, 0.0, 1.0])
+    phi = np.arange(2048) / 2048 * 2 * np.pi
+    expected = polygon_irradiance(p, n, list(0.5 * (np.cos(phi)[:, None] * x + np.sin(phi)[:, None] * y)), 2.0)
+    estimates, ratios = light_estimates(light, p, n)
+    error = estimates.std() / math.sqrt(len(estimates))
+    assert abs(estimates.mean() - expected) < 4 * error, (estimates.mean(), expected, error)
+    assert estimates.std() < 2.0 * expected, estimates.std() / expected
+    np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
+
+
 @pytest.mark.parametrize("kind", ["rect", "disk"])
 def test_light_sampling_reaches_the_far_part_of_a_light_a_wall_beside_it_sees(kind):
     """A wall facing a 2 x 2 rect light (or a disk of radius 1) 0.2 beside its edge and 1e-3 below its plane sees its

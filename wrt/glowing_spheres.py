@@ -172,6 +172,18 @@ def _placed(to_world: np.ndarray, kinds: np.ndarray, areas: bool = True) -> tupl
     return ok, rows, axes, (maps, hull_areas)
 
 
+def ellipse_axes(radii: np.ndarray) -> np.ndarray:
+    """``(N, 3, 2)`` float64 axes at right angles of the ellipses ``{a u + b v : a^2 + b^2 <= 1}`` whose radius vectors
+    ``u, v`` are the columns of ``radii`` (a disk under a shearing or uneven map): the same ellipses, with ``u x v`` on
+    the same side, which a draw by solid angle through the rectangle around the ellipse needs."""
+    # {M x : |x| <= 1} for M = [u v] = U S V^T is {U S y : |y| <= 1}: the columns of U S, the second turned where
+    # V^T mirrors.
+    u, s, vt = np.linalg.svd(radii, full_matrices=False)
+    axes = u * s[:, None, :]
+    axes[:, :, 1] *= np.sign(np.linalg.det(vt))[:, None]
+    return axes
+
+
 def _hulls(linear: np.ndarray, origin: np.ndarray, kinds: np.ndarray, columns: np.ndarray, areas: bool) -> tuple:
     """``(maps, areas, fine, centres, radii, roots, square)`` of ``H`` shapes drawn as hulls (``(H, 3, 3)`` linear
     parts and ``(H, 3)`` origins of their world transforms, ``columns`` their rows of :func:`_candidates`' ``kinds``):
@@ -190,12 +202,7 @@ def _hulls(linear: np.ndarray, origin: np.ndarray, kinds: np.ndarray, columns: n
     if flat.any():
         disk = np.flatnonzero((kinds[columns, 3] == SHAPE_KINDS["disk"]) & np.isfinite(m).all(axis=(1, 2)))
         if len(disk):
-            # {a u + b v : a^2 + b^2 <= 1} = {M x : |x| <= 1} for M = [u v] = U S V^T is {U S y : |y| <= 1}: the
-            # columns of U S, the second turned where V^T mirrors, so that u x v keeps its side.
-            u, s, vt = np.linalg.svd(m[disk, :, :2], full_matrices=False)
-            axes = u * s[:, None, :]
-            axes[:, :, 1] *= np.sign(np.linalg.det(vt))[:, None]
-            m[disk, :, :2] = axes
+            m[disk, :, :2] = ellipse_axes(m[disk, :, :2])
         normal = np.cross(m[flat, :, 0], m[flat, :, 1])
         width = np.maximum(np.linalg.norm(m[flat, :, 0], axis=1), np.linalg.norm(m[flat, :, 1], axis=1))
         with np.errstate(invalid="ignore", divide="ignore"):

@@ -16,7 +16,7 @@ import warp as wp
 from .dome_irradiance import device_coefficients, irradiance_coefficients
 from .errors import SceneError, user_stacklevel
 from .floats import FLOAT32_MAX
-from .glowing_spheres import GlowingSpheres, glowing_spheres
+from .glowing_spheres import GlowingSpheres, ellipse_axes, glowing_spheres
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -511,6 +511,8 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
         elif isinstance(light, DiskLight):
             x, y, z, origin = light_axes(light.to_world)
             u, v = x * light.radius, y * light.radius
+            if np.isfinite(u).all() and np.isfinite(v).all():  # a sheared disk's ellipse, drawn by solid angle
+                u, v = ellipse_axes(np.stack([u, v], axis=-1)[None])[0].T
             n = _emitting_normal(u, v, z)
             L = light.radiance
             down = length_scale(u, v)
