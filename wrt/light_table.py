@@ -511,7 +511,9 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
         elif isinstance(light, DiskLight):
             x, y, z, origin = light_axes(light.to_world)
             u, v = x * light.radius, y * light.radius
-            if np.isfinite(u).all() and np.isfinite(v).all():  # a sheared disk's ellipse, drawn by solid angle
+            # A sheared disk's ellipse, drawn by solid angle through its axes; a round or unsheared one kept as it is
+            # (its draws, and so its images, unchanged).
+            if np.isfinite(u).all() and np.isfinite(v).all() and not _right_angled(u, v):
                 u, v = ellipse_axes(np.stack([u, v], axis=-1)[None])[0].T
             n = _emitting_normal(u, v, z)
             L = light.radiance
