@@ -167,6 +167,12 @@ def SkelRoot "{name}" (
 """
 
 
+def replaced_once(body: str, old: str, new: str) -> str:
+    """``body`` with ``old``, which it holds exactly once (else the edit would miss or hit twice), made ``new``."""
+    assert body.count(old) == 1, old
+    return body.replace(old, new)
+
+
 def write(tmp_path, body: str) -> str:
     path = tmp_path / "skinned.usda"
     path.write_text(f'#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 10\n    upAxis = "Y"\n)\n{body}\n')
@@ -247,8 +253,8 @@ def wide_influences(body: str, per_point: int) -> str:
         weights += [0.5 * w for w in joint_weights[k : k + 2]] + [0.05 * (j + 1) for j in range(extra)]
     for name, old, new in (("Indices", joint_indices, indices), ("Weights", joint_weights, weights)):
         text = f"primvars:skel:joint{name} = {fmt(old)} (\n            elementSize = 2"
-        assert body.count(text) == 1
-        body = body.replace(text, f"primvars:skel:joint{name} = {fmt(new)} (\n            elementSize = {per_point}")
+        body = replaced_once(body, text,
+                             f"primvars:skel:joint{name} = {fmt(new)} (\n            elementSize = {per_point}")
     return body
 
 
@@ -259,8 +265,7 @@ def test_skinning_methods_and_influence_counts_match_bake_skinning(tmp_path, cas
     body = skel_root()
     if case == "dualQuaternion":
         old = 'uniform token[] skel:joints = ["root/tip", "root"]'
-        assert body.count(old) == 1
-        body = body.replace(old, f'{old}\n        uniform token skel:skinningMethod = "dualQuaternion"')
+        body = replaced_once(body, old, f'{old}\n        uniform token skel:skinningMethod = "dualQuaternion"')
     else:
         body = wide_influences(body, int(case[0]))
     path = write(tmp_path, body)
@@ -405,9 +410,7 @@ def test_an_inactive_skeleton_leaves_its_meshes_unposed_as_bake_skinning_named_i
     """A deactivated Skeleton poses nothing (BakeSkinning leaves its meshes as authored); the warning said it had
     'no animation or rest transforms for its joints', though it has both."""
     old = 'def Skeleton "Skel" (\n'
-    body = skel_root()
-    assert body.count(old) == 1
-    path = write(tmp_path, body.replace(old, old + "        active = false\n"))
+    path = write(tmp_path, replaced_once(skel_root(), old, old + "        active = false\n"))
     with pytest.warns(UserWarning, match=r"skinning failed.*\(the skeleton /Root/Skel is inactive: 2\): "
                                          r"/Root/Bar, /Root/Rigid$"):
         scene = load_usd(path, time=5.0)
@@ -478,8 +481,7 @@ def test_influences_usd_cannot_read_are_named_and_the_mesh_posed_as_bake_skinnin
     body = skel_root()
     if case in UNUSABLE_INFLUENCES:
         old, new = UNUSABLE_INFLUENCES[case]
-        assert body.count(old) == 1
-        body = body.replace(old, new)
+        body = replaced_once(body, old, new)
     path = write(tmp_path, body)
     if case == "int64[] :indices":
         indexed_influences(path, Sdf.ValueTypeNames.Int64Array)
@@ -982,9 +984,7 @@ def test_a_skeleton_binding_to_no_skeleton_leaves_the_meshes_unposed_named_with_
     """A ``skel:skeleton`` that targets a missing prim, an ``over`` or a prim of another type poses nothing (USD warns
     of the target alone); wrt said nothing. The meshes stay where USD's own transforms put their authored points."""
     old = "rel skel:skeleton = </Root/Skel>"
-    body = skel_root()
-    assert body.count(old) == 1
-    body = body.replace(old, "rel skel:skeleton = " + target.format(root="/Root"))
+    body = replaced_once(skel_root(), old, "rel skel:skeleton = " + target.format(root="/Root"))
     body = body.replace('    def Skeleton "Skel"', '    over "Over"\n    {\n    }\n    def "Typeless"\n    {\n    }\n\n'
                         '    def Skeleton "Skel"', 1)
     path = write(tmp_path, body)
@@ -1011,9 +1011,7 @@ def test_an_animation_source_that_is_no_animation_poses_at_rest_named_with_the_t
     which wrt said nothing (USD warns of a missing target alone, naming no mesh). One warning names the skeleton, the
     target and why."""
     old = "rel skel:animationSource = </Root/Anim>"
-    body = skel_root()
-    assert body.count(old) == 1
-    body = body.replace(old, f"rel skel:animationSource = {target}")
+    body = replaced_once(skel_root(), old, f"rel skel:animationSource = {target}")
     body = body.replace('    def SkelAnimation "Anim"\n',
                         '    over "OverAnim"\n    {\n    }\n    def SkelAnimation "Anim" (\n'
                         + ('        active = false\n' if why == "it is inactive" else "") + '    )\n', 1)
@@ -1043,9 +1041,7 @@ def test_a_blend_shape_target_that_is_no_blend_shape_is_left_out_and_the_mesh_po
     (IndexError), the whole mesh drawn unposed, 6.2 from BakeSkinning's pose. It is left out with a warning naming
     the mesh, the entry and why; the mesh is posed as BakeSkinning poses it."""
     old = "rel skel:blendShapeTargets = </Root/Bar/bulge>"
-    body = skel_root()
-    assert body.count(old) == 1
-    body = body.replace(old, f"rel skel:blendShapeTargets = {targets}")
+    body = replaced_once(skel_root(), old, f"rel skel:blendShapeTargets = {targets}")
     if targets.startswith("["):
         names = 'uniform token[] skel:blendShapes = ["bulge"]\n        rel skel:blendShapeTargets = ['
         body = body.replace(names, names.replace('["bulge"]', '["bulge", "gone"]'))
