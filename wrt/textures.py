@@ -472,7 +472,6 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
         img.tag_v2[PLANAR_CONFIGURATION] = 1
         img._setup()  # (what Pillow runs for each frame it seeks to, from the tags)
     img.getexif().pop(EXIF_ORIENTATION, None)  # what load_end's exif_transpose reads (Pillow keeps this one)
-    img._tile_orientation = None  # what Pillow 9 and 10's load_end turned the pixels by, read from the tag at open
     # Pillow 11+ gives an image of orientation 5 to 8 (a quarter turn) its turned size at open: decoded into it as
     # stored, a 16-bit grey one failed (SystemError: tile cannot extend outside image)
     img._size = (img.tag_v2[IMAGE_WIDTH], img.tag_v2[IMAGE_LENGTH])
@@ -480,32 +479,23 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
     if getattr(img, "use_load_libtiff", False):
         native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile))
         if native is not None:
-            img.tile = [_tile_with(tile, args=(native, *tile[3][1:]))]
+            img.tile = [tile._replace(args=(native, *tile[3][1:]))]
         return
     samples = tiff_samples(data)
     if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.mode in ("RGB", "RGBA") and samples and samples[1] == 16:
         img.use_load_libtiff = True  # what TiffImagePlugin sets for a compressed file, with its one tile below
-        img.tile = [_tile_with(tile, codec_name="libtiff", extents=(0, 0, *img.size), offset=0,
-                               args=_libtiff_args(img, f"{img.mode};16N"))]
+        img.tile = [tile._replace(codec_name="libtiff", extents=(0, 0, *img.size), offset=0,
+                                  args=_libtiff_args(img, f"{img.mode};16N"))]
 
 
 def _libtiff_args(img, rawmode: str) -> tuple:
     """The arguments of Pillow's libtiff decoder tile for TIFF ``img`` read as ``rawmode``, as TiffImagePlugin makes
-    them: Pillow 13 dropped the compression's name from them, which Pillow 9 to 12 take second (without it those
+    them: Pillow 13 dropped the compression's name from them, which Pillow 12 takes second (without it those
     failed: 'function takes exactly 5 arguments (4 given)', every 16-bit RGB TIFF stored plane by plane)."""
     from PIL import __version__ as pillow_version
 
     compression = (img._compression,) if int(pillow_version.split(".")[0]) < 13 else ()
     return (rawmode, *compression, False, img.tag_v2.offset)
-
-
-def _tile_with(tile, **fields):
-    """Pillow decoder tile ``tile`` with ``fields`` (codec_name, extents, offset, args) replaced: a named ``_Tile``, or
-    a plain tuple in older Pillow versions."""
-    if hasattr(tile, "_replace"):
-        return tile._replace(**fields)
-    names = ("codec_name", "extents", "offset", "args")
-    return tuple(fields.get(name, value) for name, value in zip(names, tile))
 
 
 def _tile_rawmode(tile) -> str:
@@ -537,11 +527,8 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     def decode(mode):
         img = PilImage.open(io.BytesIO(data))
         _tiff_decoded_as_stored(img, data)
-        tiles = []
-        for tile in img.tile:  # Pillow's named _Tile (the TIFF reader reads its fields by name), or a plain tuple
-            args = mode if isinstance(tile[3], str) else (mode,) + tuple(tile[3][1:])
-            tiles.append(tile._replace(args=args) if hasattr(tile, "_replace") else tuple(tile[:3]) + (args,))
-        img.tile = tiles
+        # (each tile a named _Tile: the TIFF reader reads its fields by name)
+        img.tile = [tile._replace(args=mode if isinstance(tile[3], str) else (mode, *tile[3][1:])) for tile in img.tile]
         img.load()
         return np.asarray(img, dtype=np.float32)
 
@@ -552,10 +539,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     low = decode(rawmode[:-1] + OTHER_BYTE[rawmode[-1]])
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
     samples = high * 256 + low  # whole numbers, exact in float32
-    # An RGBX TIFF's fourth sample has no stated meaning: no alpha (Pillow 9 and 10 open it as RGBX, and it was read
-    # as alpha; later ones as RGB)
-    channels = 3 if rawmode.startswith("RGBX") else high.shape[2]
-    rgba[..., :channels] = samples[..., :channels] / 65535.0
+    rgba[..., : high.shape[2]] = samples / 65535.0  # (an RGBX TIFF opens as RGB: its fourth sample is no alpha)
     if isinstance(colour_key, tuple) and len(colour_key) == 3:
         rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
     return rgba, COLOUR_CHANNELS
