@@ -208,16 +208,61 @@ def test_compressed_big_endian_grey_tiffs_read_their_samples(tmp_path, dtype, sa
     np.testing.assert_allclose(image[..., 0], samples[..., 0] / full, rtol=1e-6)
 
 
+def straight_colour(samples):
+    """``(H, W, 4)`` float64 RGBA of 16-bit RGBA ``samples`` whose colour is premultiplied by alpha: colour over
+    alpha (0 where alpha is 0, at most 1, as Pillow divides 8-bit ones), alpha over 65535."""
+    samples = np.asarray(samples, np.float64)
+    alpha = samples[..., 3:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        colour = np.where(alpha > 0, np.minimum(samples[..., :3] / alpha, 1.0), 0.0)
+    return np.concatenate([colour, alpha / 65535.0], axis=-1)
+
+
+def premultiplied_samples(rng, shape):
+    """16-bit RGBA samples of colour premultiplied by alpha (rounded down, as stored), with alpha 0, 1 and 65535
+    and a colour over its alpha (which straight colour clamps to 1) among them."""
+    alpha = rng.integers(0, 65536, shape)
+    alpha.flat[:3] = (0, 1, 65535)
+    colour = rng.integers(0, 65536, shape + (3,)) * alpha[..., None] // 65535
+    colour.flat[3 * 4 : 3 * 4 + 3] = (40000, 20, 65535)
+    alpha.flat[4] = 30000  # red 40000 and blue 65535 over an alpha of 30000: read 1
+    return np.concatenate([colour, alpha[..., None]], axis=-1)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
 @pytest.mark.parametrize("deflate", [False, True])
-def test_a_16_bit_tiff_stored_plane_by_plane_reads_linear_within_8_bits(tmp_path, deflate):
-    """A 16-bit RGB TIFF stored plane by plane (PlanarConfiguration 2): Pillow unpacked each uncompressed plane as
-    8-bit samples (0.5 read 0.0003) and a compressed one, which libtiff decodes, to 8 bits then decoded as sRGB
-    under ``auto`` (0.5 read 0.216). libtiff decodes both now; Pillow keeps 8 bits of such planes (README, Known
-    limits), read linear."""
-    samples = np.random.default_rng(9).integers(0, 65536, (3, 5, 3))
-    image = load_image(write_tiff(tmp_path / "p.tif", samples, planar=True, deflate=deflate), "auto")
-    np.testing.assert_allclose(image[..., :3], samples / 65535.0, atol=1.0 / 255)
-    np.testing.assert_array_equal(image[..., 3], 1.0)
+def test_a_16_bit_tiff_of_premultiplied_alpha_reads_straight_colour_at_full_precision(tmp_path, byte_order, deflate):
+    """A 16-bit RGBA TIFF whose colour is premultiplied by alpha (ExtraSamples 1; Pillow's raw mode ``RGBa;16``)
+    reads as its 8-bit kin does (Pillow divides colour by alpha at 8 bits) but at full precision: colour over alpha
+    of the samples written here by the TIFF 6.0 layout, in float64. Pillow divided their high bytes: 0.03 off."""
+    samples = premultiplied_samples(np.random.default_rng(41), (3, 5))
+    path = write_tiff(tmp_path / "a.tif", samples, byte_order, deflate=deflate, extra_sample=1)
+    np.testing.assert_allclose(load_image(path, "auto"), straight_colour(samples), rtol=1e-7, atol=1e-7)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("deflate", [False, True])
+@pytest.mark.parametrize("channels, extra_sample", [(3, None), (4, 2), (4, 1), (4, 0)])
+def test_a_16_bit_tiff_stored_plane_by_plane_is_linear_at_full_precision(tmp_path, byte_order, deflate, channels,
+                                                                          extra_sample):
+    """A 16-bit RGB(A) TIFF stored plane by plane (PlanarConfiguration 2), two strips to a plane: Pillow unpacked
+    each uncompressed plane as 8-bit samples (0.5 read 0.0003), and its libtiff decoder, which wrt then used, keeps
+    the high byte of each plane's samples whatever raw mode it is given (0x1234 read 0x1212). Each plane is read
+    alone now, at full depth; premultiplied colour (ExtraSamples 1) divided by alpha, and a fourth sample of no
+    stated meaning (0) ignored, as when the samples of a pixel lie together."""
+    rng = np.random.default_rng(9)
+    samples = (premultiplied_samples(rng, (3, 5)) if extra_sample == 1
+               else rng.integers(0, 65536, (3, 5, channels)))
+    samples[0, 1, :3] = 0x1234
+    path = write_tiff(tmp_path / "p.tif", samples, byte_order, rows_per_strip=2, deflate=deflate, planar=True,
+                      extra_sample=extra_sample)
+    expected = np.ones((3, 5, 4))
+    expected[..., :channels] = samples / 65535.0
+    if extra_sample == 1:
+        expected = straight_colour(samples)
+    elif extra_sample == 0:
+        expected[..., 3] = 1.0
+    np.testing.assert_allclose(load_image(path, "auto"), expected, rtol=1e-7, atol=1e-7)
 
 
 @pytest.mark.parametrize("dtype, sample_format, byte_order, full", [
@@ -232,20 +277,6 @@ def test_a_grey_tiff_tagged_plane_by_plane_reads_its_samples(tmp_path, dtype, sa
     path = write_tiff(tmp_path / "g.tif", samples, byte_order, rows_per_strip=2, sample_format=sample_format,
                       planar=True)
     np.testing.assert_allclose(load_image(path, "raw")[..., 0], samples[..., 0] / full, atol=1e-6)
-
-
-def test_the_libtiff_tile_of_a_plane_by_plane_tiff_is_made_as_pillow_makes_it(tmp_path):
-    """wrt hands an uncompressed 16-bit TIFF stored plane by plane to Pillow's libtiff decoder with a tile it makes;
-    Pillow makes that tile itself for a compressed file, so the two are alike whatever Pillow's version: Pillow 9 to
-    12 take the compression's name in it, which Pillow 13 dropped, and wrt's tile of 13's form failed on them
-    ('function takes exactly 5 arguments (4 given)', the tests above under Pillow 9.5)."""
-    from PIL import Image as PilImage
-
-    from wrt.textures import _libtiff_args
-
-    img = PilImage.open(write_tiff(tmp_path / "p.tif", np.zeros((2, 3, 3), np.uint16), planar=True, deflate=True))
-    assert img.tile[0][0] == "libtiff"
-    assert _libtiff_args(img, img.tile[0][3][0]) == tuple(img.tile[0][3])
 
 
 @pytest.mark.parametrize("dtype, deflate, orientation, channels", [

@@ -18,7 +18,9 @@ Conventions, stated once:
   (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers decide. Missing channels
   read as grey ``L`` -> ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour),
   as UsdUVTexture reads them; a MaterialX image node takes a file's channels in order instead
-  (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
+  (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8),
+  TIFFs stored plane by plane too. Colour premultiplied by alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, at
+  8 bits by Pillow, at 16 here: every texture holds straight colour, as PNGs do.
 - ``"<transfer> in <primaries>"`` (:data:`PRIMARIES_SEPARATOR`; a MaterialX image's ``acescg`` is ``raw in
   lin_ap1_scene``): decoded by ``<transfer>``, then its colour converted from the linear space of USD colour space
   ``<primaries>`` to linear Rec.709 (:func:`convert_primaries`), once per image at load: lookups are linear in the
@@ -46,7 +48,17 @@ import warp as wp
 
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem, without_unread_chunks
-from .tiff_checks import PLANAR_CONFIGURATION, SAMPLES_PER_PIXEL, SIGNED, UNSIGNED, tiff_sample_layout, tiff_samples
+from .tiff_checks import (
+    ASSOCIATED_ALPHA,
+    EXTRA_SAMPLES,
+    PLANAR_CONFIGURATION,
+    SAMPLES_PER_PIXEL,
+    SIGNED,
+    UNSIGNED,
+    tiff_sample_layout,
+    tiff_samples,
+)
+from .tiff_planes import tiff_plane
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -66,8 +78,10 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 MAX_TEXELS = 2**31  # texels of all a scene's images together: offsets into them are int32 (pack_images)
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
-# (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N; RGBX: a fourth sample of no stated meaning)
-SIXTEEN_BIT_RAWMODES = tuple(f"{mode};16{order}" for mode in ("RGB", "RGBA", "RGBX") for order in "BLN") + ("LA;16B",)
+# (and TIFF colour decoded by libtiff, in the machine's byte order: ;16N; RGBX: a fourth sample of no stated meaning;
+# RGBa: colour premultiplied by alpha, ExtraSamples 1, which Pillow divides by alpha at 8 bits)
+SIXTEEN_BIT_RAWMODES = tuple(f"{mode};16{order}" for mode in ("RGB", "RGBA", "RGBX", "RGBa")
+                             for order in "BLN") + ("LA;16B",)
 OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"}  # raw mode order -> the other byte's
 # Pillow raw modes of a TIFF's grey samples over 8 bits that name the file's byte order -> the machine's (N), for a
 # file libtiff decodes: libtiff hands samples over in the machine's order, and Pillow renames only the ;16B and ;16L
@@ -350,10 +364,13 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 # (60000 x 60000, 10.8 GB of 8-bit RGB) was decoded before pack_images refused it, or ran out of memory
                 raise TextureError(f"cannot read image {name}: it is {img.width} x {img.height} pixels, more than "
                                    "the 2^31 texels wrt's textures hold together")
-            _tiff_decoded_as_stored(img, data)
+            _tiff_decoded_as_stored(img)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
                 _warn_unread_gamma(name, img.info["gamma"])
+            planes = _sixteen_bit_planes(img, data)
+            if planes:  # (TIFFs are linear under auto, as below)
+                return *_read_16bit_planes(data, name, planes, _associated_alpha(img)), False, tagged
             rawmode = _sixteen_bit_rawmode(img)
             if rawmode is not None:
                 # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
@@ -449,20 +466,18 @@ def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | N
     return alpha if alpha.any() else np.full(shape, 255, np.uint8)
 
 
-def _tiff_decoded_as_stored(img, data: bytes) -> None:
-    """Sets TIFF ``img`` (opened by Pillow from file ``data``) to decode its samples as the file stores them.
+def _tiff_decoded_as_stored(img) -> None:
+    """Sets TIFF ``img`` (opened by Pillow) to decode its samples as the file stores them.
 
     Its ``Orientation`` (an EXIF tag, or XMP's) is ignored, as Storm's reader (OpenImageIO's ``read_image``) and wrt
     for a JPEG's EXIF ignore it: Pillow turned the pixels by it as it loaded them, so a TIFF of orientation 3 was
     drawn upside down and mirrored. And the decoder tiles are set right where Pillow's are wrong. libtiff decodes a
     compressed TIFF (LZW, deflate, ...) and hands its samples over in the machine's byte order, where Pillow unpacks
     a big-endian file's signed or float grey in the file's (:data:`LIBTIFF_NATIVE_RAWMODES`): a deflate-compressed
-    big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. And Pillow unpacks each
-    plane of an uncompressed file stored plane by plane (``PlanarConfiguration`` 2) as 8-bit samples: a 16-bit RGB
-    one read 0.0003 for 0.5; libtiff decodes it whole, as it decodes compressed ones (8 bits of each sample:
-    Pillow's libtiff decoder unpacks separate planes so). A compressed 16-bit colour TIFF's raw mode is ``RGB;16N``
-    (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8 bits, and as sRGB under ``auto`` (0.5
-    read 0.216)."""
+    big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. A compressed 16-bit
+    colour TIFF's raw mode is ``RGB;16N`` (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8
+    bits, and as sRGB under ``auto`` (0.5 read 0.216). (A 16-bit colour TIFF stored plane by plane is read plane by
+    plane instead: :func:`_read_16bit_planes`.)"""
     if img.format != "TIFF" or not img.tile:
         return
     if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.tag_v2.get(SAMPLES_PER_PIXEL, 1) == 1:
@@ -476,26 +491,9 @@ def _tiff_decoded_as_stored(img, data: bytes) -> None:
     # stored, a 16-bit grey one failed (SystemError: tile cannot extend outside image)
     img._size = (img.tag_v2[IMAGE_WIDTH], img.tag_v2[IMAGE_LENGTH])
     tile = img.tile[0]
-    if getattr(img, "use_load_libtiff", False):
-        native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile))
-        if native is not None:
-            img.tile = [tile._replace(args=(native, *tile[3][1:]))]
-        return
-    samples = tiff_samples(data)
-    if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.mode in ("RGB", "RGBA") and samples and samples[1] == 16:
-        img.use_load_libtiff = True  # what TiffImagePlugin sets for a compressed file, with its one tile below
-        img.tile = [tile._replace(codec_name="libtiff", extents=(0, 0, *img.size), offset=0,
-                                  args=_libtiff_args(img, f"{img.mode};16N"))]
-
-
-def _libtiff_args(img, rawmode: str) -> tuple:
-    """The arguments of Pillow's libtiff decoder tile for TIFF ``img`` read as ``rawmode``, as TiffImagePlugin makes
-    them: Pillow 13 dropped the compression's name from them, which Pillow 12 takes second (without it those
-    failed: 'function takes exactly 5 arguments (4 given)', every 16-bit RGB TIFF stored plane by plane)."""
-    from PIL import __version__ as pillow_version
-
-    compression = (img._compression,) if int(pillow_version.split(".")[0]) < 13 else ()
-    return (rawmode, *compression, False, img.tag_v2.offset)
+    native = LIBTIFF_NATIVE_RAWMODES.get(_tile_rawmode(tile)) if getattr(img, "use_load_libtiff", False) else None
+    if native is not None:
+        img.tile = [tile._replace(args=(native, *tile[3][1:]))]
 
 
 def _tile_rawmode(tile) -> str:
@@ -526,7 +524,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
 
     def decode(mode):
         img = PilImage.open(io.BytesIO(data))
-        _tiff_decoded_as_stored(img, data)
+        _tiff_decoded_as_stored(img)
         # (each tile a named _Tile: the TIFF reader reads its fields by name)
         img.tile = [tile._replace(args=mode if isinstance(tile[3], str) else (mode, *tile[3][1:])) for tile in img.tile]
         img.load()
@@ -535,14 +533,72 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     if rawmode == "LA;16B":
         b = decode("RGBA")  # bytes: grey high, grey low, alpha high, alpha low
         return _grey_rgba((b[..., 0] * 256 + b[..., 1]) / 65535.0, (b[..., 2] * 256 + b[..., 3]) / 65535.0)
+    premultiplied = rawmode.startswith("RGBa")
+    if premultiplied:  # the samples as stored, divided by alpha below at full precision
+        rawmode = "RGBA" + rawmode[4:]
     high = decode(rawmode)
     low = decode(rawmode[:-1] + OTHER_BYTE[rawmode[-1]])
-    rgba = np.ones(high.shape[:2] + (4,), np.float32)
     samples = high * 256 + low  # whole numbers, exact in float32
-    rgba[..., : high.shape[2]] = samples / 65535.0  # (an RGBX TIFF opens as RGB: its fourth sample is no alpha)
+    rgba = _sixteen_bit_rgba(samples, premultiplied)  # (an RGBX TIFF opens as RGB: its fourth sample is no alpha)
     if isinstance(colour_key, tuple) and len(colour_key) == 3:
         rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
     return rgba, COLOUR_CHANNELS
+
+
+def _sixteen_bit_planes(img, data: bytes) -> int:
+    """How many planes :func:`_read_16bit_planes` reads of ``img``, opened by Pillow from file ``data``: 3 for a
+    16-bit RGB TIFF stored plane by plane (``PlanarConfiguration`` 2; of a fourth sample of no stated meaning too, as
+    Pillow opens it RGB), 4 for RGBA; 0 for any other image."""
+    if img.format != "TIFF" or img.mode not in ("RGB", "RGBA") or img.tag_v2.get(PLANAR_CONFIGURATION, 1) != 2:
+        return 0
+    samples = tiff_samples(data)
+    return len(img.mode) if samples is not None and samples[1] == 16 and samples[0] >= len(img.mode) else 0
+
+
+def _associated_alpha(img) -> bool:
+    """Whether TIFF ``img``'s fourth sample is alpha its colour is premultiplied by (``ExtraSamples`` 1)."""
+    extra = img.tag_v2.get(EXTRA_SAMPLES)
+    extra = extra[0] if isinstance(extra, tuple) and extra else extra
+    return img.mode == "RGBA" and extra == ASSOCIATED_ALPHA
+
+
+def _read_16bit_planes(data: bytes, name: str, planes: int, premultiplied: bool) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``(H, W, 4)`` float32 RGBA of a 16-bit RGB or RGBA TIFF stored plane by plane (file ``data``, named ``name``
+    in an error; ``planes``: 3 or 4, :func:`_sixteen_bit_planes`) at full precision, and the places of its channels
+    (:func:`read_image`); colour divided by alpha where it is ``premultiplied``. Pillow's libtiff decoder unpacks
+    each separate plane to 8 bits (any raw mode it is given): 0x1234 read 0x1212. Each plane is decoded alone, as a
+    16-bit grey TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads
+    at full depth."""
+    from PIL import Image as PilImage
+
+    samples = None
+    for k in range(planes):
+        plane = tiff_plane(data, k)
+        if plane is None:
+            raise TextureError(f"cannot read image {name}: its planes are not laid out as its header says "
+                               "(PlanarConfiguration 2)")
+        img = PilImage.open(io.BytesIO(plane))
+        _tiff_decoded_as_stored(img)
+        img.load()
+        if samples is None:
+            samples = np.empty((img.height, img.width, planes), np.float32)
+        samples[..., k] = np.asarray(img, dtype=np.float32)  # whole numbers, exact in float32
+    return _sixteen_bit_rgba(samples, premultiplied), COLOUR_CHANNELS
+
+
+def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False) -> np.ndarray:
+    """``(H, W, 4)`` float32 RGBA of ``(H, W, 3 or 4)`` 16-bit ``samples`` (whole numbers, as float32), alpha 1 for
+    three. ``premultiplied``: colour stored times alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, 0 where alpha
+    is 0 and at most 1, as Pillow unpremultiplies 8-bit samples (its ``RGBa`` raw mode), so every texture wrt reads
+    holds straight colour: ``c / a`` of the stored whole numbers, one rounding in float32. 16-bit ones were divided
+    at 8 bits, the high bytes of both."""
+    rgba = np.ones(samples.shape[:2] + (4,), np.float32)
+    rgba[..., : samples.shape[2]] = samples / np.float32(65535.0)
+    if premultiplied:
+        alpha = samples[..., 3:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rgba[..., :3] = np.where(alpha > 0, np.minimum(samples[..., :3] / alpha, np.float32(1.0)), np.float32(0))
+    return rgba
 
 
 def _transparent_sample_alpha(img, grey: np.ndarray, scale: int = 1) -> np.ndarray | None:

@@ -17,6 +17,8 @@ TIFF_MAGIC = {b"II*\0": ("<", "I", "H", 4), b"MM\0*": (">", "I", "H", 4),
 SHORT = 3  # TIFF field type of unsigned 16-bit values
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
+EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
+ASSOCIATED_ALPHA = 1  # the ExtraSamples value of alpha the colour is premultiplied by
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
 SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "floating-point"}  # their words
 
