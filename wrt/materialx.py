@@ -68,7 +68,8 @@ them; the colour of other primaries then converted to Rec.709's at load, as USD 
 management, and Storm reads MaterialX's textures raw); ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
-and ``cubic``: bilinear), ``place2d`` and ``UsdTransform2d`` nodes and vector2 math of constants before its
+and ``cubic``: bilinear; these tokens from ``constant`` or ``dot`` string nodes too: :meth:`_Graph._token`),
+``place2d`` and ``UsdTransform2d`` nodes and vector2 math of constants before its
 ``texcoord`` (:meth:`_Graph._texcoord`),
 ``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
@@ -110,7 +111,7 @@ from .materials import (
     refused_constant,
     two_finite_numbers,
 )
-from .materialx_fold import TYPE_SIZES, Folded, Unfoldable, fold
+from .materialx_fold import MAX_DEPTH, TYPE_SIZES, Folded, Unfoldable, fold
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -455,7 +456,7 @@ class _Graph:
         node_id = node.GetShaderId() or ""
         source = self.reader._producer(node, "in") if NORMAL_MAP_NODE.match(node_id) else None
         image_id = (source[1].GetShaderId() or "") if source is not None and source[0] == "shader" else ""
-        space = str(self.reader._constant(node, "space") or "tangent")
+        space = self._token(node, "space", "tangent")
         if not (IMAGE_NODE.match(image_id) and image_id.endswith("_vector3") and space == "tangent"):
             what = f"a {node_id or 'node without info:id'} node ({node.GetPath()})"
             self.notes.append(f"{name} comes from {what}, not a tangent-space normalmap node of a vector3 image; "
@@ -464,7 +465,7 @@ class _Graph:
         _, texture = self._image(source[1], image_id, unauthored_default=np.array([0.5, 0.5, 1.0]))
         if texture is None:
             return None
-        scale = _array(self.reader._constant(node, "scale"), 2)
+        scale = self._folded_constant(node, "scale", 2, "1")
         sx, sy = (1.0, 1.0) if scale is None else scale
         texture.scale = np.array([2.0 * sx, 2.0 * sy, 2.0, 1.0], np.float32)
         texture.bias = np.array([-sx, -sy, -1.0, 0.0], np.float32)
@@ -603,11 +604,57 @@ class _Graph:
                                   "MaterialX's default is used")
         return default
 
+    def _folded_constant(self, node, name: str, size: int, unauthored: str) -> np.ndarray | None:
+        """Input ``name`` of ``node`` as ``size`` numbers (one broadcast): its value (through interface inputs), or
+        the constant the nodes feeding it fold to (:func:`wrt.materialx_fold.fold`: a ``constant`` node, math of
+        constants), as :meth:`_image_default` reads a default; None where it is unauthored, or where its nodes fold to
+        no constant or it is past float32's range (named in a note saying that ``unauthored``, its value unauthored,
+        is used). A normalmap's ``scale`` or a tiledimage's ``uvtiling`` fed by a constant node read as unauthored
+        (1) without a word."""
+        found = self.reader._producer(node, name)
+        if found is None:
+            return None
+        if found[0] == "shader":
+            try:
+                found = ("value", fold(self.reader, found[1], lambda source, source_id: None, output=found[2]).value)
+            except Unfoldable as e:
+                why = f"whose {e.problem}" if e.problem else "which is not supported"
+                self.notes.append(f"{node.GetPath()}: {name} comes from a {e.node.GetShaderId() or 'node'} node "
+                                  f"({e.node.GetPath()}), {why}; {unauthored} is used")
+                return None
+        value = _array(found[1], size)
+        if value is None:
+            self.notes.append(f"{node.GetPath()}: {name} ({_describe(found)}) is no {size} finite numbers; "
+                              f"{unauthored} is used")
+        return value
+
+    def _token(self, node, key: str, unauthored: str) -> str:
+        """String input ``key`` of ``node``: its value (through interface inputs), or that of the ``constant`` (or
+        ``dot``) string nodes feeding it; ``unauthored`` where it has none, or (named in a note) where another node
+        feeds it. MaterialX makes such inputs (address modes, ``filtertype``, ``space``) uniform, connectable to an
+        interface input; a constant node's value fed to one was read as unauthored without a word."""
+        found = self.reader._producer(node, key)
+        for _ in range(MAX_DEPTH):
+            if found is None or found[0] == "value":
+                break
+            source, source_id = found[1], found[1].GetShaderId() or ""
+            port = {"ND_constant_string": "value", "ND_dot_string": "in"}.get(source_id)
+            if port is None:
+                self.notes.append(f"{node.GetPath()}: {key} comes from a {source_id or 'node without info:id'} node "
+                                  f"({source.GetPath()}), not a constant string; it is read as {unauthored!r}")
+                return unauthored
+            found = self.reader._producer(source, port)
+        else:
+            self.notes.append(f"{node.GetPath()}: {key} comes through more than {MAX_DEPTH} nodes; it is read as "
+                              f"{unauthored!r}")
+            return unauthored
+        return (str(found[1]) if found is not None else "") or unauthored
+
     def _address_mode(self, node, key: str, modes: dict) -> str:
         """wrt's wrap mode for image node ``node``'s ``uaddressmode`` or ``vaddressmode`` (``key``; unauthored:
         periodic) by ``modes``; a token MaterialX does not define (UsdUVTexture's ``repeat`` or ``black``) is named in
         a note and read as periodic, as Storm reads it. It was read so without a word."""
-        token = str(self.reader._constant(node, key) or "periodic")
+        token = self._token(node, key, "periodic")
         if token not in modes:
             self.notes.append(f"{node.GetPath()}: {key} {token!r} is none of constant, clamp, periodic or mirror; it "
                               "is read as periodic")
@@ -618,7 +665,7 @@ class _Graph:
         MaterialX and Storm (a nearest sampler) read it; ``linear`` (the default) and ``cubic`` filter bilinearly,
         ``cubic`` named in a note. Another value is noted and read as ``linear``. ``closest`` was filtered
         bilinearly without a word: a pixel-art or id map blended its texels."""
-        token = str(self.reader._constant(node, "filtertype") or "linear")
+        token = self._token(node, "filtertype", "linear")
         if token == "closest":
             return "closest"
         if token == "cubic":
@@ -644,8 +691,8 @@ class _Graph:
         realworldtilesize`` as a 3x3 matrix (column-vector convention, as ``UsdTransform2d``'s)."""
 
         def pair(name, default):
-            value = _array(self.reader._constant(node, name), 2)
-            return np.resize(value, 2) if value is not None else np.array(default, np.float64)
+            value = self._folded_constant(node, name, 2, _format(default))
+            return value if value is not None else np.array(default, np.float64)
 
         tiling, offset = pair("uvtiling", (1, 1)), pair("uvoffset", (0, 0))
         image_size, tile_size = pair("realworldimagesize", (1, 1)), pair("realworldtilesize", (1, 1))
