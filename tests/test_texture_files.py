@@ -772,7 +772,8 @@ def test_a_texture_past_pillows_decompression_bomb_limit_is_read(tmp_path, monke
 def test_textures_read_in_two_threads_put_pillows_limit_back(tmp_path, monkeypatch):
     """Two threads read textures, the first done while the second is still inside Pillow (its open held until then):
     each kept the limit it found, so the second put back the None the first had set, and Pillow's decompression-bomb
-    check stayed off for good. Now the limit the caller had is back after both, and both read their samples."""
+    check stayed off for good. Now the limit the caller had is back after both (and the warning hook and filters),
+    and both read their samples."""
     monkeypatch.setattr(PilImage, "MAX_IMAGE_PIXELS", 10)
     samples = np.random.default_rng(32).integers(0, 256, (7, 11, 3))
     path = tmp_path / "large.png"
@@ -798,12 +799,16 @@ def test_textures_read_in_two_threads_put_pillows_limit_back(tmp_path, monkeypat
             first_done.set()
 
     monkeypatch.setattr(PilImage, "open", open_in_turn)
+    hook, filters = warnings.showwarning, list(warnings.filters)
     threads = [threading.Thread(target=reader, name=name) for name in ("first", "second")]
     for thread in threads:
         thread.start()
     for thread in threads:
         thread.join(30)
     assert PilImage.MAX_IMAGE_PIXELS == 10
+    # The warning hook and filters the reads put in place for Pillow's warnings are taken away as the limit is: a
+    # hook kept by each read would leave the first's recorder in place, every later warning recorded, never shown.
+    assert warnings.showwarning is hook and warnings.filters == filters
     for name in ("first", "second"):
         np.testing.assert_allclose(read[name][..., :3], samples / 255, atol=1e-6)
 
@@ -825,3 +830,65 @@ def test_a_png_whose_text_or_icc_chunk_expands_past_a_megabyte_is_read(tmp_path,
         warnings.simplefilter("error")
         pixels = load_image(str(path), "auto")
     np.testing.assert_allclose(pixels[..., :3], samples / (2**depth - 1), atol=1e-6)
+
+
+def with_a_tag_past_the_end(path):
+    """TIFF ``path`` (little-endian, as :func:`write_tiff` writes it) given an ImageDescription (tag 270, 5000 ASCII
+    bytes) whose offset points past the file's end: its one directory copied to the end with the entry added
+    (TIFF 6.0: entries in ascending order of tag) and the header pointed at the copy. Pillow skips the tag and warns,
+    naming no file ("Tag data larger than file. Skipping tag 270")."""
+    data = bytearray(open(path, "rb").read())
+    (directory,) = struct.unpack_from("<I", data, 4)
+    (count,) = struct.unpack_from("<H", data, directory)
+    entries = [bytes(data[directory + 2 + 12 * k : directory + 14 + 12 * k]) for k in range(count)]
+    entries.append(struct.pack("<HHII", 270, 2, 5000, 1 << 30))
+    entries.sort(key=lambda e: struct.unpack("<H", e[:2]))
+    at = len(data) + len(data) % 2  # a directory starts on a word boundary
+    data += bytes(at - len(data)) + struct.pack("<H", len(entries)) + b"".join(entries) + bytes(4)
+    struct.pack_into("<I", data, 4, at)
+    open(path, "wb").write(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_pillows_warning_on_a_texture_names_the_file_and_the_shader_once(tmp_path, dtype):
+    """Pillow's warnings while it opens a texture ("Tag data larger than file. Skipping tag 270" of a damaged TIFF
+    tag) named no file, and none the shader reading it; a 16-bit TIFF, opened once per byte, gave it three times.
+    Now one warning names the file and the shader, with Pillow's words, and the samples read as written."""
+    samples = np.random.default_rng(43).integers(0, np.iinfo(dtype).max, (2, 3, 3)).astype(dtype)
+    tif = with_a_tag_past_the_end(write_tiff(tmp_path / "tagged.tif", samples, rows_per_strip=2))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(textured_stage(tmp_path, tif, color_space="raw"))
+    messages = [str(w.message) for w in caught]
+    (message,) = [m for m in messages if "Skipping tag 270" in m]
+    assert "tagged.tif: Pillow warned while reading it: Tag data larger than file" in message, message
+    assert message.endswith("/Looks/Tex/Image"), message
+    np.testing.assert_allclose(scene.textures[0][..., :3], samples / np.iinfo(dtype).max, atol=1e-6)
+    with pytest.warns(wrt.textures.TextureWarning, match=r"image .*tagged\.tif: Pillow warned") as direct:
+        load_image(tif, "raw")
+    assert len([w for w in direct if "Skipping tag 270" in str(w.message)]) == 1
+
+
+def test_pillows_warning_on_a_light_texture_names_the_file_and_the_light(tmp_path):
+    """A light's texture alike: the warning names the file and the light."""
+    samples = np.full((2, 4, 3), 200, np.uint8)
+    with_a_tag_past_the_end(write_tiff(tmp_path / "sky.tif", samples, rows_per_strip=2))
+    (tmp_path / "dome.usda").write_text('#usda 1.0\ndef DomeLight "Dome"\n{\n'
+                                        '    asset inputs:texture:file = @sky.tif@\n}\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(tmp_path / "dome.usda")
+    (message,) = [str(w.message) for w in caught if "Skipping tag 270" in str(w.message)]
+    assert "sky.tif: Pillow warned while reading it" in message and message.endswith(": /Dome"), message
+
+
+def test_an_undecoded_png_gamma_names_the_shader_too(tmp_path):
+    """wrt's own warning of a PNG ``gAMA`` that ``auto`` does not decode named the file alone; read by a shader it
+    names the shader too, as the other warnings of a texture file do."""
+    path = write_png_with_chunks(tmp_path / "odd.png", [[0, 128, 255]], [(b"gAMA", struct.pack(">I", 22000))])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(textured_stage(tmp_path, path))
+    (message,) = [str(w.message) for w in caught if "gAMA" in str(w.message)]
+    assert "odd.png: PNG gAMA 0.22 is neither sRGB's" in message and message.endswith("/Looks/Tex/Image"), message

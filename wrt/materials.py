@@ -1000,6 +1000,8 @@ class MaterialReader:
         # (resolved path, colour space) -> (reason, detail) of what a file's read found wrong: told again with each
         # shader that names the file, as a fresh read of that shader would tell it
         self._file_problems: dict[tuple[str, str], tuple[str, str | None]] = {}
+        # the same key -> what the read warned of (a Pillow warning, a PNG gamma not decoded), told with each shader
+        self._file_notes: dict[tuple[str, str], list[str]] = {}
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
         self._udim_files: dict[tuple, list] = {}  # the same key -> the _images keys of its tiles' files
 
@@ -1977,8 +1979,9 @@ class MaterialReader:
         file_key = (resolved, color_space)
         key = file_key if layout == "preview" else file_key + (layout,)
         if key not in self._images:
+            told = []  # what the read warned of (TextureWarning words): told with each shader, as problems are
             try:
-                pixels, channels = self._file_pixels(resolved, color_space)
+                pixels, channels = self._file_pixels(resolved, color_space, told.append)
             except TextureError as e:
                 self._file_problems[file_key] = (f"texture {authored}: {e}; the texture's fallback value is used",
                                                  None)
@@ -1991,13 +1994,15 @@ class MaterialReader:
                     self._file_problems[file_key] = (f"texture {authored}: texels that are NaN or infinite were "
                                                      "changed (NaN read as 0, infinite ones as the image's largest "
                                                      "stored value)", unpacked)
+            if told:
+                self._file_notes[file_key] = [f"texture {authored}: {words}" for words in dict.fromkeys(told)]
         self._tell_file_problem(file_key, prim)
         return self._images[key]
 
-    def _file_pixels(self, resolved: str, color_space: str) -> tuple[np.ndarray, tuple[int, ...]]:
+    def _file_pixels(self, resolved: str, color_space: str, warn=None) -> tuple[np.ndarray, tuple[int, ...]]:
         """:func:`wrt.textures.read_image` of the file: the pixels of a read of it already in :attr:`textures` (a
         MaterialX read of a colour file is its pixels), else decoded, through the memo where there is one (its
-        pixels kept while the file keeps its stamp, and their channels beside them)."""
+        pixels kept while the file keeps its stamp, and their channels beside them); ``warn``: ``read_image``'s."""
         file_key = (resolved, color_space)
         channels = self._channels.get(file_key)
         if channels is not None:
@@ -2005,19 +2010,19 @@ class MaterialReader:
                 if same and self._images.get(key, -1) >= 0:
                     return self.textures[self._images[key]], channels
         if self.memo is None:
-            pixels, channels = read_image(resolved, color_space)
+            pixels, channels = read_image(resolved, color_space, warn)
         else:
             decoded = []
 
             def load(path, space):
-                pixels, channels = read_image(path, space)
+                pixels, channels = read_image(path, space, warn)
                 decoded.append(channels)
                 return pixels
 
             pixels = self.memo.image(resolved, color_space, load)
             # Kept pixels decoded by a light (wrt.usd_lights.LightTextures) have no channels kept: read again.
             kept = self.memo.derived(resolved, color_space, pixels, "channels", lambda: np.array(
-                decoded[0] if decoded else read_image(resolved, color_space)[1]))
+                decoded[0] if decoded else read_image(resolved, color_space, warn)[1]))
             channels = tuple(int(c) for c in kept)
         self._channels[file_key] = channels
         return pixels, channels
@@ -2058,6 +2063,8 @@ class MaterialReader:
         problem = self._file_problems.get(key)
         if problem is not None:
             self.skip(problem[0], prim, problem[1])
+        for note in self._file_notes.get(key, ()):
+            self.skip(note, prim)
 
 
 # Files whose decoded texels lie in [0, 1] (8- or 16-bit integers): not scanned (a 4k texture at every kept frame).

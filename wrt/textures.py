@@ -111,6 +111,16 @@ class TextureError(ValueError):
     """An image file cannot be read."""
 
 
+class TextureWarning(UserWarning):
+    """Something the read of an image file went on past (a warning of Pillow's, a PNG gamma that is not decoded): its
+    message names the file; ``words`` says what without the file's name, for the readers that name the file and the
+    shader or light reading it (:func:`read_image`'s ``warn``)."""
+
+    def __init__(self, message: str, words: str):
+        super().__init__(message)
+        self.words = words  # the message without the file's name
+
+
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     """The inverse sRGB transfer function (IEC 61966-2-1), negatives on its linear segment, as MaterialX's
     ``srgb_texture`` transform takes them: the power's base is ``max(x + 0.055, 0)``, as there, so that the power
@@ -173,20 +183,25 @@ def read_asset_bytes(resolved_path: str) -> bytes:
     return b"" if buffer is None else bytes(buffer)
 
 
-def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
-    """Reads an image into ``(H, W, 4)`` float32 linear RGBA (see the module docstring for ``color_space``).
+def load_image(resolved_path: str, color_space: str = "auto", warn=None) -> np.ndarray:
+    """Reads an image into ``(H, W, 4)`` float32 linear RGBA (see the module docstring for ``color_space``;
+    ``warn``: :func:`read_image`'s).
 
     Raises:
         TextureError: the file is missing or no reader understands it.
     """
-    return read_image(resolved_path, color_space)[0]
+    return read_image(resolved_path, color_space, warn)[0]
 
 
-def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarray, tuple[int, ...]]:
+def read_image(resolved_path: str, color_space: str = "auto", warn=None) -> tuple[np.ndarray, tuple[int, ...]]:
     """:func:`load_image`'s pixels and the RGBA places of the file's channels, in the file's order: grey
     :data:`GREY_CHANNELS`, grey + alpha :data:`GREY_ALPHA_CHANNELS` (an EXR of two channels too, ``R G`` read as
     grey + alpha), colour :data:`COLOUR_CHANNELS` (an EXR's colour channels where it has them: ``R G A`` is
-    ``(0, 1, 3)``). :func:`materialx_texels` lays them out as a MaterialX image node reads them."""
+    ``(0, 1, 3)``). :func:`materialx_texels` lays them out as a MaterialX image node reads them.
+
+    ``warn``: called with the ``words`` of each :class:`TextureWarning` about the file (once each), where a reader
+    names the file and what reads it; None: each is warned, naming the file. Pillow's own warnings (of a damaged
+    tag, corrupt EXIF data) are among them: they named no file."""
     try:
         data = read_asset_bytes(resolved_path)
     except TextureError:
@@ -203,7 +218,8 @@ def read_image(resolved_path: str, color_space: str = "auto") -> tuple[np.ndarra
     elif name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
         (rgba, channels), auto_srgb = _read_exr(data, resolved_path), False
     else:
-        rgba, channels, auto_srgb = _read_pillow(data, resolved_path, color_space == "auto")
+        with _warnings_told(resolved_path, warn):
+            rgba, channels, auto_srgb = _read_pillow(data, resolved_path, color_space == "auto")
     transfer, primaries = split_color_space(color_space)
     decode = decode_curve(("sRGB" if auto_srgb else "raw") if color_space == "auto" else transfer)
     if rgba.dtype == np.uint8:
@@ -309,10 +325,81 @@ def _warn_unread_gamma(name: str, gamma: float) -> None:
     """Names a PNG whose ``gAMA`` (``gamma``) is neither sRGB's nor linear, which ``auto`` does not decode: its
     samples are then read by the guess from their type, as Storm's reader reads them after its own warning
     ("Unsupported gamma encoding"). A map saved with gamma 1/1.8 was read so without a word."""
-    warnings.warn(f"PNG {name}: gAMA {gamma:.5g} is neither sRGB's 1/2.2 nor linear 1 (within 0.1, as Storm's "
-                  "reader reads it) and is not decoded; sourceColorSpace auto reads the file as for no gamma (sRGB "
-                  "for 8-bit colour, else as stored), as Storm does; author sourceColorSpace to say which",
-                  stacklevel=4)
+    words = (f"gAMA {gamma:.5g} is neither sRGB's 1/2.2 nor linear 1 (within 0.1, as Storm's reader reads it) and is "
+             "not decoded; sourceColorSpace auto reads the file as for no gamma (sRGB for 8-bit colour, else as "
+             "stored), as Storm does; author sourceColorSpace to say which")
+    warnings.warn(TextureWarning(f"PNG {name}: {words}", f"PNG {words}"), stacklevel=4)
+
+
+# Warnings given while textures are read (_warnings_told): the readers inside, the hook and filters put in place by
+# the first in and taken away by the last out, and the record of each thread reading (thread id -> warnings). Each
+# read kept its own (warnings.catch_warnings): reads in two threads ending in the order they began left the first's
+# recorder as the process's hook for good, every later warning of the process recorded into it and never shown.
+_WARNING_CAPTURE = {"lock": threading.Lock(), "readers": 0, "hook": None, "filters": (), "records": {}}
+
+
+def _record_warning(message, category, filename, lineno, file=None, line=None):
+    """``warnings.showwarning`` while textures are read: a warning given in a thread reading one is recorded for that
+    read, any other shown by the hook there was before."""
+    record = _WARNING_CAPTURE["records"].get(threading.get_ident())
+    if record is None:
+        _WARNING_CAPTURE["hook"](message, category, filename, lineno, file, line)
+    else:
+        record.append(warnings.WarningMessage(message, category, filename, lineno, file, line))
+
+
+@contextlib.contextmanager
+def _warnings_told(name: str, warn=None):
+    """Tells the warnings of Pillow (given from its modules) and the :class:`TextureWarning` ones given while file
+    ``name`` is read in this thread, once each, through ``warn`` (:func:`read_image`'s), else as warnings naming the
+    file; others are warned again as they were. Pillow's name no file ("Tag data larger than file. Skipping tag
+    270"), and a 16-bit file, which Pillow opens once per byte, gave each two or three times. While any thread reads
+    a texture, those two kinds are shown every time (not once per place), in other threads too."""
+    capture, ident = _WARNING_CAPTURE, threading.get_ident()
+    with capture["lock"]:
+        if not capture["readers"]:
+            capture["hook"] = warnings.showwarning
+            warnings.filterwarnings("always", category=TextureWarning)
+            warnings.filterwarnings("always", module=r"PIL\.")
+            capture["filters"] = tuple(warnings.filters[:2])
+            warnings.showwarning = _record_warning
+        capture["readers"] += 1
+        outer = capture["records"].get(ident)  # (a read inside a read of this thread: its own record)
+        capture["records"][ident] = caught = []
+    try:
+        yield
+    finally:
+        with capture["lock"]:
+            if outer is None:
+                del capture["records"][ident]
+            else:
+                capture["records"][ident] = outer
+            capture["readers"] -= 1
+            if not capture["readers"]:
+                warnings.showwarning = capture["hook"]
+                for entry in capture["filters"]:
+                    if entry in warnings.filters:
+                        warnings.filters.remove(entry)
+                getattr(warnings, "_filters_mutated", lambda: None)()  # (as catch_warnings tells the C module)
+        _tell(name, caught, warn)
+
+
+def _tell(name: str, caught: list, warn=None) -> None:
+    """:func:`_warnings_told`'s telling of the warnings ``caught`` while file ``name`` was read."""
+    told = set()
+    for w in caught:
+        ours = isinstance(w.message, TextureWarning)
+        if not ours and "PIL" not in w.filename.replace("\\", "/").split("/"):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        words = w.message.words if ours else f"Pillow warned while reading it: {w.message}"
+        if words in told:
+            continue
+        told.add(words)
+        if warn is not None:
+            warn(words)
+        else:
+            warnings.warn(w.message if ours else TextureWarning(f"image {name}: {words}", words), stacklevel=5)
 
 
 # Pillow's decompression-bomb limit, lifted while textures are read (_pillow_size_limit_lifted): the readers inside

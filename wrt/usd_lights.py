@@ -190,6 +190,7 @@ class LightTextures:
         self.latlongs = {}  # (resolved path, layout) -> the lat-long image of a dome's texture, for this load
         self.dark = {}  # resolved path -> what of its colour cannot be emitted ("" for none), counted once per load
         self.profiles = {}  # resolved path -> its IES profile (or the IesError reading it), read once per load
+        self.notes = {}  # (resolved path, colour space) -> what its read warned of (TextureWarning words)
 
     def latlong(self, resolved: str, image, fmt: str):
         """The lat-long image of ``image`` (:meth:`load` of ``resolved``) laid out as ``fmt``
@@ -208,14 +209,20 @@ class LightTextures:
 
     def load(self, resolved: str, color_space: str = "auto"):
         """The image at ``resolved`` (:func:`wrt.textures.load_image`); raises its ``TextureError`` again for a
-        file that could not be read."""
+        file that could not be read. What the read warned of is kept in :attr:`notes`, for each light reading the
+        file to name."""
         from .textures import TextureError, load_image
 
         key = (resolved, color_space)
         if key not in self.memory:
+            told = self.notes.setdefault(key, [])
+
+            def read(path, space):
+                return load_image(path, space, told.append)
+
             try:
-                self.memory[key] = load_image(resolved, color_space) if self.kept is None else self.kept.image(
-                    resolved, color_space, load_image)
+                self.memory[key] = read(resolved, color_space) if self.kept is None else self.kept.image(
+                    resolved, color_space, read)
             except TextureError as e:
                 self.memory[key] = e
         found = self.memory[key]
@@ -767,6 +774,10 @@ def _read_texture(prim, asset, kind: str, skip, textures: LightTextures):
         image = textures.load(resolved)
     except TextureError as e:
         skip(f"{kind} texture: {e}; the light's colour is used", prim)
+        image = None
+    for words in dict.fromkeys(textures.notes.get((resolved, "auto"), ())):  # (Pillow's words, which name no file)
+        skip(f"{kind} texture {resolved}: {words}", prim)
+    if image is None:
         return None, ""
     attr = prim.GetAttribute("inputs:texture:file")
     if attr and attr.HasColorSpace() and str(attr.GetColorSpace()):
