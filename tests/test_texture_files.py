@@ -265,6 +265,44 @@ def test_a_16_bit_tiff_stored_plane_by_plane_is_linear_at_full_precision(tmp_pat
     np.testing.assert_allclose(load_image(path, "auto"), expected, rtol=1e-7, atol=1e-7)
 
 
+def write_tiled_planar_tiff(path, samples, tile=16):
+    """A little-endian 16-bit RGBA TIFF of ``samples`` (``(H, W, 4)`` uint16) in deflated ``tile`` x ``tile`` tiles
+    (TIFF 6.0 section 15: TileWidth, TileLength, TileOffsets, TileByteCounts; tiles past the image's edge padded),
+    plane by plane: every tile of red, then of green, ..."""
+    h, w, c = samples.shape
+    tiles = []
+    for k in range(c):
+        for y in range(0, h, tile):
+            for x in range(0, w, tile):
+                padded = np.zeros((tile, tile), "<u2")
+                part = samples[y : y + tile, x : x + tile, k]
+                padded[: part.shape[0], : part.shape[1]] = part
+                tiles.append(zlib.compress(padded.tobytes()))
+    n = len(tiles)
+    tags = [(256, 4, 1, w), (257, 4, 1, h), (258, 3, c, "bits"), (259, 3, 1, 8), (262, 3, 1, 2), (277, 3, 1, c),
+            (284, 3, 1, 2), (322, 3, 1, tile), (323, 3, 1, tile), (324, 4, n, "offsets"), (325, 4, n, "counts"),
+            (338, 3, 1, 2)]
+    bits_at = 8 + 2 + 12 * len(tags) + 4  # after the header and the one directory
+    at = {"bits": bits_at, "offsets": bits_at + 2 * c, "counts": bits_at + 2 * c + 4 * n}
+    pixels_at = at["counts"] + 4 * n
+    starts = np.cumsum([pixels_at] + [len(t) for t in tiles[:-1]])
+    entries = b"".join(struct.pack("<HHI", tag, kind, count) + (struct.pack("<I", at[value]) if isinstance(value, str)
+                       else struct.pack("<HH" if kind == 3 else "<I", value, *([0] if kind == 3 else [])))
+                       for tag, kind, count, value in tags)
+    data = b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4) + struct.pack(f"<{c}H", *[16] * c)
+    data += struct.pack(f"<{n}I", *starts) + struct.pack(f"<{n}I", *map(len, tiles)) + b"".join(tiles)
+    path.write_bytes(data)
+    return str(path)
+
+
+def test_a_tiled_16_bit_tiff_stored_plane_by_plane_is_read_at_full_precision(tmp_path):
+    """A tiled TIFF stored plane by plane (2 x 2 deflated tiles of 16 x 16 per plane, cut at the edges): each plane's
+    tiles are read as a TIFF of its own, at full depth (it kept the high byte of each sample)."""
+    samples = np.random.default_rng(47).integers(0, 65536, (20, 18, 4)).astype(np.uint16)
+    image = load_image(write_tiled_planar_tiff(tmp_path / "tiled.tif", samples), "raw")
+    np.testing.assert_allclose(image, samples / 65535.0, rtol=1e-7, atol=1e-7)
+
+
 @pytest.mark.parametrize("dtype, sample_format, byte_order, full", [
     (np.uint16, None, "<", 65535.0), (np.int16, 2, "<", 32767.0), (np.float32, 3, ">", 1.0),
     (np.int32, 2, ">", 2**31 - 1)])
@@ -279,10 +317,11 @@ def test_a_grey_tiff_tagged_plane_by_plane_reads_its_samples(tmp_path, dtype, sa
     np.testing.assert_allclose(load_image(path, "raw")[..., 0], samples[..., 0] / full, atol=1e-6)
 
 
-@pytest.mark.parametrize("dtype, deflate, orientation, channels", [
-    (np.uint8, False, 3, 3), (np.uint16, False, 3, 3), (np.uint16, True, 3, 3),
-    (np.uint8, False, 6, 3), (np.uint16, False, 6, 3), (np.uint16, True, 8, 3), (np.uint16, False, 5, 1)])
-def test_tiff_orientation_is_ignored(tmp_path, dtype, deflate, orientation, channels):
+@pytest.mark.parametrize("dtype, deflate, orientation, channels, planar", [
+    (np.uint8, False, 3, 3, False), (np.uint16, False, 3, 3, False), (np.uint16, True, 3, 3, False),
+    (np.uint8, False, 6, 3, False), (np.uint16, False, 6, 3, False), (np.uint16, True, 8, 3, False),
+    (np.uint16, False, 5, 1, False), (np.uint16, False, 3, 3, True), (np.uint16, True, 6, 3, True)])
+def test_tiff_orientation_is_ignored(tmp_path, dtype, deflate, orientation, channels, planar):
     """Storm's TIFF reader (OpenImageIO's read_image) hands the pixels over as stored, whatever the file's
     Orientation tag, as Storm's JPEG reader ignores EXIF orientation (test_jpeg_exif_orientation_is_ignored). Pillow
     turned the pixels by it as it loaded them: orientation 3 (a half turn) drew the texture upside down and
@@ -290,7 +329,8 @@ def test_tiff_orientation_is_ignored(tmp_path, dtype, deflate, orientation, chan
     a 16-bit one decoded as stored into it failed (SystemError: tile cannot extend outside image)."""
     full = np.iinfo(dtype).max
     samples = np.random.default_rng(11).integers(0, full, (3, 4, channels)).astype(dtype)
-    image = load_image(write_tiff(tmp_path / "o.tif", samples, deflate=deflate, orientation=orientation), "raw")
+    image = load_image(write_tiff(tmp_path / "o.tif", samples, deflate=deflate, orientation=orientation,
+                                  planar=planar), "raw")  # (planar: each plane read as a TIFF of its own)
     np.testing.assert_allclose(image[..., :3], np.broadcast_to(samples / full, (3, 4, 3)), atol=1e-7)
 
 
