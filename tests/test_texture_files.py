@@ -303,6 +303,22 @@ def test_a_tiled_16_bit_tiff_stored_plane_by_plane_is_read_at_full_precision(tmp
     np.testing.assert_allclose(image, samples / 65535.0, rtol=1e-7, atol=1e-7)
 
 
+def test_a_planar_tiff_whose_bits_per_sample_lie_past_its_end_has_no_plane():
+    """``tiff_plane`` answers None for a directory cut short, as its docstring says: here the BitsPerSample array
+    (three SHORTs, stored at an offset) points a megabyte past the end of a 146-byte file (it raised struct.error)."""
+    from wrt.tiff_planes import tiff_plane
+
+    tags = [(256, 3, 1, 2), (257, 3, 1, 2), (258, 3, 3, 10**6), (259, 3, 1, 1), (262, 3, 1, 2), (273, 4, 3, 122),
+            (277, 3, 1, 3), (279, 4, 3, 134), (284, 3, 1, 2)]
+    entries = b"".join(struct.pack("<HHI", tag, kind, count) + (struct.pack("<HH", value, 0) if count == 1
+                                                                else struct.pack("<I", value))
+                       for tag, kind, count, value in tags)
+    data = b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4)
+    data += struct.pack("<3I", 0, 0, 0) + struct.pack("<3I", 8, 8, 8)  # strip offsets at 122, byte counts at 134
+    assert len(data) == 146
+    assert tiff_plane(data, 0) is None
+
+
 @pytest.mark.parametrize("dtype, sample_format, byte_order, full", [
     (np.uint16, None, "<", 65535.0), (np.int16, 2, "<", 32767.0), (np.float32, 3, ">", 1.0),
     (np.int32, 2, ">", 2**31 - 1)])

@@ -52,6 +52,8 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         planar = _first_value(data, order, offset, inline, entries.get(PLANAR_CONFIGURATION), 1)
         located = TILE_TAGS if TILE_TAGS[0] in entries else STRIP_TAGS
         starts, sizes = (_values(data, order, offset, inline, entries.get(tag)) for tag in located)
+        bits = _first_value(data, order, offset, inline, entries.get(BITS_PER_SAMPLE), 1)
+        sample_format = _first_value(data, order, offset, inline, entries.get(SAMPLE_FORMAT), 1)
     except struct.error:
         return None
     if planar != 2 or not 0 <= plane < samples or len(starts) != len(sizes) or len(starts) % samples:
@@ -72,13 +74,11 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         return kind, len(values), packed.ljust(inline, b"\0")
 
     new = {tag: value for tag, value in entries.items() if tag not in PER_SAMPLE_TAGS}
-    bits = _first_value(data, order, offset, inline, entries.get(BITS_PER_SAMPLE), 1)
     for tag, value in ((BITS_PER_SAMPLE, bits), (SAMPLES_PER_PIXEL, 1), (PHOTOMETRIC, BLACK_IS_ZERO),
                        (PLANAR_CONFIGURATION, 1)):
         new[tag] = value_field(SHORT, "H", [value])
     if SAMPLE_FORMAT in entries:
-        new[SAMPLE_FORMAT] = value_field(SHORT, "H", [_first_value(data, order, offset, inline,
-                                                                   entries[SAMPLE_FORMAT], 1)])
+        new[SAMPLE_FORMAT] = value_field(SHORT, "H", [sample_format])
     part = slice(plane * per_plane, (plane + 1) * per_plane)
     new[located[0]] = value_field(value_type, value_code, starts[part])
     new[located[1]] = value_field(value_type, value_code, sizes[part])
