@@ -248,3 +248,40 @@ def test_a_triangle_over_a_missing_tile_between_its_points_is_sampled():
                  Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
     pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK]))
     assert pmf[0] > 0.0
+
+
+def held_bytes(read) -> int:
+    """The bytes of the arrays ``read`` (what :func:`wrt.sampled_emission.sampled_emission` returned) holds."""
+    if isinstance(read, np.ndarray):
+        return read.nbytes
+    return sum(v.nbytes for v in vars(read).values() if isinstance(v, np.ndarray))
+
+
+def test_only_the_textured_emitters_rows_are_held():
+    """A floor of 20,000 triangles that do not glow under a lamp of two triangles with an emission texture of
+    constant 2: what the render keeps of the emission read on triangles (with the scene, for its life) is the lamp's
+    two rows, each the texture's 2, not a float64 row per triangle of the scene (480 kB here, 24 MB per million
+    triangles); the light table draws the two lamp triangles alike, and nothing else."""
+    from wrt.render import shading_data
+    from wrt.sampled_emission import sampled_emission
+
+    n = 100
+    xs = np.linspace(-5.0, 5.0, n + 1)
+    gx, gy = np.meshgrid(xs, xs)
+    corner = (np.arange(n)[:, None] * (n + 1) + np.arange(n)).ravel()
+    floor = wrt.Mesh("/floor", np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1),
+                     np.concatenate([np.stack([corner, corner + 1, corner + n + 2], 1),
+                                     np.stack([corner, corner + n + 2, corner + n + 1], 1)]),
+                     np.arange(2 * n * n), material_ids=np.ones(2 * n * n, np.int32))
+    lamp = quad((0, 0, HEIGHT), (1, 0, 0), (0, 1, 0), name="/lamp", material=0)
+    lamp.uvs = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]])[np.array([[0, 1, 2], [0, 2, 3]])]
+    scene = wrt.Scene(meshes=[floor, lamp], materials=[
+        Material(path="/Glow", textures={"emissiveColor": TextureInput(image=0)}), Material(path="/White")],
+        textures=[np.full((4, 4, 4), 2.0, np.float32)])
+    mats, uvs, _, _, emission, _ = shading_data(scene, "cpu")
+    rows = scene.triangle_materials()
+    read = sampled_emission(mats, uvs, rows, emission, np.array([False, True, False]), "cpu")
+    lamp_rows = np.flatnonzero(rows == 1)
+    assert len(lamp_rows) == 2 and held_bytes(read) <= len(lamp_rows) * 4 * 8
+    np.testing.assert_allclose(read.over(lamp_rows, np.zeros((2, 3))), 2.0, rtol=1e-6)
+    np.testing.assert_array_equal(triangle_pmf(scene)[lamp_rows], [0.5, 0.5])

@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from .primitives import SHAPE_KINDS, Shape, local_boxes, tessellate
+from .sampled_emission import SampledEmission
 
 # Largest departure of A^T A from s^2 I, over s^2, for a sphere's world transform (linear part A) to count as a
 # similarity: float32 transforms of Points widths round near 1e-7.
@@ -278,14 +279,15 @@ def _areas(spheres: np.ndarray, axes: np.ndarray, tapers: np.ndarray) -> np.ndar
                      [side, side + caps, side + 4.0 * math.pi * r * r, cone + zones], 4.0 * math.pi * r * r)
 
 
-def glowing_spheres(scene, glow: np.ndarray, cap: int, shape_glow: np.ndarray | None = None) -> GlowingSpheres:
+def glowing_spheres(scene, glow: np.ndarray, cap: int, read: SampledEmission | None = None) -> GlowingSpheres:
     """The :class:`GlowingSpheres` of ``scene`` (``glow``: per device material the luminance of its emission
-    estimate; ``shape_glow``, where given, per row of ``scene.triangle_materials()`` instead: a textured glow read at
-    the shape's ``st``, :func:`wrt.sampled_emission.sampled_emission`), at most ``cap`` rows of instances."""
+    estimate; ``read``, where given, that of the rows of ``scene.triangle_materials()`` it holds instead: a
+    textured glow read at the shape's ``st``, :meth:`wrt.sampled_emission.SampledEmission.luminance`), at most ``cap``
+    rows of instances."""
     materials = scene.triangle_materials()
 
     def glow_of(rows):
-        return glow[materials[rows]] if shape_glow is None else shape_glow[rows]
+        return glow[materials[rows]] if read is None else read.over(rows, glow[materials[rows]])
 
     first_shape = scene.num_geometry_triangles
     ids, insts, spheres, axes, tapers, slots = [], [], [], [], [], []

@@ -50,6 +50,7 @@ from .lights import (
     shadow_api_row,
 )
 from .radiance_scale import radiance_scale
+from .sampled_emission import SampledEmission
 from .scene import DistantLight
 
 
@@ -187,17 +188,18 @@ class UnsampledEmitters:
 
 class _TriangleEmission:
     """The emission estimate of each triangle: its material's row of ``materials_emission`` (``(M, 3)``, per device
-    material), or where given its row of ``triangle_emission`` (``(T, 3)``, per triangle: a textured emitter's
-    triangles read on themselves, :func:`wrt.sampled_emission.sampled_emission`); ``tri_materials`` ``(T,)``."""
+    material), or where given its row of ``sampled`` (a textured emitter's triangles read on themselves,
+    :class:`wrt.sampled_emission.SampledEmission`); ``tri_materials`` ``(T,)``."""
 
-    def __init__(self, materials_emission, tri_materials: np.ndarray, triangle_emission: np.ndarray | None = None):
+    def __init__(self, materials_emission, tri_materials: np.ndarray, sampled: SampledEmission | None = None):
         self.materials = np.asarray(materials_emission, np.float64).reshape(-1, 3)
         self.tri_materials = tri_materials
-        self.triangles = None if triangle_emission is None else np.asarray(triangle_emission, np.float64)
+        self.sampled = sampled
 
     def rgb(self, ids: np.ndarray) -> np.ndarray:
         """``(N, 3)`` float64 emission of triangles ``ids``."""
-        return self.materials[self.tri_materials[ids]] if self.triangles is None else self.triangles[ids]
+        rgb = self.materials[self.tri_materials[ids]]
+        return rgb if self.sampled is None else self.sampled.over(ids, rgb)
 
     def glow(self, ids: np.ndarray) -> np.ndarray:
         """``(N,)`` float64 luminance of the emission of triangles ``ids``."""
@@ -205,21 +207,23 @@ class _TriangleEmission:
 
     def emissive(self) -> np.ndarray:
         """``(T,)`` bool: the triangles whose emission has a luminance above 0."""
-        if self.triangles is not None:
-            return self.triangles @ LUMINANCE > 0.0
         # Looked up in a table of the materials' answers (a float gather and a compare per triangle, twice, took 9 ms
         # of every Renderer of a chess set of 800k triangles and no glow at all).
         glowing = self.materials @ LUMINANCE > 0.0
-        return glowing[self.tri_materials] if glowing.any() else np.zeros(len(self.tri_materials), bool)
+        emissive = glowing[self.tri_materials] if glowing.any() else np.zeros(len(self.tri_materials), bool)
+        if self.sampled is not None:
+            inside = self.sampled.ids < len(self.tri_materials)  # (the rows of analytic shapes follow)
+            emissive[self.sampled.ids[inside]] = self.sampled.values[inside] @ LUMINANCE > 0.0
+        return emissive
 
 
 def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None,
-                      triangle_emission: np.ndarray | None = None) -> EmitterTriangles:
+                      sampled: SampledEmission | None = None) -> EmitterTriangles:
     """Every emissive world-space triangle, then the triangles of each of ``mesh_lights`` that emit (a mesh light's
     triangles are its, not plain emissive ones), then the same for each instance's prototype triangles, in world
     space, for the first instances whose rows fit in ``cap`` (None: :data:`MAX_INSTANCED_EMITTERS`). A triangle's
-    emission is its material's (``materials_emission``, per device material), or its row of ``triangle_emission``
-    (``(T, 3)`` per triangle, :func:`wrt.sampled_emission.sampled_emission`) where given.
+    emission is its material's (``materials_emission``, per device material), or its row of ``sampled``
+    (:func:`wrt.sampled_emission.sampled_emission`) where it has one.
 
     Raises:
         SceneError: a mesh light that names no mesh of the scene.
@@ -229,8 +233,7 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
     geometry = len(indices)
     tri_materials = scene.triangle_materials()[:geometry]
     sided = scene.triangle_double_sided()[:geometry]
-    emission = _TriangleEmission(materials_emission, tri_materials,
-                                 None if triangle_emission is None else triangle_emission[:geometry])
+    emission = _TriangleEmission(materials_emission, tri_materials, sampled)
     emissive = emission.emissive()
 
     def crosses(ids):
@@ -423,7 +426,7 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
 
 
 def build_lights(lights: list, scene, material_emission: list, device, glow: np.ndarray | None = None,
-                 triangle_emission: np.ndarray | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
+                 sampled: SampledEmission | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
     and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`. Radiance is held times
     ``radiance_scale`` (:func:`wrt.radiance_scale.radiance_scale` of the brightest light or glow): the materials'
@@ -436,7 +439,7 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
         device: Warp device.
         glow: ``(M,)`` per device material a bound on the radiance it emits (:func:`wrt.radiance_scale.glow_bounds`);
             None: the largest component of its estimate.
-        triangle_emission: ``(T, 3)`` per triangle an emission estimate that replaces its material's
+        sampled: the emission estimates that replace their material's on the triangles and shapes it holds
             (:func:`wrt.sampled_emission.sampled_emission`), or None.
     """
     lights = [light for light in lights if not _too_small(light)]
@@ -550,14 +553,14 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
 
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
-    tris = emitter_triangles(scene, material_emission, mesh_lights, triangle_emission=triangle_emission)
+    tris = emitter_triangles(scene, material_emission, mesh_lights, sampled=sampled)
     _drop_unbounded(tris, mesh_lights)
     # Glowing analytic spheres, round tubes and other shapes (hulls) after them (wrt.glowing_spheres), within what the
     # cap leaves of instanced entries.
     first_sphere = num_analytic + len(tris.ids)
     lum = np.asarray(material_emission, np.float64).reshape(-1, 3) @ LUMINANCE
     spheres = glowing_spheres(scene, lum, max(0, MAX_INSTANCED_EMITTERS - int((tris.instances >= 0).sum())),
-                              None if triangle_emission is None else triangle_emission @ LUMINANCE)
+                              None if sampled is None else sampled.luminance(LUMINANCE))
     tris = _with_spheres(tris, spheres)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
@@ -624,7 +627,7 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     d.normal = arr(h.normal, wp.vec3)
     tri_params = tris.params.copy()
     tri_params[:, 3] = _emitted_luminance(tris, _TriangleEmission(material_emission, scene.triangle_materials(),
-                                                                  triangle_emission))
+                                                                  sampled))
     d.params = arr(h.params, wp.vec4, 4, tri_params)
     d.prims = arr(h.prims, wp.int32, 1, tris.ids)
     d.instances = arr(np.full(num_analytic, -1), wp.int32, 1, tris.instances)

@@ -968,9 +968,9 @@ class Renderer:
             textured = np.array([False] + ["emissiveColor" in m.textures and not wholly_cut_out(m)
                                            for m in scene.materials])
             scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, lit, textured, dev)
-        triangle_emission = scene._cache[key]
+        sampled = scene._cache[key]
         emissive_used = used_anywhere(glows, geometry_materials) or (
-            triangle_emission is not None and bool((triangle_emission > 0.0).any()))
+            sampled is not None and bool((sampled.values > 0.0).any()))
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
         # along the viewing direction of each camera of a batch; not one whose author lit it with lights that gave
         # none (hidden, or skipped: Scene.dark_lights), as Hydra renderers add none to a stage that has lights.
@@ -984,7 +984,7 @@ class Renderer:
                           "rendered without the default lights, which are for stages without lights",
                           stacklevel=user_stacklevel())
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
-        self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow, triangle_emission)
+        self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow, sampled)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
