@@ -28,16 +28,18 @@ def floor_irradiance(x, y, n=200):
     return RADIANCE * float(np.sum(HEIGHT * HEIGHT / (r2 * r2))) / (n * n)
 
 
-def lamp_scene(texture: TextureInput, st_corner=(0.0, 0.0)) -> wrt.Scene:
+def lamp_scene(texture: TextureInput | None, st_corner=(0.0, 0.0), **glow) -> wrt.Scene:
     """A white floor (10 x 10) under a double-sided unit lamp at :data:`HEIGHT` whose emissiveColor is ``texture``
-    (image 0: :data:`BLACK`) at ``st`` over ``[0, 1]^2 + st_corner``."""
+    (image 0: :data:`BLACK`; None: none) at ``st`` over ``[0, 1]^2 + st_corner``; ``glow``: more fields of the lamp's
+    material."""
     lamp = quad((0, 0, HEIGHT), (1, 0, 0), (0, 1, 0), name="/lamp", material=0)
     corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32) + np.float32(st_corner)
     lamp.uvs = corners[np.array([[0, 1, 2], [0, 2, 3]])]
     floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
-    glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
+    textures = {} if texture is None else {"emissiveColor": texture}
+    lamp_material = Material(path="/Glow", diffuse_color=0.0, textures=textures, **glow)
     white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
-    return wrt.Scene(meshes=[floor, lamp], materials=[glow, white], textures=[BLACK])
+    return wrt.Scene(meshes=[floor, lamp], materials=[lamp_material, white], textures=[BLACK])
 
 
 def udim_table(**tiles) -> np.ndarray:
@@ -248,6 +250,25 @@ def test_a_triangle_over_a_missing_tile_between_its_points_is_sampled():
                  Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
     pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK]))
     assert pmf[0] > 0.0
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_a_cut_out_lamp_that_glows_by_its_fallback_is_the_stages_light(case):
+    """A lamp cut out everywhere (opacity 0 under a threshold of 0.5) lights nothing, but it is the light its
+    author gave the stage, which then gets no default lights: the floor renders black, as under the same cut-out lamp
+    of constant glow (:data:`RADIANCE`). One that glowed only by its texture's fallback (over black texels) was
+    not read on its triangles, so the stage counted as unlit and got the default lights (a floor of 1.0)."""
+    texture, st_corner = CASES[case]
+    cut = {"opacity": 0.0, "opacity_threshold": 0.5}
+    camera = top_down_camera(center=(0, 2.25, 0), height=3.0)
+    images, lights = [], []
+    for scene in (lamp_scene(texture, st_corner, **cut), lamp_scene(None, emissive_color=np.full(3, RADIANCE), **cut)):
+        r = wrt.Renderer(scene, camera=camera, width=4, height=4, device="cpu")
+        images.append(r.render(spp=2, seed=1).rgb)
+        lights.append(r.lights)
+    assert lights[1] == () and lights[0] == ()
+    np.testing.assert_array_equal(images[0], images[1])
+    assert images[1].max() == 0.0
 
 
 def held_bytes(read) -> int:

@@ -958,19 +958,21 @@ class Renderer:
         # A material cut out everywhere emits nothing (rays pass its holes and see no light; its light samples were
         # zero): its triangles and glowing shapes take no light picks, which they wasted. (It still counts as the
         # stage's light below: the stage's author lit it with that glow, and gets no default lights.)
-        lit = [np.zeros(3, np.float32) if k > 0 and wholly_cut_out(scene.materials[k - 1]) else e
-               for k, e in enumerate(emission)]
+        cut = np.array([False] + [wholly_cut_out(m) for m in scene.materials])
+        lit = [np.zeros(3, np.float32) if c else e for c, e in zip(cut, emission)]
         # The triangles of textured emitters read on themselves: a UDIM tile without a file, a constant address
         # mode's default, ... glow where the texels' mean says none (wrt.sampled_emission). Kept with the scene: 500k
         # such triangles took 0.35 s of every Renderer.
         key = ("sampled_emission", str(dev))
         if key not in scene._cache:
-            textured = np.array([False] + ["emissiveColor" in m.textures and not wholly_cut_out(m)
-                                           for m in scene.materials])
-            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, lit, textured, dev)
-        sampled = scene._cache[key]
+            textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
+            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev)
+        read = scene._cache[key]
+        # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
+        # constant glow does: one that glows only by its fallback got the default lights as well.
         emissive_used = used_anywhere(glows, geometry_materials) or (
-            sampled is not None and bool((sampled.values > 0.0).any()))
+            read is not None and bool((read.values > 0.0).any()))
+        sampled = read if read is None or not cut.any() else read.without(cut, geometry_materials)
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
         # along the viewing direction of each camera of a batch; not one whose author lit it with lights that gave
         # none (hidden, or skipped: Scene.dark_lights), as Hydra renderers add none to a stage that has lights.
