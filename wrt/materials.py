@@ -2106,7 +2106,27 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
         return np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0)
     # A UDIM texture: the mean of its tiles' means (each tile covers a unit square of st); without tiles its
     # fallback everywhere.
-    images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
+    return _texture_glow(tex, [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0], textures)
+
+
+def tile_emission_estimates(mat: Material, textures: list[np.ndarray]) -> np.ndarray | None:
+    """``(UDIM_TILES, 3)`` float32: per UDIM tile of ``mat``'s emission texture the :func:`emission_estimate` of
+    that tile's image alone (the mean of its texels' emission), 0 for a tile without a file (where the texture's
+    fallback stands in, :func:`wrt.sampled_emission.may_read_fallback`); None where ``mat`` has no UDIM texture on
+    ``emissiveColor``."""
+    tex = mat.textures.get("emissiveColor")
+    if tex is None or tex.tiles is None:
+        return None
+    glow = np.zeros((UDIM_TILES, 3), np.float32)
+    for tile, k in enumerate(tex.tiles):
+        if k >= 0:
+            glow[tile] = _texture_glow(tex, [int(k)], textures)
+    return glow
+
+
+def _texture_glow(tex: TextureInput, images: list[int], textures: list[np.ndarray]) -> np.ndarray:
+    """``(3,)`` float32, at least 0: the mean over ``images`` (of ``textures``) of the emission texture ``tex``
+    returns on their texels (its fallback where there are none), for :func:`emission_estimate`."""
     scale, bias = np.asarray(tex.scale, np.float64), np.asarray(tex.bias, np.float64)
     if not images:
         mean = np.asarray(tex.fallback, np.float64) * scale + bias

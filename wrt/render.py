@@ -45,7 +45,7 @@ from .integrators.whitted import (
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
-from .materials import emission_estimates, upload_materials, wholly_cut_out
+from .materials import emission_estimates, tile_emission_estimates, upload_materials, wholly_cut_out
 from .options import AOV_NAMES as AOV_NAMES  # re-exported: see wrt.options
 from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QUICK_LOOKS
 from .radiance_scale import glow_bounds, scaled_materials
@@ -966,7 +966,8 @@ class Renderer:
         key = ("sampled_emission", str(dev))
         if key not in scene._cache:
             textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
-            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev)
+            tiles = [None] + [tile_emission_estimates(m, scene.textures) for m in scene.materials]
+            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
         # constant glow does: one that glows only by its fallback got the default lights as well.

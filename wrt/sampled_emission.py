@@ -9,7 +9,9 @@ non-finite texture coordinates. A texture of black texels whose fallback glows w
 triangles were never sampled (``whitted`` left what they light black, and a stage lit by them alone got the default
 lights), and ``path`` found their light only through the rays that happened to hit them. Each such triangle takes
 the larger of its material's estimate and the mean emission at :data:`BARYCENTRIC_POINTS`, so that the estimate and
-the render cannot disagree on where the glow is, and no triangle is estimated below its material's mean. Points can
+the render cannot disagree on where the glow is, and no triangle is estimated below its material's mean (of a UDIM
+texture, below the largest mean of the tiles under it, :func:`tiles_glow`: a triangle on a black tile glows nowhere,
+and took as many draws as one on a bright tile). Points can
 all miss a glow that only part of a triangle shows (a corner past [0, 1] along a ``constant`` address mode, a missing
 UDIM tile between the points): a triangle on which the lookup can return its fallback at all takes at least a fifth
 of the fallback's emission (:func:`may_read_fallback`), so that no light is left with no chance of being sampled (such
@@ -24,13 +26,37 @@ import numpy as np
 import warp as wp
 
 from .materials import SLOT_EMISSIVE, DeviceMaterials, eval_emission
-from .textures import UDIM_COLUMNS, UDIM_ROWS, WRAP_FALLBACK
+from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 
 # Points read on each triangle (barycentric weights of corners 0, 1, 2): the centroid and one towards each corner.
 BARYCENTRIC_POINTS = np.array([[1, 1, 1], [4, 1, 1], [1, 4, 1], [1, 1, 4]], np.float64) / np.array([[3], [6], [6], [6]])
+
+
+@wp.func
+def st_box(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: wp.vec2):
+    """``(lo, hi, finite)``: the box of the texture coordinates ``st0, st1, st2`` after binding ``b``'s transform,
+    and whether every corner is finite (a sum past float32 counts as not: conservative)."""
+    xf = mats.tex_transform[b]
+    p0 = xf * wp.vec3(st0[0], st0[1], 1.0)
+    p1 = xf * wp.vec3(st1[0], st1[1], 1.0)
+    p2 = xf * wp.vec3(st2[0], st2[1], 1.0)
+    lo = wp.vec2(wp.min(wp.min(p0[0], p1[0]), p2[0]), wp.min(wp.min(p0[1], p1[1]), p2[1]))
+    hi = wp.vec2(wp.max(wp.max(p0[0], p1[0]), p2[0]), wp.max(wp.max(p0[1], p1[1]), p2[1]))
+    return lo, hi, wp.isfinite(p0[0] + p0[1] + p1[0] + p1[1] + p2[0] + p2[1])
+
+
+@wp.func
+def tile_span(lo: wp.vec2, hi: wp.vec2):
+    """``(u0, v0, u1, v1)``: the UDIM tiles (columns ``u0..u1``, rows ``v0..v1``) whose inside the box ``lo, hi``
+    meets, the box inside the 10 x 10 tiles: a box edge on a tile's edge (st of a tile's corners) reads no
+    further."""
+    u0, v0 = int(wp.floor(lo[0])), int(wp.floor(lo[1]))
+    u1 = wp.min(wp.max(u0, int(wp.ceil(hi[0])) - 1), UDIM_COLUMNS - 1)
+    v1 = wp.min(wp.max(v0, int(wp.ceil(hi[1])) - 1), UDIM_ROWS - 1)
+    return wp.vec4i(u0, v0, u1, v1)
 
 
 @wp.func
@@ -42,13 +68,8 @@ def may_read_fallback(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2,
     box of the corners. Conservative: the box holds every tile the triangle reads, maybe more."""
     if b < 0:  # a constant: no texture, no fallback
         return False
-    xf = mats.tex_transform[b]
-    p0 = xf * wp.vec3(st0[0], st0[1], 1.0)
-    p1 = xf * wp.vec3(st1[0], st1[1], 1.0)
-    p2 = xf * wp.vec3(st2[0], st2[1], 1.0)
-    lo = wp.vec2(wp.min(wp.min(p0[0], p1[0]), p2[0]), wp.min(wp.min(p0[1], p1[1]), p2[1]))
-    hi = wp.vec2(wp.max(wp.max(p0[0], p1[0]), p2[0]), wp.max(wp.max(p0[1], p1[1]), p2[1]))
-    if not wp.isfinite(p0[0] + p0[1] + p1[0] + p1[1] + p2[0] + p2[1]):  # (a sum past float32 too: conservative)
+    lo, hi, finite = st_box(mats, b, st0, st1, st2)
+    if not finite:
         return True
     table = mats.tex_tiles[b]
     if table < 0:
@@ -58,34 +79,59 @@ def may_read_fallback(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2,
         return mats.tex_image[b] < 0 or s_out or t_out
     if lo[0] < 0.0 or lo[1] < 0.0 or hi[0] > float(UDIM_COLUMNS) or hi[1] > float(UDIM_ROWS):
         return True
-    # The tiles whose inside the box meets: a box edge on a tile's edge (st of a tile's corners) reads no further.
-    u0, v0 = int(wp.floor(lo[0])), int(wp.floor(lo[1]))
-    u1 = wp.min(wp.max(u0, int(wp.ceil(hi[0])) - 1), UDIM_COLUMNS - 1)
-    v1 = wp.min(wp.max(v0, int(wp.ceil(hi[1])) - 1), UDIM_ROWS - 1)
-    for v in range(v0, v1 + 1):
-        for u in range(u0, u1 + 1):
+    span = tile_span(lo, hi)
+    for v in range(span[1], span[3] + 1):
+        for u in range(span[0], span[2] + 1):
             if mats.tile_images[table + u + UDIM_COLUMNS * v] < 0:
                 return True
     return False
 
 
+@wp.func
+def tiles_glow(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: wp.vec2,
+               tile_glow: wp.array[wp.vec3], row: int):
+    """The largest of ``tile_glow[row + tile]`` (each UDIM tile's mean emission) over the tiles of binding ``b``
+    with a file under the box of the triangle's texture coordinates ``st0, st1, st2`` (0 for none: where it reads no
+    tile, its points and :func:`may_read_fallback` tell its glow)."""
+    glow = wp.vec3(0.0)
+    lo, hi, finite = st_box(mats, b, st0, st1, st2)
+    if not finite or hi[0] < 0.0 or hi[1] < 0.0 or lo[0] >= float(UDIM_COLUMNS) or lo[1] >= float(UDIM_ROWS):
+        return glow
+    low = wp.vec2(wp.max(lo[0], 0.0), wp.max(lo[1], 0.0))
+    span = tile_span(low, wp.vec2(wp.min(hi[0], float(UDIM_COLUMNS)), wp.min(hi[1], float(UDIM_ROWS))))
+    table = mats.tex_tiles[b]
+    for v in range(span[1], span[3] + 1):
+        for u in range(span[0], span[2] + 1):
+            tile = u + UDIM_COLUMNS * v
+            if mats.tile_images[table + tile] >= 0:
+                g = tile_glow[row + tile]
+                glow = wp.vec3(wp.max(glow[0], g[0]), wp.max(glow[1], g[1]), wp.max(glow[2], g[2]))
+    return glow
+
+
 @wp.kernel
 def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids: wp.array[wp.int32],
-                           materials: wp.array[wp.int32], weights: wp.array[wp.vec3],
+                           materials: wp.array[wp.int32], weights: wp.array[wp.vec3], tile_glow: wp.array[wp.vec3],
+                           tile_rows: wp.array[wp.int32],
                            # outputs
                            emission: wp.array[wp.vec3]):
     """``emission[i]``: the mean emission of material ``materials[i]`` on triangle ``ids[i]`` at the barycentric
     points ``weights``, each component clamped to 0 first (a component below 0 adds no light); at least the
     fallback's emission over ``len(weights) + 1`` where the texture may return its fallback on the triangle
     (:func:`may_read_fallback`): a glow that no point read lies between them, on less of the triangle than one
-    point's share, as far as they tell."""
+    point's share, as far as they tell; for a material of a UDIM emission texture, at least the largest mean
+    emission of its tiles under the triangle (:func:`tiles_glow`; ``tile_rows[m]``: material ``m``'s first row of
+    ``tile_glow``, -1 for one of another texture), for the same reason."""
     i = wp.tid()
     t = ids[i]
     m = materials[i]
     n = weights.shape[0]
-    fallback = may_read_fallback(mats, mats.slots[m, SLOT_EMISSIVE], uvs[t, 0], uvs[t, 1], uvs[t, 2])
+    b = mats.slots[m, SLOT_EMISSIVE]
+    fallback = may_read_fallback(mats, b, uvs[t, 0], uvs[t, 1], uvs[t, 2])
     total = wp.vec3(0.0)
     least = wp.vec3(0.0)
+    if tile_rows[m] >= 0:
+        least = tiles_glow(mats, b, uvs[t, 0], uvs[t, 1], uvs[t, 2], tile_glow, tile_rows[m])
     # Each point, then the fallback (what every lookup at a NaN st returns): one lookup compiled, not one per read
     # (the loop's bound is read at run time).
     for j in range(n + 1):
@@ -100,7 +146,8 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
         if j < n:
             total += e
         else:
-            least = e / float(n + 1)
+            e = e / float(n + 1)
+            least = wp.vec3(wp.max(least[0], e[0]), wp.max(least[1], e[1]), wp.max(least[2], e[2]))
     mean = total / float(n)
     emission[i] = wp.vec3(wp.max(mean[0], least[0]), wp.max(mean[1], least[1]), wp.max(mean[2], least[2]))
 
@@ -144,11 +191,17 @@ class SampledEmission:
 
 
 def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materials: np.ndarray,
-                     estimates: np.ndarray, sampled: np.ndarray, device) -> SampledEmission | None:
+                     estimates: np.ndarray, sampled: np.ndarray, device,
+                     tile_estimates: list | None = None) -> SampledEmission | None:
     """The emission estimate of each row of a material marked in ``sampled`` (``tri_materials``: the geometry's
-    triangles then one row per analytic shape): the larger of its material's ``estimates`` row, the mean emission at
-    :data:`BARYCENTRIC_POINTS` and a fifth of a fallback it may read (:func:`sample_emission_kernel`; a shape's three
-    corners are its one ``st``, where the render reads its glow); None where no row is of a ``sampled`` material.
+    triangles then one row per analytic shape): the largest of the mean emission at :data:`BARYCENTRIC_POINTS`, a
+    fifth of a fallback it may read and its material's estimate, or for a material given ``tile_estimates``, the
+    largest estimate of the tiles under it instead (:func:`sample_emission_kernel`; a shape's three corners are its
+    one ``st``, where the render reads its glow); None where no row is of a ``sampled`` material.
+
+    A row's estimate is positive wherever it may glow, so that it can be drawn: its points can all miss a glow
+    between them. A material's mean held each triangle of a UDIM set on a black tile (whose lookups are all 0) as
+    high as those on the bright ones, which then had as many draws wasted; its own tiles' mean holds it at 0.
 
     Args:
         mats: the scene's device materials (:func:`wrt.materials.upload_materials`).
@@ -158,6 +211,8 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
         sampled: ``(M,)`` bool, the materials whose emission is read on their triangles (those with an emission
             texture).
         device: the Warp device of ``mats`` and ``uvs``.
+        tile_estimates: per device material None, or for one of a UDIM emission texture ``(UDIM_TILES, 3)`` each
+            tile's estimate (:func:`wrt.materials.tile_emission_estimates`); None: none.
     """
     sampled = np.asarray(sampled, bool)
     if not sampled.any():  # (no per-triangle gather: most scenes have no textured emitter)
@@ -167,13 +222,19 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
     if len(ids) == 0:
         return None
     materials = tri_materials[ids]
+    tiles = [None] * len(sampled) if tile_estimates is None else list(tile_estimates)
+    tiled = np.array([t is not None for t in tiles])
+    tile_rows = np.where(tiled, np.cumsum(tiled) - 1, -1) * UDIM_TILES
+    tile_glow = np.concatenate([t for t in tiles if t is not None] or [np.zeros((1, 3))]).astype(np.float32)
     read = wp.empty(len(ids), dtype=wp.vec3, device=device)
     wp.launch(sample_emission_kernel, dim=len(ids), device=device,
               inputs=[mats, uvs, wp.array(ids.astype(np.int32), dtype=wp.int32, device=device),
                       wp.array(materials.astype(np.int32), dtype=wp.int32, device=device),
-                      wp.array(BARYCENTRIC_POINTS.astype(np.float32), dtype=wp.vec3, device=device)],
+                      wp.array(BARYCENTRIC_POINTS.astype(np.float32), dtype=wp.vec3, device=device),
+                      wp.array(tile_glow, dtype=wp.vec3, device=device),
+                      wp.array(tile_rows.astype(np.int32), dtype=wp.int32, device=device)],
               outputs=[read])
     # A sum past float32's range (texels near 65504 times a huge scale) as the largest float.
     mean = np.nan_to_num(read.numpy(), nan=0.0, posinf=np.finfo(np.float32).max)
-    return SampledEmission(ids.astype(np.int64), np.maximum(np.asarray(estimates, np.float64).reshape(-1, 3)[materials],
-                                                            mean))
+    least = np.where(tiled[materials, None], 0.0, np.asarray(estimates, np.float64).reshape(-1, 3)[materials])
+    return SampledEmission(ids.astype(np.int64), np.maximum(least, mean))
