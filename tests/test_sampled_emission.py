@@ -354,3 +354,29 @@ def test_a_triangle_whose_points_lie_on_a_black_tile_but_which_reaches_a_bright_
                  Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
     pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[BLACK, bright]))
     assert pmf[0] > 0.0
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_cut_out_glowing_card_lights_as_its_opaque_part(integrator):
+    """A unit card glowing by an emission texture of :data:`RADIANCE`, cut out on its right half (an opacity mask
+    of two texels, 1 and 0, under a threshold of 0.5): its estimate does not read the holes (their draws give
+    nothing), but no light comes through them: the floor renders as under a card of the left half alone, of constant
+    :data:`RADIANCE`."""
+    mask = np.zeros((1, 2, 4), np.float32)
+    mask[0, 0] = 1.0
+    card = quad((0, 0, HEIGHT), (1, 0, 0), (0, 1, 0), name="/lamp", material=0)
+    card.uvs = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]])[np.array([[0, 1, 2], [0, 2, 3]])]
+    textures = {"opacity": TextureInput(image=0, channel="r", wrap=("clamp", "clamp")),
+                "emissiveColor": TextureInput(image=1)}
+    white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
+    scenes = [
+        wrt.Scene(meshes=[quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1), card],
+                  materials=[Material(path="/Card", diffuse_color=0.0, opacity_threshold=0.5, textures=textures),
+                             white], textures=[mask, np.full((4, 4, 4), RADIANCE, np.float32)]),
+        wrt.Scene(meshes=[quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1),
+                          quad((-0.25, 0, HEIGHT), (0.5, 0, 0), (0, 1, 0), name="/lamp", material=0)],
+                  materials=[Material(path="/Glow", diffuse_color=0.0, emissive_color=np.full(3, RADIANCE)), white])]
+    camera = top_down_camera(center=(0, 2.0, 0), height=2.0)
+    images = [wrt.render(scene, camera=camera, width=8, height=8, spp=32, seed=1, integrator=integrator,
+                         device="cpu").rgb for scene in scenes]
+    assert images[0].mean() == pytest.approx(images[1].mean(), rel=0.03)
