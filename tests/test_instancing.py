@@ -2318,6 +2318,58 @@ def test_rays_from_afar_hit_stretched_analytic_spheres_as_a_float64_solution_say
         assert not wrt.occluded(scene, origins, directions, **limits).any()
 
 
+@pytest.mark.parametrize("kind", ["octahedra", "spheres"])
+@pytest.mark.parametrize("stretch", ["sheared", "squashed"])
+def test_rays_from_afar_hit_stretched_instances_behind_their_origin_as_a_float64_solution_says(stretch, kind):
+    """The rays of the two tests above turned round, so that the octahedron or sphere they were aimed at lies behind
+    their origin, traced over ``t`` in ``[-inf, 0)`` (``t_min`` may be negative; the closest hit is the smallest
+    ``t``): every ray whose float64 hit lies well inside a triangle (a sphere: every ray) hits that instance at the
+    float64 ``t``, and is occluded. Their origin was moved towards an instance only where the instance lay ahead, and
+    rays taken into its space from 900 away missed it (octahedra squashed: 972 of 2,907 rays, sheared: 43 of 2,850;
+    spheres squashed: 783 of 3,000)."""
+    from wrt.primitives import Shape
+
+    rng = np.random.default_rng(3)
+    to_world = stretched_octahedra(rng, stretch, 6)
+    n = 3000
+    if kind == "octahedra":
+        scene = octahedra_scene(to_world)
+        world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
+        aim = rng.integers(0, len(indices), n)
+        targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    else:
+        scene = wrt.Scene(shapes=[Shape(f"/Ball{k}", "sphere", m) for k, m in enumerate(to_world)])
+        k = rng.integers(0, 6, n)
+        q = rng.normal(size=(n, 3))
+        halfway = 0.5 * q / np.linalg.norm(q, axis=1, keepdims=True)
+        targets = np.einsum("nij,nj->ni", to_world[k, :3, :3], halfway) + to_world[k, :3, 3]
+    origins = (targets + rng.normal(size=(n, 3)) * 900).astype(np.float32)
+    directions = (origins - targets).astype(np.float32)  # away from the target: it lies behind, near t = -1
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    limits = {"t_min": -np.inf, "t_max": 0.0}
+    if kind == "octahedra":
+        t, row = closest_hits_numpy(world, indices, o64, d64, np.full(n, -np.inf), np.zeros(n))
+        clear = barycentric_margins(world, indices, o64, d64, t, row) > 1e-2
+        assert clear.sum() > 0.9 * n
+        expected = row // 8
+    else:  # the far side of the ellipsoid (the smaller t), solved in the unit sphere's space from its closest point
+        inverse = np.linalg.inv(to_world[k, :3, :3])
+        local_o = np.einsum("nij,nj->ni", inverse, o64 - to_world[k, :3, 3])
+        local_d = np.einsum("nij,nj->ni", inverse, d64)
+        a, b = (local_d * local_d).sum(1), (local_o * local_d).sum(1)
+        closest = local_o - (b / a)[:, None] * local_d
+        t = -b / a - np.sqrt((1 - (closest * closest).sum(1)) / a)
+        clear, expected = np.ones(n, bool), k
+    hits = wrt.trace(scene, origins, directions, **limits)
+    label = f"{np.count_nonzero(hits.prim[clear] < 0)} of {clear.sum()} rays missed"
+    if kind == "octahedra":
+        np.testing.assert_array_equal(hits.instance[clear], expected[clear], err_msg=label)
+    else:
+        np.testing.assert_array_equal(hits.prim[clear], expected[clear], err_msg=label)
+    np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3, err_msg=label)
+    assert wrt.occluded(scene, origins, directions, **limits)[clear].all()
+
+
 def aimed_rays(rng, targets: np.ndarray, zero_components: int) -> tuple[np.ndarray, np.ndarray]:
     """float32 rays from about 900 away to ``targets``, the last ``zero_components`` of each direction's components
     (of a random axis order) exactly zero; 0, 1 or 2."""

@@ -125,13 +125,16 @@ def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
     Moved into local space from its own origin as ``A w`` (``w = origin - c``, ``m = [A | c]``), a ray's local
     origin is rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6) seen from
     900 away got one off by far more than its own size, and rays that met it at a fair angle grazed or missed its
-    local triangles. Such a far ray's ``A w`` only finds ``t0``, where it passes closest to the local origin (0
-    where that is behind its origin or no finite float); the local origin is then ``A (w + t0 d)``, summed relative
-    to ``c``: ``w + t0 d`` is rounded in the world (a shift of the world ray by float32's rounding of ``|w|``, which
-    the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest in local space,
-    not the world: a squashed instance's local origin was still 2e5 away along its stretched axis where the ray
-    passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size. ``t0`` does not
-    depend on the ray's limits, so neither does a hit's ``t``.
+    local triangles. Such a far ray's ``A w`` only finds ``t0``, where it passes closest to the local origin, ahead
+    of its origin or behind it (0 where that is no finite float); the local origin is then ``A (w + t0 d)``, summed
+    relative to ``c``: ``w + t0 d`` is rounded in the world (a shift of the world ray by float32's rounding of
+    ``|w|``, which the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest in
+    local space, not the world: a squashed instance's local origin was still 2e5 away along its stretched axis
+    where the ray passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size. ``t0``
+    does not depend on the ray's limits, so neither does a hit's ``t``. Behind too: a ray with a negative ``t_min``
+    meets the instances behind its origin, and moved only towards those ahead it missed squashed ones behind it
+    from 900 away (972 of 2,907 rays); a ray whose ``t_min`` is 0 or more cannot hit an instance it passes closest
+    to behind its origin (from beyond twice the reach it only leaves it), so moving it changes no hit of its.
 
     ``t0`` is found from ``o`` and ``d`` scaled by the power of two that brings ``d``'s largest component into
     ``[1, 2)`` (``unit_scales``; ``a`` scaled, as ``o`` may be infinite): the same bits where nothing over- or
@@ -147,9 +150,9 @@ def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
         down, _ = unit_scales(d)
         d_unit = d * down
         t0 = -wp.dot((a * down) * w, d_unit) / wp.dot(d_unit, d_unit)
-        if not (t0 > 0.0 and t0 < FLOAT32_MAX):  # behind the origin, or no finite float
+        if not (wp.abs(t0) < FLOAT32_MAX):  # no finite float (NaN too)
             t0 = 0.0
-        if t0 > 0.0:
+        if t0 != 0.0:
             o = a * (w + t0 * direction)
     return o, d, t0
 
@@ -176,12 +179,12 @@ def shifted_limit(limit: float, t0: float):
     closest hit and the any-hit query agree on every ray, a limit at a hit's own ``t`` (or one float past it)
     decides that hit exactly, and a later entry's hit at the best ``t`` so far loses the tie, as without the move.
 
-    ``t0 >= 0`` (:func:`entry_ray`). The search starts at ``limit - t0`` less half the gap below ``limit`` (where
-    sums start to round to ``limit``): where ``t0`` is within a factor 2 of ``limit`` that is exact, and the answer
-    or the float below it (floats near ``limit - t0`` are far finer than ``limit``'s there: stepping from
-    ``limit - t0`` would take thousands of steps); elsewhere it is within two floats of the answer. The steps after
-    it find the float itself. The closest hit takes it for ``t_min`` only: above, it drops hits at or past the best
-    ``t`` after adding ``t0``, which needs only a limit no lower than this one."""
+    ``t0`` has either sign (:func:`entry_ray`). The search starts at ``limit - t0`` less half the gap below
+    ``limit`` (where sums start to round to ``limit``): where ``t0`` is within a factor 2 of ``limit`` that is
+    exact, and the answer or the float below it (floats near ``limit - t0`` are far finer than ``limit``'s there:
+    stepping from ``limit - t0`` would take thousands of steps); elsewhere it is within two floats of the answer.
+    The steps after it find the float itself. The closest hit takes it for ``t_min`` only: above, it drops hits at
+    or past the best ``t`` after adding ``t0``, which needs only a limit no lower than this one."""
     x = limit
     if limit == 0.0:
         x = -t0  # t0 - t0 is 0, and t0 less the float below it is its gap: negative (t_min = 0 of most rays)
