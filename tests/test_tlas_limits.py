@@ -36,15 +36,17 @@ def shifted_limits(limits: np.ndarray, t0s: np.ndarray) -> np.ndarray:
 
 def limit_pairs(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
     """``(limits, t0s)`` float32 over every scale: far apart, within a factor 2 of each other (where ``limit - t0``
-    is exact and much finer than ``limit``), a float apart, zero, negative and subnormal."""
+    is exact and much finer than ``limit``), a float apart, zero, negative and subnormal; ``t0`` of either sign
+    (a ray moved backwards, towards an instance behind its origin) against limits of either sign."""
     scale = 10.0 ** rng.uniform(-44, 37, n)
     limits = (scale * rng.choice([-1, 1], n) * rng.uniform(0.5, 1, n)).astype(np.float32)
-    kind = rng.integers(0, 5, n)
+    kind = rng.integers(0, 6, n)
     t0s = np.where(kind == 0, 10.0 ** rng.uniform(-44, 37, n), limits * rng.uniform(0.5, 2, n))
     t0s = np.where(kind == 2, np.nextafter(limits, rng.choice([-np.inf, np.inf], n)), t0s)
-    t0s = np.where(kind == 3, limits * rng.uniform(0.999, 1.001, n), t0s).astype(np.float32)
+    t0s = np.where(kind == 3, limits * rng.uniform(0.999, 1.001, n), t0s)
+    t0s = np.where(kind == 5, -(10.0 ** rng.uniform(-44, 37, n)), t0s).astype(np.float32)
     limits[kind == 4] = 0.0
-    t0s[kind == 4] = np.abs(t0s[kind == 4])
+    t0s[kind == 4] = np.abs(t0s[kind == 4]) * rng.choice([-1, 1], np.count_nonzero(kind == 4)).astype(np.float32)
     return limits, t0s
 
 
