@@ -184,3 +184,28 @@ def test_far_mesh_warning_follows_point_edits_not_instance_moves(monkeypatch):
     assert looked_at == []
     scene.meshes[0].points = far / np.float32(1e30)
     assert warned() == []
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "beyond_float32", "not_affine"])
+def test_a_refused_move_keeps_the_blases_for_the_next_good_move(bad):
+    # A move the scene refuses once dropped the held accelerator: the next good move rebuilt every BLAS.
+    from wrt.trace import get_accelerator
+
+    scene = squares([0.0, 1.0, 2.0])
+    before = get_accelerator(scene)
+    origins, directions = down_rays(3)
+    first = wrt.trace(scene, origins, directions).t
+    refused = placed([0.5, 1.0, 2.0])
+    if bad == "not_affine":
+        refused[1, 3, 2] = 1.0  # a projective bottom row
+    else:
+        refused[1, 0, 3] = {"nan": np.nan, "inf": np.inf, "beyond_float32": 1e39}[bad]
+    scene.instances.to_world = refused
+    with pytest.raises(ValueError, match=r"instance 1|/instances\[1\]"):
+        wrt.trace(scene, origins, directions)
+    for heights in ([0.0, 1.0, 2.0], [0.5, 1.0, 2.0]):  # back where it was, then the move meant
+        scene.instances.to_world = placed(heights)
+        after = get_accelerator(scene)
+        assert len(after.blas) == len(before.blas) and all(a is b for a, b in zip(after.blas, before.blas))
+        np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, 10.0 - np.array(heights), rtol=1e-6)
+    np.testing.assert_allclose(first, [10.0, 9.0, 8.0], rtol=1e-6)

@@ -526,15 +526,22 @@ def moved_accelerator(scene: Scene, key: tuple):
     """The two-level accelerator cached under ``key`` before ``scene``'s instances last moved, followed to them: its
     BLASes kept and its TLAS built anew, as a fresh build's (:meth:`wrt.tlas.InstancedAccelerator.update`); None where
     there is none or it cannot follow (an instance's scale crossed ``2^100``: other BLASes). The update is made on a
-    copy: a CUDA graph recorded with the old one keeps replaying the arrays it was recorded with."""
-    held = scene._moved_accels.pop(key, None)
+    copy: a CUDA graph recorded with the old one keeps replaying the arrays it was recorded with.
+
+    Raises:
+        ValueError: for a move the scene refuses (a NaN transform: :func:`check_finite_transforms`). The accelerator
+            stays held: the next good move rebuilds the TLAS alone, where it once rebuilt every BLAS.
+    """
+    held = scene._moved_accels.get(key)
     if held is None:
         return None
+    check_finite_transforms(scene)  # first, so that a refused move leaves the held accelerator where it is
     accel = copy.copy(held)
     try:
         accel.update(scene, refit_blas=False)
     except ValueError:
-        return None
+        accel = None  # it cannot follow (other BLASes): the caller builds one anew
+    del scene._moved_accels[key]
     return accel
 
 
