@@ -21,7 +21,8 @@ from wrt.trace import resolve_device
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--device", default="cuda:0" if wp.is_cuda_available() else "cpu")
     parser.add_argument("--cameras", type=positive_int, nargs="+", default=[1024, 4096])
     parser.add_argument("--size", type=positive_int, default=64)

@@ -84,7 +84,7 @@ def largest_weights(samples: int, seed: int = 5) -> np.ndarray:
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--samples", type=int, default=100_000, help="samples per material and viewing cosine")
     args = parser.parse_args()

@@ -16,7 +16,8 @@ import wrt.render  # noqa: E402  (import wrt imports it at first use: timed with
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("integrator", choices=("whitted", "path", "ao", "normals", "depth", "albedo"))
     parser.add_argument("scene", help="USD file")
     parser.add_argument("--device", default="cuda:0")

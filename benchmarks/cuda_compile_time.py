@@ -123,7 +123,7 @@ def time_trace_summary(trace_path: Path, count: int) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--arch", type=int, default=90, help="SM architecture to compile for (H100: 90)")
     parser.add_argument("--modules", default=",".join(MODULES), help="comma list of modules to compile")

@@ -74,7 +74,8 @@ def write_canopy(path: Path, leaves: int, layers: int, seed: int) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("out", type=Path, help="the .usda to write (the alpha texture goes beside it)")
     parser.add_argument("--leaves", type=int, default=20000)
     parser.add_argument("--layers", type=int, default=12)

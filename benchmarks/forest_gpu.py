@@ -142,7 +142,7 @@ def table(r: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--trees", type=int, default=50_000, help="tree instances")
     parser.add_argument("--tree-triangles", type=int, default=1_000_000, help="triangles per tree")

@@ -98,7 +98,8 @@ def measure(path: Path, frames: list[float], do_profile: bool) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("scenes", nargs="*", type=Path)
     parser.add_argument("--frames", default="1:48:6")
     parser.add_argument("--count", type=int, default=200)

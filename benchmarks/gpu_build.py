@@ -71,6 +71,7 @@ def median(values) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
+        allow_abbrev=False,
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     parser.add_argument("--device", default="cuda:0", help="device of the timed builds")

@@ -24,7 +24,8 @@ def build_and_collapse(pts, idx, builder: str, device):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--triangles", type=int, default=10_000_000)
     parser.add_argument("--device", default="cuda:0")
     args = parser.parse_args()

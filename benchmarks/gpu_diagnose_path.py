@@ -95,7 +95,8 @@ def compare(a: dict, b: dict) -> None:
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--emulate", choices=["all", "trace", "shade"], help="CPU-only: contraction on these modules")
     parser.add_argument("--fused", action="store_true", help="fuse_fp on in the trace and shading modules")
     args = parser.parse_args()

@@ -85,7 +85,8 @@ def compare(name: str, scene, devices: list[str], **kwargs) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--width", type=int, default=96, help="width of the canopy images")
     parser.add_argument("--devices", default="cpu,cuda:0", help="the two devices to compare")
     parser.add_argument("--out", type=Path, default=Path("/tmp"), help="folder for the generated stages")

@@ -31,7 +31,7 @@ def synced_ms(fn):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--triangles", type=int, default=10_000_000)
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()

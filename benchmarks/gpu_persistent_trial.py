@@ -171,7 +171,7 @@ def timed(launch, device, repeats: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("--assets", help="shared asset folder (sets WRT_ASSETS)")
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--scenes", default="chess_set,sphere")

@@ -34,7 +34,7 @@ def timed_ms(fn) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", help="folder holding wrt_old/, a copy of the wrt package before the change")
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--triangles", type=int, default=10_000_000)

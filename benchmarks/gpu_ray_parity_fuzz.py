@@ -105,7 +105,8 @@ def instanced_scene(kind: str, rng, n: int = 30) -> Scene:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--devices", default="cpu,cuda:0", help="the two devices to compare (default: cpu,cuda:0)")
     parser.add_argument("--rays", type=int, default=3000, help="rays per case (default: 3000)")
     args = parser.parse_args(argv)

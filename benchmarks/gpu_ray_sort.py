@@ -97,7 +97,7 @@ def timed(fn, device):
 
 
 def main():
-    p = argparse.ArgumentParser()
+    p = argparse.ArgumentParser(allow_abbrev=False)
     p.add_argument("--assets")
     p.add_argument("--rays", type=int, default=1 << 21)
     p.add_argument("--scenes", default="chess_set,sphere")

@@ -46,7 +46,7 @@ def build_ms(fn, repeats: int) -> tuple[float, object]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--scenes", default="asset:chess_set,sphere:1e7", help="comma-separated wrt bench scenes")
     parser.add_argument("--variants", default="off:4096,256:4096,256:64",

@@ -115,7 +115,7 @@ def make_rays(scene, kind: str, n: int, device, rays_module, trace_fn):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--assets", help="shared asset folder (sets WRT_ASSETS)")
     parser.add_argument("--baseline", help="folder holding wrt_old/, a copy of the wrt package before the change")

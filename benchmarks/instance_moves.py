@@ -26,7 +26,8 @@ from wrt.bench import resolve_scene
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scene", default="asset:chess_set", help="a scene as wrt bench names them (instanced)")
     parser.add_argument("--width", type=int, default=64)
     parser.add_argument("--height", type=int, default=48)

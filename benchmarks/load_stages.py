@@ -299,7 +299,8 @@ def time_loads(path: Path, repeats: int) -> tuple[float, float, wrt.Scene]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--meshes", type=int, default=5000, help="distinct small meshes")
     parser.add_argument("--lights", type=int, default=2000, help="SphereLights and RectLights")
     parser.add_argument("--trees", type=int, default=2000, help="native trees and branches, and instanced trees")

@@ -85,7 +85,7 @@ def make_table(grid: int) -> np.ndarray:
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--grid", type=int, default=512, help="midpoint grid per side in the sample square")
     parser.add_argument("-o", "--out", type=Path, default=OUT)

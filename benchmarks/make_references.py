@@ -23,7 +23,7 @@ SETTINGS = {"width": 64, "height": 64, "max_depth": 10}  # must match the test
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--spp", type=int, default=4096)
     parser.add_argument("--seed", type=int, default=12345)

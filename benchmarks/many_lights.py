@@ -138,7 +138,8 @@ class LaunchCounter:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--lights", type=int, default=10000, help="lamps (instances, or plain SphereLights)")
     parser.add_argument("--linked", type=int, default=2000, help="linked lights, and meshes they link")
     parser.add_argument("--size", type=int, default=32, help="image width and height")

@@ -86,7 +86,7 @@ def sass_local(cubin: Path | None) -> dict[str, str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--arch", type=int, default=90, help="SM architecture of the PTX")
     parser.add_argument("--package", default="wrt", help="package to inspect (e.g. wrt_old with --path)")

@@ -176,6 +176,7 @@ def speed(name: str, points, indices, repeats: int) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
+        allow_abbrev=False,
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     parser.add_argument("--scenes", default="turbineblade_199k,chess_set", help="manifest ids, comma-separated")

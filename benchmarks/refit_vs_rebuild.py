@@ -60,7 +60,8 @@ def timed(fn, repeats=3):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--triangles", type=positive_int, nargs="+", default=[100_000, 1_000_000])
     parser.add_argument("--rays", type=positive_int, default=200_000)

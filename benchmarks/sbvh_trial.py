@@ -389,7 +389,8 @@ def main() -> None:
     from wrt.usd import load_usd
 
     parser = argparse.ArgumentParser(description="SAH cost and size of SBVH trees against the accelerators' SAH "
-                                     "tree (pre-split references), on the host.")
+                                     "tree (pre-split references), on the host.",
+                                     allow_abbrev=False)
     parser.add_argument("scene", help="sphere (a displaced sphere) or a shared asset id, e.g. chess_set")
     parser.add_argument("--sphere", type=int, default=2_000_000, help="triangles of the displaced sphere")
     parser.add_argument("--alphas", default="1e-5", help="comma list of overlap thresholds (fraction of root area)")

@@ -147,7 +147,7 @@ def measure(subjects, origins, directions, repeats: int, device) -> dict:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--scenes", nargs="+", default=["asset:turbineblade_199k", "asset:chess_set"],
                         help="scenes, as wrt bench names them")

@@ -61,7 +61,8 @@ def one_by_one(accel, scene) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--prototypes", type=positive_int, default=2000)
     parser.add_argument("--triangles", type=positive_int, nargs=2, default=[20, 300], help="range per prototype")
     parser.add_argument("--runs", type=positive_int, default=7)

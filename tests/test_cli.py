@@ -111,11 +111,11 @@ def test_the_preview_window_size_help_names_its_unit(capsys):
     (["--verison"], "unrecognized arguments: --verison (did you mean '--version'?) (see 'wrt --help')"),
     (["--width", "8", "render"], "unrecognized arguments: --width; it is an option of wrt render, wrt preview: give it "
      "after the command (see 'wrt --help')"),
-    # argparse takes a unique prefix of a command's option after the command: before it, it got no hint.
+    # The start of a command's option, before the command: the option it starts, to give in full after the command.
     (["--wid", "8", "render"], "unrecognized arguments: --wid; it is an option of wrt render (--width), wrt preview "
-     "(--width): give it after the command (see 'wrt --help')"),
+     "(--width): give it after the command, in full (see 'wrt --help')"),
     (["--sp=4", "render"], "unrecognized arguments: --sp=4; it is an option of wrt render (--spp): give it after the "
-     "command (see 'wrt --help')"),
+     "command, in full (see 'wrt --help')"),
 ])
 def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsys, args, message):
     """An unknown option after a command was reported by the top parser: 'see wrt --help', which lists commands, not
@@ -156,13 +156,27 @@ def test_short_options_with_attached_values_are_still_read():
     assert (parsed.output, parsed.quiet, parsed.time, parsed.scene) == ("out.png", True, -1000.0, ["-width.usda"])
 
 
-def test_the_abbreviations_the_hint_names_are_taken_after_the_command():
-    """argparse itself reads the abbreviations above as the options the hint names, given after the command."""
+@pytest.mark.parametrize("args, abbreviation, option", [
+    (["preview", "--bvh-dept", "3"], "--bvh-dept", "--bvh-depth"),
+    (["render", "--wid", "8"], "--wid", "--width"),
+    (["render", "--sp=4"], "--sp=4", "--spp"),
+    (["bench", "--scen", "sphere:100"], "--scen", "--scenes"),
+    (["bvh-stats", "--lay", "wide"], "--lay", "--layout"),
+    (["--vers"], "--vers", "--version"),
+])
+def test_an_abbreviated_option_is_refused_naming_it_and_the_option_it_starts(capsys, args, abbreviation, option):
+    """argparse took a unique start of a long option for it ('--bvh-dept' for '--bvh-depth'): a script's
+    abbreviation changed meaning, or stopped working, when an option of the same start was added. Every parser of
+    wrt, the subcommands' too, takes options in full."""
     from wrt.cli import build_parser
 
-    render = build_parser().parse_args(["render", "--wid", "8", "--sp=4"])
-    assert (render.width, render.spp) == (8, 4)
-    assert build_parser().parse_args(["preview", "--wid", "8"]).width == 8
+    parser = build_parser()
+    assert not parser.allow_abbrev and not any(p.allow_abbrev for p in parser._commands().values())
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert f"unrecognized arguments: {abbreviation}" in line and f"(did you mean {option!r}?)" in line, line
 
 
 @pytest.mark.parametrize("args, message", [
@@ -1019,12 +1033,11 @@ def test_version_option_prints_the_versions_of_wrt_and_warp(capsys):
 
     pyproject = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text(encoding="utf-8")
     version = re.search(r'^version = "([^"]+)"', pyproject, re.MULTILINE).group(1)
-    for option in ("--version", "--vers"):  # argparse's abbreviation too, as before 590b569 refused it
-        with pytest.raises(SystemExit) as exit_info:
-            main([option])
-        assert exit_info.value.code == 0
-        out = capsys.readouterr().out
-        assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out
+    with pytest.raises(SystemExit) as exit_info:  # '--vers' is refused as every abbreviation is
+        main(["--version"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out
 
 
 def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):

@@ -91,6 +91,10 @@ class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line (``wrt: error: ...``) and exit status 2."""
 
     def __init__(self, *args, **kwargs):
+        # Options are given in full: argparse took a unique prefix ('--bvh-dept' for '--bvh-depth'), so a script's
+        # abbreviation changed meaning, or stopped working, when a later option of the same start was added. The
+        # subcommands' parsers are made of this class too (add_parser), so none of them takes one.
+        kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
         # Values such as -1e3, -inf or -10:-1 (a --time, a --frames range) are values, not options. Before Python
         # 3.13 argparse took only plain negative decimals for values ("--time -1e3": expected one argument).
@@ -144,10 +148,12 @@ class _Parser(argparse.ArgumentParser):
                 return
             name = arg.split("=")[0]
             if arg.startswith("-") and _option_named(self, name) is None:
-                # A command's option, or its abbreviation ('--wid' for render's '--width'), which argparse takes there.
+                # A command's option, or the start of one ('--wid' for render's '--width'), named in full.
+                options = [(c, _option_named(p, name, prefix=True)) for c, p in commands.items()]
                 owners = [f"wrt {command}" + ("" if option == name else f" ({option})")
-                          for command, option in ((c, _option_named(p, name)) for c, p in commands.items()) if option]
-                hint = f"; it is an option of {', '.join(owners)}: give it after the command" \
+                          for command, option in options if option]
+                full = ", in full" if any(option and option != name for _, option in options) else ""
+                hint = f"; it is an option of {', '.join(owners)}: give it after the command{full}" \
                     if owners else did_you_mean(name, self._option_string_actions)
                 self.error(f"unrecognized arguments: {arg}{hint}")
 
@@ -185,12 +191,13 @@ class _Parser(argparse.ArgumentParser):
         return {}
 
 
-def _option_named(parser: argparse.ArgumentParser, name: str) -> str | None:
-    """The option of ``parser`` that ``name`` selects: itself, or the one long option it abbreviates, as argparse
-    takes an unambiguous prefix ('--vers' for '--version'); None for no option, or an ambiguous prefix."""
+def _option_named(parser: argparse.ArgumentParser, name: str, prefix: bool = False) -> str | None:
+    """The option of ``parser`` that ``name`` selects: itself, or (with ``prefix``, for hints: wrt's parsers take no
+    abbreviation) the one long option it is the start of ('--vers' for '--version'); None for no option, or an
+    ambiguous start."""
     if name in parser._option_string_actions:
         return name
-    if parser.allow_abbrev and name.startswith("--"):
+    if (prefix or parser.allow_abbrev) and name.startswith("--"):
         matches = [o for o in parser._option_string_actions if o.startswith(name)]
         return matches[0] if len(matches) == 1 else None
     return None
