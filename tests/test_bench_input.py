@@ -1063,3 +1063,41 @@ def test_every_group_of_a_shipped_suite_is_checked_against_the_reference(suite):
     assert bench_module.REFERENCE in data["accels"]
     if "scaling" in data:
         assert bench_module.REFERENCE in data["scaling"].get("accels", data["accels"])
+
+
+@pytest.mark.parametrize("name, content", [
+    ("table.md", b"# My results\n\n| a | b |\n"),  # the user's own notes
+    ("settings.json", b'{"editor.tabSize": 4}\n'),  # another tool's settings, -o . in a project folder
+    ("mrays.png", None),  # an image wrt did not draw
+    ("scaling.png", b"not even a PNG"),
+])
+def test_a_file_of_the_users_named_as_a_bench_output_is_refused_and_kept(tmp_path, monkeypatch, capsys, name, content):
+    """-o DIR replaced the user's own table.md, settings.json or plot-named files in DIR without a word; now the run
+    stops before loading anything, naming the file, which is left as it was."""
+    from PIL import Image
+
+    path = tmp_path / name
+    if content is None:
+        Image.new("RGB", (4, 4), (200, 10, 10)).save(path)
+    else:
+        path.write_bytes(content)
+    before = path.read_bytes()
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: pytest.fail("a scene was loaded"))
+    with pytest.raises(ValueError, match=f"{re.escape(repr(str(path)))} was not written by wrt bench"):
+        run_grid(small_grid(), tmp_path, progress=False)
+    assert main(["bench", "--scenes", "sphere:2000", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "100",
+                 "-q", "-o", str(tmp_path)]) == 2
+    assert "was not written by wrt bench" in capsys.readouterr().err
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no rows.jsonl either
+
+
+def test_a_bench_folder_of_an_earlier_run_is_written_over(tmp_path):
+    """The files an earlier run wrote (table, settings, marked plots) and empty files are the bench's to replace."""
+    run_grid(small_grid(), tmp_path, progress=False)
+    bench_module.plot(sweep_rows(), tmp_path)  # every plot, marked
+    (tmp_path / "table.md").write_text((tmp_path / "table.md").read_text() + "\nmy note under the table\n")
+    (tmp_path / "scaling.png").write_bytes(b"")
+    rows = run_grid(small_grid(), tmp_path, progress=False)
+    assert len(rows) == 1 and "error" not in rows[0]
+    assert "my note" not in (tmp_path / "table.md").read_text()

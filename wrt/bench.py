@@ -1182,6 +1182,7 @@ def run_grid(
             if (out / name).is_dir():
                 what = "the rows go" if name == "rows.jsonl" else f"{name} goes"
                 raise ValueError(f"output folder {str(out)!r}: {str(out / name)!r}, where {what}, is a folder")
+        _refuse_files_not_written_by_bench(out)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             _check_resumed_settings(out / SETTINGS_FILE, grid)
@@ -1387,6 +1388,42 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
     return devices, unavailable
 
 
+TABLE_HEAD = "| scene | tris | device | rays | accel |"  # how every table.md wrt bench wrote starts (markdown_table)
+
+
+def _written_by_bench(path: Path) -> bool:
+    """Whether ``path`` (``table.md``, ``settings.json`` or a plot of an output folder) is a file that wrt bench
+    wrote, or empty: one a run may replace. A table starts with :data:`TABLE_HEAD`, the settings are a JSON object
+    of :data:`_SETTING_NAMES` (an older run's, of fewer), a plot holds :data:`PLOT_MARK`."""
+    try:
+        if path.stat().st_size == 0:
+            return True
+        if path.name in PLOT_FILES:
+            return written_by_wrt(path)
+        with open(path, "rb") as f:
+            text = f.read(64 * 1024).decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    if path.name == "table.md":
+        return text.startswith(TABLE_HEAD)
+    try:
+        settings = json.loads(text)
+    except json.JSONDecodeError:
+        return False
+    return isinstance(settings, dict) and bool(settings) and set(settings) <= set(_SETTING_NAMES)
+
+
+def _refuse_files_not_written_by_bench(out: Path) -> None:
+    """Raises ValueError, before anything is measured, naming a ``table.md``, ``settings.json`` or plot in ``out``
+    that wrt bench did not write (:func:`_written_by_bench`): the run replaced the user's own files of those names
+    (``-o .`` in a project folder) without a word."""
+    for name in ("table.md", SETTINGS_FILE, *PLOT_FILES):
+        path = out / name
+        if path.is_file() and not _written_by_bench(path):
+            raise ValueError(f"output folder {str(out)!r}: {str(path)!r} was not written by wrt bench, and this run "
+                             f"would replace it; move it, or give another output folder (-o)")
+
+
 def write_summary(rows: list[dict], out: Path, earlier=()) -> None:
     """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots of an earlier run that they have no
     rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning.
@@ -1441,7 +1478,7 @@ def markdown_table(rows: list[dict], earlier=()) -> str:
     edge ties is marked with the number of rays that differ; a row with no ``warp:sah`` answer to check is marked
     ``unchecked``; a row whose key is in ``earlier`` (kept by ``resume``, outside this run's grid) ``(earlier run)``
     after its scene."""
-    head = ("| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % "
+    head = (f"{TABLE_HEAD} threads | build ms | Mrays/s (min-max) | hit % | agree % "
             "| x warp:sah | x embree | SAH |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     cell = lambda x: "" if x is None else str(x).replace("|", "\\|")  # noqa: E731 - a '|' would split the cell
