@@ -917,10 +917,10 @@ def test_a_suite_on_other_devices_with_accels_given_leaves_out_only_its_scaling_
         tmp_path, capsys):
     """--accels replaces the suite's accelerators, not its scaling sweep's: wrt bench gpu --devices cpu --accels
     wrt:sah was refused for the gpu suite's scaling warp:lbvh, which the same run without --accels left out."""
-    suite = write_suite(tmp_path, accels=["warp:lbvh"], devices=["cuda:0"],
+    suite = write_suite(tmp_path, scenes=["sphere:200"], accels=["warp:lbvh"], devices=["cuda:0"],
                         scaling={"sizes": [300], "accels": ["warp:lbvh", "wrt:sah"]})
-    argv = ["bench", str(suite), "--devices", "cpu", "--accels", "wrt:sah", "--scenes", "sphere:200", "--rays",
-            "primary", "--n-rays", "200", "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    argv = ["bench", str(suite), "--devices", "cpu", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "200",
+            "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
     assert main(argv) == 0
     said = [line for line in capsys.readouterr().err.splitlines() if "left out" in line]
     assert len(said) == 1 and "scaling accelerator warp:lbvh left out on devices cpu" in said[0]
@@ -1101,3 +1101,27 @@ def test_a_bench_folder_of_an_earlier_run_is_written_over(tmp_path):
     rows = run_grid(small_grid(), tmp_path, progress=False)
     assert len(rows) == 1 and "error" not in rows[0]
     assert "my note" not in (tmp_path / "table.md").read_text()
+
+
+def test_scenes_named_are_all_that_is_measured_not_the_suites_scaling_sweep(tmp_path, capsys):
+    """wrt bench cpu --scenes x measured the suite's scaling sweep too (five spheres up to 1e7 triangles in the cpu
+    suite), where the user named the scenes wanted. A resume of a run with the sweep is not refused for the sweep's
+    ray count either, and its sweep rows stay for a later resume of the whole suite."""
+    suite = write_suite(tmp_path, scenes=["sphere:200"], rays=["primary"], n_rays=200, repeats=1,
+                        scaling={"sizes": [300], "accels": ["wrt:sah"], "n_rays": 100})
+    out = tmp_path / "out"
+
+    def rows() -> list:
+        return sorted((r["scene"], bool(r.get("sweep"))) for r in map(json.loads, (out / "rows.jsonl").open()))
+
+    assert main(["bench", str(suite), "-q", "-o", str(out)]) == 0  # the suite alone: its sweep is measured
+    assert rows() == [("sphere:200", False), ("sphere:300", True)]
+    assert main(["bench", str(suite), "--scenes", "sphere:250", "-q", "-o", str(tmp_path / "named")]) == 0
+    named = [json.loads(line) for line in (tmp_path / "named" / "rows.jsonl").open()]
+    assert [(r["scene"], r.get("sweep")) for r in named] == [("sphere:250", None)]
+    capsys.readouterr()
+    assert main(["bench", str(suite), "--scenes", "sphere:250", "--resume", "-q", "-o", str(out)]) == 0
+    assert "1 row measured, 0 resumed, 0 failed, 2 rows of an earlier run kept" in capsys.readouterr().err
+    assert rows() == [("sphere:200", False), ("sphere:250", False), ("sphere:300", True)]
+    assert main(["bench", str(suite), "--resume", "-q", "-o", str(out)]) == 0  # the whole suite again: all kept
+    assert "0 rows measured, 2 resumed" in capsys.readouterr().err

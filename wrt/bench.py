@@ -964,12 +964,30 @@ def _run_group_task(task) -> list[dict]:
 SETTINGS_FILE = "settings.json"  # beside rows.jsonl: the ray counts and repeats its rows were measured with
 
 
-def _resume_settings(grid: Grid) -> dict:
+def _resume_settings(grid: Grid, before: dict | None = None) -> dict:
     """The settings that decide how a row is measured: which rays it times, and over how many timed launches (a
     median of 3 is noisier than one of 20). A resumed row measured under others would sit in the table as if it
-    were measured like the new rows, so ``resume`` refuses them."""
-    return {"n_rays": grid.n_rays, "scaling_n_rays": int((grid.scaling or {}).get("n_rays", grid.n_rays)),
-            "repeats": grid.repeats}
+    were measured like the new rows, so ``resume`` refuses them. A grid without a sweep keeps the sweep's ray count
+    of the earlier run resumed (``before``, its settings), whose sweep rows stay."""
+    settings = {"n_rays": grid.n_rays, "scaling_n_rays": int((grid.scaling or {}).get("n_rays", grid.n_rays)),
+                "repeats": grid.repeats}
+    if not _has_sweep(grid) and isinstance(before, dict) and isinstance(before.get("scaling_n_rays"), int):
+        settings["scaling_n_rays"] = before["scaling_n_rays"]
+    return settings
+
+
+def _has_sweep(grid: Grid) -> bool:
+    """Whether ``grid`` measures a scaling sweep (``wrt bench SUITE --scenes ...`` leaves the suite's out)."""
+    return bool((grid.scaling or {}).get("sizes"))
+
+
+def _read_settings(path: Path) -> dict:
+    """The settings recorded in ``path`` (``SETTINGS_FILE``); ``{}`` where there are none or they do not read."""
+    try:
+        before = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    return before if isinstance(before, dict) else {}
 
 
 # How a user sets each of _resume_settings: the options of wrt bench, and the sweep's own key in a suite file.
@@ -979,12 +997,8 @@ _SETTING_NAMES = {"n_rays": "--n-rays", "repeats": "--repeats", "scaling_n_rays"
 def _check_resumed_settings(path: Path, grid: Grid) -> None:
     """Raises ValueError when the rows to resume were measured with other ray counts or repeats (``path`` is their
     ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it)."""
-    try:
-        before = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return
-    now = _resume_settings(grid)
-    before = before if isinstance(before, dict) else {}
+    before = _read_settings(path)
+    now = _resume_settings(grid, before)
     differ = [k for k in now if before.get(k, now[k]) != now[k]]
     follows = before.get("scaling_n_rays") == before.get("n_rays") and now["scaling_n_rays"] == now["n_rays"]
     if "scaling_n_rays" in differ and follows:  # a sweep without its own n_rays follows --n-rays: one change, once
@@ -1168,6 +1182,7 @@ def run_grid(
             raise TypeError(f"run_grid: dask must be None, True or False, or a scheduler address str, got "
                             f"{type(dask).__name__} {dask!r}") from None
     rows, resumed, warned = [], {}, set()  # resumed: row key -> a row of the earlier run, kept until measured again
+    earlier_settings = None  # the settings of the rows resumed (SETTINGS_FILE)
     jsonl = None
     if out is not None:
         if not str(out).strip():  # Path("") is the current folder
@@ -1186,6 +1201,7 @@ def run_grid(
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             _check_resumed_settings(out / SETTINGS_FILE, grid)
+            earlier_settings = _read_settings(out / SETTINGS_FILE)
             rows = _resumed_rows(jsonl)
             resumed = {row_key(r): r for r in rows}
         elif resume:  # said: a misspelt output folder measured every row again without a word
@@ -1236,7 +1252,7 @@ def run_grid(
         nonlocal begun
         if out is not None and not begun:
             _write_rows(jsonl, rows)  # the resumed rows, or none
-            settings = strict_json(_resume_settings(grid)) + "\n"
+            settings = strict_json(_resume_settings(grid, earlier_settings)) + "\n"
             write_atomically(out / SETTINGS_FILE, lambda target: target.write_text(settings))
         begun = True
 

@@ -1372,7 +1372,8 @@ def _add_bench(sub) -> None:
                    help="run the small 'quick' suite (under a minute on a CPU, once the kernels are compiled)")
     suites = "; default: the suite's"  # each of these replaces one field of the suite
     p.add_argument("--scenes", type=_scene_list,
-                   help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N" + suites)
+                   help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N; only these are measured "
+                   "(the suite's scaling sweep is left out)" + suites)
     p.add_argument("--accels", type=_csv,
                    help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree" + suites)
     p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0" + suites)
@@ -1432,6 +1433,8 @@ def _run_bench(args) -> int:
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     typed = {k: v for k, v in overrides.items() if v is not None}
+    if args.scenes is not None:  # the scenes named are all that is measured: the suite's scaling sweep ran too
+        typed["scaling"] = None
     out = Path(args.out)
     rows_before = file_state(out / "rows.jsonl")  # set before a Ctrl-C can come: the message reads it
     try:
