@@ -1125,3 +1125,50 @@ def test_scenes_named_are_all_that_is_measured_not_the_suites_scaling_sweep(tmp_
     assert rows() == [("sphere:200", False), ("sphere:250", False), ("sphere:300", True)]
     assert main(["bench", str(suite), "--resume", "-q", "-o", str(out)]) == 0  # the whole suite again: all kept
     assert "0 rows measured, 2 resumed" in capsys.readouterr().err
+
+
+TWO_TRIANGLES = """#usda 1.0
+def Mesh "Quad"
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+}
+"""
+
+
+def test_relative_scene_paths_of_a_suite_are_read_from_its_folder(tmp_path, monkeypatch):
+    """A suite's relative scene paths were read from the current folder: a suite beside its scenes ran only from
+    that folder, elsewhere each scene was an error row. They are read from the suite's folder now; a path that only
+    the current folder holds is still read from there, with a warning; absolute paths and scene kinds stay."""
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "quad.usda").write_text(TWO_TRIANGLES)
+    (tmp_path / "bench").mkdir()
+    (tmp_path / "work" / "deep").mkdir(parents=True)  # where ../scenes is no folder
+    absolute = tmp_path / "scenes" / "abs.usda"
+    absolute.write_text(TWO_TRIANGLES)
+    suite = tmp_path / "bench" / "suite.json"
+    suite.write_text(json.dumps({"scenes": ["../scenes/quad.usda", str(absolute), "sphere:300"],
+                                 "accels": ["wrt:sah"], "rays": ["primary"], "n_rays": 200, "repeats": 1}))
+    monkeypatch.chdir(tmp_path / "work" / "deep")
+    grid = Grid.from_suite(str(suite))
+    assert Path(grid.scenes[0]).resolve() == (tmp_path / "scenes" / "quad.usda").resolve()
+    assert grid.scenes[1:] == [str(absolute), "sphere:300"]
+    rows = run_grid(grid, tmp_path / "out", progress=False)
+    assert [(r.get("error"), r["triangles"]) for r in rows[:2]] == [(None, 2), (None, 2)]  # the quads on disk
+    assert [r["scene"] for r in rows] == grid.scenes and "error" not in rows[2]
+    # A suite written for the old rule: its path is found from the current folder only.
+    monkeypatch.chdir(tmp_path)
+    old = tmp_path / "bench" / "old.json"
+    old.write_text(json.dumps({"scenes": ["scenes/quad.usda"], "accels": ["wrt:sah"]}))
+    with pytest.warns(UserWarning, match=r"old.json: scene 'scenes/quad.usda' is not beside the suite .*current fo"):
+        assert Grid.from_suite(str(old)).scenes == ["scenes/quad.usda"]
+    # --scenes are the command line's: read from the current folder.
+    assert Grid.from_suite(str(old), overrides={"scenes": ["scenes/quad.usda"]}).scenes == ["scenes/quad.usda"]
+
+
+def test_the_shipped_suites_name_the_same_scenes_from_any_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for path in sorted(bench_module.SUITES_DIR.glob("*.json")):
+        written = json.loads(path.read_text(encoding="utf-8"))["scenes"]
+        assert Grid.from_suite(path.stem).scenes == written, path.name

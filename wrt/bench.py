@@ -90,7 +90,8 @@ class Grid:
 
     @classmethod
     def from_suite(cls, path, overrides: dict | None = None) -> Grid:
-        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``.
+        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``. Its relative
+        scene paths are read from its folder (:func:`_suite_scene_paths`).
         ``overrides`` (grid fields, as ``wrt bench --devices ...`` gives them) replace the suite's values before any
         is checked: a value overridden is never used, so a bad one in the file is not refused.
 
@@ -125,6 +126,8 @@ class Grid:
                              f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
                     if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        if "scenes" not in overrides:  # --scenes are the command line's, read from the current folder
+            data = dict(data, scenes=_suite_scene_paths(data.get("scenes"), path))
         # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
         # --devices replaced them all.
         data = {**data, **overrides}
@@ -310,6 +313,36 @@ def _drop_unbuilt(data: dict, suite: str, accels: bool = True) -> dict:
     if isinstance(data.get("scaling"), dict) and "accels" in data["scaling"]:
         data["scaling"] = dict(data["scaling"], accels=kept(data["scaling"]["accels"], "scaling accelerator"))
     return data
+
+
+def _suite_scene_paths(scenes, suite: Path):
+    """The ``scenes`` of the suite file ``suite``, with each relative file path read from the suite's folder, as other
+    tools read paths in their files (a path beside it was read from the current folder, so a suite ran from one folder
+    only). A path found from the current folder alone, not beside the suite, is kept, with a warning: suites written
+    for the old rule still run. Scene kinds (``sphere:N``, ``warp:NAME``, ``asset:ID``, a misspelt kind) and absolute
+    paths are kept; anything not a list of names is left for the checks to refuse."""
+    folder = suite.parent
+    if not isinstance(scenes, list) or folder == Path("."):
+        return scenes
+    read = []
+    for name in scenes:
+        if not isinstance(name, str) or not name.strip() or Path(name).is_absolute():
+            read.append(name)
+            continue
+        beside = folder / name
+        kind, colon, _ = name.partition(":")
+        if colon and len(kind) > 1 and kind.isalpha() and not beside.exists():  # a scene kind, as resolve_scene tells
+            read.append(name)
+        elif not beside.exists() and Path(name).exists():
+            import warnings
+
+            warnings.warn(f"{suite.name}: scene {name!r} is not beside the suite ({beside}) but is in the current "
+                          "folder, where it is read from; relative scene paths in a suite are read from its folder: "
+                          "write it relative to that, or absolute", stacklevel=4)
+            read.append(name)
+        else:
+            read.append(str(beside))
+    return read
 
 
 def check_device_name(name: str, index: int | None = None) -> None:
