@@ -897,10 +897,10 @@ def test_a_suite_run_on_devices_that_cannot_build_one_of_its_accelerators_leaves
                                                                                                       capsys):
     """wrt bench gpu --devices cpu failed each of the gpu suite's warp:lbvh rows, and wrt bench --devices cuda:0 each
     of the quick suite's embree rows; the suite's other accelerators are measured, as before."""
-    suite = write_suite(tmp_path, accels=["warp:sah", "warp:lbvh"], devices=["cuda:0"],
+    suite = write_suite(tmp_path, scenes=["sphere:200"], accels=["warp:sah", "warp:lbvh"], devices=["cuda:0"],
                         scaling={"sizes": [300], "accels": ["warp:lbvh", "wrt:sah"]})
-    argv = ["bench", str(suite), "--devices", "cpu", "--scenes", "sphere:200", "--rays", "primary", "--n-rays", "200",
-            "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    argv = ["bench", str(suite), "--devices", "cpu", "--rays", "primary", "--n-rays", "200", "--repeats", "1", "-q",
+            "-o", str(tmp_path / "out")]
     assert main(argv) == 0
     said = [line for line in capsys.readouterr().err.splitlines() if "left out" in line]
     assert said == [
@@ -1172,3 +1172,24 @@ def test_the_shipped_suites_name_the_same_scenes_from_any_folder(tmp_path, monke
     for path in sorted(bench_module.SUITES_DIR.glob("*.json")):
         written = json.loads(path.read_text(encoding="utf-8"))["scenes"]
         assert Grid.from_suite(path.stem).scenes == written, path.name
+
+
+def test_a_suite_and_an_asset_manifest_starting_with_a_byte_order_mark_are_read(tmp_path, monkeypatch):
+    """A suite or manifest.json saved by a Windows editor (Notepad, PowerShell's Out-File) starts with the UTF-8 byte
+    order mark: the suite was 'not a JSON suite (Unexpected UTF-8 BOM ...)', the manifest 'not a JSON manifest'. Each
+    reads as the same file without it (the oracle)."""
+    fields = {"scenes": ["sphere:300", "asset:quad"], "accels": ["wrt:sah"], "rays": ["primary"], "n_rays": 100}
+    text = json.dumps(fields)
+    (tmp_path / "plain.json").write_text(text, encoding="utf-8")
+    (tmp_path / "marked.json").write_text(text, encoding="utf-8-sig")
+    assert (tmp_path / "marked.json").read_bytes()[:3] == b"\xef\xbb\xbf"
+    assert Grid.from_suite(str(tmp_path / "marked.json")) == Grid.from_suite(str(tmp_path / "plain.json"))
+    manifest = json.dumps({"assets": [{"id": "quad", "path": "quad.usda"}]})
+    for encoding in ("utf-8", "utf-8-sig"):
+        (tmp_path / "manifest.json").write_text(manifest, encoding=encoding)
+        monkeypatch.setenv("WRT_ASSETS", str(tmp_path))
+        assert bench_module.asset_path("quad") == tmp_path / "quad.usda"
+    latin = b'{"scenes": ["caf\xe9.usda"], "accels": ["wrt:sah"]}'  # Latin-1, as a non-UTF-8 editor saves it
+    (tmp_path / "latin.json").write_bytes(latin)
+    with pytest.raises(ValueError, match=rf"latin.json: not UTF-8 JSON text \(byte {latin.index(0xE9)} is no UTF-8\)"):
+        Grid.from_suite(str(tmp_path / "latin.json"))

@@ -112,10 +112,15 @@ class Grid:
         if not path.is_file():  # a named pipe: read_text() waited for a writer, forever; /dev/zero never ends
             raise ValueError(f"{path}: {not_a_file(path)}, not a benchmark suite (a JSON file)")
         try:
-            data = json.loads(path.read_text())
+            # UTF-8 as JSON is (it was read in the locale's encoding), a byte order mark taken: Windows editors
+            # (Notepad, PowerShell's Out-File) start a file with one, and it was 'Unexpected UTF-8 BOM'.
+            data = json.loads(path.read_bytes().decode("utf-8-sig"))
         except json.JSONDecodeError as e:
             _refuse_wrt_output(path)
             raise ValueError(f"{path}: not a JSON suite ({e.msg} at line {e.lineno}, column {e.colno})") from None
+        except UnicodeDecodeError as e:
+            raise ValueError(f"{path}: not UTF-8 JSON text (byte {e.start} is no UTF-8), not a benchmark suite"
+                             ) from None
         if not isinstance(data, dict):
             raise ValueError(f"{path.name}: a suite is a JSON object of grid fields, got {type(data).__name__}")
         keys = [f.name for f in dataclasses.fields(cls)] + ["description"]
@@ -677,7 +682,7 @@ def manifest_entries(manifest: Path) -> dict[str, str]:
             'assets', named no file).
     """
     try:
-        data = json.loads(manifest.read_bytes().decode("utf-8"))
+        data = json.loads(manifest.read_bytes().decode("utf-8-sig"))  # a byte order mark taken, as in a suite
     except json.JSONDecodeError as e:
         raise ValueError(f"{manifest}: not a JSON manifest ({e.msg} at line {e.lineno}, column {e.colno})") from None
     except UnicodeDecodeError as e:
