@@ -2,6 +2,8 @@
 ``Usd.Attribute.Get(time)`` reads them; the default time reads a value of time samples only at its first, as wrt reads
 every attribute. They were read at the default time only: a time-sampled ``resolution`` gave the schema's 2048x1080."""
 
+import sys
+
 import numpy as np
 from pxr import Usd, UsdRender
 
@@ -82,7 +84,7 @@ def test_frames_say_each_view_once_as_a_still_render_does(tmp_path, capsys):
     out = str(tmp_path / "f_#.npy")
     assert main(["render", str(path), "--frames", "1:2", "-o", out, "--integrator", "normals"]) == 0
     err = capsys.readouterr().err
-    expected = []
+    expected = []  # the first frame's view as it finishes, as a still render says it; then each with its frames
     for frame in (1, 2):
         (width, height), window = usd_values(path, frame)[:2]
         shown = round(width * (window[2] - window[0])), round(height * (window[3] - window[1]))
@@ -90,6 +92,7 @@ def test_frames_say_each_view_once_as_a_still_render_does(tmp_path, capsys):
             f", {shown[0]}x{shown[1]} inside the dataWindowNDC of /Render/Product"
         expected.append(f"wrt: view: camera /Cam (render settings), {width}x{height} (resolution of /Render/Product)"
                         f"{inside} (frame {frame})")
+    expected.insert(0, expected[0].removesuffix(" (frame 1)"))
     assert [line for line in err.splitlines() if line.startswith("wrt: view:")] == expected, err
     said = [line for line in err.splitlines() if "image sizes" in line]
     assert len(said) == 1 and "render settings' resolution and dataWindowNDC" in said[0] and "aperture" not in said[0]
@@ -101,3 +104,36 @@ def test_frames_say_each_view_once_as_a_still_render_does(tmp_path, capsys):
         assert main(["render", str(still), "-o", str(tmp_path / "s.npy"), "--integrator", "normals", *options]) == 0
         views.append([line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: view:")])
     assert len(views[1]) == 1 and views[0] == views[1], views
+
+
+def test_frames_say_the_first_view_as_its_frame_finishes_and_a_resume_that_skips_every_frame_says_it(
+        tmp_path, capsys, monkeypatch):
+    """--frames said its views once every frame was drawn (a wrong camera was seen hours into a long run), and a
+    --resume that skipped every frame said none. The first frame's view now comes before the second frame is drawn,
+    and a resume says the views of the frames it skips, from their rows of the log: the lines the first run ended
+    with."""
+    from wrt.animation import FrameRenderer
+
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    render = FrameRenderer.render
+
+    def marked(self, frame, **kwargs):
+        print(f"drawing frame {frame:g}", file=sys.stderr, flush=True)
+        return render(self, frame, **kwargs)
+
+    monkeypatch.setattr(FrameRenderer, "render", marked)
+    argv = ["render", str(path), "--frames", "1:2", "-o", str(tmp_path / "f_#.npy"), "--integrator", "normals",
+            "--log", str(tmp_path / "log.jsonl")]
+    assert main(argv) == 0
+    lines = capsys.readouterr().err.splitlines()
+    (width, height), window = usd_values(path, 1)[:2]
+    assert tuple(window) == (0, 0, 1, 1)
+    first = f"wrt: view: camera /Cam (render settings), {width}x{height} (resolution of /Render/Product)"
+    assert lines.index(first) < lines.index("drawing frame 2"), lines
+    ended = [line for line in lines[lines.index("drawing frame 2"):] if line.startswith("wrt: view:")]
+    assert len(ended) == 2 and ended[0] == f"{first} (frame 1)", ended
+    assert main([*argv, "--resume"]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert not any(line.startswith("drawing") for line in lines), lines  # every frame skipped
+    assert [line for line in lines if line.startswith("wrt: view:")] == ended, lines

@@ -258,8 +258,10 @@ def follow(accel, scene, change: str) -> tuple[str, int]:
 RENDERER_OPTIONS = ("width", "height", "device", "builder", "accel", "integrator", "max_depth", "ao_radius")
 LOAD_OPTIONS = ("camera", "tessellate_gprims", "refine_level", "variants", "render_settings")
 FRAME_OPTIONS = tuple(name for name in LOAD_OPTIONS + RENDERER_OPTIONS if name != "device")
-FRAMES_OWN = ("devices", "spp", "seed", "exposure", "progress", "log", "log_row", "aov_pattern")  # render_frames'
-DASK_OWN = ("address", "n_workers", "spp", "seed", "exposure", "progress", "log", "log_row", "aov_pattern", "task")
+# render_frames' own arguments, and render_frames_on_dask's
+FRAMES_OWN = ("devices", "spp", "seed", "exposure", "progress", "log", "log_row", "on_row", "aov_pattern")
+DASK_OWN = ("address", "n_workers", "spp", "seed", "exposure", "progress", "log", "log_row", "on_row", "aov_pattern",
+            "task")
 
 
 def check_frame_options(options: dict, what: str, valid: tuple) -> None:
@@ -599,7 +601,7 @@ def _written_aovs(image, pattern, frame: float) -> list[str]:
 
 
 def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, log=None,
-                  log_row=None, aov_pattern=None, **options) -> list[dict]:
+                  log_row=None, on_row=None, aov_pattern=None, **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
 
     With one device the frames are rendered here, in order, by one :class:`FrameRenderer`. With several, each
@@ -619,6 +621,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         progress: show a progress bar.
         log: a JSON-lines file each row is appended to as its frame finishes (see :class:`LogRows`), or None.
         log_row: what of a row is written to ``log`` (see :class:`LogRows`).
+        on_row: called with each row as its frame finishes (``wrt render`` says the first frame's view then, not
+            once every frame is drawn), or None.
         aov_pattern: also write every AOV of each frame as a ``.npy`` array (:meth:`wrt.Image.save_aov`) to this
             pattern's file (:func:`aov_files`: ``{name}`` the AOV, the last run of ``#`` the frame number), or None.
         **options: :class:`FrameRenderer` options.
@@ -651,7 +655,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     if aov_pattern is not None:
         check_aov_pattern(aov_pattern, jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
-    rows = LogRows(log, log_row)
+    rows = LogRows(log, log_row, on_row)
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
         if len(devices) == 1:
             renderer = FrameRenderer(path, device=devices[0], **options)
@@ -719,12 +723,13 @@ class LogRows(list):
     is added, in strict JSON: an interrupted run (Ctrl-C, a frame that stops it) keeps the rows of every frame that
     finished, where rows written at the end were lost with the run. ``log_row``, when given, makes the row written
     of the row added (``wrt render`` adds its run, options and the image's modification time: see
-    :mod:`wrt.render_log`)."""
+    :mod:`wrt.render_log`). ``on_row``, when given, is called with each row added, after its log line."""
 
-    def __init__(self, log=None, log_row=None):
+    def __init__(self, log=None, log_row=None, on_row=None):
         super().__init__()
         self.log = None if log is None else Path(log)
         self.log_row = log_row
+        self.on_row = on_row
         if self.log is not None:
             self.log.parent.mkdir(parents=True, exist_ok=True)
 
@@ -735,6 +740,8 @@ class LogRows(list):
             from .strict_json import strict_json
 
             append_row(self.log, strict_json(row if self.log_row is None else self.log_row(row)))
+        if self.on_row is not None:
+            self.on_row(row)
 
 
 def frame_error_row(frame: float, file, error: SceneError | Warning, device: str | None = None) -> dict:
@@ -952,13 +959,15 @@ def warning_class(name: str) -> type[Warning]:
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
-                          log=None, log_row=None, aov_pattern=None, task=render_frame_task, **options) -> list[dict]:
+                          log=None, log_row=None, on_row=None, aov_pattern=None, task=render_frame_task,
+                          **options) -> list[dict]:
     """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
     one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
     arrives (its AOV arrays too with ``aov_pattern``, as :func:`render_frames` writes them), and a frame whose worker
     died is rerun elsewhere. Returns the log rows, with ``output``, in arrival order (each also appended to ``log`` as
-    it arrives, when given); a frame whose stage is bad at its time has an error row, as in :func:`render_frames`,
-    and any other error (a frame whose workers kept dying too) is raised once every frame has finished."""
+    it arrives, when given, and handed to ``on_row``); a frame whose stage is bad at its time has an error row, as in
+    :func:`render_frames`, and any other error (a frame whose workers kept dying too) is raised once every frame has
+    finished."""
     from .distributed import run_tasks
     from .image import check_exposure
 
@@ -970,7 +979,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
         check_aov_pattern(aov_pattern, jobs)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options, aov_pattern is not None) for frame, file in jobs]
-    rows = LogRows(log, log_row)
+    rows = LogRows(log, log_row, on_row)
     write = _frame_writer(rows, aov_pattern)
     others = []
 

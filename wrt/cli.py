@@ -1019,6 +1019,7 @@ def _run_frames(args, paths: list, progress) -> int:
     run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov")}
     fields = {**run, "scene": str(paths[0]), **options, "scene_mtime_ns": mtime_ns(paths[0])}
     finished = {}
+    skipped_rows = []  # (frame, the log row that finished it) of the frames --resume skips
     if args.log:
         log = Path(args.log)
         _check_log_path(log, [file for _, file in jobs], paths)
@@ -1029,6 +1030,7 @@ def _run_frames(args, paths: list, progress) -> int:
             for frame, file in jobs:
                 if file in finished:  # a row for it in this run too: each run's rows list every frame
                     before = finished[file]
+                    skipped_rows.append((frame, before))
                     # Its AOV files too, as a batch's skipped rows carry them: the next --resume checks them.
                     aovs = {"aov_files": before["aov_files"]} if "aov_files" in before else {}
                     append_row(log, strict_json({**fields, "frame": frame, "output": str(file),
@@ -1054,9 +1056,18 @@ def _run_frames(args, paths: list, progress) -> int:
 
         for device in devices:  # before the first frame loads, naming the option
             resolve_device_option(device, "--devices" if args.devices else "--device")
+    said = []  # the view said as the first frame finished
+
+    def say_first_view(row: dict) -> None:
+        """Says the view of the first frame drawn as it finishes, as a still render says its view before the image:
+        the view lines came once every frame was drawn, hours into a long run."""
+        if row.get("view") and not said:
+            said.append(row["view"])
+            progress(f"view: {row['view']}")
+
     common = {"spp": args.spp, "seed": args.seed, "exposure": _png_exposure(args), "progress": progress.bar,
               "log": args.log, "log_row": log_row,  # a row per frame as it finishes: an interrupted run keeps them
-              "aov_pattern": aov_pattern}
+              "on_row": say_first_view, "aov_pattern": aov_pattern}
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
     if args.dask is not None:
@@ -1068,12 +1079,16 @@ def _run_frames(args, paths: list, progress) -> int:
         rows = render_frames(paths[0], jobs, devices=devices, **common)
     from .animation import warn_mixed_sizes
 
-    # The view of each frame, as a still render says it: each once, with its frames where they differ.
+    # The view of each frame, as a still render says it: each once, with its frames where they differ (the first
+    # frame's is said as it finishes: again here, with its frames). The frames --resume skipped too, by their rows
+    # of the log: a run that skipped every frame said no view.
     views = collections.defaultdict(list)
-    for row in sorted((row for row in rows if row.get("view")), key=lambda row: row["frame"]):
+    drawn = [*rows, *(dict(row, frame=frame) for frame, row in skipped_rows)]
+    for row in sorted((row for row in drawn if row.get("view")), key=lambda row: row["frame"]):
         views[row["view"]].append(row["frame"])
     for view, frames in views.items():
-        progress(f"view: {view}" + (f" ({_frame_list(frames)})" if len(views) > 1 else ""))
+        if len(views) > 1 or view not in said:
+            progress(f"view: {view}" + (f" ({_frame_list(frames)})" if len(views) > 1 else ""))
     warn_mixed_sizes(paths[0], rows)
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
