@@ -153,7 +153,9 @@ def test_instance_scaled_past_2_to_100_after_a_move_is_traced_in_new_blases():
     to_world[1, 0, 0] = to_world[1, 1, 1] = to_world[1, 2, 2] = 2.0**110  # the middle square spread, at its height
     scene.instances.to_world = to_world
     after = get_accelerator(scene)
-    assert not any(a is b for a, b in zip(after.blas, before.blas))
+    # The middle square's prototype gets a BLAS of its new scale; the other prototype's BLAS is the one built first.
+    assert [part[0] for part in after._blas_parts] == [1, 2] and after.blas[0] is before.blas[0]
+    assert after.blas[1] is not before.blas[1] and after._blas_parts[1][3] != 0
     # The middle square (z = 1) now covers the first (z = 0); the third (z = 2) lies above it.
     np.testing.assert_allclose(wrt.trace(scene, *down_rays(3)).t, [9.0, 9.0, 8.0], rtol=1e-6)
 
@@ -186,6 +188,7 @@ def test_far_mesh_warning_follows_point_edits_not_instance_moves(monkeypatch):
     assert warned() == []
 
 
+@pytest.mark.filterwarnings("ignore:scene. coordinates past")  # the refused transforms' own warning
 @pytest.mark.parametrize("bad", ["nan", "inf", "beyond_float32", "not_affine"])
 def test_a_refused_move_keeps_the_blases_for_the_next_good_move(bad):
     # A move the scene refuses once dropped the held accelerator: the next good move rebuilt every BLAS.
@@ -209,3 +212,28 @@ def test_a_refused_move_keeps_the_blases_for_the_next_good_move(bad):
         assert len(after.blas) == len(before.blas) and all(a is b for a, b in zip(after.blas, before.blas))
         np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, 10.0 - np.array(heights), rtol=1e-6)
     np.testing.assert_allclose(first, [10.0, 9.0, 8.0], rtol=1e-6)
+
+
+def test_a_move_that_skips_a_prototypes_only_instance_keeps_the_other_blases():
+    # A singular transform skips its instance (warned); where it was its prototype's only one, the accelerator needs
+    # other BLASes and was built anew whole, and again when the instance came back: every BLAS twice.
+    from wrt.trace import get_accelerator
+
+    scene = squares([0.0, 1.0, 2.0])  # instances 0 and 2 of prototype 0, instance 1 of prototype 1
+    before = get_accelerator(scene)
+    origins, directions = down_rays(3)
+    flat = placed([0.0, 1.0, 2.0])
+    flat[1, :3, :3] = 0.0
+    scene.instances.to_world = flat
+    with pytest.warns(UserWarning, match=r"singular transform.*/instances\[1\]"):
+        skipped = get_accelerator(scene)
+    assert [part[0] for part in skipped._blas_parts] == [1] and skipped.blas[0] is before.blas[0]
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, [10.0, np.inf, 8.0], rtol=1e-6)
+    scene.instances.to_world = placed([0.0, 1.5, 2.0])
+    back = get_accelerator(scene)
+    assert [part[0] for part in back._blas_parts] == [1, 2] and back.blas[0] is before.blas[0]
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, [10.0, 8.5, 8.0], rtol=1e-6)
+    fresh = squares([0.0, 1.5, 2.0])  # the same scene built anew: the same hits, ray by ray
+    hits, kept = wrt.trace(fresh, origins, directions), wrt.trace(scene, origins, directions)
+    for name in ("t", "u", "v", "prim", "instance"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(hits, name), err_msg=name)

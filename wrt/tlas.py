@@ -415,6 +415,8 @@ class InstancedAccelerator(Accelerator):
         scene: the scene; its instances, prototypes and non-instanced meshes.
         builder: builder name, used for every BLAS and the TLAS.
         device: Warp device.
+        reuse: an accelerator of the same scene's triangles, builder and options before its instances moved: its
+            BLASes that this one needs are taken, not built again (:func:`wrt.trace.moved_accelerator`).
         **build_options: passed to every BLAS build (``leaf_size`` etc.), with the defaults of
             :func:`wrt.trace.accelerator_build_options` (SAH: ``presplit=6``). ``presplit`` applies to the BLASes of
             more than ``batched.BATCH_MAX_TRIANGLES`` (4096) triangles only: the small ones are built together on a
@@ -433,7 +435,8 @@ class InstancedAccelerator(Accelerator):
     name = "wrt"
     unit_rays = True
 
-    def __init__(self, scene: Scene, builder: str, device, **build_options):
+    def __init__(self, scene: Scene, builder: str, device, *, reuse: InstancedAccelerator | None = None,
+                 **build_options):
         check_finite_transforms(scene)
         self.device = device
         self.builder = builder
@@ -442,9 +445,19 @@ class InstancedAccelerator(Accelerator):
         self.blas, self._device_blas, self._blas_first, self._blas_parts = [], [], [], []
         self._refitters = []
         parts = blas_parts(scene)
-        meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
+        # The BLASes of ``reuse`` (the accelerator of the scene before its instances moved, of these triangles and
+        # options) that it still needs: an instance skipped or scaled past 2^100 changes one part, not the others.
+        kept = {} if reuse is None else {tuple(part): b for b, part in enumerate(reuse._blas_parts)}
+        built = [part for part in parts if tuple(part) not in kept]
+        meshes = [_part_triangles(scene, points, indices, *part) for part in built]
         # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
-        trees, uploads = self._build_blases(meshes)
+        new = dict(zip(map(tuple, built), zip(*self._build_blases(meshes)))) if built else {}
+        trees, uploads = [], []
+        for part in parts:
+            tree, upload = new[tuple(part)] if tuple(part) in new else (reuse.blas[kept[tuple(part)]],
+                                                                         reuse._device_blas[kept[tuple(part)]])
+            trees.append(tree)
+            uploads.append(upload)
         for part, bvh, d in zip(parts, trees, uploads):
             self.blas.append(bvh)
             self._device_blas.append(d)

@@ -525,8 +525,9 @@ def check_scene(scene) -> None:
 def moved_accelerator(scene: Scene, key: tuple):
     """The two-level accelerator cached under ``key`` before ``scene``'s instances last moved, followed to them: its
     BLASes kept and its TLAS built anew, as a fresh build's (:meth:`wrt.tlas.InstancedAccelerator.update`); None where
-    there is none or it cannot follow (an instance's scale crossed ``2^100``: other BLASes). The update is made on a
-    copy: a CUDA graph recorded with the old one keeps replaying the arrays it was recorded with.
+    there is none. Where it cannot follow (other BLASes: an instance's scale crossed ``2^100``, or a prototype's only
+    instance was skipped as singular or came back) a new one is built that takes the BLASes it still needs. The
+    update is made on a copy: a CUDA graph recorded with the old one keeps replaying the arrays it was recorded with.
 
     Raises:
         ValueError: for a move the scene refuses (a NaN transform: :func:`check_finite_transforms`). The accelerator
@@ -539,8 +540,10 @@ def moved_accelerator(scene: Scene, key: tuple):
     accel = copy.copy(held)
     try:
         accel.update(scene, refit_blas=False)
-    except ValueError:
-        accel = None  # it cannot follow (other BLASes): the caller builds one anew
+    except ValueError:  # other BLASes: the ones still needed are taken (a skipped instance rebuilt every BLAS)
+        from .tlas import InstancedAccelerator
+
+        accel = InstancedAccelerator(scene, held.builder, held.device, reuse=held)
     del scene._moved_accels[key]
     return accel
 
