@@ -911,6 +911,25 @@ def test_aov_dir_with_frames_writes_each_frames_aovs_numbered_as_the_images(anim
         assert main(argv + options) == 0 and (tmp_path / "aovs" / gone).is_file(), gone
 
 
+def test_aov_dir_numbers_frames_as_the_images_when_the_scene_name_holds_a_hash(animated, tmp_path):
+    """-o renders/{stem}.png of shot#1.usda numbers the images shot#1_0001.png (a # in the scene's name is no frame
+    placeholder), but --aov-dir took the stem's # as the run to number with: depth_1.npy, not depth_0001.npy as its
+    help says ('numbered as the images'). The oracle is the images' own numbers, read from the files written."""
+    from wrt.cli import main
+    from wrt.render import AOV_NAMES
+
+    scene = tmp_path / "shot#1.usda"
+    scene.write_bytes(animated.read_bytes())
+    argv = ["render", str(scene), "--frames", "1:2", "-o", str(tmp_path / "renders" / "{stem}.npy"), "--aov-dir",
+            str(tmp_path / "aovs"), "--width", "8", "--height", "6", "-q"]
+    assert main(argv) == 0
+    images = sorted(p.name for p in (tmp_path / "renders").iterdir())
+    assert images == ["shot#1_0001.npy", "shot#1_0002.npy"]
+    numbers = [name.removeprefix("shot#1_").removesuffix(".npy") for name in images]
+    assert sorted(p.name for p in (tmp_path / "aovs").iterdir()) == sorted(f"{n}_{k}.npy" for n in AOV_NAMES
+                                                                          for k in numbers)
+
+
 def test_two_jobs_of_one_frame_on_two_devices_write_both_files(animated, tmp_path):
     """A frame asked for as .npy and as .png: the workers' results were matched to files by frame, so both went to the
     last job's file (f_1.png never written, the rows naming f_1.npy twice), where a serial run writes each."""

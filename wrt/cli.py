@@ -1001,7 +1001,7 @@ def _run_frames(args, paths: list, progress) -> int:
         output += f"{paths[0].stem}_####.png"
     from .image import check_image_path
 
-    aov_pattern = _aov_pattern(args.aov_dir, output) if args.aov_dir else None
+    aov_pattern = _aov_pattern(args.aov_dir, pattern) if args.aov_dir else None
     # Without a log, --resume has only the files to go by: those on disk are skipped, whatever rendered them.
     jobs = pending_frames(frames, pattern, args.resume and not args.log, paths[0].stem, aov_pattern)
     # An unwritable output fails now, not after the first frame's load and render.
@@ -1110,12 +1110,14 @@ def _run_frames(args, paths: list, progress) -> int:
     return 0
 
 
-def _aov_pattern(aov_dir: str, output: str) -> str:
+def _aov_pattern(aov_dir: str, pattern: str) -> str:
     """Where ``--aov-dir`` writes the AOVs of ``--frames`` (:func:`wrt.animation.aov_files`): ``DIR/NAME_####.npy``,
-    the frame numbered as in the images (``output``'s last run of #, else ``####``)."""
+    the frame numbered as in the images (the last run of # of ``pattern``, ``-o`` with ``{stem}`` not yet replaced,
+    as :func:`wrt.animation.frame_output` reads it; else ``####``). Read after the stem went in, a # in the scene's
+    name (shot#1.usda, -o {stem}.png) numbered the AOVs depth_1.npy beside the images shot#1_0001.png."""
     from .animation import FRAME_PATTERN
 
-    runs = FRAME_PATTERN.findall(output)
+    runs = FRAME_PATTERN.findall(pattern)
     return str(Path(aov_dir) / f"{{name}}_{runs[-1] if runs else '####'}.npy")
 
 
