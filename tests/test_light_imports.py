@@ -83,6 +83,18 @@ wrt.Camera
 print(quietened, wp.config.log_level)
 """
 
+# wrt imported twice before Warp (its modules dropped from sys.modules in between, as a test or a notebook does to
+# import it afresh), then Warp: each import of wrt's log-level module added its hook, and each hook asked the other.
+REIMPORTED = """
+import sys
+import wrt
+for name in [name for name in sys.modules if name == "wrt" or name.startswith("wrt.")]:
+    del sys.modules[name]
+import wrt
+import warp as wp
+print(wp.config.log_level)
+"""
+
 
 def run_python(script: str, *args: str) -> str:
     """The standard output of ``script`` run with ``args`` in a fresh interpreter."""
@@ -118,6 +130,13 @@ def test_warp_imported_after_wrt_is_quietened_and_a_level_set_then_kept():
     it, and a level set after that is kept when a wrt module is imported."""
     quietened, kept = map(int, run_python(LOG_LEVELS).split())
     assert (quietened, kept) == (wp.LOG_WARNING, wp.LOG_INFO)
+
+
+def test_warp_imports_after_wrt_was_imported_afresh():
+    """wrt imported, its modules dropped from ``sys.modules`` and imported again, all before Warp: ``import warp``
+    then failed with a RecursionError (the two hooks of the two module copies each handed the question to the
+    other). Warp imports, and its default level is raised once, as after a single ``import wrt``."""
+    assert int(run_python(REIMPORTED)) == wp.LOG_WARNING
 
 
 def test_aov_names_are_the_renderers_buffers():

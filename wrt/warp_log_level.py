@@ -12,6 +12,7 @@ modules, pickled by reference, so a worker imports wrt before it runs one.
 """
 
 import sys
+import threading
 
 
 def raise_default_level(wp) -> None:
@@ -24,13 +25,28 @@ class _RaiseOnImport:
     """A ``sys.meta_path`` finder that finds nothing itself: asked for ``warp``, it hands on the spec the other
     finders give, with a loader that raises the level as soon as Warp's ``__init__`` has run, and then steps aside.
     Until Warp is imported it stays: ``importlib.util.find_spec("warp")``, asking whether Warp is installed, finds a
-    spec that is never loaded."""
+    spec that is never loaded.
+
+    One is installed per process, whichever copy of this module installed it (``RAISES_WARP_LEVEL``), and one asked
+    again while it asks the others (a finder that itself asks every finder on ``sys.meta_path``) answers nothing: wrt
+    imported afresh (its modules dropped from ``sys.modules``) added a second hook, and ``import warp`` recursed
+    between the two until a RecursionError."""
+
+    RAISES_WARP_LEVEL = True  # how raise_default_level_of_warp tells a hook of any copy of this module
+
+    def __init__(self):
+        self._asking = threading.local()  # whether this thread is inside this hook's find_spec
 
     def find_spec(self, name, path=None, target=None):
-        if name != "warp":
+        if name != "warp" or getattr(self._asking, "now", False):
             return None
-        others = (finder for finder in sys.meta_path if finder is not self and hasattr(finder, "find_spec"))
-        spec = next((spec for spec in (f.find_spec(name, path, target) for f in others) if spec is not None), None)
+        others = [finder for finder in sys.meta_path if finder is not self and hasattr(finder, "find_spec")]
+        self._asking.now = True
+        try:
+            spec = next((spec for spec in (f.find_spec(name, path, target) for f in others) if spec is not None),
+                        None)
+        finally:
+            self._asking.now = False
         if spec is not None and spec.loader is not None:
             run = spec.loader.exec_module
 
@@ -48,5 +64,5 @@ def raise_default_level_of_warp() -> None:
     """Raises Warp's default log level now if Warp is imported, else when it is."""
     if "warp" in sys.modules:
         raise_default_level(sys.modules["warp"])
-    elif not any(isinstance(finder, _RaiseOnImport) for finder in sys.meta_path):
+    elif not any(getattr(finder, "RAISES_WARP_LEVEL", False) for finder in sys.meta_path):
         sys.meta_path.insert(0, _RaiseOnImport())
