@@ -95,6 +95,35 @@ import warp as wp
 print(wp.config.log_level)
 """
 
+# Warp found by a finder that is the loader of every module it finds (a PEP 302 importer, as PyInstaller's is), then
+# another module through it: the loader kept wrt's wrapper, which read 'config' of every module it loaded after Warp.
+SHARED_LOADER = """
+import importlib.machinery, importlib.util, sys
+import wrt
+
+
+class Importer:
+    def find_spec(self, name, path=None, target=None):
+        if name not in ("warp", "colorsys"):
+            return None
+        found = importlib.machinery.PathFinder.find_spec(name, path)
+        self.loaders = {**getattr(self, "loaders", {}), name: found.loader}
+        return importlib.util.spec_from_file_location(name, found.origin, loader=self,
+                                                      submodule_search_locations=found.submodule_search_locations)
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module):
+        self.loaders[module.__name__].exec_module(module)
+
+
+sys.meta_path.insert(1, Importer())  # behind wrt's hook, before the path finder
+import warp as wp
+import colorsys
+print(wp.config.log_level, colorsys.rgb_to_hsv(1.0, 0.0, 0.0)[2])
+"""
+
 
 def run_python(script: str, *args: str) -> str:
     """The standard output of ``script`` run with ``args`` in a fresh interpreter."""
@@ -137,6 +166,14 @@ def test_warp_imports_after_wrt_was_imported_afresh():
     then failed with a RecursionError (the two hooks of the two module copies each handed the question to the
     other). Warp imports, and its default level is raised once, as after a single ``import wrt``."""
     assert int(run_python(REIMPORTED)) == wp.LOG_WARNING
+
+
+def test_modules_load_after_warp_through_a_loader_they_share_with_it():
+    """A loader that loads several modules, Warp among them: wrt's hook replaced its ``exec_module`` for good, so
+    each module it loaded after Warp failed (``module 'colorsys' has no attribute 'config'``). Warp's level is raised
+    and the next module imports as Python's own loader imports it."""
+    level, value = run_python(SHARED_LOADER).split()
+    assert (int(level), float(value)) == (wp.LOG_WARNING, 1.0)
 
 
 def test_aov_names_are_the_renderers_buffers():

@@ -48,15 +48,26 @@ class _RaiseOnImport:
         finally:
             self._asking.now = False
         if spec is not None and spec.loader is not None:
-            run = spec.loader.exec_module
+            loader = spec.loader
+            run = loader.exec_module
 
+            # The loader may be shared by many modules (a PEP 302 importer that is its own loader, PyInstaller's):
+            # only Warp's run is followed, and the loader gets its own method back with it. Left in place, every
+            # later import through it read a 'config' of its module: AttributeError for all of them.
             def exec_module(module):
+                if module.__name__ != name:
+                    return run(module)
+                if getattr(loader, "__dict__", {}).get("exec_module") is exec_module:
+                    del loader.exec_module
                 run(module)
                 if self in sys.meta_path:
                     sys.meta_path.remove(self)
                 raise_default_level(module)
 
-            spec.loader.exec_module = exec_module
+            try:
+                loader.exec_module = exec_module
+            except AttributeError:  # a loader that takes no attributes (slots): Warp keeps its level
+                pass
         return spec
 
 
