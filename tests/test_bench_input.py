@@ -1038,6 +1038,23 @@ def test_two_names_of_one_cuda_device_are_measured_once(monkeypatch):
     assert [str(d) for d in devices] == ["cuda:0", "cpu"] and unavailable == {}
 
 
+def test_two_names_of_one_missing_cuda_device_give_one_error_row(monkeypatch):
+    """--devices cuda,cuda:0 on a machine without that GPU: both names got a group of error rows ('2 failed' for one
+    device), where a machine that has it measures the device once, as 'cuda:0'. Still refused when no device named
+    is there at all."""
+    import warp as wp
+
+    def no_gpu(name):  # what wp.get_device says on a machine without CUDA
+        if name.startswith("cuda"):
+            raise ValueError(f"unknown or unavailable device {name!r}; available devices: cpu")
+        return wp.get_device(name)
+
+    monkeypatch.setattr(bench_module, "resolve_device", no_gpu)
+    devices, unavailable = bench_module._resolve_devices(["cuda", "cpu", "cuda:0"])
+    assert [str(d) for d in devices] == ["cuda:0", "cpu"] and list(unavailable) == ["cuda:0"]
+    with pytest.raises(bench_module.GridError, match="unavailable device 'cuda'"):
+        bench_module._resolve_devices(["cuda", "cuda:0"])
+
 @pytest.mark.parametrize("stop", [PermissionError(1, "Operation not permitted"), KeyboardInterrupt()])
 def test_rows_rewritten_but_not_put_in_place_leave_no_temporary_file(tmp_path, monkeypatch, stop):
     """A rows.jsonl that could not be replaced (an immutable file), or a Ctrl-C as it was, left rows.jsonl.tmp

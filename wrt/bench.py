@@ -1435,9 +1435,12 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
         except ValueError as e:
             if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()):
                 raise GridError("devices", str(e), i) from None
-            devices.append(name)
-            unavailable[name] = e
-    if len(unavailable) == len(names):
+            # 'cuda' is cuda:0 missing too (as _device_names reads it): one group of error rows, not one per name.
+            key = "cuda:0" if name == "cuda" else name
+            if key not in unavailable:
+                devices.append(key)
+                unavailable[key] = e
+    if all(str(device) in unavailable for device in devices):
         raise GridError("devices", str(next(iter(unavailable.values()))))
     return devices, unavailable
 
