@@ -176,6 +176,19 @@ def test_modules_load_after_warp_through_a_loader_they_share_with_it():
     assert (int(level), float(value)) == (wp.LOG_WARNING, 1.0)
 
 
+def test_dir_of_wrt_offers_its_names_and_submodules_only():
+    """``dir(wrt)`` (and tab completion) listed the lazy loader's own imports (``importlib``, ``sys``, ``types``) and
+    its hook's function as if they were wrt's: every public name it lists is a name of ``wrt.__all__`` or a module of
+    the package (found by Python's own finder)."""
+    script = """
+import importlib.util, json
+import wrt
+names = [n for n in dir(wrt) if not n.startswith("_")]
+print(json.dumps([n for n in names if n not in wrt.__all__ and importlib.util.find_spec("wrt." + n) is None]))
+"""
+    assert json.loads(run_python(script)) == []
+
+
 def test_aov_names_are_the_renderers_buffers():
     """``wrt.options.AOV_NAMES`` is written out for the command line (``--aov``, ``--aov-dir``); the renderer's AOV
     buffers, in their order, then ``coverage`` (made from their count of hits), are what ``Image.aovs`` holds."""

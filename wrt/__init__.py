@@ -8,12 +8,13 @@ them all took 2.0 s of CPU on a 2-core VM: Warp parsing the source of 464 kernel
 decorated, importing Warp, numpy and usd-core, compiling wrt's own source, and tearing it all down at exit.
 """
 
-import importlib
-import importlib.util
-import sys
-import types
+# Private names, so that dir(wrt) and tab completion offer wrt's names and submodules, not these
+import importlib as _importlib
+import importlib.util as _importlib_util
+import sys as _sys
+import types as _types
 
-from .warp_log_level import raise_default_level_of_warp
+from .warp_log_level import raise_default_level_of_warp as _raise_default_level_of_warp
 
 # Each submodule and the public names it gives (``wrt.render`` is the function, ``wrt.render.render`` in the module).
 _NAMES_OF_MODULE = {
@@ -77,18 +78,18 @@ __all__ = [
 ]
 __version__ = "0.1.0"
 
-raise_default_level_of_warp()
+_raise_default_level_of_warp()
 
 
 def __getattr__(name: str):
     """A public name, imported from its module on first use (and kept); else a submodule, imported, as ``import wrt``
     made ``wrt.scene`` or ``wrt.bvh`` an attribute when it imported them all."""
     if name in _MODULE_OF_NAME:
-        value = getattr(importlib.import_module(f".{_MODULE_OF_NAME[name]}", __name__), name)
+        value = getattr(_importlib.import_module(f".{_MODULE_OF_NAME[name]}", __name__), name)
         globals()[name] = value
         return value
-    if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
-        return importlib.import_module(f".{name}", __name__)
+    if not name.startswith("_") and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
+        return _importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -96,16 +97,16 @@ def __dir__() -> list:
     return sorted({*globals(), *__all__})
 
 
-class _Package(types.ModuleType):
+class _Package(_types.ModuleType):
     """wrt's module type: a public function named as its own module (``render``, ``trace``, ``preview``,
     ``render_products``) stays the package's attribute when its module is imported. Python's import sets
     ``wrt.render`` to the module ``wrt.render`` after the module runs; the eager imports here rebound it to the
     function, and a lazy import must keep it so."""
 
     def __setattr__(self, name, value):
-        if isinstance(value, types.ModuleType) and value.__name__ == f"{__name__}.{name}" and name in _MODULE_OF_NAME:
+        if isinstance(value, _types.ModuleType) and value.__name__ == f"{__name__}.{name}" and name in _MODULE_OF_NAME:
             value = getattr(value, name)
         super().__setattr__(name, value)
 
 
-sys.modules[__name__].__class__ = _Package
+_sys.modules[__name__].__class__ = _Package
