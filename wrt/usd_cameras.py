@@ -19,8 +19,9 @@ from .errors import SceneError
 from .usd_contents import PROTOTYPE_PREDICATE, Context
 from .usd_stage import tf_message
 from .usd_values import schema_typed_value, value_or_fallback
-from .usd_xforms import affine_part
+from .usd_xforms import affine_part, xform_cache
 
+PROBED_TIMES = 32  # most sample times a stage's first camera, unusable at the load's, is read at again
 UNUSABLE_CAMERA = "cameras wrt cannot use were skipped (rendering one by its path raises this reason)"
 NO_MOTION_BLUR = ("cameras with a shutter interval on a stage with time samples render an instant: wrt has no motion "
                   "blur (shutter:open and shutter:close are not read)")
@@ -48,13 +49,38 @@ class CameraReading:
                 # (what made it unusable: its transform, its values (other ValueErrors), or either (USD's errors))
                 values, transform = not isinstance(e, _TransformError), type(e) is not ValueError
                 if not (self.scene.cameras or hasattr(self.scene, "_first_camera_skipped")) and _might_vary(
-                        proxy, values, transform):
-                    # The stage's first camera, bad at this time only, perhaps: frames refuse to draw another
-                    # (wrt.animation); one bad at every time draws none of them, as a still render does.
+                        proxy, values, transform) and self._usable_at_another_time(proxy):
+                    # The stage's first camera, bad at this time only: frames refuse to draw another (wrt.animation);
+                    # one bad at every time draws none of them, as a still render does.
                     self.scene._first_camera_skipped = path
                 self._skip(UNUSABLE_CAMERA, proxy, reason)
 
         self._read_through_instances(prim, cameras, ctx, "cameras", read, "cameras")
+
+    def _usable_at_another_time(self, prim: Usd.Prim) -> bool:
+        """Camera ``prim``, unusable at the load's time, reads at another of the times its camera attributes or the
+        transforms that place it have samples at (at most :data:`PROBED_TIMES` of them, evenly spread), without a
+        word. Something of it that varies is not always what is wrong with it: a zero focal length beside an
+        animated focusDistance (a rack focus) is bad at every time, yet every frame was refused, where the next
+        camera draws them all, as it draws a still render."""
+        times = sorted(_sample_times(prim) - ({float(self.time.GetValue())} if not self.time.IsDefault() else set()))
+        if len(times) > PROBED_TIMES:
+            times = [times[int(k)] for k in np.linspace(0, len(times) - 1, PROBED_TIMES).round()]
+        kept = self.time, self.xforms
+        self._skip = lambda *args, **kwargs: None  # (the load's warnings are of its own time)
+        try:
+            for t in times:
+                self.time = Usd.TimeCode(t)
+                self.xforms = xform_cache(self.time, self.stage)
+                try:
+                    self._read_camera(prim)
+                    return True
+                except (ValueError, Tf.ErrorException):
+                    continue
+            return False
+        finally:
+            self.time, self.xforms = kept
+            del self._skip
 
     def _prototype_cameras(self, prototype: Usd.Prim) -> list:
         """Paths relative to ``prototype`` of the cameras in it and in the instances nested in it (as a read
@@ -209,6 +235,20 @@ def _might_vary(prim: Usd.Prim, values: bool = True, transform: bool = True) -> 
             return True
         prim = prim.GetParent()
     return False
+
+
+def _sample_times(prim: Usd.Prim) -> set[float]:
+    """The times the attributes of camera ``prim`` (but its transform ops) and the transform ops of it and its
+    ancestors have samples at."""
+    times = set()
+    for attr in prim.GetAttributes():
+        if not attr.GetName().startswith("xformOp:") and attr.ValueMightBeTimeVarying():
+            times.update(attr.GetTimeSamples())
+    while prim and not prim.IsPseudoRoot():
+        if UsdGeom.Xformable(prim):
+            times.update(UsdGeom.Xformable(prim).GetTimeSamples())
+        prim = prim.GetParent()
+    return times
 
 
 def what_is_at(source: str, path: str, variants=None) -> str | None:
