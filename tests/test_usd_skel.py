@@ -999,6 +999,42 @@ def test_a_skeleton_binding_to_no_skeleton_leaves_the_meshes_unposed_named_with_
         np.testing.assert_allclose(by_path[mesh_path].points[by_path[mesh_path].indices], expected, atol=1e-6)
 
 
+STATIC_WITH_BINDING_API = """
+    def Mesh "Static" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+        double3 xformOp:translate = (0, 0, 7)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+"""
+
+
+@pytest.mark.parametrize("skeleton", ["</Root/Skel>", "</Root/Nope>"])
+def test_a_static_mesh_with_the_binding_api_is_not_named_among_skinned_meshes(tmp_path, skeleton):
+    """SkelBindingAPI, which exporters apply to every mesh under a SkelRoot, defines ``primvars:skel:jointIndices``
+    and ``skel:blendShapes`` on a mesh that authors neither: it was taken for a skinned mesh, and beside a
+    ``skel:skeleton`` that targets no Skeleton it was named among the meshes whose skinning failed (4 where 3 are
+    skinned). It is drawn as authored, as BakeSkinning leaves it, and named with none of them."""
+    body = skel_root()
+    body = body[: body.rindex("}")] + STATIC_WITH_BINDING_API + "}\n"
+    body = replaced_once(body, "rel skel:skeleton = </Root/Skel>", f"rel skel:skeleton = {skeleton}")
+    path = write(tmp_path, body)
+    if "Nope" in skeleton:
+        named = r"skel:skeleton targets /Root/Nope, but no prim is there"
+        with pytest.warns(UserWarning, match=rf"UsdSkel skinning failed.*\({named}: 3\): /Root/Bar, /Root/Rigid, "
+                                             r"/Root/Face$"):
+            scene = load_usd(path, time=5.0)
+    else:
+        scene = loaded(path, 5.0)  # no warning
+    expected, _ = world_triangles(baked(path), "/Root/Static", Usd.TimeCode(5))
+    mesh = {m.path: m for m in scene.meshes}["/Root/Static"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-6)
+
+
 @pytest.mark.parametrize("target, why", [
     ("</Root/NopeAnim>", "no prim is there"),
     ("</Root/OverAnim>", r"it is only an 'over' \(defined nowhere\)"),

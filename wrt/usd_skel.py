@@ -97,7 +97,10 @@ class SkelPoser:
             skeleton's, or ``prim``'s own for a mesh posed by blend shapes only. None when USD does not pose ``prim``
             or its skinning failed (recorded through ``skip``).
         """
-        own = prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")
+        # Authored, not merely defined: SkelBindingAPI, which exporters apply to every mesh under a SkelRoot, defines
+        # both on a static mesh too, which was then named as one whose skinning failed beside a bad skel:skeleton.
+        own = any(prim.GetAttribute(name).HasAuthoredValue() for name in ("primvars:skel:jointIndices",
+                                                                          "skel:blendShapes"))
         root = self.skel_root(prim)
         if root is None:
             if prim.IsInPrototype() and self._skinned_from_above_its_instance(prim):
