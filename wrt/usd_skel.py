@@ -27,7 +27,9 @@ identity as UsdSkel does, with a warning naming the mesh and the joint (USD says
 fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points
 without them; a point index out of range; offsets that are not finite; a ``skel:blendShapeTargets`` entry that is no
 BlendShape) is left out, with a warning naming the mesh, the BlendShape and what is wrong; the mesh's other blend shapes
-and its skinning still apply. A ``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them
+and its skinning still apply (BakeSkinning, given a weight for an entry that is no BlendShape, applies none of them,
+or that weight to the offsets of the sub-shape USD's query numbers it with where those have no pointIndices).
+A ``skel:blendShapes`` longer than its ``skel:blendShapeTargets`` (or shorter) pairs them
 entry by entry as far as the shorter goes and leaves out the rest, with a warning naming the mesh and the names (or
 targets) left out; USD warns of the sizes only, naming no mesh, and applies none of the mesh's blend shapes.
 """
