@@ -1035,6 +1035,39 @@ def test_a_static_mesh_with_the_binding_api_is_not_named_among_skinned_meshes(tm
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-6)
 
 
+@pytest.mark.parametrize("case", ["skeleton", "blend shape", "animation"])
+def test_targets_inside_an_instance_prototype_are_named_under_its_first_instance(tmp_path, case):
+    """A bad ``skel:skeleton``, ``skel:blendShapeTargets`` or ``skel:animationSource`` target inside a native
+    instance's prototype was named by its prototype path (``/__Prototype_1/Root/Nope``, a name USD makes up per
+    opening that no file holds); it is named under the prototype's first instance (``/A/Root/Nope``), as the meshes
+    beside it are. The oracle: USD's ``GetPrototypes()`` and ``GetInstances()`` of the stage."""
+    old, new, named = {
+        "skeleton": ("rel skel:skeleton = </Root/Skel>", "rel skel:skeleton = </Root/Nope>",
+                     "skel:skeleton targets {}/Root/Nope, but no prim is there"),
+        "blend shape": ("rel skel:blendShapeTargets = </Root/Bar/bulge>",
+                        "rel skel:blendShapeTargets = </Root/Bar/nope>",
+                        "skel:blendShapeTargets[0] = {}/Root/Bar/nope: no prim is there"),
+        "animation": ("rel skel:animationSource = </Root/Anim>", "rel skel:animationSource = </Root/NopeAnim>",
+                      "skel:animationSource targets {}/Root/NopeAnim, but no prim is there"),
+    }[case]
+    body = replaced_once(skel_root("/Asset/Root"), *(x.replace("/Root", "/Asset/Root") for x in (old, new)))
+    asset = tmp_path / "asset.usda"
+    asset.write_text('#usda 1.0\ndef Xform "Asset"\n{\n' + body + "\n}\n")
+    instances = "".join(f'def "{name}" (\n    references = @./asset.usda@</Asset>\n    instanceable = true\n)\n'
+                        "{\n}\n" for name in ("B", "A"))
+    path = write(tmp_path, instances)
+    stage = Usd.Stage.Open(path)
+    (prototype,) = stage.GetPrototypes()
+    first = min(str(p.GetPath()) for p in prototype.GetInstances())
+    assert first == "/A"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_usd(path, time=5.0)
+    said = " ".join(str(w.message) for w in caught)
+    assert named.format(first) in said, said
+    assert "__Prototype" not in said, said
+
+
 @pytest.mark.parametrize("target, why", [
     ("</Root/NopeAnim>", "no prim is there"),
     ("</Root/OverAnim>", r"it is only an 'over' \(defined nowhere\)"),
