@@ -522,6 +522,31 @@ def test_a_binding_to_no_material_is_named_in_a_warning(tmp_path):
     assert "/World/Bound" not in named[0] and "/World/Unbound" not in named[0]
 
 
+def test_a_binding_to_no_material_inside_a_prototype_names_its_target_under_the_first_instance(tmp_path):
+    """A binding inside a native prototype to a prim inside it that is missing: its target was named by prototype
+    path (``material:binding -> /__Prototype_1/Looks/Missing``, a name USD makes up per opening that no file holds),
+    beside the mesh named under the prototype's first instance. Both are named under that instance now (the oracle:
+    USD's ``GetPrototypes()`` and ``GetInstances()``)."""
+    path = str(tmp_path / "no_material_inside.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.DefinePrim("/Protos/P", "Xform")
+    mesh = _quads(stage, "/Protos/P/Mesh")
+    UsdShade.MaterialBindingAPI.Apply(mesh).GetDirectBindingRel().SetTargets([Sdf.Path("/Protos/P/Looks/Missing")])
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
+    for name in ("B", "A"):
+        instance = stage.DefinePrim(f"/World/{name}", "Xform")
+        instance.GetReferences().AddInternalReference("/Protos/P")
+        instance.SetInstanceable(True)
+    stage.GetRootLayer().Save()
+    opened = Usd.Stage.Open(path)
+    (prototype,) = opened.GetPrototypes()
+    first = min(str(p.GetPath()) for p in prototype.GetInstances())
+    assert first == "/World/A"
+    named = [m for m in _messages(lambda: wrt.load_usd(path)) if "no Material" in m]
+    assert len(named) == 1 and f"material:binding -> {first}/Looks/Missing" in named[0], named
+    assert "__Prototype" not in named[0]
+
+
 def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):
     """A direct binding whose targets are not one prim (a property, two materials) or a collection binding without a
     collection and a material is ignored by ``ComputeBoundMaterial`` (no relationship found), and the mesh is drawn

@@ -41,7 +41,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from .usd_ancestors import KEEP_LOOKING, AncestorMemo
 from .usd_primvars import flattened, index_problem
-from .usd_problems import authored_type
+from .usd_problems import authored_type, shown_target
 from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
@@ -180,17 +180,9 @@ class SkelPoser:
         return None
 
     def _shown(self, prim: Usd.Prim, path: Sdf.Path) -> str:
-        """``path`` (a target of a relationship of ``prim``) as warnings name it: inside a native prototype
-        (``/__Prototype_1/Root/Nope``, a name USD makes up per opening that no file holds) under the prototype's
-        first instance (``/A/Root/Nope``), as :attr:`shown_path` names prims; elsewhere as it is."""
-        path = Sdf.Path(path)
-        if not (prim.IsInPrototype() and path.IsAbsolutePath()):
-            return str(path)
-        root = path.GetPrefixes()[0]
-        prototype = prim.GetStage().GetPrimAtPath(root)
-        if not (prototype and prototype.IsPrototype()):
-            return str(path)
-        return self.shown_path(prototype) + str(path)[len(str(root)):]
+        """``path``, a target of a relationship of ``prim``, named under its prototype's first instance
+        (:func:`wrt.usd_problems.shown_target`)."""
+        return shown_target(prim, path, self.shown_path)
 
     @staticmethod
     def _skeleton_target(prim: Usd.Prim) -> Sdf.Path:
