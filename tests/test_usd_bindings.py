@@ -523,15 +523,21 @@ def test_a_binding_to_no_material_is_named_in_a_warning(tmp_path):
 
 
 def test_a_binding_to_no_material_inside_a_prototype_names_its_target_under_the_first_instance(tmp_path):
-    """A binding inside a native prototype to a prim inside it that is missing: its target was named by prototype
-    path (``material:binding -> /__Prototype_1/Looks/Missing``, a name USD makes up per opening that no file holds),
-    beside the mesh named under the prototype's first instance. Both are named under that instance now (the oracle:
-    USD's ``GetPrototypes()`` and ``GetInstances()``)."""
+    """A binding inside a native prototype to a prim inside it that is missing, or a collection binding to the
+    collection of a missing prim: its target was named by prototype path (``material:binding ->
+    /__Prototype_1/Looks/Missing``, a name USD makes up per opening that no file holds), beside the mesh named under
+    the prototype's first instance. Both are named under that instance now (the oracle: USD's ``GetPrototypes()``
+    and ``GetInstances()``)."""
     path = str(tmp_path / "no_material_inside.usda")
     stage = Usd.Stage.CreateNew(path)
     stage.DefinePrim("/Protos/P", "Xform")
     mesh = _quads(stage, "/Protos/P/Mesh")
     UsdShade.MaterialBindingAPI.Apply(mesh).GetDirectBindingRel().SetTargets([Sdf.Path("/Protos/P/Looks/Missing")])
+    other = _quads(stage, "/Protos/P/Other")
+    UsdShade.MaterialBindingAPI.Apply(other)
+    red = preview_material(stage, "/Protos/P/Looks/Red", (1, 0, 0))
+    other.CreateRelationship("material:binding:collection:grp").SetTargets(
+        [Sdf.Path("/Protos/P/Nope.collection:grp"), red.GetPath()])
     stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
     for name in ("B", "A"):
         instance = stage.DefinePrim(f"/World/{name}", "Xform")
@@ -542,9 +548,12 @@ def test_a_binding_to_no_material_inside_a_prototype_names_its_target_under_the_
     (prototype,) = opened.GetPrototypes()
     first = min(str(p.GetPath()) for p in prototype.GetInstances())
     assert first == "/World/A"
-    named = [m for m in _messages(lambda: wrt.load_usd(path)) if "no Material" in m]
-    assert len(named) == 1 and f"material:binding -> {first}/Looks/Missing" in named[0], named
-    assert "__Prototype" not in named[0]
+    messages = _messages(lambda: wrt.load_usd(path))
+    named = [m for m in messages if "no Material" in m or "no collection" in m]
+    assert len(named) == 2, messages
+    assert f"material:binding -> {first}/Looks/Missing" in named[0] + named[1], named
+    assert f"material:binding:collection:grp -> {first}/Nope.collection:grp" in named[0] + named[1], named
+    assert "__Prototype" not in named[0] + named[1]
 
 
 def test_a_binding_that_usd_ignores_is_named_in_a_warning(tmp_path):

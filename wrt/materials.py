@@ -1086,10 +1086,12 @@ class MaterialReader:
         targets USD ignores; a collection binding of an attribute is held back (:func:`wrt.usd_bindings.hold_back`)
         before any walk meets it."""
         from .usd_bindings import NOT_A_COLLECTION, hold_back
+        from .usd_problems import shown_target
 
         binds = self.bindings_above.any(prim)
-        for p, name, problem, *detail in self.bindings_above.problems(prim) if binds else ():
-            self.skip(problem, p, detail[0] if detail else name)
+        for p, name, problem, *target in self.bindings_above.problems(prim) if binds else ():
+            # (a target inside a native prototype named under its first instance, as the prim is)
+            self.skip(problem, p, f"{name} -> {shown_target(p, target[0], self.shown_path)}" if target else name)
             if problem == NOT_A_COLLECTION:
                 hold_back(p, name)
         return binds
