@@ -1587,6 +1587,9 @@ def Camera "Other"
 @pytest.mark.parametrize("bad, why", [
     ({"FOCAL": "0"}, "camera needs finite positive focalLength"),
     ({"FOCAL": "nan"}, "camera needs finite positive focalLength"),
+    ({"float focalLength.timeSamples = { 1: 50, 2: FOCAL, 3: 50 }":
+      "float focalLength.spline = {\n        1: 50,\n        2: 0,\n        3: 50,\n    }"},
+     "camera needs finite positive focalLength"),
     ({"FOCAL": "50", "double3 xformOp:translate = (0, 0, 10)":
       "double3 xformOp:translate.timeSamples = { 1: (0, 0, 10), 2: (nan, 0, 10), 3: (0, 0, 10) }"}, "not finite"),
 ])

@@ -63,7 +63,10 @@ class CameraReading:
         word. Something of it that varies is not always what is wrong with it: a zero focal length beside an
         animated focusDistance (a rack focus) is bad at every time, yet every frame was refused, where the next
         camera draws them all, as it draws a still render."""
-        times = sorted(_sample_times(prim) - ({float(self.time.GetValue())} if not self.time.IsDefault() else set()))
+        times = _sample_times(prim)
+        if times is None:  # it varies by a spline (or otherwise without samples): taken for bad at this time only
+            return True
+        times = sorted(times - ({float(self.time.GetValue())} if not self.time.IsDefault() else set()))
         if len(times) > PROBED_TIMES:
             times = [times[int(k)] for k in np.linspace(0, len(times) - 1, PROBED_TIMES).round()]
         kept = self.time, self.xforms
@@ -237,16 +240,24 @@ def _might_vary(prim: Usd.Prim, values: bool = True, transform: bool = True) -> 
     return False
 
 
-def _sample_times(prim: Usd.Prim) -> set[float]:
+def _sample_times(prim: Usd.Prim) -> set[float] | None:
     """The times the attributes of camera ``prim`` (but its transform ops) and the transform ops of it and its
-    ancestors have samples at."""
+    ancestors have samples at; None where one of them varies without samples (a spline: its values between knots
+    are not its knots')."""
     times = set()
     for attr in prim.GetAttributes():
         if not attr.GetName().startswith("xformOp:") and attr.ValueMightBeTimeVarying():
-            times.update(attr.GetTimeSamples())
+            found = attr.GetTimeSamples()
+            if not found:
+                return None
+            times.update(found)
     while prim and not prim.IsPseudoRoot():
-        if UsdGeom.Xformable(prim):
-            times.update(UsdGeom.Xformable(prim).GetTimeSamples())
+        xformable = UsdGeom.Xformable(prim)
+        if xformable and xformable.TransformMightBeTimeVarying():
+            found = xformable.GetTimeSamples()
+            if not found:
+                return None
+            times.update(found)
         prim = prim.GetParent()
     return times
 
