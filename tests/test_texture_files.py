@@ -23,13 +23,15 @@ from wrt.textures import PNG_SIGNATURE, TextureError, load_image
 
 
 def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False,
-               extra_sample=2, orientation=None):
-    """A grey, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 3 or 4)``, of their dtype's bits: uint16 for integers)
-    written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per ``rows_per_strip``
-    rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag where given (2:
-    signed integers, 3: floats). Uncompressed, or with ``deflate`` each strip zlib-compressed (Compression 8, as
-    libtiff writes it); ``planar``: each channel's strips apart, one plane after another (PlanarConfiguration 2);
-    ``extra_sample``: the ExtraSamples value of a fourth channel; ``orientation``: its Orientation tag where given."""
+               extra_sample=2, orientation=None, photometric=None):
+    """A grey, grey + alpha, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 2, 3 or 4)``, of their dtype's bits: uint16
+    for integers) written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per
+    ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag
+    where given (2: signed integers, 3: floats). Uncompressed, or with ``deflate`` each strip zlib-compressed
+    (Compression 8, as libtiff writes it); ``planar``: each channel's strips apart, one plane after another
+    (PlanarConfiguration 2); ``extra_sample``: the ExtraSamples value of the second sample of grey or the fourth of
+    colour (1: associated alpha, premultiplied colour); ``orientation``: its Orientation tag where given;
+    ``photometric``: its PhotometricInterpretation (else 1, BlackIsZero grey, or 2, RGB)."""
     samples = np.asarray(samples)
     samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
@@ -40,7 +42,7 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
               for r in range(0, h, rows_per_strip)]
     strips = [zlib.compress(strip) for strip in strips] if deflate else strips
     n_strips = len(strips)
-    tags = (11 if c == 4 else 10) + (sample_format is not None) + (orientation is not None)
+    tags = (11 if c in (2, 4) else 10) + (sample_format is not None) + (orientation is not None)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
     offsets_at = bits_at + 2 * c
     counts_at = offsets_at + 4 * n_strips
@@ -53,11 +55,14 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
 
     one_offset = pixels_at if n_strips == 1 else offsets_at
     one_count = len(strips[0]) if n_strips == 1 else counts_at
-    ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), entry(258, 3, c, bits if c == 1 else bits_at),
-           entry(259, 3, 1, 8 if deflate else 1),
-           entry(262, 3, 1, 1 if c == 1 else 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
+    # BitsPerSample: in the entry where its values fit in 4 bytes (one or two SHORTs), else where bits_at says
+    bits_entry = (struct.pack(byte_order + "HHIHH", 258, 3, 2, bits, bits) if c == 2
+                  else entry(258, 3, c, bits if c == 1 else bits_at))
+    ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), bits_entry, entry(259, 3, 1, 8 if deflate else 1),
+           entry(262, 3, 1, photometric if photometric is not None else 1 if c <= 2 else 2),
+           entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
            entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 2 if planar else 1)]
-    if c == 4:
+    if c in (2, 4):
         ifd.append(entry(338, 3, 1, extra_sample))  # 2: unassociated alpha, 0: a sample of no stated meaning
     if sample_format is not None:
         ifd.append(entry(339, 3, 1, sample_format))
@@ -238,6 +243,45 @@ def test_a_16_bit_tiff_of_premultiplied_alpha_reads_straight_colour_at_full_prec
     samples = premultiplied_samples(np.random.default_rng(41), (3, 5))
     path = write_tiff(tmp_path / "a.tif", samples, byte_order, deflate=deflate, extra_sample=1)
     np.testing.assert_allclose(load_image(path, "auto"), straight_colour(samples), rtol=1e-7, atol=1e-7)
+
+
+def straight_grey(samples, full):
+    """``(H, W, 2)`` float64 grey and alpha of grey + alpha ``samples`` (whole numbers over ``full``) whose grey is
+    premultiplied by alpha (ExtraSamples 1): grey over alpha (0 where alpha is 0, at most 1), alpha over ``full``."""
+    samples = np.asarray(samples, np.float64)
+    alpha = samples[..., 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        grey = np.where(alpha > 0, np.minimum(samples[..., 0] / alpha, 1.0), 0.0)
+    return np.stack([grey, alpha / full], axis=-1)
+
+
+def premultiplied_grey(rng, shape, full):
+    """Grey + alpha samples ``shape + (2,)`` of grey premultiplied by alpha (rounded down, as stored), with alpha 0,
+    1 and ``full`` among them and a grey over its alpha (which straight grey clamps to 1)."""
+    alpha = rng.integers(0, full + 1, shape)
+    alpha.flat[:3] = (0, 1, full)
+    grey = rng.integers(0, full + 1, shape) * alpha // full
+    grey.flat[:3] = (0, 1, full // 3)
+    grey.flat[3], alpha.flat[3] = full // 2, full // 4  # over its alpha: reads 1
+    return np.stack([grey, alpha], axis=-1).astype(np.uint8 if full == 255 else np.uint16)
+
+
+@pytest.mark.parametrize("deflate", [False, True])
+def test_an_8_bit_grey_tiff_of_premultiplied_alpha_reads_straight_grey(tmp_path, deflate):
+    """Pillow opens an 8-bit grey TIFF of associated alpha (ExtraSamples 1, grey premultiplied by alpha) as mode
+    ``La``, which it converts to nothing wrt asks for: load_image raised a bare ValueError naming no file, and the
+    load of a stage with such a texture failed as a whole ('/Quad: cannot read this prim (conversion from La to L
+    not supported)'). Its grey reads over its alpha (float64 oracle from the samples written here), as 8-bit RGBa
+    colour does, and the stage loads without a word."""
+    samples = premultiplied_grey(np.random.default_rng(15), (3, 5), 255)
+    path = write_tiff(tmp_path / "la.tif", samples, deflate=deflate, extra_sample=1)
+    image = load_image(path, "auto")
+    expected = straight_grey(samples, 255.0)
+    np.testing.assert_allclose(image[..., :3], np.repeat(expected[..., :1], 3, -1), rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(image[..., 3], expected[..., 1], atol=1e-7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.load_usd(textured_stage(tmp_path, path))
 
 
 @pytest.mark.parametrize("byte_order", ["<", ">"])

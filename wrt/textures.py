@@ -20,7 +20,7 @@ Conventions, stated once:
   as UsdUVTexture reads them; a MaterialX image node takes a file's channels in order instead
   (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8),
   TIFFs stored plane by plane too. Colour premultiplied by alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, at
-  8 bits by Pillow, at 16 here: every texture holds straight colour, as PNGs do.
+  8 bits by Pillow, at 16 here, and so is grey: every texture holds straight colour, as PNGs do.
 - ``"<transfer> in <primaries>"`` (:data:`PRIMARIES_SEPARATOR`; a MaterialX image's ``acescg`` is ``raw in
   lin_ap1_scene``): decoded by ``<transfer>``, then its colour converted from the linear space of USD colour space
   ``<primaries>`` to linear Rec.709 (:func:`convert_primaries`), once per image at load: lookups are linear in the
@@ -491,6 +491,12 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
         return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
+    if mode == "La":
+        # 8-bit grey premultiplied by alpha (a TIFF's ExtraSamples 1), which Pillow converts to nothing asked of it
+        # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as Pillow
+        # makes 8-bit RGBa colour straight (below) and _sixteen_bit_rgba 16-bit colour
+        la = np.asarray(img, dtype=np.float32)
+        return *_grey_rgba(_straight(la[..., :1], la[..., 1:])[..., 0], la[..., 1] / 255.0), False, tagged
     if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
         # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's
         grey = np.asarray(img).view(np.int8).astype(np.float32)
@@ -682,10 +688,16 @@ def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False) -> np.nd
     rgba = np.ones(samples.shape[:2] + (4,), np.float32)
     rgba[..., : samples.shape[2]] = samples / np.float32(65535.0)
     if premultiplied:
-        alpha = samples[..., 3:]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rgba[..., :3] = np.where(alpha > 0, np.minimum(samples[..., :3] / alpha, np.float32(1.0)), np.float32(0))
+        rgba[..., :3] = _straight(samples[..., :3], samples[..., 3:])
     return rgba
+
+
+def _straight(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Float32 ``colour`` (``(H, W, C)`` whole numbers) stored premultiplied by ``alpha`` (``(H, W, 1)``, of the same
+    scale) made straight: ``colour / alpha``, one rounding in float32, at most 1, 0 where alpha is 0, as Pillow
+    unpremultiplies 8-bit samples (its ``RGBa`` raw mode)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(alpha > 0, np.minimum(colour / alpha, np.float32(1.0)), np.float32(0)).astype(np.float32)
 
 
 def _transparent_sample_alpha(img, grey: np.ndarray, scale: int = 1) -> np.ndarray | None:
