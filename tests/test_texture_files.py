@@ -213,6 +213,23 @@ def test_compressed_big_endian_grey_tiffs_read_their_samples(tmp_path, dtype, sa
     np.testing.assert_allclose(image[..., 0], samples[..., 0] / full, rtol=1e-6)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("deflate", [False, True])
+@pytest.mark.parametrize("planar", [False, True])
+def test_a_white_is_zero_grey_tiff_reads_inverted(tmp_path, dtype, deflate, planar):
+    """A grey TIFF of PhotometricInterpretation 0 (WhiteIsZero) images 0 as white and its largest value as black
+    (TIFF 6.0). Pillow inverts 8-bit samples so (raw mode ``L;I``), but handed 16-bit ones over as stored: white read
+    black, a quarter grey 0.25 for 0.75, raw, deflated and tagged plane by plane alike. Oracle: 1 - samples / full
+    of the samples written here, in float64 (``planar``: one sample, PlanarConfiguration 2, read as 1)."""
+    full = np.iinfo(dtype).max
+    samples = np.random.default_rng(17).integers(0, full + 1, (3, 4, 1)).astype(dtype)
+    samples[0, :3, 0] = (0, full // 4, full)
+    path = write_tiff(tmp_path / "w.tif", samples, rows_per_strip=2, deflate=deflate, planar=planar, photometric=0)
+    image = load_image(path, "auto")
+    np.testing.assert_allclose(image[..., :3], np.repeat(1.0 - samples / float(full), 3, -1), atol=1e-7)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
+
+
 def straight_colour(samples):
     """``(H, W, 4)`` float64 RGBA of 16-bit RGBA ``samples`` whose colour is premultiplied by alpha: colour over
     alpha (0 where alpha is 0, at most 1, as Pillow divides 8-bit ones), alpha over 65535."""

@@ -51,10 +51,12 @@ from .png_checks import png_chunk_problem, without_unread_chunks
 from .tiff_checks import (
     ASSOCIATED_ALPHA,
     EXTRA_SAMPLES,
+    PHOTOMETRIC,
     PLANAR_CONFIGURATION,
     SAMPLES_PER_PIXEL,
     SIGNED,
     UNSIGNED,
+    WHITE_IS_ZERO,
     tiff_sample_layout,
     tiff_samples,
 )
@@ -486,6 +488,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             samples = tiff_samples(data)
             bits = samples[1] if samples is not None and 1 < samples[1] < 16 else 16
             full, grey = float((1 << bits) - 1), np.asarray(img, dtype=np.float32)
+            if img.format == "TIFF" and img.tag_v2.get(PHOTOMETRIC) == WHITE_IS_ZERO:
+                # TIFF 6.0: 0 is white, the largest value black. Pillow inverts 8-bit grey so (raw mode L;I) but
+                # hands 16-bit over as stored: white read black, a quarter grey 0.25 for 0.75
+                grey = full - grey
         else:
             full, grey = _integer_grey(data, img)
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged

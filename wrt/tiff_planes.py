@@ -12,7 +12,9 @@ import struct
 
 from .tiff_checks import (
     BITS_PER_SAMPLE,
+    BLACK_IS_ZERO,
     EXTRA_SAMPLES,
+    PHOTOMETRIC,
     PLANAR_CONFIGURATION,
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
@@ -22,8 +24,6 @@ from .tiff_checks import (
 
 LONG, LONG8 = 4, 16  # TIFF field types of unsigned 32- and 64-bit values (LONG8: BigTIFF)
 TYPE_BYTES = {SHORT: 2, LONG: 4, LONG8: 8}  # bytes of the types an offset or byte count is stored in
-PHOTOMETRIC = 262  # PhotometricInterpretation: 1 for grey, 0 its darkest
-BLACK_IS_ZERO = 1
 # Tags whose values locate the image's data, one per strip or tile of each plane: (offsets, byte counts)
 STRIP_TAGS, TILE_TAGS = (273, 279), (324, 325)
 # Tags of several samples (MinSampleValue, MaxSampleValue, ExtraSamples, SMin/SMaxSampleValue) or of colour alone
