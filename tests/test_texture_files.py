@@ -301,6 +301,42 @@ def test_an_8_bit_grey_tiff_of_premultiplied_alpha_reads_straight_grey(tmp_path,
         wrt.load_usd(textured_stage(tmp_path, path))
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("deflate", [False, True])
+@pytest.mark.parametrize("extra_sample", [2, 1, 0])
+def test_a_grey_and_alpha_tiff_stored_plane_by_plane_reads_its_samples(tmp_path, dtype, byte_order, deflate,
+                                                                       extra_sample):
+    """A grey + alpha TIFF stored plane by plane (PlanarConfiguration 2), two strips to a plane: Pillow decoded a
+    compressed 8-bit one's alpha plane into no band (alpha 0: the texture drawn fully transparent without a word),
+    knew no raw mode for an uncompressed one, and opens no 16-bit one. Each plane is read alone now
+    (``tiff_plane``), as 16-bit colour planes are: grey and alpha over the type's largest value, grey premultiplied
+    by alpha (ExtraSamples 1) divided by it, and a second sample of no stated meaning (0) ignored, as when the
+    samples of a pixel lie together. Oracle: the samples written here, in float64."""
+    full = np.iinfo(dtype).max
+    samples = premultiplied_grey(np.random.default_rng(16), (3, 5), full)
+    samples[0, 4] = (full // 7, 0)  # alpha 0 under unassociated alpha and under none
+    path = write_tiff(tmp_path / "pla.tif", samples, byte_order, rows_per_strip=2, deflate=deflate, planar=True,
+                      extra_sample=extra_sample)
+    image = load_image(path, "auto")
+    grey, alpha = samples[..., 0] / float(full), samples[..., 1] / float(full)
+    if extra_sample == 1:
+        grey, alpha = np.moveaxis(straight_grey(samples, float(full)), -1, 0)
+    elif extra_sample == 0:
+        alpha = np.ones_like(grey)
+    np.testing.assert_allclose(image, np.stack([grey, grey, grey, alpha], axis=-1), rtol=1e-6, atol=1e-7)
+
+
+def test_a_white_is_zero_grey_and_alpha_tiff_stored_plane_by_plane_reads_inverted_grey(tmp_path):
+    """Grey + unassociated alpha of WhiteIsZero (PhotometricInterpretation 0) stored plane by plane: its grey reads
+    inverted (TIFF 6.0), its alpha as stored; each plane is read as a grey TIFF of its own, of BlackIsZero."""
+    samples = np.random.default_rng(18).integers(0, 65536, (3, 4, 2)).astype(np.uint16)
+    path = write_tiff(tmp_path / "wla.tif", samples, deflate=True, planar=True, photometric=0)
+    image = load_image(path, "raw")
+    np.testing.assert_allclose(image[..., 0], 1.0 - samples[..., 0] / 65535.0, atol=1e-7)
+    np.testing.assert_allclose(image[..., 3], samples[..., 1] / 65535.0, atol=1e-7)
+
+
 @pytest.mark.parametrize("byte_order", ["<", ">"])
 @pytest.mark.parametrize("deflate", [False, True])
 @pytest.mark.parametrize("channels, extra_sample", [(3, None), (4, 2), (4, 1), (4, 0)])

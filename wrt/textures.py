@@ -50,13 +50,17 @@ from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem, without_unread_chunks
 from .tiff_checks import (
     ASSOCIATED_ALPHA,
+    BITS_PER_SAMPLE,
+    BLACK_IS_ZERO,
     EXTRA_SAMPLES,
     PHOTOMETRIC,
     PLANAR_CONFIGURATION,
+    SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SIGNED,
     UNSIGNED,
     WHITE_IS_ZERO,
+    tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
 )
@@ -447,12 +451,11 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     data = without_unread_chunks(data)
     try:
         with _pillow_size_limit_lifted():
+            grey_planes = _grey_planes(data)
+            if grey_planes is not None:  # (read before Pillow opens it, which it does not for 16 bits)
+                return *_read_grey_planes(data, name, *grey_planes), False, None
             img = PilImage.open(io.BytesIO(data))
-            if img.width * img.height >= MAX_TEXELS:
-                # Its header's size, refused before Pillow, whose own limit is lifted, allocates it: a damaged size
-                # (60000 x 60000, 10.8 GB of 8-bit RGB) was decoded before pack_images refused it, or ran out of memory
-                raise TextureError(f"cannot read image {name}: it is {img.width} x {img.height} pixels, more than "
-                                   "the 2^31 texels wrt's textures hold together")
+            _refuse_oversized(img, name)
             _tiff_decoded_as_stored(img)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
@@ -526,6 +529,15 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             arr = arr.copy()
             arr[..., 3] = alpha
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def _refuse_oversized(img, name: str) -> None:
+    """Refuses image ``img`` (opened by Pillow, not yet decoded; file ``name``) of more texels than wrt's textures
+    hold together, from its header's size, before Pillow, whose own limit is lifted, allocates it: a damaged size
+    (60000 x 60000, 10.8 GB of 8-bit RGB) was decoded before pack_images refused it, or ran out of memory."""
+    if img.width * img.height >= MAX_TEXELS:
+        raise TextureError(f"cannot read image {name}: it is {img.width} x {img.height} pixels, more than the 2^31 "
+                           "texels wrt's textures hold together")
 
 
 def _integer_grey(data: bytes, img) -> tuple[float, np.ndarray]:
@@ -668,6 +680,48 @@ def _read_16bit_planes(data: bytes, name: str, planes: int, premultiplied: bool)
     each separate plane to 8 bits (any raw mode it is given): 0x1234 read 0x1212. Each plane is decoded alone, as a
     16-bit grey TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads
     at full depth."""
+    return _sixteen_bit_rgba(_plane_samples(data, name, planes), premultiplied), COLOUR_CHANNELS
+
+
+def _grey_planes(data: bytes) -> tuple[int, int, bool] | None:
+    """``(bits, ExtraSamples value, whether WhiteIsZero)`` of file ``data`` where it is a TIFF of grey and one more
+    sample (alpha, associated or not, or of no stated meaning) stored plane by plane (``PlanarConfiguration`` 2), of
+    8- or 16-bit unsigned integers; None for any other file (and for WhiteIsZero grey premultiplied by alpha, which
+    TIFF 6.0 leaves undefined). Pillow decoded a compressed 8-bit one's alpha plane into no band (alpha 0: the
+    texture drawn fully transparent, without a word), knew no raw mode for an uncompressed one, and opens no 16-bit
+    one: :func:`_read_grey_planes` reads each plane alone instead."""
+    tags = tiff_first_values(data, (SAMPLES_PER_PIXEL, PLANAR_CONFIGURATION, BITS_PER_SAMPLE, SAMPLE_FORMAT,
+                                    EXTRA_SAMPLES, PHOTOMETRIC))
+    if tags is None or tags.get(SAMPLES_PER_PIXEL, 1) != 2 or tags.get(PLANAR_CONFIGURATION, 1) != 2:
+        return None
+    bits, extra, photometric = tags.get(BITS_PER_SAMPLE, 1), tags.get(EXTRA_SAMPLES), tags.get(PHOTOMETRIC)
+    if (bits not in (8, 16) or tags.get(SAMPLE_FORMAT, UNSIGNED) != UNSIGNED or extra not in (0, 1, 2)
+            or photometric not in (WHITE_IS_ZERO, BLACK_IS_ZERO) or (photometric, extra) == (WHITE_IS_ZERO, 1)):
+        return None
+    return bits, extra, photometric == WHITE_IS_ZERO
+
+
+def _read_grey_planes(data: bytes, name: str, bits: int, extra: int, white_is_zero: bool
+                      ) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``(H, W, 4)`` float32 RGBA of a grey + alpha TIFF stored plane by plane (file ``data``, named ``name`` in an
+    error; ``bits``, ``extra`` and ``white_is_zero``: :func:`_grey_planes`), and the places of its channels
+    (:func:`read_image`): grey and alpha over ``2^bits - 1``, grey inverted where ``white_is_zero`` (TIFF 6.0) and
+    divided by alpha where it is premultiplied (``extra`` 1), as Pillow makes 8-bit ``La`` straight; a second sample
+    of no stated meaning (``extra`` 0) is not read, as Pillow ignores it where the samples of a pixel lie together."""
+    samples = _plane_samples(data, name, 1 if extra == 0 else 2)
+    full = np.float32((1 << bits) - 1)
+    grey = full - samples[..., 0] if white_is_zero else samples[..., 0]
+    if extra == 0:
+        return _grey_rgba(grey / full, None)
+    alpha = samples[..., 1]
+    straight = _straight(grey[..., None], alpha[..., None])[..., 0] if extra == ASSOCIATED_ALPHA else grey / full
+    return _grey_rgba(straight, alpha / full)
+
+
+def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
+    """``(H, W, planes)`` float32 samples (whole numbers, exact in float32) of the first ``planes`` planes of a TIFF
+    stored plane by plane (file ``data``, named ``name`` in an error), each decoded alone as a grey TIFF of its own
+    (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads at full depth."""
     from PIL import Image as PilImage
 
     samples = None
@@ -677,12 +731,13 @@ def _read_16bit_planes(data: bytes, name: str, planes: int, premultiplied: bool)
             raise TextureError(f"cannot read image {name}: its planes are not laid out as its header says "
                                "(PlanarConfiguration 2)")
         img = PilImage.open(io.BytesIO(plane))
+        _refuse_oversized(img, name)
         _tiff_decoded_as_stored(img)
         img.load()
         if samples is None:
             samples = np.empty((img.height, img.width, planes), np.float32)
-        samples[..., k] = np.asarray(img, dtype=np.float32)  # whole numbers, exact in float32
-    return _sixteen_bit_rgba(samples, premultiplied), COLOUR_CHANNELS
+        samples[..., k] = np.asarray(img, dtype=np.float32)
+    return samples
 
 
 def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False) -> np.ndarray:

@@ -31,6 +31,16 @@ def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
     integer, where a tag is missing); None for data that is no TIFF or whose directory is cut short. A BigTIFF (a
     large GDAL elevation map) was no TIFF here: Pillow reads one, and its 16-bit signed grey read over its own
     largest sample."""
+    tags = tiff_first_values(data, (BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT))
+    if tags is None:
+        return None
+    return tags.get(SAMPLES_PER_PIXEL, 1), tags.get(BITS_PER_SAMPLE, 1), tags.get(SAMPLE_FORMAT, 1)
+
+
+def tiff_first_values(data: bytes, wanted: tuple[int, ...]) -> dict[int, int] | None:
+    """The first value of each tag of ``wanted`` the TIFF (or BigTIFF) file ``data``'s first image directory holds
+    as SHORT values (tags missing, or of another type, are left out); None for data that is no TIFF or whose
+    directory is cut short."""
     layout = TIFF_MAGIC.get(data[:4])
     if layout is None:
         return None
@@ -42,13 +52,13 @@ def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
         (count,) = struct.unpack_from(order + counter, data, directory)
         for k in range(count):
             tag, kind, n, field = entry.unpack_from(data, directory + struct.calcsize(order + counter) + entry.size * k)
-            if tag in (BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT) and kind == SHORT and n > 0:
+            if tag in wanted and kind == SHORT and n > 0:
                 # the first value: in the field, or where it points for values past its bytes
                 source, at = (field, 0) if 2 * n <= inline else (data, struct.unpack(order + offset, field)[0])
                 tags[tag] = struct.unpack_from(order + "H", source, at)[0]
     except struct.error:
         return None
-    return tags.get(SAMPLES_PER_PIXEL, 1), tags.get(BITS_PER_SAMPLE, 1), tags.get(SAMPLE_FORMAT, 1)
+    return tags
 
 
 def tiff_sample_layout(data: bytes) -> str | None:
