@@ -380,3 +380,25 @@ def test_a_cut_out_glowing_card_lights_as_its_opaque_part(integrator):
     images = [wrt.render(scene, camera=camera, width=8, height=8, spp=32, seed=1, integrator=integrator,
                          device="cpu").rgb for scene in scenes]
     assert images[0].mean() == pytest.approx(images[1].mean(), rel=0.03)
+
+
+@pytest.mark.parametrize("side", [4, 3])
+def test_a_udim_tile_of_rgb_texels_is_estimated_by_its_texels(side):
+    """A triangle on UDIM tile 1001, whose image is built in Python as ``(H, W, 3)`` (``side`` x ``side``), black but
+    for one texel of ``side * side`` at st ``(0, 1)``, which none of the points its glow is read at reaches: its
+    estimate is the tile's mean, 1 per channel, as a lamp triangle of constant glow 1 beside it, so the two take
+    the same share of the light picks (half uniform, half by power: 0.5 each, computed by hand). The tile's mean was
+    taken of the raw ``(H, W, 3)`` array read as RGBA rows: channels mixed (4/3 here for a 4 x 4 image: 0.536 of the
+    picks), or a ``ValueError`` (cannot reshape) that stopped every render of a 3 x 3 one."""
+    texels = np.zeros((side, side, 3), np.float32)
+    texels[0, 0] = side * side  # row 0 is the top of the image: t near 1
+    triangle = np.array([[0, 1, 2]])
+    corners = np.array([[0, 0, HEIGHT], [1, 0, HEIGHT], [1, 1, HEIGHT]], np.float64)
+    meshes = [wrt.Mesh("/part", corners, triangle, [0], uvs=np.float32([[[0, 0], [1, 0], [1, 1]]]),
+                       material_ids=np.zeros(1, np.int32)),
+              wrt.Mesh("/lamp", corners + [3, 0, 0], triangle, [0], material_ids=np.ones(1, np.int32))]
+    materials = [Material(path="/Glow", diffuse_color=0.0,
+                          textures={"emissiveColor": TextureInput(image=0, tiles=udim_table(t1001=0))}),
+                 Material(path="/Lamp", emissive_color=np.ones(3, np.float32))]
+    pmf = triangle_pmf(wrt.Scene(meshes=meshes, materials=materials, textures=[texels]))
+    np.testing.assert_allclose(pmf, [0.5, 0.5], rtol=1e-6)

@@ -966,7 +966,10 @@ class Renderer:
         key = ("sampled_emission", str(dev))
         if key not in scene._cache:
             textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
-            tiles = [None] + [tile_emission_estimates(m, scene.textures) for m in scene.materials]
+            # Of the images as checked and made RGBA float32 (an (H, W, 3) one built in Python was read as RGBA rows:
+            # its channels mixed, or a reshape error that stopped the render).
+            images = scene_images(scene.textures)
+            tiles = [None] + [tile_emission_estimates(m, images) for m in scene.materials]
             scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
