@@ -967,9 +967,10 @@ class Renderer:
         if key not in scene._cache:
             textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
             # Of the images as checked and made RGBA float32 (an (H, W, 3) one built in Python was read as RGBA rows:
-            # its channels mixed, or a reshape error that stopped the render).
-            images = scene_images(scene.textures)
-            tiles = [None] + [tile_emission_estimates(m, images) for m in scene.materials]
+            # its channels mixed, or a reshape error that stopped the render); not made where nothing reads them.
+            images = scene_images(scene.textures) if textured.any() else []
+            tiles = [None] + [tile_emission_estimates(m, images) if t else None for m, t in zip(scene.materials,
+                                                                                             textured[1:])]
             scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
