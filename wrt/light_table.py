@@ -358,7 +358,12 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
             radiance[mine], params[mine] = np.asarray(light.color, np.float64), np.float32(terms)
         keep = np.flatnonzero(emits)
         if len(keep):
-            protos[int(p)] = (ids[keep], per_area[keep], radiance[keep], params[keep], own[keep], crosses(ids[keep]))
+            # A normalized light is divided by the area of all its triangles, those that emit nothing (which tint
+            # its colour by a glow of 0: a black UDIM tile, a subset's dark material) too, as in the world above.
+            whole = {int(j): crosses(ids[own == j]) for j in np.unique(own[keep][own[keep] >= 0])
+                     if mesh_lights[j].normalize}
+            protos[int(p)] = (ids[keep], per_area[keep], radiance[keep], params[keep], own[keep], crosses(ids[keep]),
+                              whole)
 
     # The first instances (in instance order) whose rows fit in the cap; singular (invisible) ones get none.
     per_prototype = np.zeros(max(len(ranges), 1), np.int64)
@@ -381,22 +386,23 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
     instances = np.empty(total, np.int32)
     to_world = scene.instances.to_world
     by_prototype = scene.instances.rows_of_prototypes(len(ranges))
-    for p, (p_ids, per_area, p_radiance, p_params, p_owner, cr) in protos.items():
+    for p, (p_ids, per_area, p_radiance, p_params, p_owner, cr, whole) in protos.items():
         rows = by_prototype[p][sampled[by_prototype[p]]]
         if len(rows) == 0:
             continue
-        for start in range(0, len(rows), max(1, (1 << 20) // len(p_ids))):  # about a million rows at a time
-            chunk = rows[start : start + max(1, (1 << 20) // len(p_ids))]
+        step = max(1, (1 << 20) // (len(p_ids) + sum(len(c) for c in whole.values())))
+        for start in range(0, len(rows), step):  # about a million rows (areas) at a time
+            chunk = rows[start : start + step]
             linear = to_world[chunk, :3, :3]
             cofactor = np.stack([np.cross(linear[:, :, 1], linear[:, :, 2]), np.cross(linear[:, :, 2], linear[:, :, 0]),
                                  np.cross(linear[:, :, 0], linear[:, :, 1])], axis=2)  # det(A) A^-T: cross of columns
             area = 0.5 * np.linalg.norm(np.einsum("nij,tj->nti", cofactor, cr), axis=2)  # (instances, emitters)
             scale = np.ones_like(area)
-            for j in np.unique(p_owner[p_owner >= 0]):
-                if mesh_lights[j].normalize:
-                    mine = p_owner == j
-                    light_area = area[:, mine].sum(axis=1, keepdims=True)
-                    scale[:, mine] = np.where(light_area > 0.0, 1.0 / np.where(light_area > 0.0, light_area, 1.0), 0.0)
+            for j, light_crosses in whole.items():
+                mine = p_owner == j
+                light_area = 0.5 * np.linalg.norm(np.einsum("nij,tj->nti", cofactor, light_crosses), axis=2).sum(
+                    axis=1, keepdims=True)
+                scale[:, mine] = np.where(light_area > 0.0, 1.0 / np.where(light_area > 0.0, light_area, 1.0), 0.0)
             at = (instance_first[chunk] - len(world.ids))[:, None] + np.arange(len(p_ids))
             ids[at] = p_ids
             power[at] = area * per_area * scale * np.where(sided[p_ids], 2.0, 1.0)
