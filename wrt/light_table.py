@@ -359,9 +359,10 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
         keep = np.flatnonzero(emits)
         if len(keep):
             # A normalized light is divided by the area of all its triangles, those that emit nothing (which tint
-            # its colour by a glow of 0: a black UDIM tile, a subset's dark material) too, as in the world above.
-            whole = {int(j): crosses(ids[own == j]) for j in np.unique(own[keep][own[keep] >= 0])
-                     if mesh_lights[j].normalize}
+            # its colour by a glow of 0: a black UDIM tile, a subset's dark material) too, as in the world above
+            # (None: all of them emit, and their areas are at hand).
+            whole = {int(j): None if emits[own == j].all() else crosses(ids[own == j])
+                     for j in np.unique(own[keep][own[keep] >= 0]) if mesh_lights[j].normalize}
             protos[int(p)] = (ids[keep], per_area[keep], radiance[keep], params[keep], own[keep], crosses(ids[keep]),
                               whole)
 
@@ -390,7 +391,7 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
         rows = by_prototype[p][sampled[by_prototype[p]]]
         if len(rows) == 0:
             continue
-        step = max(1, (1 << 20) // (len(p_ids) + sum(len(c) for c in whole.values())))
+        step = max(1, (1 << 20) // (len(p_ids) + sum(len(c) for c in whole.values() if c is not None)))
         for start in range(0, len(rows), step):  # about a million rows (areas) at a time
             chunk = rows[start : start + step]
             linear = to_world[chunk, :3, :3]
@@ -400,8 +401,8 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
             scale = np.ones_like(area)
             for j, light_crosses in whole.items():
                 mine = p_owner == j
-                light_area = 0.5 * np.linalg.norm(np.einsum("nij,tj->nti", cofactor, light_crosses), axis=2).sum(
-                    axis=1, keepdims=True)
+                light_area = (area[:, mine] if light_crosses is None else 0.5 * np.linalg.norm(
+                    np.einsum("nij,tj->nti", cofactor, light_crosses), axis=2)).sum(axis=1, keepdims=True)
                 scale[:, mine] = np.where(light_area > 0.0, 1.0 / np.where(light_area > 0.0, light_area, 1.0), 0.0)
             at = (instance_first[chunk] - len(world.ids))[:, None] + np.arange(len(p_ids))
             ids[at] = p_ids
