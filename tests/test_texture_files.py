@@ -1045,3 +1045,64 @@ def test_an_undecoded_png_gamma_names_the_shader_too(tmp_path):
         wrt.load_usd(textured_stage(tmp_path, path))
     (message,) = [str(w.message) for w in caught if "gAMA" in str(w.message)]
     assert "odd.png: PNG gAMA 0.22 is neither sRGB's" in message and message.endswith("/Looks/Tex/Image"), message
+
+
+@pytest.mark.parametrize("user_filter", [{"message": "Tag data larger than file"}, {"module": "PIL"}],
+                         ids=["by-words", "by-module"])
+def test_a_users_filter_of_pillows_warnings_holds_while_a_texture_is_read(tmp_path, user_filter):
+    """A warning of Pillow's the user filtered out (by its words or Pillow's module, as one silences "Possibly
+    corrupt EXIF data") stays out while a texture is read. The read put an "always" filter for Pillow's module ahead
+    of the user's and told the warning again as a TextureWarning of wrt's, past a filter by Pillow's words or
+    module: it was shown after all, by load_image and by a shader reading the file."""
+    tif = with_a_tag_past_the_end(write_tiff(tmp_path / "tagged.tif", np.full((2, 3, 3), 9, np.uint8),
+                                                rows_per_strip=2))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", **user_filter)
+        users = list(warnings.filters)
+        load_image(tif, "raw")
+        wrt.load_usd(textured_stage(tmp_path, tif, color_space="raw"))
+        assert warnings.filters == users
+    assert not [str(w.message) for w in caught if "Skipping tag 270" in str(w.message)]
+
+
+def test_the_users_filters_hold_in_another_thread_while_a_texture_is_read(tmp_path, monkeypatch):
+    """While one thread reads a texture, another thread's warnings go through the user's filters: the read put
+    "always" filters (for TextureWarning and Pillow's module) ahead of the process's, so a TextureWarning the user
+    made an error was shown instead, in every thread, while any texture was read."""
+    tif = write_tiff(tmp_path / "plain.tif", np.full((2, 3, 3), 9, np.uint8))
+    inside, release, opened = threading.Event(), threading.Event(), PilImage.open
+
+    def open_slowly(*args, **kwargs):  # the reading thread waits inside the read until the main thread has warned
+        if threading.current_thread().name == "reader":
+            inside.set()
+            release.wait(10)
+        return opened(*args, **kwargs)
+
+    monkeypatch.setattr(PilImage, "open", open_slowly)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wrt.textures.TextureWarning)
+        users = list(warnings.filters)
+        reader = threading.Thread(target=load_image, args=(str(tif), "raw"), name="reader")
+        reader.start()
+        try:
+            assert inside.wait(10)
+            assert warnings.filters == users
+            with pytest.raises(wrt.textures.TextureWarning):
+                warnings.warn(wrt.textures.TextureWarning("of another texture", "of another texture"))
+        finally:
+            release.set()
+            reader.join(30)
+
+
+def test_pillows_warning_is_told_for_each_read_under_the_default_action(tmp_path):
+    """Under Python's ``default`` action (a warning once per place), Pillow's warning on a file is told by each read
+    of it, for each shader and light that reads it: Python's note that Pillow gave it is forgotten as a read begins."""
+    tif = with_a_tag_past_the_end(write_tiff(tmp_path / "tagged.tif", np.full((2, 3, 3), 9, np.uint8),
+                                                rows_per_strip=2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        for _ in range(2):
+            told = []
+            load_image(tif, "raw", told.append)
+            assert told == ["Pillow warned while reading it: Tag data larger than file. Skipping tag 270"]

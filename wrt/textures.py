@@ -334,44 +334,71 @@ def _warn_unread_gamma(name: str, gamma: float) -> None:
     words = (f"gAMA {gamma:.5g} is neither sRGB's 1/2.2 nor linear 1 (within 0.1, as Storm's reader reads it) and is "
              "not decoded; sourceColorSpace auto reads the file as for no gamma (sRGB for 8-bit colour, else as "
              "stored), as Storm does; author sourceColorSpace to say which")
-    warnings.warn(TextureWarning(f"PNG {name}: {words}", f"PNG {words}"), stacklevel=4)
+    _texture_warning(TextureWarning(f"PNG {name}: {words}", f"PNG {words}"), stacklevel=4)
 
 
-# Warnings given while textures are read (_warnings_told): the readers inside, the hook and filters put in place by
-# the first in and taken away by the last out, and the record of each thread reading (thread id -> warnings). Each
-# read kept its own (warnings.catch_warnings): reads in two threads ending in the order they began left the first's
-# recorder as the process's hook for good, every later warning of the process recorded into it and never shown.
-_WARNING_CAPTURE = {"lock": threading.Lock(), "readers": 0, "hook": None, "filters": (), "records": {}}
+# Warnings given while textures are read (_warnings_told): the readers inside, the hook put in place by the first in
+# and taken away by the last out, and the record of each thread reading (thread id -> warnings). Each read kept its
+# own (warnings.catch_warnings): reads in two threads ending in the order they began left the first's recorder as the
+# process's hook for good, every later warning of the process recorded into it and never shown. No filter is added:
+# filters are the process's, so one added for a read ("always" for Pillow's and wrt's texture warnings) overrode the
+# user's in every thread while any read ran (a TextureWarning the user made an error was shown, not raised), and
+# Pillow's warnings, told again as TextureWarnings from wrt, escaped the user's filters by Pillow's module or words.
+_WARNING_CAPTURE = {"lock": threading.Lock(), "readers": 0, "hook": None, "records": {}}
+
+
+def _from_pillow(filename: str) -> bool:
+    """Whether a warning given at ``filename`` is Pillow's (given in one of its modules)."""
+    return "PIL" in filename.replace("\\", "/").split("/")
 
 
 def _record_warning(message, category, filename, lineno, file=None, line=None):
-    """``warnings.showwarning`` while textures are read: a warning given in a thread reading one is recorded for that
-    read, any other shown by the hook there was before."""
+    """``warnings.showwarning`` while textures are read: Pillow's warning given in a thread reading one (past the
+    user's filters) is recorded for that read; any other is shown by the hook there was before, as it would have
+    been."""
     record = _WARNING_CAPTURE["records"].get(threading.get_ident())
-    if record is None:
+    if record is None or not _from_pillow(filename):
         _WARNING_CAPTURE["hook"](message, category, filename, lineno, file, line)
     else:
         record.append(warnings.WarningMessage(message, category, filename, lineno, file, line))
 
 
+def _texture_warning(message: TextureWarning, stacklevel: int) -> None:
+    """Warns ``message`` (``stacklevel``: :func:`warnings.warn`'s, from the caller), recorded for the read of this
+    thread where there is one, to be told by :func:`_tell` (through the user's filters, or the reader's ``warn``)."""
+    record = _WARNING_CAPTURE["records"].get(threading.get_ident())
+    if record is None:
+        warnings.warn(message, stacklevel=stacklevel + 1)
+    else:
+        record.append(warnings.WarningMessage(message, type(message), __file__, 0))
+
+
+def _forget_pillows_warnings() -> None:
+    """Empties the registries of Pillow's modules (where Python notes a warning given, not to give it again from the
+    same place under the ``default`` action): a warning Pillow gave for an earlier file is given for this one too."""
+    for module_name, module in list(sys.modules.items()):
+        if module_name == "PIL" or module_name.startswith("PIL."):
+            registry = getattr(module, "__warningregistry__", None)
+            if isinstance(registry, dict):
+                registry.clear()
+
+
 @contextlib.contextmanager
 def _warnings_told(name: str, warn=None):
-    """Tells the warnings of Pillow (given from its modules) and the :class:`TextureWarning` ones given while file
-    ``name`` is read in this thread, once each, through ``warn`` (:func:`read_image`'s), else as warnings naming the
-    file; others are warned again as they were. Pillow's name no file ("Tag data larger than file. Skipping tag
-    270"), and a 16-bit file, which Pillow opens once per byte, gave each two or three times. While any thread reads
-    a texture, those two kinds are shown every time (not once per place), in other threads too."""
+    """Tells the warnings of Pillow (given from its modules, as the user's filters let them through) and the
+    :class:`TextureWarning` ones given while file ``name`` is read in this thread, once each, through ``warn``
+    (:func:`read_image`'s), else as warnings naming the file; others are shown as they are given. Pillow's name no
+    file ("Tag data larger than file. Skipping tag 270"), and a 16-bit file, which Pillow opens once per byte, gave
+    each two or three times."""
     capture, ident = _WARNING_CAPTURE, threading.get_ident()
     with capture["lock"]:
         if not capture["readers"]:
             capture["hook"] = warnings.showwarning
-            warnings.filterwarnings("always", category=TextureWarning)
-            warnings.filterwarnings("always", module=r"PIL\.")
-            capture["filters"] = tuple(warnings.filters[:2])
             warnings.showwarning = _record_warning
         capture["readers"] += 1
         outer = capture["records"].get(ident)  # (a read inside a read of this thread: its own record)
         capture["records"][ident] = caught = []
+        _forget_pillows_warnings()
     try:
         yield
     finally:
@@ -383,10 +410,6 @@ def _warnings_told(name: str, warn=None):
             capture["readers"] -= 1
             if not capture["readers"]:
                 warnings.showwarning = capture["hook"]
-                for entry in capture["filters"]:
-                    if entry in warnings.filters:
-                        warnings.filters.remove(entry)
-                getattr(warnings, "_filters_mutated", lambda: None)()  # (as catch_warnings tells the C module)
         _tell(name, caught, warn)
 
 
@@ -395,9 +418,6 @@ def _tell(name: str, caught: list, warn=None) -> None:
     told = set()
     for w in caught:
         ours = isinstance(w.message, TextureWarning)
-        if not ours and "PIL" not in w.filename.replace("\\", "/").split("/"):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            continue
         words = w.message.words if ours else f"Pillow warned while reading it: {w.message}"
         if words in told:
             continue
