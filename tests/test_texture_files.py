@@ -1106,3 +1106,45 @@ def test_pillows_warning_is_told_for_each_read_under_the_default_action(tmp_path
             told = []
             load_image(tif, "raw", told.append)
             assert told == ["Pillow warned while reading it: Tag data larger than file. Skipping tag 270"]
+
+
+def test_a_catch_warnings_of_another_thread_around_a_read_end_leaves_warnings_shown(tmp_path, monkeypatch):
+    """``warnings.catch_warnings`` in one thread, entered while another reads a texture and left after that read
+    ends, puts back the read's recorder as the process's hook (Python's catch_warnings is not thread-safe). The next
+    read took that recorder for the hook to pass other warnings on to: a warning given in another thread while it ran
+    called the recorder without end (RecursionError). Now the hook kept from before is passed on to, and put back."""
+    tif = write_tiff(tmp_path / "plain.tif", np.full((2, 3, 3), 9, np.uint8))
+    opened = PilImage.open
+    gates = {}
+
+    def open_slowly(*args, **kwargs):  # a thread named "reader..." waits inside the read until told to go on
+        gate = gates.get(threading.current_thread().name)
+        if gate is not None:
+            gate[0].set()
+            gate[1].wait(10)
+        return opened(*args, **kwargs)
+
+    def read_while(name, during):  # a read in thread ``name`` runs while ``during()`` runs here
+        gates[name] = (threading.Event(), threading.Event())
+        reader = threading.Thread(target=load_image, args=(str(tif), "raw"), name=name)
+        reader.start()
+        try:
+            assert gates[name][0].wait(10)
+            during(gates[name][1], reader)
+        finally:
+            gates[name][1].set()
+            reader.join(30)
+
+    def another_threads_catch_warnings(release, reader):
+        with warnings.catch_warnings():
+            release.set()
+            reader.join(30)
+
+    monkeypatch.setattr(PilImage, "open", open_slowly)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hook = warnings.showwarning
+        read_while("reader 1", another_threads_catch_warnings)
+        read_while("reader 2", lambda release, reader: warnings.warn("another thread's warning", UserWarning))
+        assert warnings.showwarning is hook
+    assert [str(w.message) for w in caught] == ["another thread's warning"]

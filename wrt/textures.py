@@ -393,7 +393,10 @@ def _warnings_told(name: str, warn=None):
     capture, ident = _WARNING_CAPTURE, threading.get_ident()
     with capture["lock"]:
         if not capture["readers"]:
-            capture["hook"] = warnings.showwarning
+            # (the recorder itself where a catch_warnings of another thread, entered while a read ran and left after
+            # it, put it back: passing warnings on to it recursed without end; the hook kept before is kept)
+            if warnings.showwarning is not _record_warning:
+                capture["hook"] = warnings.showwarning
             warnings.showwarning = _record_warning
         capture["readers"] += 1
         outer = capture["records"].get(ident)  # (a read inside a read of this thread: its own record)
