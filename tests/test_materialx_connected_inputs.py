@@ -178,3 +178,36 @@ def test_a_tiledimage_uvtiling_fed_by_a_constant_node_renders_as_the_constant(tm
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_array_equal(rendered(scene), rendered(expected))
+
+
+@pytest.mark.parametrize("source_id, value, says", [
+    ("ND_constant_float", float("inf"), "whose input value is not finite numbers (inf)"),
+    ("ND_constant_string", "0.5", "whose output is of type string, not numbers"),
+    ("ND_dot_float", None, "whose sources lie more than 32 nodes deep or loop back to it"),
+], ids=["infinite", "string", "loop"])
+def test_a_normalmap_scale_from_a_constant_that_gives_no_number_says_why(tmp_path, source_id, value, says):
+    """A ``scale`` fed by a constant node of an infinite value or of a string, or by a dot that feeds itself, is
+    named in the material's warning with what is wrong with it, and read as 1. The warning said the node "is not
+    supported", of a constant or dot node, which wrt folds."""
+    from pxr import Usd
+
+    path = normal_map_stage(tmp_path, None)
+    stage = Usd.Stage.Open(path)
+    node = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Bumpy/Graph/NormalMap"))
+    source = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Graph/scale_source")
+    source.CreateIdAttr(source_id)
+    value_type = Sdf.ValueTypeNames.String if isinstance(value, str) else Sdf.ValueTypeNames.Float
+    source.CreateOutput("out", value_type)
+    if value is None:  # a loop: the dot's input is its own output
+        source.CreateInput("in", value_type).ConnectToSource(source.ConnectableAPI(), "out")
+    else:
+        source.CreateInput("value", value_type).Set(value)
+    node.CreateInput("scale", Sdf.ValueTypeNames.Float).ConnectToSource(source.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    (warning,) = [m for m in messages if "/Looks/Bumpy" in m]
+    assert f"scale comes from a {source_id} node (/Looks/Bumpy/Graph/scale_source), {says}; 1 is used" in warning, \
+        warning
+    (tmp_path / "unscaled").mkdir()
+    unscaled, _ = load(normal_map_stage(tmp_path / "unscaled", None))
+    np.testing.assert_array_equal(rendered(scene, "normals"), rendered(unscaled, "normals"))

@@ -102,8 +102,10 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
     if found is not None:
         return found
     match = FOLDABLE.match(node_id)
-    if match is None or depth >= MAX_DEPTH:
+    if match is None:
         raise Unfoldable(node)
+    if depth >= MAX_DEPTH:  # (a supported node: "which is not supported" named a constant or dot of a loop)
+        raise Unfoldable(node, f"sources lie more than {MAX_DEPTH} nodes deep or loop back to it")
     op, types = match.group(1), match.group(2)
 
     def arg(name: str, default: float) -> Folded:
@@ -112,12 +114,13 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
             return Folded(np.array([default], np.float64))
         if producer[0] == "shader":
             return fold(reader, producer[1], leaf, depth + 1, memo, producer[2])
+        # (named: "which is not supported" named a constant node of a string or an infinite value)
         try:
             value = np.asarray(producer[1], np.float64).reshape(-1)
         except (TypeError, ValueError):
-            raise Unfoldable(node) from None
+            raise Unfoldable(node, f"input {name} is no number ({producer[1]!r})") from None
         if value.size == 0 or not np.all(np.isfinite(value)):
-            raise Unfoldable(node)
+            raise Unfoldable(node, f"input {name} is not finite numbers ({producer[1]})")
         from .color_spaces import decoded_color
 
         # The node's definition types the input, as MaterialX's port (port_type), not the USD attribute nor the
@@ -135,8 +138,8 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
         return Folded(decoded)
 
     names = TYPE_NAME.findall(types)  # the output's type: a convert's last, any other node's first
-    if not names:
-        raise Unfoldable(node)
+    if not names:  # (a string constant fed to a number)
+        raise Unfoldable(node, f"output is of type {types}, not numbers")
     size = 1 if op == "extract" or op.startswith("separate") else TYPE_SIZES[names[-1 if op == "convert" else 0]]
     if op == "convert":
         return _convert(node, arg("in", 0.0), names[0], names[-1])
