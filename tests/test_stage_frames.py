@@ -1417,3 +1417,25 @@ def test_a_kept_mesh_of_mistyped_face_counts_warns_at_every_frame_as_a_fresh_loa
         assert any("faceVertexCounts" in w for w in fresh_warned), fresh_warned
         assert warned == fresh_warned, (t, warned)
     assert frames.memo.counts["reused"] > 0
+
+
+@pytest.mark.parametrize("color_space", ["auto", "raw"])
+def test_pillows_warning_on_a_kept_texture_is_told_at_every_frame_as_a_fresh_load_tells_it(tmp_path, color_space):
+    """A TIFF whose damaged tag Pillow warns of, read by a shader (in ``color_space``) and by a dome light: every
+    frame of StageFrames tells the warning for each, as a fresh load does. What the read warned of was told by the
+    reader that decoded the file alone: the frames after the first (which take the kept pixels) told it for
+    neither, and where the shader and the light read the file alike (``auto``) the second of them never told it."""
+    from test_materials import textured_stage
+    from test_texture_files import with_a_tag_past_the_end, write_tiff
+
+    tif = with_a_tag_past_the_end(write_tiff(tmp_path / "tagged.tif", np.full((2, 3, 3), 9, np.uint8),
+                                             rows_per_strip=2))
+    path = textured_stage(tmp_path, tif, color_space=color_space)
+    stage = Usd.Stage.Open(str(path))
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateTextureFileAttr(Sdf.AssetPath(str(tif)))
+    stage.Save()
+    frames = StageFrames(path)
+    for t in (1, 2, None):
+        warned = [m for m in load_warned(frames.load, t)[1] if "Skipping tag 270" in m]
+        fresh = [m for m in load_warned(lambda t: wrt.load_usd(path, time=t), t)[1] if "Skipping tag 270" in m]
+        assert len(fresh) == 2 and warned == fresh, (t, warned, fresh)

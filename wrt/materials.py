@@ -2024,14 +2024,19 @@ class MaterialReader:
         if self.memo is None:
             pixels, channels = read_image(resolved, color_space, warn)
         else:
-            decoded = []
+            decoded, told = [], []
 
             def load(path, space):
-                pixels, channels = read_image(path, space, warn)
+                pixels, channels = read_image(path, space, told.append)
                 decoded.append(channels)
                 return pixels
 
             pixels = self.memo.image(resolved, color_space, load)
+            # What the read warned of, kept with the pixels (as LightTextures keeps it): a later load that takes the
+            # kept pixels (a frame of StageFrames) tells it, as a fresh load does. It was told at the first alone.
+            notes = self.memo.derived(resolved, color_space, pixels, "notes", lambda: np.array(told, dtype=object))
+            for words in notes if warn is not None else ():
+                warn(words)
             # Kept pixels decoded by a light (wrt.usd_lights.LightTextures) have no channels kept: read again.
             kept = self.memo.derived(resolved, color_space, pixels, "channels", lambda: np.array(
                 decoded[0] if decoded else read_image(resolved, color_space, warn)[1]))

@@ -221,8 +221,13 @@ class LightTextures:
                 return load_image(path, space, told.append)
 
             try:
-                self.memory[key] = read(resolved, color_space) if self.kept is None else self.kept.image(
-                    resolved, color_space, read)
+                if self.kept is None:
+                    self.memory[key] = read(resolved, color_space)
+                else:
+                    self.memory[key] = image = self.kept.image(resolved, color_space, read)
+                    # kept with the pixels, as MaterialReader keeps it: told by a later load taking them too
+                    told[:] = self.kept.derived(resolved, color_space, image, "notes",
+                                                lambda: np.array(told, dtype=object))
             except TextureError as e:
                 self.memory[key] = e
         found = self.memory[key]
