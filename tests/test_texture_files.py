@@ -137,19 +137,20 @@ def test_an_image_of_more_texels_than_textures_hold_is_refused_before_it_is_deco
         load_image(str(path), "raw")
 
 
-def write_bigtiff(path, grey):
-    """An uncompressed one-strip little-endian BigTIFF (8-byte offsets and counts, 20-byte directory entries) of
-    ``grey`` (``(H, W)`` integers of their dtype's bits), signed where its dtype is; ``path`` as a string."""
+def write_bigtiff(path, grey, byte_order="<"):
+    """An uncompressed one-strip BigTIFF (8-byte offsets and counts, 20-byte directory entries) of ``grey``
+    (``(H, W)`` integers of their dtype's bits), signed where its dtype is, in ``byte_order``; ``path`` as a
+    string."""
     h, w = grey.shape
-    pixels = grey.astype("<" + grey.dtype.str[1:]).tobytes()
+    pixels = grey.astype(byte_order + grey.dtype.str[1:]).tobytes()
     tags = [(256, 4, w), (257, 4, h), (258, 3, grey.dtype.itemsize * 8), (259, 3, 1), (262, 3, 1), (273, 16, None),
             (277, 3, 1), (278, 4, h), (279, 16, len(pixels)), (339, 3, 2 if grey.dtype.kind == "i" else 1)]
     pixels_at = 16 + 8 + 20 * len(tags) + 8  # after the header, the entry count, the entries and the next offset
-    entries = b"".join(struct.pack("<HHQ", tag, kind, 1)
-                       + struct.pack("<" + {3: "H", 4: "I", 16: "Q"}[kind], pixels_at if value is None
+    entries = b"".join(struct.pack(byte_order + "HHQ", tag, kind, 1)
+                       + struct.pack(byte_order + {3: "H", 4: "I", 16: "Q"}[kind], pixels_at if value is None
                                      else value).ljust(8, b"\0") for tag, kind, value in tags)
-    head = b"II+\0" + struct.pack("<HHQ", 8, 0, 16)
-    path.write_bytes(head + struct.pack("<Q", len(tags)) + entries + bytes(8) + pixels)
+    head = (b"II" if byte_order == "<" else b"MM") + struct.pack(byte_order + "HHHQ", 43, 8, 0, 16)
+    path.write_bytes(head + struct.pack(byte_order + "Q", len(tags)) + entries + bytes(8) + pixels)
     return str(path)
 
 
@@ -160,6 +161,21 @@ def test_an_integer_grey_bigtiff_reads_over_its_sample_types_largest_value(tmp_p
     grey = np.array([[0, 1000, 20000], [7, -300, -32768]], np.int16)
     image = load_image(write_bigtiff(tmp_path / "grey.tif", grey), "raw")
     np.testing.assert_allclose(image[..., 0], grey / 32767.0, rtol=1e-6)
+
+
+def test_a_big_endian_bigtiff_is_named_as_one_pillow_does_not_open(tmp_path):
+    """Pillow opens no big-endian BigTIFF (it takes its header, ``MM`` then version 43, for a classic TIFF's), of
+    any samples: the warning said Pillow does not decode its samples ("a TIFF of 1 channel of 16-bit unsigned
+    integer samples", which wrt reads in any other TIFF). Now it says what Pillow does not open, and what to do.
+    The same image little-endian reads its samples."""
+    grey = np.array([[0, 1000, 20000], [7, 300, 65535]], np.uint16)
+    with pytest.raises(TextureError, match="a big-endian BigTIFF, which Pillow .* does not open") as refused:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (Pillow's of the header it misreads: "Corrupt EXIF data")
+            load_image(write_bigtiff(tmp_path / "big.tif", grey, ">"), "raw")
+    assert "samples" not in str(refused.value), refused.value
+    image = load_image(write_bigtiff(tmp_path / "little.tif", grey, "<"), "raw")
+    np.testing.assert_allclose(image[..., 0], grey / 65535.0, rtol=1e-6)
 
 
 @pytest.mark.parametrize("byte_order", ["<", ">"])

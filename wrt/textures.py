@@ -81,6 +81,7 @@ HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 # a power of two (image_scale) that brings it into [2^14, 2^15): float16 keeps its 11 bits down to 2^-14.
 SMALLEST_UNSCALED = 2.0**-10
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
+BIG_ENDIAN_BIGTIFF = b"MM\x00+"  # first 4 bytes of a big-endian BigTIFF (version 43)
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 MAX_TEXELS = 2**31  # texels of all a scene's images together: offsets into them are int32 (pack_images)
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
@@ -495,6 +496,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
+        if data[:4] == BIG_ENDIAN_BIGTIFF:  # (named as samples Pillow does not decode, of any samples)
+            raise TextureError(f"cannot read image {name}: a big-endian BigTIFF, which Pillow (wrt's TIFF reader) "
+                               "does not open (it reads its header as a classic TIFF's); save it in little-endian "
+                               "(Intel) byte order, or as EXR") from None
         layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
         if layout is not None:
             raise TextureError(f"cannot read image {name}: a TIFF of {layout}, which Pillow (wrt's TIFF reader) does "
