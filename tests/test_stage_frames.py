@@ -1439,3 +1439,27 @@ def test_pillows_warning_on_a_kept_texture_is_told_at_every_frame_as_a_fresh_loa
         warned = [m for m in load_warned(frames.load, t)[1] if "Skipping tag 270" in m]
         fresh = [m for m in load_warned(lambda t: wrt.load_usd(path, time=t), t)[1] if "Skipping tag 270" in m]
         assert len(fresh) == 2 and warned == fresh, (t, warned, fresh)
+
+
+def test_pillows_warning_on_a_texture_that_cannot_be_decoded_is_told_at_every_frame(tmp_path):
+    """A TIFF Pillow warns of (a damaged tag) and then cannot decode (strips marked LZW that are not): each frame of
+    StageFrames tells both the warning and the unreadable file, as a fresh load does. Keeping the warning with the
+    pixels lost it where there were no pixels to keep it with."""
+    from test_materials import textured_stage
+    from test_texture_files import with_a_tag_past_the_end, write_tiff
+
+    tif = Path(write_tiff(tmp_path / "tagged.tif", np.full((2, 3, 3), 9, np.uint8), rows_per_strip=2))
+    data = bytearray(tif.read_bytes())
+    (directory,) = np.frombuffer(data[4:8], "<u4")
+    for k in range(int(np.frombuffer(data[directory:directory + 2], "<u2")[0])):
+        at = directory + 2 + 12 * k
+        if int(np.frombuffer(data[at:at + 2], "<u2")[0]) == 259:  # Compression: 5 (LZW), of raw samples
+            data[at + 8:at + 10] = np.array([5], "<u2").tobytes()
+    tif.write_bytes(bytes(data))
+    path = textured_stage(tmp_path, str(with_a_tag_past_the_end(tif)), color_space="raw")
+    frames = StageFrames(path)
+    for t in (1, 2):
+        warned = [m for m in load_warned(frames.load, t)[1] if "tagged.tif" in m]
+        fresh = [m for m in load_warned(lambda t: wrt.load_usd(path, time=t), t)[1] if "tagged.tif" in m]
+        assert any("Skipping tag 270" in m for m in fresh) and any("decoder error" in m for m in fresh), fresh
+        assert warned == fresh, (t, warned, fresh)

@@ -2026,8 +2026,13 @@ class MaterialReader:
         else:
             decoded, told = [], []
 
+            def tell(words):  # (told at once: a read that fails tells what it warned of too)
+                told.append(words)
+                if warn is not None:
+                    warn(words)
+
             def load(path, space):
-                pixels, channels = read_image(path, space, told.append)
+                pixels, channels = read_image(path, space, tell)
                 decoded.append(channels)
                 return pixels
 
@@ -2035,7 +2040,7 @@ class MaterialReader:
             # What the read warned of, kept with the pixels (as LightTextures keeps it): a later load that takes the
             # kept pixels (a frame of StageFrames) tells it, as a fresh load does. It was told at the first alone.
             notes = self.memo.derived(resolved, color_space, pixels, "notes", lambda: np.array(told, dtype=object))
-            for words in notes if warn is not None else ():
+            for words in notes if warn is not None and not decoded else ():
                 warn(words)
             # Kept pixels decoded by a light (wrt.usd_lights.LightTextures) have no channels kept: read again.
             kept = self.memo.derived(resolved, color_space, pixels, "channels", lambda: np.array(
