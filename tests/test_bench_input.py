@@ -1144,6 +1144,32 @@ def test_scenes_named_are_all_that_is_measured_not_the_suites_scaling_sweep(tmp_
     assert "0 rows measured, 2 resumed" in capsys.readouterr().err
 
 
+def test_a_whole_suite_resume_of_a_run_of_scenes_named_is_not_refused_for_the_sweep_it_never_measured(tmp_path,
+                                                                                                       capsys):
+    """wrt bench SUITE --scenes x -o out, then wrt bench SUITE -o out --resume (the rest of the suite) was refused:
+    'the suite's scaling n_rays 200 -> 100', as the first run, measuring no sweep, recorded the sweep's ray count as
+    --n-rays'. The rows on disk (no sweep row) are the oracle: nothing was measured with the sweep's count. A
+    resume of real sweep rows with another sweep count is still refused."""
+    suite = write_suite(tmp_path, scenes=["sphere:200"], rays=["primary"], n_rays=200, repeats=1,
+                        scaling={"sizes": [300], "accels": ["wrt:sah"], "n_rays": 100})
+    out = tmp_path / "out"
+
+    def rows() -> list:
+        return sorted((r["scene"], bool(r.get("sweep"))) for r in map(json.loads, (out / "rows.jsonl").open()))
+
+    assert main(["bench", str(suite), "--scenes", "sphere:250", "-q", "-o", str(out)]) == 0
+    assert rows() == [("sphere:250", False)]  # no sweep row: the sweep's ray count measured nothing
+    capsys.readouterr()
+    assert main(["bench", str(suite), "--resume", "-q", "-o", str(out)]) == 0, capsys.readouterr().err
+    assert "2 rows measured, 0 resumed, 0 failed, 1 row of an earlier run kept" in capsys.readouterr().err
+    assert rows() == [("sphere:200", False), ("sphere:250", False), ("sphere:300", True)]
+    assert json.loads((out / "settings.json").read_text())["scaling_n_rays"] == 100
+    other = write_suite(tmp_path, scenes=["sphere:200"], rays=["primary"], n_rays=200, repeats=1,
+                        scaling={"sizes": [300], "accels": ["wrt:sah"], "n_rays": 50})
+    assert main(["bench", str(other), "--resume", "-q", "-o", str(out)]) == 2  # sweep rows of 100 rays are there
+    assert "the suite's scaling n_rays 100 -> 50" in capsys.readouterr().err
+
+
 TWO_TRIANGLES = """#usda 1.0
 def Mesh "Quad"
 {

@@ -1032,12 +1032,14 @@ def _read_settings(path: Path) -> dict:
 _SETTING_NAMES = {"n_rays": "--n-rays", "repeats": "--repeats", "scaling_n_rays": "the suite's scaling n_rays"}
 
 
-def _check_resumed_settings(path: Path, grid: Grid) -> None:
+def _check_resumed_settings(path: Path, grid: Grid, sweep_rows: bool = True) -> None:
     """Raises ValueError when the rows to resume were measured with other ray counts or repeats (``path`` is their
-    ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it)."""
+    ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it). The sweep's
+    ray count is compared only where the rows hold sweep rows (``sweep_rows``): a run without its sweep
+    (``--scenes``) records one it measured nothing with, and the whole suite's resume was refused for it."""
     before = _read_settings(path)
     now = _resume_settings(grid, before)
-    differ = [k for k in now if before.get(k, now[k]) != now[k]]
+    differ = [k for k in now if before.get(k, now[k]) != now[k] and (sweep_rows or k != "scaling_n_rays")]
     follows = before.get("scaling_n_rays") == before.get("n_rays") and now["scaling_n_rays"] == now["n_rays"]
     if "scaling_n_rays" in differ and follows:  # a sweep without its own n_rays follows --n-rays: one change, once
         differ.remove("scaling_n_rays")
@@ -1238,9 +1240,9 @@ def run_grid(
         _refuse_files_not_written_by_bench(out)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
-            _check_resumed_settings(out / SETTINGS_FILE, grid)
-            earlier_settings = _read_settings(out / SETTINGS_FILE)
             rows = _resumed_rows(jsonl)
+            _check_resumed_settings(out / SETTINGS_FILE, grid, sweep_rows=any(r.get("sweep") for r in rows))
+            earlier_settings = _read_settings(out / SETTINGS_FILE)
             resumed = {row_key(r): r for r in rows}
         elif resume:  # said: a misspelt output folder measured every row again without a word
             import warnings
