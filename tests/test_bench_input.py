@@ -1120,6 +1120,24 @@ def test_a_bench_folder_of_an_earlier_run_is_written_over(tmp_path):
     assert "my note" not in (tmp_path / "table.md").read_text()
 
 
+def test_a_long_table_of_scenes_named_in_other_scripts_is_the_benchs_to_replace(tmp_path):
+    """A table.md of more than 64 KiB whose first 64 KiB end inside a multi-byte character (a scene named in
+    Chinese, Greek, ...) was taken for the user's file, 'not written by wrt bench', and the run refused: only its
+    start was read, then decoded as a whole. The oracle: the table is markdown_table's text, written as a run does."""
+    rows = [dict(sweep_rows()[0], scene=f"\u573a\u666f_{i}.usda", sweep=False) for i in range(600)]
+    for pad in range(200):  # a name a byte longer moves the cut, until it lands inside a 3-byte character
+        rows[0]["scene"] = "x" * pad + "\u573a\u666f.usda"
+        data = bench_module.markdown_table(rows).encode("utf-8")
+        if len(data) > 64 * 1024 and 0x80 <= data[64 * 1024] < 0xC0:  # a continuation byte: the cut splits a character
+            break
+    else:
+        pytest.fail("no table whose first 64 KiB end inside a character")
+    (tmp_path / "table.md").write_bytes(data)
+    rows = run_grid(small_grid(), tmp_path, progress=False)
+    assert len(rows) == 1 and "error" not in rows[0]
+    assert "\u573a" not in (tmp_path / "table.md").read_text(encoding="utf-8")  # replaced by this run's table
+
+
 def test_scenes_named_are_all_that_is_measured_not_the_suites_scaling_sweep(tmp_path, capsys):
     """wrt bench cpu --scenes x measured the suite's scaling sweep too (five spheres up to 1e7 triangles in the cpu
     suite), where the user named the scenes wanted. A resume of a run with the sweep is not refused for the sweep's
