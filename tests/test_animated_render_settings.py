@@ -137,3 +137,21 @@ def test_frames_say_the_first_view_as_its_frame_finishes_and_a_resume_that_skips
     lines = capsys.readouterr().err.splitlines()
     assert not any(line.startswith("drawing") for line in lines), lines  # every frame skipped
     assert [line for line in lines if line.startswith("wrt: view:")] == ended, lines
+
+
+def test_a_second_resume_that_skips_every_frame_says_their_views_too(tmp_path, capsys):
+    """A --resume that skips every frame says their views from their rows of the log; but the rows it adds for the
+    frames it skipped carried no view, and the next --resume reads those (the last row of each image): it said no
+    view. The oracle: the view lines of the run that drew the frames, said again by every resume."""
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    argv = ["render", str(path), "--frames", "1:2", "-o", str(tmp_path / "f_#.npy"), "--integrator", "normals",
+            "--log", str(tmp_path / "log.jsonl")]
+    assert main(argv) == 0
+    drawn = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: view:")]
+    assert len(drawn) == 3  # the first frame's view as it finished, then both with their frames
+    for _ in range(2):
+        assert main([*argv, "--resume"]) == 0
+        lines = capsys.readouterr().err.splitlines()
+        assert any("skipped 2 of 2 frames" in line for line in lines), lines
+        assert [line for line in lines if line.startswith("wrt: view:")] == drawn[1:], lines

@@ -1031,10 +1031,12 @@ def _run_frames(args, paths: list, progress) -> int:
                 if file in finished:  # a row for it in this run too: each run's rows list every frame
                     before = finished[file]
                     skipped_rows.append((frame, before))
-                    # Its AOV files too, as a batch's skipped rows carry them: the next --resume checks them.
+                    # Its AOV files too, as a batch's skipped rows carry them: the next --resume checks them. And its
+                    # view: the next --resume says the views of the frames it skips from these rows (it said none).
                     aovs = {"aov_files": before["aov_files"]} if "aov_files" in before else {}
+                    view = {"view": before["view"]} if "view" in before else {}
                     append_row(log, strict_json({**fields, "frame": frame, "output": str(file),
-                                                 **skipped_fields(before), **aovs}))
+                                                 **skipped_fields(before), **aovs, **view}))
             jobs = [(frame, file) for frame, file in jobs if file not in finished]
             if finished:
                 progress(f"--resume: skipped {counted_of(len(finished), len(frames), 'frame')}: finished before, with "
