@@ -391,6 +391,9 @@ def test_bad_grid_fields_are_named(tmp_path, field, needle):
         ("[1, 2]", "suite.json: a suite is a JSON object"),  # was 'unknown suite keys [1, 2]'
         ("null", "suite.json: a suite is a JSON object"),  # was TypeError: 'NoneType' object is not iterable
         ('{"scenes": ["sphere:2000"]}', r"suite.json: missing suite keys \['accels'\]"),  # was Grid.__init__()'s
+        # Named as the missing accels are: it became 'scenes: must be a list, got None' when the suite's relative
+        # scene paths came to be read from its folder
+        ('{"accels": ["wrt:sah"]}', r"suite.json: missing suite keys \['scenes'\]"),
     ],
 )
 def test_broken_suite_files_are_named(tmp_path, text, needle):

@@ -131,8 +131,8 @@ class Grid:
                              f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
                     if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
-        if "scenes" not in overrides:  # --scenes are the command line's, read from the current folder
-            data = dict(data, scenes=_suite_scene_paths(data.get("scenes"), path))
+        if "scenes" in data and "scenes" not in overrides:  # --scenes are the command line's, read from the current
+            data = dict(data, scenes=_suite_scene_paths(data["scenes"], path))  # folder; none: named missing below
         # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
         # --devices replaced them all.
         data = {**data, **overrides}
