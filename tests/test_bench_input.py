@@ -1138,6 +1138,34 @@ def test_a_long_table_of_scenes_named_in_other_scripts_is_the_benchs_to_replace(
     assert "\u573a" not in (tmp_path / "table.md").read_text(encoding="utf-8")  # replaced by this run's table
 
 
+def test_a_bench_folder_of_a_wrt_from_before_plots_were_marked_is_written_over(tmp_path):
+    """wrt bench before 2026-11-24 (82f30896) saved its plots unmarked (``fig.savefig(path, dpi=110)``): the next
+    run into that folder (bench-out, the default) was refused, 'mrays.png was not written by wrt bench'. Such a plot
+    beside the folder's bench table is the bench's; the same plot beside no bench table is still the user's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    def old_plot(path):  # as the plots of that version were saved
+        fig, ax = plt.subplots()
+        ax.plot([1, 2], [3, 4])
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+    run_grid(small_grid(), tmp_path, progress=False)  # its table.md, as every version wrote it
+    old_plot(tmp_path / "mrays.png")
+    assert not bench_module.written_by_wrt(tmp_path / "mrays.png")
+    rows = run_grid(small_grid(), tmp_path, progress=False)
+    assert len(rows) == 1 and "error" not in rows[0]
+    assert bench_module.written_by_wrt(tmp_path / "mrays.png")  # this run's plot in its place
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    old_plot(alone / "mrays.png")
+    with pytest.raises(ValueError, match="mrays.png' was not written by wrt bench"):
+        run_grid(small_grid(), alone, progress=False)
+
+
 def test_scenes_named_are_all_that_is_measured_not_the_suites_scaling_sweep(tmp_path, capsys):
     """wrt bench cpu --scenes x measured the suite's scaling sweep too (five spheres up to 1e7 triangles in the cpu
     suite), where the user named the scenes wanted. A resume of a run with the sweep is not refused for the sweep's

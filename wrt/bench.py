@@ -1479,7 +1479,7 @@ def _refuse_files_not_written_by_bench(out: Path) -> None:
     (``-o .`` in a project folder) without a word."""
     for name in ("table.md", SETTINGS_FILE, *PLOT_FILES):
         path = out / name
-        if path.is_file() and not _written_by_bench(path):
+        if path.is_file() and not _written_by_bench(path) and not (name in PLOT_FILES and _unmarked_bench_plot(path)):
             raise ValueError(f"output folder {str(out)!r}: {str(path)!r} was not written by wrt bench, and this run "
                              f"would replace it; move it, or give another output folder (-o)")
 
@@ -1614,22 +1614,35 @@ PLOT_MARK = ("wrt-bench", "plot")  # a PNG tEXt chunk (key, text) in each plot: 
 def written_by_wrt(path: Path) -> bool:
     """Whether ``path`` is a PNG that :func:`plot` wrote: one holding the ``PLOT_MARK`` text chunk. Anything else
     (another image, a file that is no PNG or cannot be read) is not."""
-    mark = b"\0".join(part.encode("latin-1") for part in PLOT_MARK)
+    return b"\0".join(part.encode("latin-1") for part in PLOT_MARK) in _png_texts(path)
+
+
+def _png_texts(path: Path) -> list[bytes]:
+    """The ``tEXt`` chunks (``key\\0text``) of the PNG ``path``; none for a file that is no PNG or cannot be read."""
     try:
         data = path.read_bytes()
     except OSError:
-        return False
+        return []
     if not data.startswith(b"\x89PNG\r\n\x1a\n"):
-        return False
-    at = 8
+        return []
+    texts, at = [], 8
     while at + 8 <= len(data):  # chunks: 4-byte big-endian length, 4-byte type, data, 4-byte CRC
         length, kind = int.from_bytes(data[at:at + 4], "big"), data[at + 4:at + 8]
-        if kind == b"tEXt" and data[at + 8:at + 8 + length] == mark:
-            return True
+        if kind == b"tEXt":
+            texts.append(data[at + 8:at + 8 + length])
         if kind == b"IEND":
             break
         at += 12 + length
-    return False
+    return texts
+
+
+def _unmarked_bench_plot(path: Path) -> bool:
+    """Whether ``path`` is a plot of wrt bench from before plots were marked (:data:`PLOT_MARK`, 2026-11-24): a PNG
+    that matplotlib wrote, beside the table.md that wrt bench wrote with it. Such a folder (the default bench-out of
+    every earlier run) was refused as the user's ('mrays.png was not written by wrt bench')."""
+    table = path.parent / "table.md"
+    return (any(text.startswith(b"Software\0Matplotlib") for text in _png_texts(path))
+            and table.is_file() and table.stat().st_size > 0 and _written_by_bench(table))
 
 
 def _plottable(*values) -> bool:
