@@ -155,3 +155,22 @@ def test_a_second_resume_that_skips_every_frame_says_their_views_too(tmp_path, c
         lines = capsys.readouterr().err.splitlines()
         assert any("skipped 2 of 2 frames" in line for line in lines), lines
         assert [line for line in lines if line.startswith("wrt: view:")] == drawn[1:], lines
+
+
+def test_the_first_frames_view_said_under_a_running_progress_bar_gets_a_line_of_its_own(tmp_path, capsys,
+                                                                                        monkeypatch):
+    """The first frame's view is said as it finishes, while the frames' progress bar (drawn on a terminal) is still
+    running: it was printed after the bar's text on the bar's line ('wrt frames:  50%|...| 1/2 [...]wrt: view: ...'),
+    where a warning goes through tqdm, above the bar. The oracle: what the terminal shows of a line is the text after
+    its last carriage return."""
+    from wrt import cli
+
+    monkeypatch.setattr(cli._Progress, "bar", property(lambda self: True))  # as on a terminal
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    assert main(["render", str(path), "--frames", "1:2", "-o", str(tmp_path / "f_#.npy"), "--integrator",
+                 "normals"]) == 0
+    err = capsys.readouterr().err
+    assert "wrt frames" in err  # the bar was drawn
+    shown = [line.split("\r")[-1] for line in err.split("\n") if "view:" in line]
+    assert shown and all(line.startswith("wrt: view: camera /Cam") for line in shown), shown

@@ -73,8 +73,13 @@ class _Progress:
 
     def __call__(self, message: str, seconds: float | None = None):
         if not self.quiet:
+            from tqdm import tqdm
+
             suffix = f" ({seconds:.2f} s)" if seconds is not None else ""
-            print(f"wrt: {message}{suffix}", file=sys.stderr, flush=True)
+            # Through tqdm, as warnings are: a line said under a running progress bar (the first frame's view, as
+            # that frame finishes) was printed on the bar's line, after its text.
+            tqdm.write(f"wrt: {message}{suffix}", file=sys.stderr)
+            sys.stderr.flush()
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
