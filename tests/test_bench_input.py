@@ -1087,6 +1087,7 @@ def test_every_group_of_a_shipped_suite_is_checked_against_the_reference(suite):
     ("settings.json", b'{"editor.tabSize": 4}\n'),  # another tool's settings, -o . in a project folder
     ("mrays.png", None),  # an image wrt did not draw
     ("scaling.png", b"not even a PNG"),
+    ("rows.jsonl", b'{"id": 1, "label": "cat"}\n{"id": 2, "label": "dog"}\n'),  # a data set of the user's
 ])
 def test_a_file_of_the_users_named_as_a_bench_output_is_refused_and_kept(tmp_path, monkeypatch, capsys, name, content):
     """-o DIR replaced the user's own table.md, settings.json or plot-named files in DIR without a word; now the run
@@ -1118,6 +1119,18 @@ def test_a_bench_folder_of_an_earlier_run_is_written_over(tmp_path):
     rows = run_grid(small_grid(), tmp_path, progress=False)
     assert len(rows) == 1 and "error" not in rows[0]
     assert "my note" not in (tmp_path / "table.md").read_text()
+
+
+@pytest.mark.parametrize("text", [
+    '{"scene": "sphere:2000", "accel": "wrt:sah", "dev',  # the first row, cut short by a stopped run
+    '{"scene": "no.usda", "accel": "*", "device": "cpu", "rays": "primary", "threads": null, "error": "gone"}\n',
+])
+def test_a_rows_file_of_a_stopped_or_failed_bench_run_is_the_benchs_to_replace(tmp_path, text):
+    """rows.jsonl is refused where it holds no bench rows (a user's file of that name was replaced); a bench run's
+    first row cut short, or its error rows, are still the bench's."""
+    (tmp_path / "rows.jsonl").write_text(text)
+    rows = run_grid(small_grid(), tmp_path, progress=False)
+    assert [json.loads(line) for line in (tmp_path / "rows.jsonl").open()] == json.loads(json.dumps(rows))
 
 
 def test_a_long_table_of_scenes_named_in_other_scripts_is_the_benchs_to_replace(tmp_path):

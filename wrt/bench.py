@@ -1237,7 +1237,7 @@ def run_grid(
             if (out / name).is_dir():
                 what = "the rows go" if name == "rows.jsonl" else f"{name} goes"
                 raise ValueError(f"output folder {str(out)!r}: {str(out / name)!r}, where {what}, is a folder")
-        _refuse_files_not_written_by_bench(out)
+        _refuse_files_not_written_by_bench(out, rows=not resume)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             rows = _resumed_rows(jsonl)
@@ -1473,10 +1473,35 @@ def _written_by_bench(path: Path) -> bool:
     return isinstance(settings, dict) and bool(settings) and set(settings) <= set(_SETTING_NAMES)
 
 
-def _refuse_files_not_written_by_bench(out: Path) -> None:
+def _rows_written_by_bench(path: Path) -> bool:
+    """Whether ``path`` (``rows.jsonl``) is empty or starts with a row of wrt bench (:func:`is_bench_row`, an error
+    row too), or with the start of one that a stopped run cut short. Its first line alone is read: a user's file of
+    that name may be large."""
+    from .render_log import is_bench_row
+
+    try:
+        if path.stat().st_size == 0:
+            return True
+        with open(path, "rb") as f:
+            first = f.readline(1 << 20)
+    except OSError:
+        return False
+    try:
+        row = json.loads(first)
+    except ValueError:  # no JSON (or no UTF-8): a row cut short is the file's only, unended line
+        return first.startswith(b'{"scene": ') and not first.endswith(b"\n")
+    return isinstance(row, dict) and is_bench_row(row)
+
+
+def _refuse_files_not_written_by_bench(out: Path, rows: bool = True) -> None:
     """Raises ValueError, before anything is measured, naming a ``table.md``, ``settings.json`` or plot in ``out``
     that wrt bench did not write (:func:`_written_by_bench`): the run replaced the user's own files of those names
-    (``-o .`` in a project folder) without a word."""
+    (``-o .`` in a project folder) without a word. So is a ``rows.jsonl`` of other rows (:func:`_rows_written_by_bench`)
+    where ``rows`` (a run that is no resume: a resume reads it, naming what it holds, and replaces nothing)."""
+    if rows and (out / "rows.jsonl").is_file() and not _rows_written_by_bench(out / "rows.jsonl"):
+        raise ValueError(f"output folder {str(out)!r}: {str(out / 'rows.jsonl')!r} was not written by wrt bench (it "
+                         "holds no bench rows), and this run would replace it; move it, or give another output folder "
+                         "(-o)")
     for name in ("table.md", SETTINGS_FILE, *PLOT_FILES):
         path = out / name
         if path.is_file() and not _written_by_bench(path) and not (name in PLOT_FILES and _unmarked_bench_plot(path)):
