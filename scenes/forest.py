@@ -210,7 +210,7 @@ def _int_at_least(minimum: int):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("output", nargs="?", default="forest.usdc", help="stage to write (.usda or .usdc)")
     parser.add_argument("--trees", type=_int_at_least(1), default=1000, help="number of tree instances")
     parser.add_argument("--tree-triangles", type=_int_at_least(MIN_TREE_TRIANGLES), default=10_000,

@@ -97,7 +97,7 @@ def write(path: Path) -> Path:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("output", nargs="?", type=Path, default=Path(__file__).with_name("animated.usda"),
                         help="USD file to write (.usda, .usdc or .usd); default scenes/animated.usda")
     args = parser.parse_args(argv)

@@ -122,7 +122,7 @@ def write(path: Path, count: int = 200) -> Path:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("output", nargs="?", type=Path, default=Path(__file__).with_name("mostly_static.usda"),
                         help="USD file to write (.usda, .usdc or .usd); default scenes/mostly_static.usda")
     parser.add_argument("count", nargs="?", type=int, default=200, help="static meshes (default 200)")

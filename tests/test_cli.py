@@ -179,6 +179,24 @@ def test_an_abbreviated_option_is_refused_naming_it_and_the_option_it_starts(cap
     assert f"unrecognized arguments: {abbreviation}" in line and f"(did you mean {option!r}?)" in line, line
 
 
+def test_the_scripts_beside_wrt_refuse_abbreviated_options_too():
+    """The scripts of ``benchmarks/`` and ``scenes/`` (``scenes/forest.py --out`` ...) took an abbreviated long option
+    for the one it starts, as wrt's own commands did: every ``argparse.ArgumentParser`` they make (read from their
+    source with Python's own parser) passes ``allow_abbrev=False``."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    loose = []
+    for path in sorted([*root.glob("benchmarks/*.py"), *root.glob("scenes/*.py")]):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) == \
+                    "ArgumentParser":
+                given = {k.arg: k.value for k in node.keywords}
+                if not (isinstance(given.get("allow_abbrev"), ast.Constant) and given["allow_abbrev"].value is False):
+                    loose.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert loose == []
+
+
 @pytest.mark.parametrize("args, message", [
     (["rendr"], "argument COMMAND: invalid choice: 'rendr' (did you mean 'render'?) (choose from 'render', "),
     (["render", "--builder", "SAH"], "argument --builder: invalid choice: 'SAH' (did you mean 'sah'?) (choose from"),
