@@ -1659,3 +1659,64 @@ def test_a_first_camera_bad_at_every_time_leaves_the_frames_to_the_next_camera(t
     with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
         renderer.render(2.0)
     assert renderer.log[-1]["drawn_camera"] == "camera /Other"
+
+
+@pytest.mark.parametrize("bad", ["focal", "transform"])
+def test_a_first_camera_bad_at_one_frame_under_an_op_of_no_known_type_refuses_that_frame_alone(tmp_path, bad):
+    """A rig whose xformOpOrder names an op of no known type (``xformOp:foo``, read as the identity with a warning)
+    above the stage's first camera, unusable at frame 2 (a focal length 0, or the rig's translate NaN): asking
+    whether the camera varies went through ``UsdGeom.Xformable``, which raises for that op, and the frame's load
+    failed as "cannot read this prim" instead of naming the camera and why; a still render of such a camera bad at
+    every time failed likewise. Oracle: USD's attribute values (GetCamera itself raises for the op)."""
+    from pxr import Tf, Usd, UsdGeom
+
+    focal = "float focalLength.timeSamples = { 1: 50, 2: 0, 3: 50 }" if bad == "focal" else "float focalLength = 50"
+    nan = "2: (0, 0, 10), " if bad == "focal" else "2: (nan, 0, 10), "
+    path = tmp_path / "cam.usda"
+    path.write_text(f"""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 3
+)
+def Cube "Box"
+{{
+}}
+def Xform "Rig"
+{{
+    double3 xformOp:translate.timeSamples = {{ 1: (0, 0, 10), {nan}3: (0, 0, 10) }}
+    double3 xformOp:foo = (0, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:foo"]
+    def Camera "Cam"
+    {{
+        {focal}
+    }}
+}}
+def Camera "Other"
+{{
+    double3 xformOp:translate = (5, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+""")
+    stage = Usd.Stage.Open(str(path))
+    with pytest.raises(Tf.ErrorException, match="Invalid xform opType token 'foo'"):
+        UsdGeom.Xformable(stage.GetPrimAtPath("/Rig")).TransformMightBeTimeVarying()
+    focals = [stage.GetPrimAtPath("/Rig/Cam").GetAttribute("focalLength").Get(t) for t in (1.0, 2.0, 3.0)]
+    moves = [np.isfinite(stage.GetPrimAtPath("/Rig").GetAttribute("xformOp:translate").Get(t)).all()
+             for t in (1.0, 2.0, 3.0)]
+    assert [f > 0 and m for f, m in zip(focals, moves)] == [True, False, True]
+    renderer = FrameRenderer(path, width=8, height=6, device="cpu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the load's words on xformOp:foo and the skipped camera
+        renderer.render(1.0)
+        with pytest.raises(wrt.SceneError, match=r"/Rig/Cam: the stage's first camera, which draws the frames, "
+                                                 r"cannot be used at frame 2"):
+            renderer.render(2.0)
+        renderer.render(3.0)
+    assert [row["drawn_camera"] for row in renderer.log] == ["camera /Rig/Cam", "camera /Rig/Cam"]
+    if bad == "focal":  # bad at every time beside an animated focusDistance: a still render draws the next camera
+        still = tmp_path / "still.usda"  # (another file: the stage above keeps this one's layer open)
+        still.write_text(path.read_text().replace(focal, "float focalLength = 0\n        "
+                                                  "float focusDistance.timeSamples = { 1: 5, 3: 8 }"))
+        with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
+            scene = wrt.load_usd(still)
+        assert list(scene.cameras) == ["/Other"]

@@ -230,14 +230,7 @@ def _might_vary(prim: Usd.Prim, values: bool = True, transform: bool = True) -> 
     ancestor's) has time samples. Asked of what made the camera unusable only: a zero focal length on a moving camera
     (or under a moving parent) is bad at every time, and was taken for animated, so every frame was refused where the
     next camera draws them all, as it draws a still render."""
-    moving = (a for a in prim.GetAttributes() if a.ValueMightBeTimeVarying())
-    if values and any(not a.GetName().startswith("xformOp:") for a in moving):  # (the transform: below)
-        return True
-    while transform and prim and not prim.IsPseudoRoot():
-        if UsdGeom.Xformable(prim) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying():
-            return True
-        prim = prim.GetParent()
-    return False
+    return any(True for _ in _varying(prim, values, transform))
 
 
 def _sample_times(prim: Usd.Prim) -> set[float] | None:
@@ -245,21 +238,26 @@ def _sample_times(prim: Usd.Prim) -> set[float] | None:
     ancestors have samples at; None where one of them varies without samples (a spline: its values between knots
     are not its knots')."""
     times = set()
-    for attr in prim.GetAttributes():
-        if not attr.GetName().startswith("xformOp:") and attr.ValueMightBeTimeVarying():
-            found = attr.GetTimeSamples()
-            if not found:
-                return None
-            times.update(found)
-    while prim and not prim.IsPseudoRoot():
-        xformable = UsdGeom.Xformable(prim)
-        if xformable and xformable.TransformMightBeTimeVarying():
-            found = xformable.GetTimeSamples()
-            if not found:
-                return None
-            times.update(found)
-        prim = prim.GetParent()
+    for attr in _varying(prim):
+        found = attr.GetTimeSamples()
+        if not found:
+            return None
+        times.update(found)
     return times
+
+
+def _varying(prim: Usd.Prim, values: bool = True, transform: bool = True):
+    """The attributes that might vary of camera ``prim`` but its transform ops (``values``), and its and its
+    ancestors' transform ops (``transform``). Ops are the ``xformOp:`` attributes, those ``xformOpOrder`` leaves out
+    too (they add times to read at, nothing else), rather than ``UsdGeom.Xformable``'s: it raises for an op of no
+    known type (``xformOp:foo``), which wrt reads as the identity with a warning, and such an op up the chain of a
+    camera unusable at one frame failed that frame's load (cannot read this prim)."""
+    yield from (a for a in prim.GetAttributes() if values and not a.GetName().startswith("xformOp:")
+                and a.ValueMightBeTimeVarying())
+    while transform and prim and not prim.IsPseudoRoot():
+        yield from (a for a in prim.GetAttributes() if a.GetName().startswith("xformOp:")
+                    and a.ValueMightBeTimeVarying())
+        prim = prim.GetParent()
 
 
 def what_is_at(source: str, path: str, variants=None) -> str | None:
