@@ -226,3 +226,30 @@ def test_a_prototype_instanced_only_inside_others_is_named_by_their_names_not_th
         assert warning.endswith(": /World/A/L/Blade (and in 1 other instance)")
         leaf = next(p for p in scene.prototypes if p.meshes[0].path.endswith("/Blade"))
         assert leaf.path == "/World/A/L" and leaf.meshes[0].path == "/World/A/L/Blade"
+
+
+def test_warnings_of_a_material_inside_a_prototype_name_it_under_the_first_instance(tmp_path):
+    """A material inside a native prototype (the Leaf's Green, in nested instances too) whose shader has a dangling
+    connection and a colour space wrt does not know: the warnings named the material, the shader and the connection
+    target by prototype path (``material /__Prototype_2/Looks/Green: /__Prototype_2/Looks/Green/S's emissiveColor
+    ...``, ``diffuseColor -> /__Prototype_2/Looks/Green/Gone.outputs:rgb``), a name USD makes up per opening that no
+    file holds, beside the shader itself named ``/World/BushA/L1/Looks/Green/S``; they name all three under the
+    prototype's first instance. Oracle: USD's walk through instance proxies (``_first_instances``)."""
+    old = "color3f inputs:diffuseColor = (0, 1, 0)"
+    assert STAGE.count(old) == 1
+    path = tmp_path / "looks.usda"
+    path.write_text(STAGE.replace(old, old + "\n                color3f inputs:diffuseColor.connect = "
+                                  "</Leaf/Looks/Green/Gone.outputs:rgb>\n                color3f "
+                                  'inputs:emissiveColor = (0.1, 0.2, 0.3) (colorSpace = "weird_space")'))
+    stage = Usd.Stage.Open(str(path))
+    leaf = stage.GetPrimAtPath("/World/Leaf").GetPrototype().GetPath()
+    green = _first_instances(stage)[leaf] + "/Looks/Green"
+    assert green == "/World/BushA/L1/Looks/Green"
+    for _ in range(3):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrt.load_usd(path)
+        said = [str(w.message) for w in caught]
+        assert any(f"(diffuseColor -> {green}/Gone.outputs:rgb: 1): {green}/S" in s for s in said), said
+        assert any(f"material {green}: {green}/S's emissiveColor colour space 'weird_space'" in s for s in said), said
+        assert not [s for s in said if "__Prototype" in s], said

@@ -4,12 +4,15 @@ tallied into one warning per reason at the end of the read."""
 
 from __future__ import annotations
 
+import re
 import warnings
 
 from pxr import Sdf, Tf, Usd
 
 from .errors import SceneError, user_stacklevel
 
+# A native prototype's path in words, as USD names it per opening (/__Prototype_12), not inside a longer path.
+PROTOTYPE_ROOT = re.compile(r"(?<![\w.])/__Prototype_\d+(?!\w)")
 # A prim that cannot be placed is left out, the rest of the stage drawn, as an instance so placed is (wrt.usd_contents).
 NOT_FINITE_TRANSFORM = "prims whose world transform is not finite (NaN or inf) were skipped"
 BEYOND_FLOAT32 = "prims that their world transform places beyond float32's range (|x| > 3.4e38) were skipped"
@@ -143,7 +146,16 @@ class ProblemReport:
 
     def _skip_path(self, reason: str, path: str, detail: str | None = None):
         # In order: the slice of a read kept for other frames is its warnings (wrt.usd_mesh_memo, usd_material_memo).
-        self.skipped.append((reason, path, detail))
+        self.skipped.append((self._stable_words(reason), path, None if detail is None else self._stable_words(detail)))
+
+    def _stable_words(self, words: str) -> str:
+        """``words`` (a warning's reason or detail) with each native prototype path in it named under the
+        prototype's first instance (:meth:`_stable_path`), as the prims are: a material, shader or connection target
+        inside a prototype was named ``/__Prototype_1/Looks/Mat``, a name USD makes up per opening that no file
+        holds (``material /__Prototype_1/Looks/Mat: ...``), where the prim beside it was ``/A/Looks/Mat/PBR``."""
+        if not (isinstance(words, str) and "/__Prototype_" in words):  # (a detail may be any object words print)
+            return words
+        return PROTOTYPE_ROOT.sub(lambda found: self._stable_path(found.group(0)), words)
 
     def _warn_skipped(self):
         """One warning per reason, with the number of prims, a tally of details (the prims with each) and the first
