@@ -1636,13 +1636,19 @@ MOVING = "double3 xformOp:translate.timeSamples = { 1: (0, 0, 10), 3: (1, 0, 10)
                             'def Camera "Cam"\n{', '}\ndef Camera "Other"': '}\n}\ndef Camera "Other"'},
     {"float focalLength = 0": "float focalLength = 0\n    float focusDistance.timeSamples = { 1: 5, 3: 8 }"},
     {"float focalLength = 0": "float focalLength.timeSamples = { 1: 0, 3: 0 }"},
-], ids=["still", "moving", "moving-parent", "rack-focus", "zero-samples"])
+    {'def Camera "Cam"\n{': 'def Xform "Rig"\n{\ndouble xformOp:rotateY.spline = {\n1: 0,\n3: 30,\n}\n'
+                            'uniform token[] xformOpOrder = ["xformOp:rotateY"]\ndef Camera "Cam"\n{',
+     '}\ndef Camera "Other"': '}\n}\ndef Camera "Other"',
+     "float focalLength = 0": "float focalLength = 0\n    float focusDistance.timeSamples = { 1: 5, 3: 8 }"},
+], ids=["still", "moving", "moving-parent", "rack-focus", "zero-samples", "rack-focus-spline-rig"])
 def test_a_first_camera_bad_at_every_time_leaves_the_frames_to_the_next_camera(tmp_path, moved):
     """A first camera that is bad whatever the time (an unanimated zero focal length) is skipped for every frame
     alike, as for a still render: the frames are drawn from the next camera, with the load's warning. So is one
     whose transform or parent's moves (USD's GetCamera reads its focal length 0 at every frame): it was taken for a
     camera animated into its zero focal length, and every frame was refused. So is one whose focusDistance is
-    animated beside it (a rack focus), or whose focal length is 0 at every sample: every frame was refused too."""
+    animated beside it (a rack focus), or whose focal length is 0 at every sample: every frame was refused too; so
+    was a rack focus under a rig animated by a spline (which has no samples to read the camera again at, and
+    cannot make a focal length 0)."""
     from pxr import Usd, UsdGeom
 
     path = tmp_path / "cam.usda"

@@ -49,7 +49,7 @@ class CameraReading:
                 # (what made it unusable: its transform, its values (other ValueErrors), or either (USD's errors))
                 values, transform = not isinstance(e, _TransformError), type(e) is not ValueError
                 if not (self.scene.cameras or hasattr(self.scene, "_first_camera_skipped")) and _might_vary(
-                        proxy, values, transform) and self._usable_at_another_time(proxy):
+                        proxy, values, transform) and self._usable_at_another_time(proxy, values, transform):
                     # The stage's first camera, bad at this time only: frames refuse to draw another (wrt.animation);
                     # one bad at every time draws none of them, as a still render does.
                     self.scene._first_camera_skipped = path
@@ -57,13 +57,14 @@ class CameraReading:
 
         self._read_through_instances(prim, cameras, ctx, "cameras", read, "cameras")
 
-    def _usable_at_another_time(self, prim: Usd.Prim) -> bool:
-        """Camera ``prim``, unusable at the load's time, reads at another of the times its camera attributes or the
-        transforms that place it have samples at (at most :data:`PROBED_TIMES` of them, evenly spread), without a
-        word. Something of it that varies is not always what is wrong with it: a zero focal length beside an
-        animated focusDistance (a rack focus) is bad at every time, yet every frame was refused, where the next
-        camera draws them all, as it draws a still render."""
-        times = _sample_times(prim)
+    def _usable_at_another_time(self, prim: Usd.Prim, values: bool = True, transform: bool = True) -> bool:
+        """Camera ``prim``, unusable at the load's time, reads at another of the times its camera attributes
+        (``values``) or the transforms that place it (``transform``), whichever made it unusable, have samples at (at
+        most :data:`PROBED_TIMES` of them, evenly spread), without a word. Something of it that varies is not always
+        what is wrong with it: a zero focal length beside an animated focusDistance (a rack focus) is bad at every
+        time, yet every frame was refused, where the next camera draws them all, as it draws a still render; so it
+        was under a rig animated by a spline, which cannot make a focal length 0."""
+        times = _sample_times(prim, values, transform)
         if times is None:  # it varies by a spline (or otherwise without samples): taken for bad at this time only
             return True
         times = sorted(times - ({float(self.time.GetValue())} if not self.time.IsDefault() else set()))
@@ -233,12 +234,12 @@ def _might_vary(prim: Usd.Prim, values: bool = True, transform: bool = True) -> 
     return any(True for _ in _varying(prim, values, transform))
 
 
-def _sample_times(prim: Usd.Prim) -> set[float] | None:
-    """The times the attributes of camera ``prim`` (but its transform ops) and the transform ops of it and its
-    ancestors have samples at; None where one of them varies without samples (a spline: its values between knots
-    are not its knots')."""
+def _sample_times(prim: Usd.Prim, values: bool = True, transform: bool = True) -> set[float] | None:
+    """The times the attributes of camera ``prim`` but its transform ops (``values``) and the transform ops of it and
+    its ancestors (``transform``) have samples at; None where one of them varies without samples (a spline: its
+    values between knots are not its knots')."""
     times = set()
-    for attr in _varying(prim):
+    for attr in _varying(prim, values, transform):
         found = attr.GetTimeSamples()
         if not found:
             return None
