@@ -23,7 +23,7 @@ from wrt.textures import PNG_SIGNATURE, TextureError, load_image
 
 
 def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=None, deflate=False, planar=False,
-               extra_sample=2, orientation=None, photometric=None):
+               extra_sample=2, orientation=None, photometric=None, byte_counts=True):
     """A grey, grey + alpha, RGB or RGBA TIFF (``samples`` ``(H, W, 1, 2, 3 or 4)``, of their dtype's bits: uint16
     for integers) written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``: ``MM``), one strip per
     ``rows_per_strip`` rows, so the reader has to join several strips; ``sample_format``: its ``SampleFormat`` tag
@@ -31,7 +31,8 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
     (Compression 8, as libtiff writes it); ``planar``: each channel's strips apart, one plane after another
     (PlanarConfiguration 2); ``extra_sample``: the ExtraSamples value of the second sample of grey or the fourth of
     colour (1: associated alpha, premultiplied colour); ``orientation``: its Orientation tag where given;
-    ``photometric``: its PhotometricInterpretation (else 1, BlackIsZero grey, or 2, RGB)."""
+    ``photometric``: its PhotometricInterpretation (else 1, BlackIsZero grey, or 2, RGB); ``byte_counts``: False
+    leaves StripByteCounts out (TIFF 6.0 requires it; libtiff and Pillow infer it for uncompressed strips)."""
     samples = np.asarray(samples)
     samples = samples.astype(np.uint16) if samples.dtype == np.int64 else samples
     h, w, c = samples.shape
@@ -42,7 +43,7 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
               for r in range(0, h, rows_per_strip)]
     strips = [zlib.compress(strip) for strip in strips] if deflate else strips
     n_strips = len(strips)
-    tags = (11 if c in (2, 4) else 10) + (sample_format is not None) + (orientation is not None)
+    tags = (11 if c in (2, 4) else 10) + (sample_format is not None) + (orientation is not None) - (not byte_counts)
     bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
     offsets_at = bits_at + 2 * c
     counts_at = offsets_at + 4 * n_strips
@@ -62,6 +63,8 @@ def write_tiff(path, samples, byte_order="<", rows_per_strip=1, sample_format=No
            entry(262, 3, 1, photometric if photometric is not None else 1 if c <= 2 else 2),
            entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
            entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 2 if planar else 1)]
+    if not byte_counts:
+        ifd = [e for e in ifd if struct.unpack(byte_order + "H", e[:2])[0] != 279]
     if c in (2, 4):
         ifd.append(entry(338, 3, 1, extra_sample))  # 2: unassociated alpha, 0: a sample of no stated meaning
     if sample_format is not None:
@@ -414,6 +417,18 @@ def test_a_tiled_16_bit_tiff_stored_plane_by_plane_is_read_at_full_precision(tmp
     samples = np.random.default_rng(47).integers(0, 65536, (20, 18, 4)).astype(np.uint16)
     image = load_image(write_tiled_planar_tiff(tmp_path / "tiled.tif", samples), "raw")
     np.testing.assert_allclose(image, samples / 65535.0, rtol=1e-7, atol=1e-7)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_tiff_stored_plane_by_plane_without_strip_byte_counts_is_read(tmp_path, dtype):
+    """An uncompressed RGB TIFF stored plane by plane, one strip a plane, without StripByteCounts (required by TIFF
+    6.0, left out by some writers; libtiff and Pillow infer it): Pillow reads an 8-bit one, but a 16-bit one, read
+    plane by plane, was refused ('its planes are not laid out as its header says'). Each plane's TIFF is left
+    without byte counts too. Oracle: the samples written here."""
+    full = np.iinfo(dtype).max
+    samples = np.random.default_rng(63).integers(0, full + 1, (3, 4, 3))
+    path = write_tiff(tmp_path / "n.tif", samples.astype(dtype), rows_per_strip=3, planar=True, byte_counts=False)
+    np.testing.assert_allclose(load_image(path, "raw")[..., :3], samples / float(full), rtol=1e-6, atol=1e-7)
 
 
 def test_a_planar_tiff_whose_bits_per_sample_lie_past_its_end_has_no_plane():

@@ -57,7 +57,9 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         sample_format = _first_value(data, order, offset, inline, entries.get(SAMPLE_FORMAT), 1)
     except struct.error:
         return None
-    if planar != 2 or not 0 <= plane < samples or len(starts) != len(sizes) or len(starts) % samples:
+    # (no byte counts: a plane's directory has none either, and they are inferred from the plane's size as
+    # libtiff and Pillow infer them from a file's)
+    if planar != 2 or not 0 <= plane < samples or len(sizes) not in (0, len(starts)) or len(starts) % samples:
         return None
     per_plane = len(starts) // samples
     wide = offset == "Q"  # BigTIFF: offsets and counts as LONG8
@@ -82,7 +84,10 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         new[SAMPLE_FORMAT] = value_field(SHORT, "H", [sample_format])
     part = slice(plane * per_plane, (plane + 1) * per_plane)
     new[located[0]] = value_field(value_type, value_code, starts[part])
-    new[located[1]] = value_field(value_type, value_code, sizes[part])
+    if sizes:
+        new[located[1]] = value_field(value_type, value_code, sizes[part])
+    else:
+        new.pop(located[1], None)
     at = len(tail)
     tail += struct.pack(order + counter, len(new))
     for tag in sorted(new):  # TIFF 6.0: entries in ascending order of tag
