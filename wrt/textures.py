@@ -55,9 +55,11 @@ from .tiff_checks import (
     EXTRA_SAMPLES,
     PHOTOMETRIC,
     PLANAR_CONFIGURATION,
+    RGB,
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SIGNED,
+    UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
     tiff_first_values,
@@ -475,18 +477,16 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     data = without_unread_chunks(data)
     try:
         with _pillow_size_limit_lifted():
-            grey_planes = _grey_planes(data)
-            if grey_planes is not None:  # (read before Pillow opens it, which it does not for 16 bits)
-                return *_read_grey_planes(data, name, *grey_planes), False, None
+            _refuse_undefined_alpha(data, name)
+            planar = _planar_layout(data)
+            if planar is not None:  # (read before Pillow opens it, which it does not for some; TIFFs are not PNGs)
+                return *_read_planes(data, name, *planar), planar[:2] == (8, 3), None
             img = PilImage.open(io.BytesIO(data))
             _refuse_oversized(img, name)
             _tiff_decoded_as_stored(img)
             tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
             if auto and tagged is None and isinstance(img.info.get("gamma"), (int, float)):
                 _warn_unread_gamma(name, img.info["gamma"])
-            planes = _sixteen_bit_planes(img, data)
-            if planes:  # (TIFFs are linear under auto, as below)
-                return *_read_16bit_planes(data, name, planes, _associated_alpha(img)), False, tagged
             rawmode = _sixteen_bit_rawmode(img)
             if rawmode is not None:
                 # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
@@ -557,6 +557,19 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             arr = arr.copy()
             arr[..., 3] = alpha
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def _refuse_undefined_alpha(data: bytes, name: str) -> None:
+    """Refuses a TIFF (file ``data``, named ``name``) of WhiteIsZero grey premultiplied by alpha
+    (``PhotometricInterpretation`` 0, ``ExtraSamples`` 1), which TIFF 6.0 leaves undefined (associated alpha is
+    defined for colour stored as intensity, 0 black): Pillow opens no such file, and wrt named it as samples Pillow does
+    not decode that an EXR holds, as if of a kind of number, not of a meaning no reader agrees on."""
+    tags = tiff_first_values(data, (SAMPLES_PER_PIXEL, PHOTOMETRIC, EXTRA_SAMPLES))
+    if tags is not None and tags.get(PHOTOMETRIC) == WHITE_IS_ZERO and tags.get(SAMPLES_PER_PIXEL, 1) > 1 and (
+            tags.get(EXTRA_SAMPLES) == ASSOCIATED_ALPHA):
+        raise TextureError(f"cannot read image {name}: a TIFF of WhiteIsZero grey (PhotometricInterpretation 0) "
+                           "premultiplied by alpha (ExtraSamples 1), which TIFF 6.0 leaves undefined; save it as "
+                           "BlackIsZero grey (1), or with unassociated alpha (ExtraSamples 2)")
 
 
 def _refuse_oversized(img, name: str) -> None:
@@ -684,66 +697,51 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     return rgba, COLOUR_CHANNELS
 
 
-def _sixteen_bit_planes(img, data: bytes) -> int:
-    """How many planes :func:`_read_16bit_planes` reads of ``img``, opened by Pillow from file ``data``: 3 for a
-    16-bit RGB TIFF stored plane by plane (``PlanarConfiguration`` 2; of a fourth sample of no stated meaning too, as
-    Pillow opens it RGB), 4 for RGBA; 0 for any other image."""
-    if img.format != "TIFF" or img.mode not in ("RGB", "RGBA") or img.tag_v2.get(PLANAR_CONFIGURATION, 1) != 2:
-        return 0
-    samples = tiff_samples(data)
-    return len(img.mode) if samples is not None and samples[1] == 16 and samples[0] >= len(img.mode) else 0
-
-
-def _associated_alpha(img) -> bool:
-    """Whether TIFF ``img``'s fourth sample is alpha its colour is premultiplied by (``ExtraSamples`` 1)."""
-    extra = img.tag_v2.get(EXTRA_SAMPLES)
-    extra = extra[0] if isinstance(extra, tuple) and extra else extra
-    return img.mode == "RGBA" and extra == ASSOCIATED_ALPHA
-
-
-def _read_16bit_planes(data: bytes, name: str, planes: int, premultiplied: bool) -> tuple[np.ndarray, tuple[int, ...]]:
-    """``(H, W, 4)`` float32 RGBA of a 16-bit RGB or RGBA TIFF stored plane by plane (file ``data``, named ``name``
-    in an error; ``planes``: 3 or 4, :func:`_sixteen_bit_planes`) at full precision, and the places of its channels
-    (:func:`read_image`); colour divided by alpha where it is ``premultiplied``. Pillow's libtiff decoder unpacks
-    each separate plane to 8 bits (any raw mode it is given): 0x1234 read 0x1212. Each plane is decoded alone, as a
-    16-bit grey TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads
-    at full depth."""
-    return _sixteen_bit_rgba(_plane_samples(data, name, planes), premultiplied), COLOUR_CHANNELS
-
-
-def _grey_planes(data: bytes) -> tuple[int, int, bool] | None:
-    """``(bits, ExtraSamples value, whether WhiteIsZero)`` of file ``data`` where it is a TIFF of grey and one more
-    sample (alpha, associated or not, or of no stated meaning) stored plane by plane (``PlanarConfiguration`` 2), of
-    8- or 16-bit unsigned integers; None for any other file (and for WhiteIsZero grey premultiplied by alpha, which
-    TIFF 6.0 leaves undefined). Pillow decoded a compressed 8-bit one's alpha plane into no band (alpha 0: the
-    texture drawn fully transparent, without a word), knew no raw mode for an uncompressed one, and opens no 16-bit
-    one: :func:`_read_grey_planes` reads each plane alone instead."""
+def _planar_layout(data: bytes) -> tuple[int, int, int, bool] | None:
+    """``(bits, colour samples, ExtraSamples value, whether WhiteIsZero)`` of file ``data`` where it is a TIFF of
+    more than one sample stored plane by plane (``PlanarConfiguration`` 2) of 8- or 16-bit unsigned integers, grey
+    (``PhotometricInterpretation`` 0 or 1: 1 colour sample) or RGB (2: 3); None for any other file. The value is
+    that of the first sample past the colour ones (0 where there is none or the tag is missing: a sample of no stated
+    meaning; samples past it are not read). :func:`_read_planes` reads each plane alone: Pillow keeps the high byte
+    of 16-bit colour planes, decoded a compressed 8-bit grey + alpha file's alpha plane into no band, and knew no
+    raw mode for uncompressed 8-bit planar RGBA of ExtraSamples 1, nor for 5 samples, and opens no 16-bit grey +
+    alpha, nor an uncompressed 8-bit RGB + an unspecified sample, nor a grey one of more than two samples."""
     tags = tiff_first_values(data, (SAMPLES_PER_PIXEL, PLANAR_CONFIGURATION, BITS_PER_SAMPLE, SAMPLE_FORMAT,
                                     EXTRA_SAMPLES, PHOTOMETRIC))
-    if tags is None or tags.get(SAMPLES_PER_PIXEL, 1) != 2 or tags.get(PLANAR_CONFIGURATION, 1) != 2:
+    if tags is None or tags.get(PLANAR_CONFIGURATION, 1) != 2 or tags.get(SAMPLE_FORMAT, UNSIGNED) != UNSIGNED:
         return None
-    bits, extra, photometric = tags.get(BITS_PER_SAMPLE, 1), tags.get(EXTRA_SAMPLES), tags.get(PHOTOMETRIC)
-    if (bits not in (8, 16) or tags.get(SAMPLE_FORMAT, UNSIGNED) != UNSIGNED or extra not in (0, 1, 2)
-            or photometric not in (WHITE_IS_ZERO, BLACK_IS_ZERO) or (photometric, extra) == (WHITE_IS_ZERO, 1)):
+    samples, bits, photometric = tags.get(SAMPLES_PER_PIXEL, 1), tags.get(BITS_PER_SAMPLE, 1), tags.get(PHOTOMETRIC)
+    colour = {WHITE_IS_ZERO: 1, BLACK_IS_ZERO: 1, RGB: 3}.get(photometric)
+    if colour is None or bits not in (8, 16) or samples < max(colour, 2):
         return None
-    return bits, extra, photometric == WHITE_IS_ZERO
+    extra = tags.get(EXTRA_SAMPLES, 0) if samples > colour else 0
+    return bits, colour, extra if extra in (ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA) else 0, photometric == WHITE_IS_ZERO
 
 
-def _read_grey_planes(data: bytes, name: str, bits: int, extra: int, white_is_zero: bool
-                      ) -> tuple[np.ndarray, tuple[int, ...]]:
-    """``(H, W, 4)`` float32 RGBA of a grey + alpha TIFF stored plane by plane (file ``data``, named ``name`` in an
-    error; ``bits``, ``extra`` and ``white_is_zero``: :func:`_grey_planes`), and the places of its channels
-    (:func:`read_image`): grey and alpha over ``2^bits - 1``, grey inverted where ``white_is_zero`` (TIFF 6.0) and
-    divided by alpha where it is premultiplied (``extra`` 1), as Pillow makes 8-bit ``La`` straight; a second sample
-    of no stated meaning (``extra`` 0) is not read, as Pillow ignores it where the samples of a pixel lie together."""
-    samples = _plane_samples(data, name, 1 if extra == 0 else 2)
+def _read_planes(data: bytes, name: str, bits: int, colour: int, extra: int, white_is_zero: bool
+                 ) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``(H, W, 4)`` float32 RGBA of a TIFF stored plane by plane (file ``data``, named ``name`` in an error;
+    ``bits``, ``colour``, ``extra`` and ``white_is_zero``: :func:`_planar_layout`) at full precision, and the places of
+    its channels (:func:`read_image`): samples over ``2^bits - 1``, grey inverted where ``white_is_zero`` (TIFF
+    6.0), colour divided by alpha where it is premultiplied (``extra`` 1; 0 where alpha is 0, at most 1), as Pillow
+    makes 8-bit ``RGBa`` and ``La`` straight, but of the stored whole numbers; a sample of no stated meaning
+    (``extra`` 0) is not read, as Pillow ignores it where the samples of a pixel lie together. Each plane is decoded
+    alone, as a grey TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed)
+    reads at full depth."""
+    alpha = extra != 0
+    samples = _plane_samples(data, name, colour + alpha)
     full = np.float32((1 << bits) - 1)
-    grey = full - samples[..., 0] if white_is_zero else samples[..., 0]
-    if extra == 0:
-        return _grey_rgba(grey / full, None)
-    alpha = samples[..., 1]
-    straight = _straight(grey[..., None], alpha[..., None])[..., 0] if extra == ASSOCIATED_ALPHA else grey / full
-    return _grey_rgba(straight, alpha / full)
+    if white_is_zero:
+        samples[..., 0] = full - samples[..., 0]
+    rgba = np.ones(samples.shape[:2] + (4,), np.float32)
+    rgba[..., :colour] = samples[..., :colour] / full
+    if alpha:
+        rgba[..., 3] = samples[..., colour] / full
+    if extra == ASSOCIATED_ALPHA:
+        rgba[..., :colour] = _straight(samples[..., :colour], samples[..., colour:])
+    if colour == 1:
+        return _grey_rgba(rgba[..., 0], rgba[..., 3] if alpha else None)
+    return rgba, COLOUR_CHANNELS
 
 
 def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:

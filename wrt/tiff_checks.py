@@ -18,9 +18,10 @@ SHORT = 3  # TIFF field type of unsigned 16-bit values
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
-ASSOCIATED_ALPHA = 1  # the ExtraSamples value of alpha the colour is premultiplied by
+ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA = 1, 2  # ExtraSamples values: alpha the colour is premultiplied by, or not
 PHOTOMETRIC = 262  # PhotometricInterpretation: how samples read as colour
 WHITE_IS_ZERO, BLACK_IS_ZERO = 0, 1  # its values of grey: 0 white and the largest value black, or the other way
+RGB = 2  # its value of colour of three samples, red, green and blue
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
 SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "floating-point"}  # their words
 

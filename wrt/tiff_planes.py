@@ -1,11 +1,12 @@
 """One plane of a TIFF stored plane by plane (``PlanarConfiguration`` 2) as a TIFF file of its own, a one-sample grey
-image, so that Pillow decodes a 16-bit colour TIFF's planes at full depth: its libtiff decoder unpacks each
-separate plane to 8 bits (it picks the band unpackers itself, whatever raw mode it is given), so such a texture kept
-the high byte of each sample. A grey + alpha TIFF's planes are read so too: Pillow decoded its alpha plane into no
-band, or opened no 16-bit one. The plane's file is the original's bytes with a new image file directory appended and
-the header pointed at it (TIFF 6.0: an 8-byte header, 12-byte entries of tag, type, count and value or offset;
-BigTIFF: 16 and 20 bytes): its strips or tiles (compressed or not, with any predictor, which works on each plane
-alone) are those of the plane, its other tags the original's; the tags of every sample are made those of one."""
+image, so that Pillow decodes a 16-bit colour TIFF's planes at full depth: its libtiff decoder unpacks each separate
+plane to 8 bits (it picks the band unpackers itself, whatever raw mode it is given), so such a texture kept the high
+byte of each sample. Every 8- or 16-bit grey or RGB TIFF stored plane by plane is read so: Pillow decoded a grey + alpha
+one's alpha plane into no band, opened no 16-bit one, and knew no raw mode for uncompressed 8-bit RGB of premultiplied
+alpha, or of more samples past it. The plane's file is the original's bytes with a new image file directory appended and
+the header pointed at it (TIFF 6.0: an 8-byte header, 12-byte entries of tag, type, count and value or offset; BigTIFF:
+16 and 20 bytes): its strips or tiles (compressed or not, with any predictor, which works on each plane alone) are those
+of the plane, its other tags the original's; the tags of every sample are made those of one."""
 
 from __future__ import annotations
 
