@@ -174,14 +174,17 @@ def test_an_integer_grey_bigtiff_reads_over_its_sample_types_largest_value(tmp_p
 def test_a_big_endian_bigtiff_is_named_as_one_pillow_does_not_open(tmp_path):
     """Pillow opens no big-endian BigTIFF (it takes its header, ``MM`` then version 43, for a classic TIFF's), of
     any samples: the warning said Pillow does not decode its samples ("a TIFF of 1 channel of 16-bit unsigned
-    integer samples", which wrt reads in any other TIFF). Now it says what Pillow does not open, and what to do.
-    The same image little-endian reads its samples."""
+    integer samples", which wrt reads in any other TIFF), beside Pillow's "Corrupt EXIF data", a warning of its
+    misreading of the header. Now it says what Pillow does not open, and what to do, alone. The same image
+    little-endian reads its samples."""
     grey = np.array([[0, 1000, 20000], [7, 300, 65535]], np.uint16)
     with pytest.raises(TextureError, match="a big-endian BigTIFF, which Pillow .* does not open") as refused:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # (Pillow's of the header it misreads: "Corrupt EXIF data")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
             load_image(write_bigtiff(tmp_path / "big.tif", grey, ">"), "raw")
     assert "samples" not in str(refused.value), refused.value
+    # Refused before Pillow opens it: its misreading of the header warned of "Corrupt EXIF data" beside the refusal
+    assert [str(w.message) for w in caught] == []
     image = load_image(write_bigtiff(tmp_path / "little.tif", grey, "<"), "raw")
     np.testing.assert_allclose(image[..., 0], grey / 65535.0, rtol=1e-6)
 

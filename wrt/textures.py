@@ -475,6 +475,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     if problem:
         raise TextureError(f"cannot read image {name}: {problem}, which Storm's PNG reader (stb_image) refuses")
     data = without_unread_chunks(data)
+    if data[:4] == BIG_ENDIAN_BIGTIFF:  # (before Pillow, whose misreading of it warned of "Corrupt EXIF data" too)
+        raise TextureError(f"cannot read image {name}: a big-endian BigTIFF, which Pillow (wrt's TIFF reader) does not "
+                           "open (it reads its header as a classic TIFF's); save it in little-endian (Intel) byte "
+                           "order, or as EXR")
     try:
         with _pillow_size_limit_lifted():
             _refuse_undefined_alpha(data, name)
@@ -496,10 +500,6 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
-        if data[:4] == BIG_ENDIAN_BIGTIFF:  # (named as samples Pillow does not decode, of any samples)
-            raise TextureError(f"cannot read image {name}: a big-endian BigTIFF, which Pillow (wrt's TIFF reader) "
-                               "does not open (it reads its header as a classic TIFF's); save it in little-endian "
-                               "(Intel) byte order, or as EXR") from None
         layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
         if layout is not None:
             raise TextureError(f"cannot read image {name}: a TIFF of {layout}, which Pillow (wrt's TIFF reader) does "
