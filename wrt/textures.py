@@ -19,8 +19,8 @@ Conventions, stated once:
   read as grey ``L`` -> ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour),
   as UsdUVTexture reads them; a MaterialX image node takes a file's channels in order instead
   (:func:`materialx_texels`). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8),
-  TIFFs stored plane by plane too. Colour premultiplied by alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, at
-  8 bits by Pillow, at 16 here, and so is grey: every texture holds straight colour, as PNGs do.
+  TIFFs stored plane by plane too. Colour premultiplied by alpha (a TIFF's ``ExtraSamples`` 1) is divided by it
+  here, in float32, and so is grey: every texture holds straight colour, as PNGs do.
 - ``"<transfer> in <primaries>"`` (:data:`PRIMARIES_SEPARATOR`; a MaterialX image's ``acescg`` is ``raw in
   lin_ap1_scene``): decoded by ``<transfer>``, then its colour converted from the linear space of USD colour space
   ``<primaries>`` to linear Rec.709 (:func:`convert_primaries`), once per image at load: lookups are linear in the
@@ -498,6 +498,14 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
                 key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
+            if {_tile_rawmode(tile) for tile in img.tile} == {"RGBa"}:
+                # 8-bit colour premultiplied by alpha (a TIFF's ExtraSamples 1): Pillow's RGBa unpacker divides it
+                # by alpha truncating (100 over 201 read 126/255 for 126.87/255, 3.4e-3 off); decoded as stored and
+                # divided here in float32, as 8-bit grey (La), 16-bit colour and planes are
+                img.tile = [tile._replace(args=("RGBA", *tile[3][1:])) for tile in img.tile]
+                img.load()
+                samples = np.asarray(img, dtype=np.float32)
+                return _sixteen_bit_rgba(samples, True, 255.0), COLOUR_CHANNELS, True, tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
         layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
@@ -530,8 +538,8 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         return *_grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
     if mode == "La":
         # 8-bit grey premultiplied by alpha (a TIFF's ExtraSamples 1), which Pillow converts to nothing asked of it
-        # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as Pillow
-        # makes 8-bit RGBa colour straight (below) and _sixteen_bit_rgba 16-bit colour
+        # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as 8-bit
+        # RGBa colour (above) and _sixteen_bit_rgba 16-bit colour are
         la = np.asarray(img, dtype=np.float32)
         return *_grey_rgba(_straight(la[..., :1], la[..., 1:])[..., 0], la[..., 1] / 255.0), False, tagged
     if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
@@ -766,14 +774,14 @@ def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
     return samples
 
 
-def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False) -> np.ndarray:
-    """``(H, W, 4)`` float32 RGBA of ``(H, W, 3 or 4)`` 16-bit ``samples`` (whole numbers, as float32), alpha 1 for
-    three. ``premultiplied``: colour stored times alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, 0 where alpha
-    is 0 and at most 1, as Pillow unpremultiplies 8-bit samples (its ``RGBa`` raw mode), so every texture wrt reads
-    holds straight colour: ``c / a`` of the stored whole numbers, one rounding in float32. 16-bit ones were divided
-    at 8 bits, the high bytes of both."""
+def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False, full: float = 65535.0) -> np.ndarray:
+    """``(H, W, 4)`` float32 RGBA of ``(H, W, 3 or 4)`` 16-bit ``samples`` (whole numbers, as float32; of another
+    depth where ``full``, their largest value, says so), alpha 1 for three. ``premultiplied``: colour stored times
+    alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, 0 where alpha is 0 and at most 1, as Pillow unpremultiplies
+    8-bit samples (its ``RGBa`` raw mode), so every texture wrt reads holds straight colour: ``c / a`` of the stored
+    whole numbers, one rounding in float32. 16-bit ones were divided at 8 bits, the high bytes of both."""
     rgba = np.ones(samples.shape[:2] + (4,), np.float32)
-    rgba[..., : samples.shape[2]] = samples / np.float32(65535.0)
+    rgba[..., : samples.shape[2]] = samples / np.float32(full)
     if premultiplied:
         rgba[..., :3] = _straight(samples[..., :3], samples[..., 3:])
     return rgba
