@@ -503,6 +503,25 @@ def test_a_tiff_stored_plane_by_plane_of_two_samples_past_its_colour_reads_alpha
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("planar", [False, True])
+def test_the_fourth_sample_of_rgb_without_extra_samples_is_alpha_plane_by_plane_too(tmp_path, dtype, planar):
+    """RGB of four samples without an ExtraSamples tag (TIFF 6.0 asks for one; some writers leave it out): Pillow
+    opens it pixel by pixel as RGBA, the fourth sample alpha; plane by plane it is read so too (read as no alpha, all
+    1, while planes were first read alike whatever their samples). Oracle: the samples written here, in float64."""
+    full = np.iinfo(dtype).max
+    samples = np.random.default_rng(66).integers(0, full + 1, (3, 4, 4))
+    path = tmp_path / "noextra.tif"
+    write_tiff(path, samples.astype(dtype), rows_per_strip=2, planar=planar)
+    data = bytearray(path.read_bytes())
+    (count,) = struct.unpack_from("<H", data, 8)
+    for k in range(count):  # the ExtraSamples entry, the last, made one of a private tag (65000), unread
+        if struct.unpack_from("<H", data, 10 + 12 * k)[0] == 338:
+            struct.pack_into("<H", data, 10 + 12 * k, 65000)
+    path.write_bytes(bytes(data))
+    np.testing.assert_allclose(load_image(str(path), "raw"), samples / float(full), rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
 def test_a_tiff_stored_plane_by_plane_without_strip_byte_counts_is_read(tmp_path, dtype):
     """An uncompressed RGB TIFF stored plane by plane, one strip a plane, without StripByteCounts (required by TIFF
     6.0, left out by some writers; libtiff and Pillow infer it): Pillow reads an 8-bit one, but a 16-bit one, read

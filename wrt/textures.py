@@ -706,14 +706,14 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
 
 
 def _planar_layout(data: bytes) -> tuple[int, int, int, bool] | None:
-    """``(bits, colour samples, ExtraSamples value, whether WhiteIsZero)`` of file ``data`` where it is a TIFF of
-    more than one sample stored plane by plane (``PlanarConfiguration`` 2) of 8- or 16-bit unsigned integers, grey
-    (``PhotometricInterpretation`` 0 or 1: 1 colour sample) or RGB (2: 3); None for any other file. The value is
-    that of the first sample past the colour ones (0 where there is none or the tag is missing: a sample of no stated
-    meaning; samples past it are not read). :func:`_read_planes` reads each plane alone: Pillow keeps the high byte
-    of 16-bit colour planes, decoded a compressed 8-bit grey + alpha file's alpha plane into no band, and knew no
-    raw mode for uncompressed 8-bit planar RGBA of ExtraSamples 1, nor for 5 samples, and opens no 16-bit grey +
-    alpha, nor an uncompressed 8-bit RGB + an unspecified sample, nor a grey one of more than two samples."""
+    """``(bits, colour samples, ExtraSamples value, whether WhiteIsZero)`` of file ``data`` where it is a TIFF of more
+    than one sample stored plane by plane (``PlanarConfiguration`` 2) of 8- or 16-bit unsigned integers, grey
+    (``PhotometricInterpretation`` 0 or 1: 1 colour sample) or RGB (2: 3); None for any other file. The value is that of
+    the first sample past the colour ones (0 where there is none: no alpha; 2, unassociated alpha, where the tag is
+    missing; samples past it are not read). :func:`_read_planes` reads each plane alone: Pillow keeps the high byte of
+    16-bit colour planes, decoded a compressed 8-bit grey + alpha file's alpha plane into no band, and knew no raw mode
+    for uncompressed 8-bit planar RGBA of ExtraSamples 1, nor for 5 samples, and opens no 16-bit grey + alpha, nor an
+    uncompressed 8-bit RGB + an unspecified sample, nor a grey one of more than two samples."""
     tags = tiff_first_values(data, (SAMPLES_PER_PIXEL, PLANAR_CONFIGURATION, BITS_PER_SAMPLE, SAMPLE_FORMAT,
                                     EXTRA_SAMPLES, PHOTOMETRIC))
     if tags is None or tags.get(PLANAR_CONFIGURATION, 1) != 2 or tags.get(SAMPLE_FORMAT, UNSIGNED) != UNSIGNED:
@@ -722,7 +722,8 @@ def _planar_layout(data: bytes) -> tuple[int, int, int, bool] | None:
     colour = {WHITE_IS_ZERO: 1, BLACK_IS_ZERO: 1, RGB: 3}.get(photometric)
     if colour is None or bits not in (8, 16) or samples < max(colour, 2):
         return None
-    extra = tags.get(EXTRA_SAMPLES, 0) if samples > colour else 0
+    # (no ExtraSamples: the sample past the colour is alpha, as Pillow opens RGB of four samples pixel by pixel RGBA)
+    extra = tags.get(EXTRA_SAMPLES, UNASSOCIATED_ALPHA) if samples > colour else 0
     return bits, colour, extra if extra in (ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA) else 0, photometric == WHITE_IS_ZERO
 
 
