@@ -1212,6 +1212,34 @@ def test_a_users_filter_of_pillows_warnings_holds_while_a_texture_is_read(tmp_pa
     assert not [str(w.message) for w in caught if "Skipping tag 270" in str(w.message)]
 
 
+@pytest.mark.parametrize("raised, caught", [(TextureError, TextureError), (MemoryError, TextureError),
+                                            (KeyboardInterrupt, KeyboardInterrupt)])
+def test_a_read_that_raises_inside_pillow_puts_the_warning_hook_back(tmp_path, monkeypatch, raised, caught):
+    """A read that ends in an exception inside Pillow (a damaged file, memory running out, Ctrl-C), after Pillow
+    warned: the warning hook and filters are the user's again and no read is left counted, so later warnings are
+    shown; Pillow's warning given before is told, naming the file; an interrupt is not taken for a bad file. (Checked
+    by this review; it held.)"""
+    import wrt.textures as textures
+
+    path = write_tiff(tmp_path / "x.tif", np.full((2, 2, 3), 7, np.uint8))
+
+    def load_and_raise(self):
+        warnings.warn_explicit("a warning of Pillow's", UserWarning, PilImage.__file__, 1)
+        raise raised("inside Pillow")
+
+    monkeypatch.setattr(PilImage.Image, "load", load_and_raise)
+    hook, filters = warnings.showwarning, list(warnings.filters)
+    with warnings.catch_warnings(record=True) as told:
+        warnings.simplefilter("always")
+        recorder = warnings.showwarning
+        with pytest.raises(caught):
+            load_image(path, "raw")
+        assert warnings.showwarning is recorder
+    assert warnings.showwarning is hook and warnings.filters == filters
+    assert textures._WARNING_CAPTURE["readers"] == 0 and textures._WARNING_CAPTURE["records"] == {}
+    assert [str(w.message) for w in told] == [f"image {path}: Pillow warned while reading it: a warning of Pillow's"]
+
+
 def test_the_users_filters_hold_in_another_thread_while_a_texture_is_read(tmp_path, monkeypatch):
     """While one thread reads a texture, another thread's warnings go through the user's filters: the read put
     "always" filters (for TextureWarning and Pillow's module) ahead of the process's, so a TextureWarning the user
