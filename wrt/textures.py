@@ -636,8 +636,8 @@ def _tiff_decoded_as_stored(img) -> None:
     a big-endian file's signed or float grey in the file's (:data:`LIBTIFF_NATIVE_RAWMODES`): a deflate-compressed
     big-endian grey of signed 16-bit samples read 0.19 for 0.03, of floats 1e34 for 0.5. A compressed 16-bit
     colour TIFF's raw mode is ``RGB;16N`` (or ``RGBA;16N``), one of :data:`SIXTEEN_BIT_RAWMODES`: it was read at 8
-    bits, and as sRGB under ``auto`` (0.5 read 0.216). (A 16-bit colour TIFF stored plane by plane is read plane by
-    plane instead: :func:`_read_16bit_planes`.)"""
+    bits, and as sRGB under ``auto`` (0.5 read 0.216). (A grey or RGB TIFF of several samples stored plane by plane
+    is read plane by plane instead, before Pillow opens it: :func:`_read_planes`.)"""
     if img.format != "TIFF" or not img.tile:
         return
     if img.tag_v2.get(PLANAR_CONFIGURATION, 1) == 2 and img.tag_v2.get(SAMPLES_PER_PIXEL, 1) == 1:
