@@ -45,7 +45,7 @@ from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
 from .errors import SceneError, did_you_mean, flag, not_a_file
-from .image import write_atomically
+from .image import failed_write, write_atomically
 from .rays import RAY_KINDS, ray_set, shadow_target
 from .resources import check_host_memory
 from .scene import Scene, has_area
@@ -1303,9 +1303,12 @@ def run_grid(
             _write_rows(jsonl, rows)
         rows.append(row)
         if jsonl is not None:
-            with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
-                f.write(strict_json(row) + "\n")
-                f.flush()
+            try:
+                with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
+                    f.write(strict_json(row) + "\n")
+                    f.flush()
+            except OSError as e:  # a full disk: named, as the other writes of the run are
+                raise failed_write(e, jsonl) from None
         if "error" in row:
             # The device too, as the summary names it; on stderr, under the bar, with the run's other messages.
             tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['device']} / {row['rays']}: {row['error']}",

@@ -10,6 +10,7 @@ Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float3
 from __future__ import annotations
 
 import dataclasses
+import errno
 import importlib.util
 import itertools
 import math
@@ -274,10 +275,34 @@ def write_atomically(path: Path, write) -> None:
             partial.open("wb").close()
         except OSError as e:
             raise type(e)(e.errno, e.strerror, str(path)) from None
-        write(partial)
-        os.replace(partial, path)
+        try:
+            write(partial)
+            os.replace(partial, path)
+        except OSError as e:  # a full disk said '[Errno 28] No space left on device', naming no file
+            raise failed_write(e, path) from None
     finally:
         partial.unlink(missing_ok=True)
+
+
+def failed_write(error: OSError, path: Path) -> OSError:
+    """``error``, raised while writing ``path`` (or its temporary file), as an OSError naming ``path``: the errors
+    of a write or a close carry no file name, and one raised at the temporary file named that instead."""
+    if error.errno is None:
+        return OSError(f"cannot write {path}: {error}")
+    return OSError(error.errno, error.strerror, str(path))
+
+
+def write_npy(target: Path, array: np.ndarray) -> None:
+    """Writes ``array`` as the ``.npy`` file ``target``. Through Python's file writes, piece by piece: ``np.save``
+    to an open file writes with C's fwrite, whose failure on a full disk reads '12288 requested and 2016 written',
+    without the cause."""
+
+    class Writes:  # not a file object to numpy, which then writes the data in pieces through write()
+        def __init__(self, file):
+            self.write = file.write
+
+    with open(target, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY" or a temporary name
+        np.save(Writes(f), array)
 
 
 def exr_windows(window: tuple[int, int, int, int] | None, width: int, height: int) -> dict:
@@ -300,8 +325,19 @@ def write_exr(path: Path, channels: dict[str, np.ndarray], attributes: dict | No
                          "(pip install OpenEXR)") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **(attributes or {})}
     data = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
-    with OpenEXR.File(header, data) as f:
-        f.write(str(path))
+    try:
+        with OpenEXR.File(header, data) as f:
+            f.write(str(path))
+    except RuntimeError as e:  # OpenEXR's one error type, for a full disk too: 'Failed to write ... No space left'
+        raise _exr_os_error(e, path) from None
+
+
+def _exr_os_error(error: RuntimeError, path: Path) -> OSError:
+    """OpenEXR's ``RuntimeError`` for a failed write as an OSError of the cause its message ends with (a full disk:
+    ``ENOSPC``), so that callers treat it as the other failed writes; its own words where it names no such cause."""
+    message = str(error)
+    code = next((code for code in sorted(errno.errorcode) if os.strerror(code) in message), None)
+    return OSError(message) if code is None else OSError(code, os.strerror(code), str(path))
 
 
 def check_not_extension_alone(path) -> Path:
@@ -504,8 +540,7 @@ class Image:
                           {**exr_windows(self.window, self.width, self.height),
                            "pixelAspectRatio": float(self.pixel_aspect_ratio)})
             else:
-                with open(target, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
-                    np.save(f, self.rgb.astype(np.float32))
+                write_npy(target, self.rgb.astype(np.float32))
 
         write_atomically(path, write)
         return path
@@ -532,12 +567,8 @@ class Image:
         """Writes AOV ``name`` as the ``.npy`` array ``path`` (whole or not at all); returns the path."""
         self._check_aov(name)
 
-        def write(target):
-            with open(target, "wb") as f:  # np.save(path) appends ".npy" to the temporary name
-                np.save(f, self.aovs[name])
-
         path = Path(path)
-        write_atomically(path, write)
+        write_atomically(path, lambda target: write_npy(target, self.aovs[name]))
         return path
 
     def _check_aov(self, name) -> None:

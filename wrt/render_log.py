@@ -16,6 +16,8 @@ import secrets
 import time
 from pathlib import Path
 
+from .image import failed_write
+
 # Row fields that decide an image, as the command line gave them (None: the stage's or wrt's default). A row whose
 # values differ from the run's, or that lacks one, is rendered again. Left out: --builder changes no colour (closest
 # hits break ties by triangle id) but does change the cost AOV, so it is in; --max-memory, --quiet, --log are not.
@@ -129,12 +131,15 @@ def _seekable(device: Path) -> bool:
 
 def append_row(log: Path, line: str) -> None:
     """Appends ``line`` to ``log`` as a line of its own, also after a last line cut short by a killed run."""
-    with open(log, "a+b") as f:
-        if f.tell() > 0:
-            f.seek(-1, os.SEEK_END)
-            if f.read(1) != b"\n":
-                f.write(b"\n")
-        f.write(line.encode() + b"\n")
+    try:
+        with open(log, "a+b") as f:
+            if f.tell() > 0:
+                f.seek(-1, os.SEEK_END)
+                if f.read(1) != b"\n":
+                    f.write(b"\n")
+            f.write(line.encode() + b"\n")
+    except OSError as e:  # a full disk raised at the close: '[Errno 28] No space left on device', naming no file
+        raise failed_write(e, log) from None
 
 
 def skipped_fields(before: dict) -> dict:
