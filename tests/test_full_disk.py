@@ -1,6 +1,7 @@
 """Writes that fail as on a full disk: every write wrt makes under a temporary name is sent to ``/dev/full``, whose
-writes fail with ``ENOSPC`` as a full file system's do (Linux null(4)). The error names the file asked for and says
-the disk is full; no file is left under the final name nor under a temporary one; a batch logs each failed scene."""
+writes fail with ``ENOSPC`` as a full file system's do (Linux null(4)); and a read-only file system (last test).
+The error names the file asked for and says why; no file is left under the final name nor under a temporary one;
+a batch logs each failed scene."""
 
 import builtins
 import errno
@@ -132,3 +133,24 @@ def test_log_row_on_a_full_disk_names_the_log(tmp_path, monkeypatch):
     with pytest.raises(OSError) as caught:
         append_row(log, '{"status": "ok"}')
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(log)
+
+
+def test_save_on_a_read_only_file_system_names_the_file(tmp_path, monkeypatch):
+    """On a read-only file system (seen on a tmpfs remounted ro) opening the temporary file fails with EROFS, and so
+    does the unlink of that missing file in the cleanup, whose error named the temporary file instead of x.png."""
+    from pathlib import Path
+
+    real_open, real_unlink = Path.open, Path.unlink
+
+    def refuse(method):
+        def refused(self, *args, **kwargs):
+            if self.parent == tmp_path:
+                raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(self))
+            return method(self, *args, **kwargs)
+        return refused
+
+    monkeypatch.setattr(Path, "open", refuse(real_open))
+    monkeypatch.setattr(Path, "unlink", refuse(real_unlink))
+    with pytest.raises(OSError) as caught:
+        wrt.Image(rgb=np.zeros((4, 5, 3), np.float32)).save(tmp_path / "x.png")
+    assert caught.value.errno == errno.EROFS and caught.value.filename == str(tmp_path / "x.png"), caught.value

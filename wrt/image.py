@@ -281,7 +281,10 @@ def write_atomically(path: Path, write) -> None:
         except OSError as e:  # a full disk said '[Errno 28] No space left on device', naming no file
             raise failed_write(e, path) from None
     finally:
-        partial.unlink(missing_ok=True)
+        try:
+            partial.unlink(missing_ok=True)
+        except OSError:  # a read-only file system refuses the unlink of a missing file too (EROFS), which replaced
+            pass  # the error naming the file asked for with one naming the temporary file
 
 
 def failed_write(error: OSError, path: Path) -> OSError:
