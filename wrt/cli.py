@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import collections
 import decimal
+import errno
 import math
 import os
 import re
@@ -545,6 +546,32 @@ def _check_output_location(directory: Path) -> None:
             return
 
 
+def _name_max(path: Path) -> int:
+    """The longest file name, in bytes, that the file system holding ``path`` (or its nearest existing folder) takes:
+    ``NAME_MAX`` of ``pathconf``, 255 where it cannot say (Linux, macOS and Windows file systems)."""
+    from .animation import MAX_NAME_BYTES
+
+    for folder in path.parents:
+        try:
+            if folder.is_dir():
+                return os.pathconf(folder, "PC_NAME_MAX")
+        except (OSError, ValueError, AttributeError):  # a name too long on the way, no pathconf (Windows)
+            continue
+    return MAX_NAME_BYTES
+
+
+def _check_name_lengths(paths: list) -> None:
+    """Raises the OSError a write would (ENAMETOOLONG, naming the path up to that name) for the first of ``paths``
+    with a name (of the file or of a folder on its way) longer than its file system takes. Where its folder did not
+    exist yet (-o out/{stem}.png), the file system could not say so before the folder was made, and the write failed
+    after the render."""
+    for path in map(Path, paths):
+        limit = _name_max(path)
+        for part in (*reversed(path.parents[:-1]), path):  # the first part too long, named as the file system would
+            if len(os.fsencode(part.name)) > limit:
+                raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), str(part))
+
+
 def _check_output_file(path: Path) -> None:
     """Raises an OSError naming ``path`` when a file cannot be written there: it is a directory, or a file stands
     where one of its folders must go. Called before the work whose result goes there."""
@@ -888,6 +915,7 @@ def _run_render(args) -> int:
     _check_distinct_outputs(paths, files)
     for output in outputs:  # an unwritable output fails now, not after a long render
         _check_output_file(check_image_path(output))
+    _check_name_lengths([file for written in files for file in written])  # its --aov previews' longer names too
     _warn_unused_exposure(args.exposure, outputs, args.integrator)
     if args.aov_dir:
         _check_output_location(Path(args.aov_dir))
