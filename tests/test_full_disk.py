@@ -28,7 +28,7 @@ def full_disk(monkeypatch):
     real_open = builtins.open
 
     def open_full(file, mode="r", *args, **kwargs):
-        if ".partial" in os.fspath(file) and any(c in mode for c in "wa+"):
+        if isinstance(file, (str, os.PathLike)) and ".partial" in os.fspath(file) and any(c in mode for c in "wa+"):
             return real_open("/dev/full", mode, *args, **kwargs)
         return real_open(file, mode, *args, **kwargs)
 
@@ -121,6 +121,36 @@ def test_batch_on_a_full_disk_logs_each_failed_scene(tmp_path, full_disk, capsys
     for row, stem in zip(rows, "ab"):
         assert row["error"] == f"OSError: {out / stem}.npy: no space left on device", row
     assert files_in(out) == ["render-log.jsonl"]
+
+
+@pytest.mark.parametrize("devices", [[], ["--devices", "cpu,cpu"]], ids=["one-device", "two-workers"])
+def test_frames_run_stopped_by_a_full_disk_logs_the_frame(tmp_path, monkeypatch, capsys, devices):
+    """The disk fills at frame 2's write: the run stops (status 2), frame 1's image stays, and the log has frame 2's
+    error row; it had frame 1's row alone, no word of the frame that stopped the run."""
+    real_open = builtins.open
+
+    def open_full(file, mode="r", *args, **kwargs):
+        full = isinstance(file, (str, os.PathLike)) and ".f_2.npy." in os.fspath(file) and "w" in mode
+        return real_open("/dev/full" if full else file, mode, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", open_full)
+    real_path_open = Path.open  # Path.write_bytes, which writes the frames that workers send back
+
+    def path_open_full(self, mode="r", *args, **kwargs):
+        return real_path_open(Path("/dev/full") if ".f_2.npy." in self.name and "w" in mode else self, mode, *args,
+                              **kwargs)
+
+    monkeypatch.setattr(Path, "open", path_open_full)
+    scene, out, log = tmp_path / "a.usda", tmp_path / "out", tmp_path / "log.jsonl"
+    scene.write_text(STAGE)
+    argv = ["render", str(scene), "--frames", "1:3", "-o", f"{out}/f_#.npy", "--log", str(log), *SIZE, *devices]
+    assert main(argv) == 2
+    assert f"wrt: error: {out / 'f_2.npy'}: no space left on device" in capsys.readouterr().err
+    rows = {r["frame"]: r for r in map(json.loads, log.read_text().splitlines())}
+    assert rows[2.0]["status"] == "error", rows  # with two workers, frames 1 and 3 may have come back first
+    assert rows[2.0]["error"] == f"OSError: {out / 'f_2.npy'}: no space left on device"
+    assert all(rows[f]["status"] == "ok" for f in rows if f != 2.0)
+    assert files_in(out) == [f"f_{f:g}.npy" for f in sorted(rows) if f != 2.0]
 
 
 def test_log_row_on_a_full_disk_names_the_log(tmp_path, monkeypatch):

@@ -672,6 +672,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
                     rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
                     raise
+                except Exception as e:
+                    _log_stopping_frame(rows, frame, file, e, str(devices[0]))
+                    raise
                 else:
                     said = [*renderer.last_warnings, *raised]  # the frame's, and its save's
                     row = dict(renderer.log[-1], device=str(devices[0]), output=str(written), aov_files=aovs,
@@ -701,6 +704,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     write(future.result(), futures[future][1])
                 except SceneError as e:
                     rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
+                except Exception as e:
+                    _log_stopping_frame(rows, *futures[future], e)
+                    raise
                 bar.update(1)
         except BaseException as e:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
@@ -744,11 +750,22 @@ class LogRows(list):
             self.on_row(row)
 
 
-def frame_error_row(frame: float, file, error: SceneError | Warning, device: str | None = None) -> dict:
+def _log_stopping_frame(rows: LogRows, frame: float, file, error: Exception, device: str | None = None) -> None:
+    """Adds the error row of a frame whose error stops the run (a full disk at its write, no memory left): the
+    log said nothing of it, only that the frames before had finished. Where the row cannot be written either (that
+    full disk), the frame's own error is the one that goes on."""
+    row = frame_error_row(frame, file, error, device)
+    if isinstance(error, OSError) and error.strerror and error.filename is not None:  # as a batch's rows read it
+        row["error"] = f"{type(error).__name__}: {error.filename}: {error.strerror[:1].lower()}{error.strerror[1:]}"
+    with contextlib.suppress(Exception):
+        rows.append(row)
+
+
+def frame_error_row(frame: float, file, error: Exception, device: str | None = None) -> dict:
     """The log row of a frame that failed: ``frame``, ``output`` (the file it did not write), ``error``
-    (``"SceneError: "``, or the class of a warning the caller's filters made an error, and the first line of the
-    message, as the rows of a batch of scenes), ``device`` (where it ran, as rendered frames' rows name it; left out
-    when unknown) and ``finished_at``."""
+    (``"SceneError: "``, or the class of a warning the caller's filters made an error or of an error that stopped
+    the run, and the first line of the message, as the rows of a batch of scenes), ``device`` (where it ran, as
+    rendered frames' rows name it; left out when unknown) and ``finished_at``."""
     kind = "SceneError" if isinstance(error, SceneError) else type(error).__name__
     row = {"frame": float(frame), "output": str(file), "error": f"{kind}: {str(error).splitlines()[0]}"}
     if device is not None:
