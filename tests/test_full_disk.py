@@ -153,6 +153,22 @@ def test_frames_run_stopped_by_a_full_disk_logs_the_frame(tmp_path, monkeypatch,
     assert files_in(out) == [f"f_{f:g}.npy" for f in sorted(rows) if f != 2.0]
 
 
+def test_ctrl_c_with_a_full_disk_still_stops_the_batch(tmp_path, full_disk, ctrl_c_after, capsys):
+    """Ctrl-C during a.usda, whose image of the samples so far cannot be written: the OSError of that write took the
+    place of the interrupt, and the batch logged an error and rendered b.usda."""
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(STAGE)
+    ctrl_c_after("a.usda")
+    out = tmp_path / "out"
+    argv = ["render", str(tmp_path / "a.usda"), str(tmp_path / "b.usda"), "-o", f"{out}/", *SIZE]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert "wrt: interrupted" in err and f"was not written: {out / 'a.png'}: no space left on device" in err, err
+    rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
+    assert [(Path(r["scene"]).name, r["status"]) for r in rows] == [("a.usda", "interrupted")], rows
+    assert files_in(out) == ["render-log.jsonl"]
+
+
 def test_log_row_on_a_full_disk_names_the_log(tmp_path, monkeypatch):
     from wrt.render_log import append_row
 

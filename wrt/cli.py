@@ -806,7 +806,12 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
         image = renderer.image_so_far()
         if image is not None:
-            out = image.save(output, exposure=_png_exposure(args))
+            try:
+                out = image.save(output, exposure=_png_exposure(args))
+            except OSError as e:  # a full disk: still a stop; the OSError made a batch log an error and go on
+                warnings.warn(f"interrupted after {renderer.samples_so_far} of {args.spp} spp; the image of those "
+                              f"samples was not written: {error_line(e)}", stacklevel=2)
+                raise KeyboardInterrupt from None
             # A warning, not a progress line: with -q the file under the final name was left without a word.
             warnings.warn(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}, the image of "
                           "those samples only", stacklevel=2)
