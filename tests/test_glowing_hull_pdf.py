@@ -113,7 +113,11 @@ CASES = {
     # (leftHanded, mirrored by an instance), where path reads the pdf back.
     "ellipse just off its front": ("disk", placed(turned(10, 20) @ np.diag([1.0, 0.5, 1.0]), (0.0, 0.0, 1.0)), {},
                                    (0.2, 0.1, 1.01)),
-    "plane near, shading normal": ("plane", PANEL, {"normal": (0.3, 0.0, -1.0)}, (0.1, 0.2, 0.99)),
+    "plane near, shading normal": ("plane", PANEL, {"normal": (0.3, 0.0, 1.0)}, (0.1, 0.2, 0.99)),
+    # a normal leaning away from the plane, which lies partly above its horizon: the cosine-weighted draws about the
+    # normal (where an opaque surface takes light) meet the plane at grazing angles only
+    "plane near, normal leaning away": ("plane", PANEL, {"normal": (0.3, 0.0, -1.0), "least_share": 0.02},
+                                        (0.1, 0.2, 0.99)),
     # a wall beside a plane 600 wide, 1 below its plane: the draw by solid angle clipped at 256 heights, mixed with
     # the draw by area over the whole plane
     "wide plane beside, grazing": ("plane", placed(turned(180, 20) * 300.0, (0.0, 0.0, 1.0)),
@@ -178,6 +182,7 @@ def assert_read_back_as_drawn(kind, to_world, options, p, least_share=0.5):
     and the read-back pdf integrates over the sphere of directions to the share of draws met, returned."""
     options = dict(options)
     normal = np.asarray(options.pop("normal", (0.0, 0.0, 0.0)), np.float64)
+    least_share = options.pop("least_share", least_share)
     normal = wp.vec3(*(normal / max(np.linalg.norm(normal), 1e-30)).astype(np.float32))
     materials = [wrt.Material("/Glow", diffuse_color=(0.0, 0.0, 0.0), emissive_color=(1.0, 1.0, 1.0))]
     floor = quad((0, 0, -50), (1, 0, 0), (0, 1, 0))

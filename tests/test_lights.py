@@ -315,6 +315,46 @@ def test_a_sheared_disk_light_seen_from_near_is_drawn_by_solid_angle(where):
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
 
+def above_horizon(p, n, corners) -> np.ndarray:
+    """The part of polygon ``corners`` above the horizon of point ``p`` (unit normal ``n``): the polygon clipped by
+    the plane through ``p`` (Sutherland-Hodgman, float64), which Lambert's closed form then integrates."""
+    kept = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0)):
+        da, db = (a - p) @ n, (b - p) @ n
+        if da > 0.0:
+            kept.append(a)
+        if (da > 0.0) != (db > 0.0):
+            kept.append(a + (b - a) * (da / (da - db)))
+    return np.asarray(kept)
+
+
+@pytest.mark.parametrize("tilt", [1.0, 10.0])
+@pytest.mark.parametrize("kind", ["rect", "disk"])
+def test_a_surface_tilted_away_from_a_light_near_it_draws_on_its_front(kind, tilt):
+    """A point 0.01 below a 2 x 2 rect light (a disk light of radius 1), its normal along the light's plane tilted
+    ``tilt`` degrees away from it, sees nearly a hemisphere of light, half of it above its horizon. The draws
+    cosine-weighted about the normal (nearly all of them, the light filling the hemisphere) were turned to its back,
+    where the normal points away from the plane, and an opaque surface takes nothing there: a relative noise per draw
+    of 16 to 17 (the 1.3% left to the draw by solid angle carried the light). Drawn about the normal, where part of
+    the light lies above its horizon: 1.0 to 1.2. The mean is Lambert's closed form over the part of the light above
+    the horizon, and a ray along each draw reads its pdf back."""
+    t = math.radians(tilt)
+    p, n = np.array([0.5, 0.1, -0.01]), np.array([math.cos(t), 0.0, -math.sin(t)])
+    if kind == "rect":
+        light = RectLight(to_world=tilted(0, (0.0, 0.0, 0.0)), width=2.0, height=2.0, color=np.full(3, 2.0))
+        corners = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+    else:
+        light = DiskLight(to_world=tilted(0, (0.0, 0.0, 0.0)), radius=1.0, color=np.full(3, 2.0))
+        phi = np.arange(2048) / 2048 * 2 * np.pi
+        corners = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)], -1)
+    expected = polygon_irradiance(p, n, above_horizon(p, n, corners), 2.0)
+    estimates, ratios = light_estimates(light, p, n)
+    error = estimates.std() / math.sqrt(len(estimates))
+    assert abs(estimates.mean() - expected) < 4 * error, (estimates.mean(), expected, error)
+    assert estimates.std() < 2.0 * expected, estimates.std() / expected
+    np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
+
+
 @pytest.mark.parametrize("kind", ["rect", "disk"])
 def test_light_sampling_reaches_the_far_part_of_a_light_a_wall_beside_it_sees(kind):
     """A wall facing a 2 x 2 rect light (or a disk of radius 1) 0.2 beside its edge and 1e-3 below its plane sees its
