@@ -237,3 +237,24 @@ def test_a_move_that_skips_a_prototypes_only_instance_keeps_the_other_blases():
     hits, kept = wrt.trace(fresh, origins, directions), wrt.trace(scene, origins, directions)
     for name in ("t", "u", "v", "prim", "instance"):
         np.testing.assert_array_equal(getattr(kept, name), getattr(hits, name), err_msg=name)
+
+
+def test_build_seconds_of_a_move_that_needs_other_blases_times_only_what_it_built():
+    # build_seconds is the time of the build that made the accelerator (README); one made with reuse=held counted the
+    # BLASes it took from the held one too, timed by that earlier build: the time of neither build.
+    from wrt.trace import get_accelerator
+
+    scene = squares([0.0, 1.0, 2.0])  # instances 0 and 2 of prototype 0, instance 1 of prototype 1
+    before = get_accelerator(scene)
+    assert all(b.build_seconds > 0.0 for b in before.blas)
+    flat = placed([0.0, 1.0, 2.0])
+    flat[1, :3, :3] = 0.0
+    scene.instances.to_world = flat
+    with pytest.warns(UserWarning, match=r"singular transform.*/instances\[1\]"):
+        skipped = get_accelerator(scene)
+    assert skipped.blas[0] is before.blas[0]  # every BLAS taken, none built: the TLAS alone
+    assert skipped.build_seconds == skipped.tlas.build_seconds
+    scene.instances.to_world = placed([0.0, 1.5, 2.0])
+    back = get_accelerator(scene)
+    assert back.blas[0] is before.blas[0] and back.blas[1] is not before.blas[1]  # the instance's prototype built
+    assert back.build_seconds == back.blas[1].build_seconds + back.tlas.build_seconds

@@ -426,8 +426,9 @@ class InstancedAccelerator(Accelerator):
         blas: host :class:`wrt.bvh.FlatBvh` of each BLAS (the world-space one first when there is one).
         tlas: host :class:`wrt.bvh.FlatBvh` over the entries (also ``bvh``, the world-space tree previews draw).
         skipped_instances: indices of instances left out because their transform cannot be inverted.
-        build_seconds: total build time of every BLAS and the TLAS when the accelerator was made. :meth:`update`
-            leaves it as it is: it once became the first build's BLAS times plus the new TLAS's, the time of neither.
+        build_seconds: total build time of every BLAS it built and the TLAS when the accelerator was made (not of
+            the BLASes taken from ``reuse``). :meth:`update` leaves it as it is: it once became the first build's
+            BLAS times plus the new TLAS's, the time of neither.
         update_seconds: wall time of the last :meth:`update` (refits, BLASes built anew, the TLAS and the uploads);
             None before the first.
     """
@@ -468,7 +469,8 @@ class InstancedAccelerator(Accelerator):
             self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
             self._blas_first.append(0)
         self._build_tlas(scene)
-        self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
+        # The build that made this one: the BLASes taken from ``reuse`` were built (and timed) by another.
+        self.build_seconds = sum(tree.build_seconds for tree, _ in new.values()) + self.tlas.build_seconds
         self.update_seconds = None
 
     def _presplits(self, triangles: int) -> bool:
