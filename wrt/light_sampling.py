@@ -221,7 +221,7 @@ class FlatLight:
     v: wp.vec3  # a rect's full second edge, a disk's second radius vector
     normal: wp.vec3  # unit emitting normal
     disk: int  # 1: a disk (an ellipse, the points a u + b v with a^2 + b^2 <= 1), 0: a rect (a parallelogram)
-    right_angled: int  # 1: u and v at right angles; 0: a rect sheared into a parallelogram (rect_around_parallelogram)
+    right_angled: int  # 1: u and v at right angles, which the draw by solid angle needs (else by area alone)
     down: float  # the power of two its lengths are taken times (light_scales)
     area: float  # its area times down^2
 
@@ -514,28 +514,8 @@ def rect_light(lights: DeviceLights, k: int):
 
 
 @wp.func
-def rect_around_parallelogram(u: wp.vec3, v: wp.vec3):
-    """Full edges at right angles of the rectangle around the parallelogram of full edges ``u, v`` (both centred on
-    one point): along its longer edge, which leaves the least of the rectangle off it (a share ``|u . v| / (|long|^2
-    + |u . v|)``). The draw by solid angle needs edges at right angles: a sheared rect drawn by area had a relative
-    noise per draw of 22 at 0.01 below the centre of a 1 x 1 rect light sheared so, now 0.04."""
-    long_edge = u
-    short_edge = v
-    if wp.length_sq(v) > wp.length_sq(u):
-        long_edge = v
-        short_edge = u
-    long_length = stable_length(long_edge)  # (lengths past 1e19 square past float32)
-    if long_length <= 0.0 or long_length >= FLOAT32_MAX:
-        return u, v
-    along_dir = long_edge / long_length
-    along = wp.dot(short_edge, along_dir)  # the short edge's part along the long one
-    return long_edge + wp.abs(along) * along_dir, short_edge - along * along_dir
-
-
-@wp.func
 def seen_rect(f: FlatLight, p: wp.vec3):
-    """Rect ``f``, or the square around disk ``f`` (the rectangle around a rect sheared into a parallelogram:
-    :func:`rect_around_parallelogram`), as seen from ``p``, whether it is sampled by solid angle from
+    """Rect ``f``, or the square around disk ``f``, as seen from ``p``, whether it is sampled by solid angle from
     there (else by area; see :mod:`wrt.spherical_rect`), and ``(down, up)``: the
     rectangle and ``p`` are in lengths times ``down``, the power of two that brings ``p``'s height above the plane
     into [1, 2) (exact: the same bits where nothing over- or underflows). The rectangle is clipped to a square of
@@ -550,27 +530,19 @@ def seen_rect(f: FlatLight, p: wp.vec3):
     u = f.u * down  # full edges
     v = f.v * down
     least = float(0.0)
-    if f.disk == 1 or f.right_angled == 0:
-        # The square around the disk (square_around_disk: the same bits), or the rectangle around the parallelogram,
-        # in one call of spherical_rect; the draws off the shape are dropped. By solid angle where it looks large, or
-        # where p lies within the shape's largest radius (to a disk's rim, a parallelogram's farthest corner) of its
-        # circle (DISK_SOLID_ANGLE_LEAST).
-        radius = wp.max(stable_length(u), stable_length(v))
-        if f.disk == 0:
-            radius = 0.5 * wp.max(stable_length(u + v), stable_length(u - v))
+    if f.disk == 1:  # the square around the disk (square_around_disk: the same bits), in one call of spherical_rect
+        # By solid angle where the square looks large, or where p lies within the disk's largest radius of its circle
+        # (DISK_SOLID_ANGLE_LEAST).
+        radius = wp.max(wp.length(u), wp.length(v))
         to_p = (p - f.centre) * down
         h = wp.dot(to_p, f.normal)
         out = wp.max(wp.length(to_p - h * f.normal) - radius, 0.0)
         if h * h + out * out >= radius * radius:
             least = DISK_SOLID_ANGLE_LEAST
-        if f.disk == 1:
-            u = 2.0 * u
-            v = 2.0 * v
-        else:
-            u, v = rect_around_parallelogram(u, v)
+        u = 2.0 * u
+        v = 2.0 * v
     r = spherical_rect(p * down, f.centre * down, u, v)
-    # (a disk's radius vectors not at right angles, where its ellipse's axes could not be found: by area)
-    return r, (f.right_angled == 1 or f.disk == 0) and solid_angle_usable(r, least), down, up
+    return r, f.right_angled == 1 and solid_angle_usable(r, least), down, up
 
 
 @wp.func
@@ -1117,10 +1089,6 @@ def sample_light(
             q = q_down * rect_up
             if f.disk == 1:  # a point of the square around the disk: keep it if it lies on the disk
                 if wp.length_sq(plane_coords(f.u, f.v, q - f.centre)) > 1.0:
-                    return out
-            elif f.right_angled == 0:  # of the rectangle around the parallelogram: keep it if it lies on it
-                ab = plane_coords(f.u, f.v, q - f.centre)
-                if wp.abs(ab[0]) > 0.5 or wp.abs(ab[1]) > 0.5:
                     return out
         else:
             if area_share > 0.0:  # by area over the whole light, mixed with the draw by solid angle
