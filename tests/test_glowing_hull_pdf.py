@@ -108,9 +108,9 @@ CASES = {
     "box in a mirrored, sheared instance": ("box", placed(SHEAR @ np.diag([-1.0, 1.0, 1.0]) @ BOX[:3, :3], BOX[:3, 3]),
                                             {"instanced": True}, (1.5, 1.0, -0.5)),
     # Planes and disks, drawn as rect and disk lights (by solid angle where they look large, with the cosine-weighted
-    # share about the shading normal; by area where they look small, or a plane is sheared into a parallelogram; the
-    # square around a disk, draws off the ellipse dropped): their normal on the side their shape's front lies
-    # (leftHanded, mirrored by an instance), where path reads the pdf back.
+    # share about the shading normal; by area where they look small; a plane sheared into a parallelogram by the solid
+    # angles of its two triangles; the square around a disk, draws off the ellipse dropped): their normal on the side
+    # their shape's front lies (leftHanded, mirrored by an instance), where path reads the pdf back.
     "ellipse just off its front": ("disk", placed(turned(10, 20) @ np.diag([1.0, 0.5, 1.0]), (0.0, 0.0, 1.0)), {},
                                    (0.2, 0.1, 1.01)),
     "plane near, shading normal": ("plane", PANEL, {"normal": (0.3, 0.0, 1.0)}, (0.1, 0.2, 0.99)),
@@ -128,6 +128,8 @@ CASES = {
                                                 {"instanced": True, "params": np.array([0.0, 0.0, 0.0, -1.0])},
                                                 (0.1, 0.2, 1.05)),
     "sheared plane": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {}, (0.1, 0.2, 0.95)),
+    "sheared plane just off, shading normal": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]),
+                                               {"normal": (0.3, 0.0, -1.0)}, (0.1, 0.2, 0.99)),
     "sheared disk": ("disk", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {"double_sided": True}, (0.1, 0.2, 1.02)),
 }
 

@@ -5,8 +5,9 @@ light a ray hits, for multiple importance sampling (the radiometry is in :mod:`w
 Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count`` (a shaped light's power
 times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
 that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
-:mod:`wrt.spherical_rect`); triangles by solid angle unless they look tiny (:mod:`wrt.spherical_triangle`); other
-disk lights, rect lights and triangles that look tiny uniformly by area; cylinder lights as open glowing tubes
+:mod:`wrt.spherical_rect`); triangles by solid angle unless they look tiny (:mod:`wrt.spherical_triangle`); rect
+lights sheared into parallelograms by the solid angles of their two triangles (:mod:`wrt.spherical_parallelogram`);
+other disk lights, rect lights and triangles that look tiny uniformly by area; cylinder lights as open glowing tubes
 (:mod:`wrt.glowing_tubes`: uniformly by area over the half facing the shading point and by the angles their side
 subtends, mixed); ellipsoids and elliptic tubes (sphere and cylinder lights under
 a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
@@ -56,6 +57,15 @@ from .sampling import (
 )
 from .scene import DeviceScene
 from .sphere_cone import cone_of_sphere, intersect_sphere, sample_sphere_cone
+from .spherical_parallelogram import (
+    SeenParallelogram,
+    by_cosine,
+    parallelogram_pdf,
+    parallelogram_usable,
+    pick_triangle,
+    seen_parallelogram,
+    triangle_by_solid_angle,
+)
 from .spherical_rect import (
     SphericalRect,
     sample_spherical_rect,
@@ -221,7 +231,8 @@ class FlatLight:
     v: wp.vec3  # a rect's full second edge, a disk's second radius vector
     normal: wp.vec3  # unit emitting normal
     disk: int  # 1: a disk (an ellipse, the points a u + b v with a^2 + b^2 <= 1), 0: a rect (a parallelogram)
-    right_angled: int  # 1: u and v at right angles, which the draw by solid angle needs (else by area alone)
+    right_angled: int  # 1: u and v at right angles (a rect drawn through wrt.spherical_rect, else as a
+    # parallelogram through wrt.spherical_parallelogram)
     down: float  # the power of two its lengths are taken times (light_scales)
     area: float  # its area times down^2
 
@@ -549,11 +560,17 @@ def seen_rect(f: FlatLight, p: wp.vec3):
 def flat_light_pdf(f: FlatLight, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
     """Solid-angle pdf with which :func:`sample_light` draws rect or disk ``f`` from ``p`` (shading normal ``n``,
     zero if none) along unit ``d``, meeting it ``dist`` away at cosine ``cos_l``: by solid angle, mixed with the
-    draw by area where the reach clipped it (:func:`clipped_area_share`), or by area."""
+    draw by area where the reach clipped it (:func:`clipped_area_share`), or by area; a parallelogram (a rect whose
+    edges are not at right angles) by the solid angle of its two triangles (:mod:`wrt.spherical_parallelogram`)."""
     if cos_l <= 0.0 or f.area <= 0.0:
         return 0.0
     scaled = dist * f.down
     by_area = scaled * scaled / (cos_l * f.area)
+    if f.disk == 0 and f.right_angled == 0:
+        s = seen_parallelogram(p, n, f.centre, f.u, f.v, f.normal)
+        if not parallelogram_usable(s):
+            return by_area
+        return parallelogram_pdf(s, p + dist * d, d, by_area)
     r, by_solid_angle, rect_down, _ = seen_rect(f, p)
     if by_solid_angle:
         pdf = spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
@@ -1065,10 +1082,41 @@ def sample_light(
     down, up = light_scales(lights, k)
     L = wp.vec3(0.0)
     two_sided = int(0)
-    if kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_GLOWING_HULL:
+    # Arvo's draw of a spherical triangle (wrt.spherical_triangle) at one call site (each call site compiled it
+    # again) for an emissive triangle and for the half of a parallelogram picked by its share of the solid angle
+    # (wrt.spherical_parallelogram): drawn where tri_omega > 0, towards the direction.
+    flat = kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_GLOWING_HULL
+    f = FlatLight()
+    sheared = SeenParallelogram()
+    by_parallelogram = bool(False)  # f is a parallelogram drawn by its triangles' solid angles
+    cosine_draw = bool(False)  # of those, a cosine-weighted direction
+    half_omega = float(0.0)  # the solid angle of the half picked
+    tri_a = wp.vec3(0.0)
+    tri_b = wp.vec3(0.0)
+    tri_c = wp.vec3(0.0)
+    tri_cr = wp.vec3(0.0)
+    tri_down = float(1.0)
+    tri_omega = float(0.0)
+    if flat:
+        f = flat_light(lights, scene, k)
+        if f.disk == 0 and f.right_angled == 0:
+            sheared = seen_parallelogram(p, n, f.centre, f.u, f.v, f.normal)
+            if parallelogram_usable(sheared):
+                by_parallelogram = True
+                cosine_draw, u1 = by_cosine(sheared, u1)
+                if not cosine_draw:
+                    tri_a, tri_b, tri_c, half_omega, u1 = pick_triangle(sheared, u1)
+                    if triangle_by_solid_angle(half_omega):
+                        tri_omega = half_omega
+    elif kind == LIGHT_TRIANGLE:
+        tri_a, tri_b, tri_c, tri_cr, tri_down = emitter_triangle(scene, lights.prims[k], lights.instances[k])
+        tri_omega = seen_solid_angle(p, tri_a, tri_b, tri_c)
+    towards = wp.vec3(0.0)
+    if tri_omega > 0.0:
+        towards = sample_spherical_triangle(p, tri_a, tri_b, tri_c, tri_omega, u1, u2)
+    if flat:
         # One draw for both: a glowing plane or disk drawn in its ellipsoid's cone was as noisy as by area where a
         # point lies near it (a relative noise per draw of 41 at 0.01 over a unit square; by solid angle 0.03).
-        f = flat_light(lights, scene, k)
         if kind == LIGHT_GLOWING_HULL:
             L = glow
             two_sided = tri_double_sided[lights.prims[k]]
@@ -1080,7 +1128,30 @@ def sample_light(
         seen, by_solid_angle, rect_down, rect_up = seen_rect(f, p)
         if by_solid_angle:
             area_share = clipped_area_share(seen, n)
-        if by_solid_angle and u1 >= area_share:
+        if by_parallelogram:  # (its pdf below: parallelogram_pdf)
+            if cosine_draw or tri_omega > 0.0:  # q where the direction meets the plane, its height from the centre
+                w = towards
+                if cosine_draw:
+                    w = to_world(sample_cosine_hemisphere(u1, u2), sheared.axis)
+                facing = wp.dot(w, ln)
+                if facing == 0.0:
+                    return out
+                t = wp.dot(f.centre - p, ln) / facing
+                if not (t > 0.0):
+                    return out
+                q = p + t * w
+                ab = plane_coords(f.u, f.v, q - f.centre)
+                if wp.abs(ab[0]) > 0.5 or wp.abs(ab[1]) > 0.5:
+                    if cosine_draw:
+                        return out  # it misses the light
+                    # Arvo's point rounded off the edge is put back on it, where a ray along it finds the light.
+                    q = f.centre + wp.clamp(ab[0], -0.5, 0.5) * f.u + wp.clamp(ab[1], -0.5, 0.5) * f.v
+            else:  # a half that looks tiny: uniform by area within it
+                if half_omega <= 0.0:
+                    return out
+                su = wp.sqrt(u1)
+                q = (1.0 - su) * tri_a + (su * (1.0 - u2)) * tri_b + (su * u2) * tri_c
+        elif by_solid_angle and u1 >= area_share:
             u1 = (u1 - area_share) / (1.0 - area_share)
             q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * rect_down
             if not inside:
@@ -1145,16 +1216,19 @@ def sample_light(
             down = tube_down
     else:
         prim = lights.prims[k]
-        a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
+        a = tri_a
+        b = tri_b
+        c = tri_c
+        cr = tri_cr
+        down = tri_down
         area = 0.5 * stable_length(cr)
         if area <= 0.0:
             return out
         ln = cr / (2.0 * area)
         bu = float(0.0)  # weight of b
         bv = float(0.0)  # weight of c
-        omega = seen_solid_angle(p, a, b, c)
+        omega = tri_omega
         if omega > 0.0:  # by solid angle (wrt.spherical_triangle): q where the direction meets the plane
-            towards = sample_spherical_triangle(p, a, b, c, omega, u1, u2)
             facing = wp.dot(towards, ln)
             if facing == 0.0:
                 return out
@@ -1193,7 +1267,9 @@ def sample_light(
     out.wi = wi
     out.dist = dist * to_up
     ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
-    if area_share > 0.0:
+    if by_parallelogram:  # the expression flat_light_pdf reads back
+        out.pdf = parallelogram_pdf(sheared, q, wi, d2 * ratio * ratio / (cos_l * area))
+    elif area_share > 0.0:
         out.pdf = (1.0 - area_share) * pdf_solid_angle + area_share * (d2 * ratio * ratio / (cos_l * area))
     elif pdf_solid_angle > 0.0:
         out.pdf = pdf_solid_angle

@@ -62,18 +62,24 @@ def triangle_solid_angle(numerator: float, a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 
 @wp.func
-def seen_solid_angle(p: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """Solid angle triangle ``a, b, c`` subtends at ``p`` if it is to be sampled by solid angle from there, else 0
-    (too small for float32, or ``p`` at a corner). The triple product is ``ua . ((b - a) x (c - a))`` over the
-    distances to b and c: the edges are taken from the corners, not as differences of unit vectors nearly alike or
-    opposite, whose cross product cancelled near the triangle's plane."""
+def subtended_solid_angle(p: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """Solid angle triangle ``a, b, c`` subtends at ``p``, however small (0 where ``p`` is at a corner). The triple
+    product is ``ua . ((b - a) x (c - a))`` over the distances to b and c: the edges are taken from the corners, not as
+    differences of unit vectors nearly alike or opposite, whose cross product cancelled near the triangle's plane."""
     ua = unit_towards(p, a)
     ub = unit_towards(p, b)
     uc = unit_towards(p, c)
     if wp.length_sq(ua) == 0.0 or wp.length_sq(ub) == 0.0 or wp.length_sq(uc) == 0.0:
         return 0.0
     numerator = wp.abs(wp.dot(ua, wp.cross((b - a) / stable_length(b - p), (c - a) / stable_length(c - p))))
-    omega = triangle_solid_angle(numerator, ua, ub, uc)
+    return triangle_solid_angle(numerator, ua, ub, uc)
+
+
+@wp.func
+def seen_solid_angle(p: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """Solid angle triangle ``a, b, c`` subtends at ``p`` (:func:`subtended_solid_angle`) if it is to be sampled by
+    solid angle from there, else 0 (too small for float32, or ``p`` at a corner)."""
+    omega = subtended_solid_angle(p, a, b, c)
     return wp.where(omega >= SOLID_ANGLE_MIN, omega, 0.0)
 
 
