@@ -137,10 +137,11 @@ def test_unreachable_scheduler_is_named(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0)
     with pytest.raises(DaskUnavailable, match="tcp://127.0.0.1:9"):
         run_tasks(cube_and_pid, [1], address="tcp://127.0.0.1:9", progress=False)
-    (tmp_path / "rows.jsonl").write_text('{"an earlier run": 1}\n')
+    earlier = '{"scene": "sphere:100", "accel": "wrt:sah", "device": "cpu", "rays": "primary"}\n'  # a bench row
+    (tmp_path / "rows.jsonl").write_text(earlier)
     assert main(["bench", "--dask", "tcp://127.0.0.1:9", "--scenes", "sphere:500", "-o", str(tmp_path), "-q"]) == 1
     assert "wrt: error: cannot reach a Dask scheduler at 'tcp://127.0.0.1:9'" in capsys.readouterr().err
-    assert (tmp_path / "rows.jsonl").read_text() == '{"an earlier run": 1}\n'  # was deleted before connecting
+    assert (tmp_path / "rows.jsonl").read_text() == earlier  # was deleted before connecting
 
 
 def test_missing_dask_says_how_to_install(monkeypatch):
