@@ -736,13 +736,23 @@ class Renderer:
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
+        with self.scene.lock:  # of one state of the scene: a cache drop from another thread waits (Scene.lock)
+            self._build_locked()
+
+    def _build_locked(self) -> None:
+        """:meth:`_build`, with the scene's lock held."""
+        # What is drawn is recorded as it is before the build reads it: a light appended by another thread in the
+        # middle of the build (no lock needed to append) was recorded as drawn and never uploaded.
+        self.scene.drop_stale_caches()
+        generation = self.scene.cache_generation
         # Lights are checked again when one was replaced or given a new field, and after scene.invalidate(), which
         # makes their arrays writeable: a NaN written into a light's colour then drew a kept Renderer's image black
         # without a word, where a new render refused it.
-        if self.scene.cache_generation != getattr(self, "_scene_generation", None) or parts_changed(
+        if generation != getattr(self, "_scene_generation", None) or parts_changed(
             getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))
         ):
             check_lights(self.scene.lights)
+        lights, dark = tuple(dataclass_parts(self.scene.lights)), bool(self.scene.dark_lights)  # as checked
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
         self._ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
@@ -750,11 +760,11 @@ class Renderer:
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
-        self._scene_generation = self.scene.cache_generation
+        self._scene_generation = generation
         stats = self.scene.stats()  # (counted here, not at each camera change: set_cameras may come every step)
         self._draws_anything = bool(stats["rendered_triangles"] or stats.get("rendered_shapes", 0))
-        self._scene_lights = tuple(dataclass_parts(self.scene.lights))
-        self._dark = bool(self.scene.dark_lights)  # what decides the default lights, with the lights (_upload_shading)
+        self._scene_lights = lights
+        self._dark = dark  # what decides the default lights, with the lights (_upload_shading)
         self.scene.freeze(self._scene_lights)  # a light's array edited in place went unseen, as a mesh's did
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
@@ -785,6 +795,11 @@ class Renderer:
         """Builds again when the scene changed since the last build (a mesh, material, light or instance array
         replaced, or ``scene.invalidate()`` after an edit in place), as a trace would: a kept Renderer drew the old
         geometry. True where it built again."""
+        with self.scene.lock:  # the check and the build of one state of the scene (Scene.lock)
+            return self._follow_scene_locked()
+
+    def _follow_scene_locked(self) -> bool:
+        """:meth:`_follow_scene`, with the scene's lock held."""
         if self._scene_changed():
             if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
                 raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "

@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
+import threading
 import weakref
 from typing import NamedTuple
 
@@ -707,6 +708,12 @@ class Scene:
     render_settings: RenderSettings | None = None
 
     def __post_init__(self):
+        # Held by each build of a tree or device copy (wrt.trace, a Renderer's build) and by each cache drop
+        # (invalidate, drop_stale_caches): a drop from another thread in the middle of a build left that build's
+        # Renderer believing it was up to date, drawing the old geometry (or a mix of old tree and new points) until
+        # the next edit. Reentrant: a build drops stale caches itself. ``scene.lock`` lets a caller make several edits
+        # that a render in another thread sees all or none of.
+        self._lock = threading.RLock()
         self._check_containers()
         self._check_axis_and_units()
         self.warn_vanishing_shapes()
@@ -730,7 +737,21 @@ class Scene:
     def __getstate__(self) -> dict:
         # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable. Nor do
         # the device objects of a traced scene's cache (Warp structs, arrays), which the copy builds again.
-        return {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False, "_moved_accels": {}}
+        # Nor does the lock, of which each copy has its own.
+        state = {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False, "_moved_accels": {}}
+        state.pop("_lock", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.RLock()
+
+    @property
+    def lock(self) -> threading.RLock:
+        """The scene's reentrant lock, held by every build of its trees and device copies and by every cache drop:
+        ``with scene.lock:`` around several edits (``mesh.points = ...``, ``scene.lights.append(...)``) made while
+        another thread renders or traces the scene makes that thread's next build see all of them or none."""
+        return self._lock
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
@@ -816,6 +837,11 @@ class Scene:
         next trace or render (see :meth:`freeze`): call it before editing an array in place (``mesh.points +=
         offset``). That trace or render checks every mesh, shape, material and the instances again, as their
         constructors do. Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
+        with self._lock:  # not in the middle of another thread's build (see __post_init__)
+            self._invalidate()
+
+    def _invalidate(self) -> None:
+        """:meth:`invalidate`, with the scene's lock held."""
         self._cache.clear()
         self._moved_accels = {}
         self._generation += 1
@@ -879,6 +905,11 @@ class Scene:
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity, so the
         arrays checked are made read-only (:meth:`freeze`) until :meth:`invalidate`."""
+        with self._lock:  # not in the middle of another thread's build (see __post_init__)
+            self._drop_stale_caches()
+
+    def _drop_stale_caches(self) -> None:
+        """:meth:`drop_stale_caches`, with the scene's lock held."""
         self._check_axis_and_units()  # plain fields of the scene, assigned without a count
         count, members = assignments(), self._members()  # counted first: an assignment during the walk is seen next
         last_count, last_members = self._checked
@@ -1651,6 +1682,11 @@ class Scene:
     def to_device(self, device) -> DeviceScene:
         """The :class:`DeviceScene` on ``device``, uploaded on first use and cached."""
         device = wp.get_device(device)
+        with self._lock:  # built whole, of one state of the scene (see __post_init__)
+            return self._to_device(device)
+
+    def _to_device(self, device) -> DeviceScene:
+        """:meth:`to_device`, with the scene's lock held."""
         key = ("device_scene", str(device))
         if key not in self._cache:
             shapes = self._geometry_shapes()

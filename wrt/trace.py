@@ -568,9 +568,15 @@ def get_accelerator(
     elif layout != "binary":
         raise ValueError(f"layout={layout!r} applies to accel='wrt' only; wp.Mesh has its own layout")
     device = resolve_device(device)
+    key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
+    with scene.lock:  # a cache drop from another thread waits for this build, which then goes into no fresh cache
+        return _cached_accelerator(scene, key, accel, builder, device, layout)
+
+
+def _cached_accelerator(scene: Scene, key: tuple, accel: str, builder: str, device, layout: str) -> Accelerator:
+    """:func:`get_accelerator` once its arguments are checked, with the scene's lock held."""
     scene.drop_stale_caches()  # first: it checks and converts the fields assigned since (instances.to_world = ...)
     scene.check_instances()  # instances may have been set after the Scene was made
-    key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         scene.check_vertices()  # named with their mesh here; the builds' own check can name only a row
         scene.warn_past_traced_reach()

@@ -1,0 +1,105 @@
+"""A scene traced and rendered from several threads at once, and edited from one while another builds: each result
+is compared with the same call on a freshly built scene in this thread (the oracle)."""
+
+import importlib
+import threading
+
+import numpy as np
+
+import wrt
+from wrt.scene import Scene
+
+wrt_render = importlib.import_module("wrt.render")  # wrt.render is also the function
+trace_module = importlib.import_module("wrt.trace")
+
+CAMERA = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+OPTIONS = dict(camera=CAMERA, width=16, height=12, device="cpu", integrator="depth")
+SQUARE = np.float32([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+RAY = (np.float32([[0.2, 0.3, 3.0]]), np.float32([[0.0, 0.0, -1.0]]))
+
+
+def square_scene(z: float = 0.0) -> Scene:
+    return wrt.Scene(meshes=[wrt.Mesh("/Square", SQUARE + np.float32([0, 0, z]), np.int32([[0, 1, 2], [0, 2, 3]]),
+                                      np.zeros(2, np.int32))])
+
+
+def test_an_edit_traced_in_another_thread_while_a_renderer_builds_is_drawn_by_its_next_render(monkeypatch):
+    """Thread A makes a Renderer; while its BVH is being built, thread B moves the square (``mesh.points = ...``)
+    and traces the scene, which drops the caches. A then put the BVH it built of the old points into the scene's
+    fresh cache, over B's, so every later trace hit the old square, and recorded the scene's cache generation after
+    its build, B's drop included, so it never built again: every later render drew the old square (with the new
+    points' device copy). Builds and cache drops of one scene now take turns (``Scene.lock``): B's trace waits for
+    A's build, then drops it, and A's next render builds again."""
+    wrt.trace(square_scene(), *RAY)  # kernels loaded before the threads start
+    scene = square_scene()
+    real = trace_module.BvhAccelerator
+    built, b_traced = threading.Event(), threading.Event()
+
+    def building(*args, **kwargs):
+        accel = real(*args, **kwargs)
+        if threading.current_thread().name == "A" and not built.is_set():
+            built.set()
+            # Before the lock B's trace ended within milliseconds; now it waits for this build, and A goes on.
+            b_traced.wait(timeout=2.0)
+        return accel
+
+    monkeypatch.setattr(trace_module, "BvhAccelerator", building)
+    made, traced = [], []
+    a = threading.Thread(target=lambda: made.append(wrt.Renderer(scene, **OPTIONS)), name="A")
+    a.start()
+    assert built.wait(timeout=60)
+    scene.meshes[0].points = SQUARE + np.float32([0, 0, 1])  # moved up by 1
+
+    def trace_b():
+        traced.append(wrt.trace(scene, *RAY).t[0])
+        b_traced.set()
+
+    b = threading.Thread(target=trace_b, name="B")
+    b.start()
+    a.join()
+    b.join()
+    monkeypatch.undo()
+
+    fresh = square_scene(1.0)
+    assert traced == [wrt.trace(fresh, *RAY).t[0]] == [2.0]
+    assert wrt.trace(scene, *RAY).t[0] == 2.0
+    np.testing.assert_array_equal(made[0].render().rgb, wrt.render(fresh, **OPTIONS).rgb)
+
+
+def lit_square(lights: int) -> Scene:
+    scene = square_scene()
+    scene.lights = [wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 1.0, np.float32)),
+                    wrt.DistantLight(direction=np.array([0.6, 0.0, -0.8]), color=np.full(3, 2.0, np.float32))][:lights]
+    return scene
+
+
+def test_a_light_appended_by_another_thread_while_a_renderer_builds_is_drawn_by_its_next_render(monkeypatch):
+    """A light appended (no lock needed) after a Renderer's build uploaded the lights but before it recorded them
+    was recorded as drawn: no later render uploaded it, and every image lacked it. What a build draws is now recorded
+    before the build reads it, so the next render builds again."""
+    scene = lit_square(1)
+    options = {**OPTIONS, "integrator": "whitted"}
+    real = wrt_render.Renderer._upload_shading
+    uploaded, appended = threading.Event(), threading.Event()
+
+    def upload(self):
+        result = real(self)
+        if threading.current_thread().name == "A" and not uploaded.is_set():
+            uploaded.set()
+            appended.wait()  # never blocked: the main thread appends without the scene's lock
+        return result
+
+    monkeypatch.setattr(wrt_render.Renderer, "_upload_shading", upload)
+    made = []
+    a = threading.Thread(target=lambda: made.append(wrt.Renderer(scene, **options)), name="A")
+    a.start()
+    assert uploaded.wait(timeout=60)
+    scene.lights.append(lit_square(2).lights[1])
+    appended.set()
+    a.join()
+    monkeypatch.undo()
+
+    image = made[0].render().rgb
+    fresh = wrt.render(lit_square(2), **options).rgb
+    assert not np.array_equal(fresh, wrt.render(lit_square(1), **options).rgb)  # the second light shows
+    np.testing.assert_array_equal(image, fresh)
