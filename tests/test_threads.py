@@ -103,3 +103,45 @@ def test_a_light_appended_by_another_thread_while_a_renderer_builds_is_drawn_by_
     fresh = wrt.render(lit_square(2), **options).rgb
     assert not np.array_equal(fresh, wrt.render(lit_square(1), **options).rgb)  # the second light shows
     np.testing.assert_array_equal(image, fresh)
+
+
+def test_one_renderer_called_from_two_threads_renders_one_call_at_a_time(monkeypatch):
+    """Two threads rendering with one Renderer shared its path buffers: a render of another seed made while one was
+    between its launches overwrote that one's paths, and both returned images of neither seed's render (16 of 18
+    images wrong: two threads, three renders each, three times). Its calls now take turns (a lock per Renderer):
+    each image is that of the same render made alone."""
+    scene = lit_square(2)
+    options = {**OPTIONS, "integrator": "path"}
+    alone = {seed: wrt.Renderer(scene, **options).render(spp=4, seed=seed).rgb for seed in (1, 2)}
+    assert not np.array_equal(alone[1], alone[2])
+    renderer = wrt.Renderer(scene, **options)
+    real = wrt_render.Renderer._start_and_trace
+    started, b_done = threading.Event(), threading.Event()
+
+    def start_and_trace(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not started.is_set():
+            started.set()
+            # Before the lock B's render ended within milliseconds, in A's buffers; now it waits for A's render.
+            b_done.wait(timeout=1.0)
+        return result
+
+    monkeypatch.setattr(wrt_render.Renderer, "_start_and_trace", start_and_trace)
+    images = {}
+
+    def render(seed: int) -> None:
+        try:
+            images[seed] = renderer.render(spp=4, seed=seed, batch=1).rgb
+        finally:
+            if seed == 2:
+                b_done.set()
+
+    a = threading.Thread(target=render, args=(1,), name="A")
+    a.start()
+    assert started.wait(timeout=60)
+    b = threading.Thread(target=render, args=(2,), name="B")
+    b.start()
+    a.join()
+    b.join()
+    np.testing.assert_array_equal(images[1], alone[1])
+    np.testing.assert_array_equal(images[2], alone[2])

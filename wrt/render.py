@@ -11,7 +11,9 @@ depend on how its samples are split into launches (``batch``). ``Image.rgb`` is 
 
 from __future__ import annotations
 
+import functools
 import math
+import threading
 import warnings
 from collections.abc import Mapping
 from typing import ClassVar
@@ -480,6 +482,19 @@ def capturing_graph(device) -> wp.Graph | None:
 SHORT_REPRS = ("integrator", "max_depth", "ao_radius", "width", "height", "device", "batched")  # shown when assigned
 
 
+def one_call_at_a_time(method):
+    """A :class:`Renderer` method that holds the renderer's lock: its path, image and frame buffers are shared by
+    its calls, and two threads rendering with one Renderer at once wrote their paths into each other's buffers, both
+    images of neither render, without a word. Reentrant, as these methods call each other."""
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._calls:
+            return method(self, *args, **kwargs)
+
+    return locked
+
+
 def read_only(name: str, why: str, instead: str | None = None) -> property:
     """A :class:`Renderer` attribute (a setting, its scene, cameras, device or lights) read as any other but refused
     when assigned, naming what to do instead: each is baked into the buffers, the camera structs, the lights or a
@@ -642,6 +657,7 @@ class Renderer:
         ao_radius=None,
         cameras=None,
     ):
+        self._calls = threading.RLock()  # held by each render, frame and camera upload (one_call_at_a_time)
         check_scene(scene)
         check_sides(width, height)
         if cameras is not None:
@@ -1058,6 +1074,7 @@ class Renderer:
         groups = np.array(self._whitted_groups or [(0, 0)], np.int32).reshape(-1, 2)
         self._whitted_group_array = wp.array(groups, dtype=wp.vec2i, device=dev)
 
+    @one_call_at_a_time
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
         simulation step; the BVH, materials and lights stay (a default headlight turns with each camera). The image
@@ -1185,6 +1202,7 @@ class Renderer:
                              "pinhole")
         return float(radius), float(cam.focus_distance)
 
+    @one_call_at_a_time
     def render(
         self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False
     ) -> Image:
@@ -1297,6 +1315,7 @@ class Renderer:
         """Samples per pixel in the progressive sums: those of the last :meth:`render`, also an interrupted one."""
         return self._progressive["samples"] if self._progressive else 0
 
+    @one_call_at_a_time
     def image_so_far(self):
         """The mean of the samples the last :meth:`render` finished, also when it was interrupted (Ctrl-C), so that
         a long render stopped early still gives its picture; None before the first finished launch."""
@@ -1307,6 +1326,7 @@ class Renderer:
         state = self._progressive
         return self._mean_image(state["sum"], samples, state["aovs"], state["rows"])
 
+    @one_call_at_a_time
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
@@ -1365,6 +1385,7 @@ class Renderer:
         finally:
             self._sync_free = False
 
+    @one_call_at_a_time
     def frame_image(self):
         """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay).
 
