@@ -7,6 +7,7 @@ import threading
 import numpy as np
 
 import wrt
+from wrt.instancing import Instances, Prototype
 from wrt.scene import Scene
 
 wrt_render = importlib.import_module("wrt.render")  # wrt.render is also the function
@@ -77,7 +78,7 @@ def test_a_light_appended_by_another_thread_while_a_renderer_builds_is_drawn_by_
     """A light appended (no lock needed) after a Renderer's build uploaded the lights but before it recorded them
     was recorded as drawn: no later render uploaded it, and every image lacked it. What a build draws is now recorded
     before the build reads it, so the next render builds again."""
-    scene = lit_square(1)
+    scene, appended_light, fresh_scene = lit_square(1), lit_square(2).lights[1], lit_square(2)
     options = {**OPTIONS, "integrator": "whitted"}
     real = wrt_render.Renderer._upload_shading
     uploaded, appended = threading.Event(), threading.Event()
@@ -94,13 +95,13 @@ def test_a_light_appended_by_another_thread_while_a_renderer_builds_is_drawn_by_
     a = threading.Thread(target=lambda: made.append(wrt.Renderer(scene, **options)), name="A")
     a.start()
     assert uploaded.wait(timeout=60)
-    scene.lights.append(lit_square(2).lights[1])
+    scene.lights.append(appended_light)
     appended.set()
     a.join()
     monkeypatch.undo()
 
     image = made[0].render().rgb
-    fresh = wrt.render(lit_square(2), **options).rgb
+    fresh = wrt.render(fresh_scene, **options).rgb
     assert not np.array_equal(fresh, wrt.render(lit_square(1), **options).rgb)  # the second light shows
     np.testing.assert_array_equal(image, fresh)
 
@@ -145,3 +146,59 @@ def test_one_renderer_called_from_two_threads_renders_one_call_at_a_time(monkeyp
     b.join()
     np.testing.assert_array_equal(images[1], alone[1])
     np.testing.assert_array_equal(images[2], alone[2])
+
+
+def two_instances(shift: float) -> np.ndarray:
+    """``to_world`` of two instances of the unit square, side by side, moved along x by ``shift``."""
+    to_world = np.stack([np.diag([0.4, 0.4, 0.4, 1.0])] * 2)
+    to_world[:, :3, 3] = [(-0.5 + shift, 0.0, 0.0), (0.5 + shift, 0.2, 0.5)]
+    return to_world
+
+
+def instanced_scene(shift: float) -> Scene:
+    return wrt.Scene(prototypes=[Prototype("/Proto", meshes=[square_scene().meshes[0]])],
+                     instances=Instances.from_transforms([0, 0], two_instances(shift)))
+
+
+def test_instances_moved_by_another_thread_in_the_middle_of_a_trace_are_traced_as_moved(monkeypatch):
+    """A simulation thread assigning ``instances.to_world`` each step while another thread traces: an assignment
+    made after the trace had taken the instances' inverse transforms, but before it built the TLAS of their
+    ``to_world``, gave a TLAS of one pose with the inverses of the other, and the trace hit the instances where
+    neither pose puts them (18 to 24 of 60 traces and renders wrong in a loop of moves). Assignments now wait for a
+    build in another thread (``Scene.lock``): the trace is of the pose it began with, the next of the new one."""
+    grid = np.linspace(-1.2, 1.2, 13, dtype=np.float32)
+    origins = np.stack([*np.meshgrid(grid, grid), np.full((13, 13), 3.0, np.float32)], -1).reshape(-1, 3)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (len(origins), 1))
+    scene = instanced_scene(0.0)
+    wrt.trace(scene, origins, directions)
+    scene.instances.to_world = two_instances(0.1)
+    real = Scene.instance_inverses
+    read, assigned = threading.Event(), threading.Event()
+
+    def inverses(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not read.is_set():
+            read.set()
+            assigned.wait(timeout=1.0)  # before the lock the assignment came at once; now it waits for this trace
+        return result
+
+    monkeypatch.setattr(Scene, "instance_inverses", inverses)
+    traced = []
+    a = threading.Thread(target=lambda: traced.append(wrt.trace(scene, origins, directions).t), name="A")
+    a.start()
+    assert read.wait(timeout=60)
+    moved = two_instances(0.3)
+
+    def move():
+        scene.instances.to_world = moved
+        assigned.set()
+
+    b = threading.Thread(target=move, name="B")
+    b.start()
+    a.join()
+    b.join()
+    monkeypatch.undo()
+    before, after = (wrt.trace(instanced_scene(shift), origins, directions).t for shift in (0.1, 0.3))
+    assert not np.array_equal(before, after)
+    np.testing.assert_array_equal(traced[0], before)
+    np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)

@@ -4,7 +4,15 @@ trace, can tell that no field was given a new value without walking every field 
 kept Renderer 70 ms per render (and per ``launch_frame``) on a scene of 20k meshes, where the frame itself took 2 ms.
 """
 
+import threading
+
 _count = 0
+# Held by every counted assignment and by every scene's cache checks, drops and builds (wrt.Scene.lock): a field
+# assigned from another thread in the middle of a build (a simulation's instances.to_world = poses each step while a
+# render thread draws) was read once for the transforms' inverses and again for the record of what was built, and the
+# render drew a TLAS of one pose with the inverses of the other, without a word (a quarter of the traces wrong), and
+# kept doing so. One lock for all scenes: an object does not know the scenes it is in.
+EDITS = threading.RLock()
 
 
 class CountsAssignments:
@@ -12,6 +20,13 @@ class CountsAssignments:
     :func:`assignments`. In-place edits of arrays are not assignments (see :meth:`wrt.Scene.invalidate`)."""
 
     def __setattr__(self, name, value):
+        if "_unchecked" not in self.__dict__:  # in its constructor, before its checks: in no scene yet, so no lock
+            self._assign(name, value)
+            return
+        with EDITS:  # not in the middle of a build in another thread
+            self._assign(name, value)
+
+    def _assign(self, name, value) -> None:
         global _count
         _count += 1
         super().__setattr__(name, value)

@@ -26,14 +26,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
-import threading
 import weakref
 from typing import NamedTuple
 
 import numpy as np
 import warp as wp
 
-from .assignments import CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
+from .assignments import EDITS, CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
 from .camera import Camera
 from .instancing import (
     NO_FLOAT32_INVERSE_SKIPPED,
@@ -708,12 +707,6 @@ class Scene:
     render_settings: RenderSettings | None = None
 
     def __post_init__(self):
-        # Held by each build of a tree or device copy (wrt.trace, a Renderer's build) and by each cache drop
-        # (invalidate, drop_stale_caches): a drop from another thread in the middle of a build left that build's
-        # Renderer believing it was up to date, drawing the old geometry (or a mix of old tree and new points) until
-        # the next edit. Reentrant: a build drops stale caches itself. ``scene.lock`` lets a caller make several edits
-        # that a render in another thread sees all or none of.
-        self._lock = threading.RLock()
         self._check_containers()
         self._check_axis_and_units()
         self.warn_vanishing_shapes()
@@ -737,21 +730,20 @@ class Scene:
     def __getstate__(self) -> dict:
         # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable. Nor do
         # the device objects of a traced scene's cache (Warp structs, arrays), which the copy builds again.
-        # Nor does the lock, of which each copy has its own.
-        state = {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False, "_moved_accels": {}}
-        state.pop("_lock", None)
-        return state
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        self._lock = threading.RLock()
+        return {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False, "_moved_accels": {}}
 
     @property
-    def lock(self) -> threading.RLock:
-        """The scene's reentrant lock, held by every build of its trees and device copies and by every cache drop:
-        ``with scene.lock:`` around several edits (``mesh.points = ...``, ``scene.lights.append(...)``) made while
-        another thread renders or traces the scene makes that thread's next build see all of them or none."""
-        return self._lock
+    def lock(self):
+        """The reentrant lock held by every build of a scene's trees and device copies (:func:`wrt.trace`, a
+        :class:`wrt.Renderer`'s build), every cache check and drop (:meth:`drop_stale_caches`, :meth:`invalidate`) and
+        every assignment of a field of a mesh, shape, prototype, material or ``scene.instances``
+        (:data:`wrt.assignments.EDITS`, one for all scenes: an object does not know its scenes): a build sees one state
+        of the scene. A drop or an assignment from another thread in the middle of a build put the old BVH into the
+        fresh cache, or built a TLAS of one pose with the inverses of another, and the old or mixed scene was drawn
+        until the next edit. ``with scene.lock:`` around several edits, or around edits of the scene's lists
+        (``scene.lights.append(...)``, which is no assignment), made while another thread renders or traces makes its
+        next build see all of them or none."""
+        return EDITS
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
@@ -837,7 +829,7 @@ class Scene:
         next trace or render (see :meth:`freeze`): call it before editing an array in place (``mesh.points +=
         offset``). That trace or render checks every mesh, shape, material and the instances again, as their
         constructors do. Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
-        with self._lock:  # not in the middle of another thread's build (see __post_init__)
+        with EDITS:  # not in the middle of another thread's build (Scene.lock)
             self._invalidate()
 
     def _invalidate(self) -> None:
@@ -905,7 +897,7 @@ class Scene:
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity, so the
         arrays checked are made read-only (:meth:`freeze`) until :meth:`invalidate`."""
-        with self._lock:  # not in the middle of another thread's build (see __post_init__)
+        with EDITS:  # not in the middle of another thread's build (Scene.lock)
             self._drop_stale_caches()
 
     def _drop_stale_caches(self) -> None:
@@ -1682,7 +1674,7 @@ class Scene:
     def to_device(self, device) -> DeviceScene:
         """The :class:`DeviceScene` on ``device``, uploaded on first use and cached."""
         device = wp.get_device(device)
-        with self._lock:  # built whole, of one state of the scene (see __post_init__)
+        with EDITS:  # built whole, of one state of the scene (Scene.lock)
             return self._to_device(device)
 
     def _to_device(self, device) -> DeviceScene:
