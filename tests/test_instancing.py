@@ -2238,6 +2238,20 @@ def stretched_octahedra(rng, stretch: str, n_instances: int) -> np.ndarray:
     return to_world
 
 
+def aimed_from_afar(rng, world, indices, n: int = 3000):
+    """``n`` float32 rays from about 900 away at points of random triangles of ``world[indices]``, with their float64
+    closest hits ``(t, row)`` and whether each passes more than 1% of its triangle inside it (over 90% of them)."""
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    origins = (targets + rng.normal(size=(n, 3)) * 900).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    clear = barycentric_margins(world, indices, o64, d64, t, row) > 1e-2
+    assert clear.sum() > 0.9 * n
+    return origins, directions, t, row, clear
+
+
 def barycentric_margins(points, indices, origins, directions, t, row) -> np.ndarray:
     """``(N,)`` float64 smallest barycentric weight of each ray's hit point in its triangle ``row`` (how far inside
     the triangle the ray passes, relative to it), NaN for misses."""
@@ -2265,15 +2279,7 @@ def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stret
     to_world = stretched_octahedra(rng, stretch, n_instances)
     scene = octahedra_scene(to_world)
     world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
-    n = 3000
-    aim = rng.integers(0, len(indices), n)
-    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
-    origins = (targets + rng.normal(size=(n, 3)) * 900).astype(np.float32)
-    directions = (targets - origins).astype(np.float32)
-    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
-    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
-    clear = barycentric_margins(world, indices, o64, d64, t, row) > 1e-2
-    assert clear.sum() > 0.9 * n
+    origins, directions, t, row, clear = aimed_from_afar(rng, world, indices)
     hits = wrt.trace(scene, origins, directions)
     np.testing.assert_array_equal(hits.instance[clear], row[clear] // 8)
     np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3)  # a ray along a needle errs by 1.8e-4
@@ -2390,15 +2396,7 @@ def test_rays_from_afar_hit_sheared_instances_of_an_off_centre_prototype_as_a_fl
     scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(6, int), to_world))
     world = np.concatenate([points.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
     indices = np.concatenate([faces + 6 * i for i in range(6)])
-    n = 3000
-    aim = rng.integers(0, len(indices), n)
-    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
-    origins = (targets + rng.normal(size=(n, 3)) * 900).astype(np.float32)
-    directions = (targets - origins).astype(np.float32)
-    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
-    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
-    clear = barycentric_margins(world, indices, o64, d64, t, row) > 1e-2
-    assert clear.sum() > 0.9 * n
+    origins, directions, t, row, clear = aimed_from_afar(rng, world, indices)
     flat = wrt.trace(scene, origins, directions, layout="wide8")  # float32 world triangles: the right instance
     np.testing.assert_array_equal(flat.instance[clear], row[clear] // 8)
     hits = wrt.trace(scene, origins, directions)
