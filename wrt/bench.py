@@ -1032,11 +1032,12 @@ def _read_settings(path: Path) -> dict:
 _SETTING_NAMES = {"n_rays": "--n-rays", "repeats": "--repeats", "scaling_n_rays": "the suite's scaling n_rays"}
 
 
-def _check_resumed_settings(path: Path, grid: Grid, sweep_rows: bool = True) -> None:
-    """Raises ValueError when the rows to resume were measured with other ray counts or repeats (``path`` is their
-    ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it). The sweep's
-    ray count is compared only where the rows hold sweep rows (``sweep_rows``): a run without its sweep
-    (``--scenes``) records one it measured nothing with, and the whole suite's resume was refused for it."""
+def _check_resumed_settings(path: Path, grid: Grid, sweep_rows: bool = True) -> dict:
+    """The settings the rows to resume were measured with (``path``, their ``SETTINGS_FILE``: :func:`_read_settings`);
+    raises ValueError where they are other ray counts or repeats (none, or one without a setting, from an older run:
+    nothing to compare for it). The sweep's ray count is compared only where the rows hold sweep rows
+    (``sweep_rows``): a run without its sweep (``--scenes``) records one it measured nothing with, and the whole
+    suite's resume was refused for it."""
     before = _read_settings(path)
     now = _resume_settings(grid, before)
     differ = [k for k in now if before.get(k, now[k]) != now[k] and (sweep_rows or k != "scaling_n_rays")]
@@ -1047,6 +1048,7 @@ def _check_resumed_settings(path: Path, grid: Grid, sweep_rows: bool = True) -> 
     if changed:
         raise ValueError(f"{path.parent}: its rows were measured with other settings ({', '.join(changed)}); "
                          "resume with the same settings, or run without --resume to start over")
+    return before
 
 
 def _refuse_wrt_output(path: Path) -> None:
@@ -1241,8 +1243,8 @@ def run_grid(
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
             rows = _resumed_rows(jsonl)
-            _check_resumed_settings(out / SETTINGS_FILE, grid, sweep_rows=any(r.get("sweep") for r in rows))
-            earlier_settings = _read_settings(out / SETTINGS_FILE)
+            earlier_settings = _check_resumed_settings(out / SETTINGS_FILE, grid,
+                                                       sweep_rows=any(r.get("sweep") for r in rows))
             resumed = {row_key(r): r for r in rows}
         elif resume:  # said: a misspelt output folder measured every row again without a word
             import warnings
