@@ -505,7 +505,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 img.tile = [tile._replace(args=("RGBA", *tile[3][1:])) for tile in img.tile]
                 img.load()
                 samples = np.asarray(img, dtype=np.float32)
-                return _sixteen_bit_rgba(samples, True, 255.0), COLOUR_CHANNELS, True, tagged
+                return _colour_rgba(samples, True, 255.0), COLOUR_CHANNELS, True, tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
         layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
@@ -539,9 +539,8 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     if mode == "La":
         # 8-bit grey premultiplied by alpha (a TIFF's ExtraSamples 1), which Pillow converts to nothing asked of it
         # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as 8-bit
-        # RGBa colour (above) and _sixteen_bit_rgba 16-bit colour are
-        la = np.asarray(img, dtype=np.float32)
-        return *_grey_rgba(_straight(la[..., :1], la[..., 1:])[..., 0], la[..., 1] / 255.0), False, tagged
+        # RGBa colour (above) and 16-bit colour (_colour_rgba) are
+        return *_grey_alpha_rgba(np.asarray(img, dtype=np.float32), True, 255.0), False, tagged
     if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
         # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's
         grey = np.asarray(img).view(np.int8).astype(np.float32)
@@ -699,7 +698,7 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> tuple[np.ndarray,
     high = decode(rawmode)
     low = decode(rawmode[:-1] + OTHER_BYTE[rawmode[-1]])
     samples = high * 256 + low  # whole numbers, exact in float32
-    rgba = _sixteen_bit_rgba(samples, premultiplied)  # (an RGBX TIFF opens as RGB: its fourth sample is no alpha)
+    rgba = _colour_rgba(samples, premultiplied)  # (an RGBX TIFF opens as RGB: its fourth sample is no alpha)
     if isinstance(colour_key, tuple) and len(colour_key) == 3:
         rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
     return rgba, COLOUR_CHANNELS
@@ -742,15 +741,9 @@ def _read_planes(data: bytes, name: str, bits: int, colour: int, extra: int, whi
     full = np.float32((1 << bits) - 1)
     if white_is_zero:
         samples[..., 0] = full - samples[..., 0]
-    rgba = np.ones(samples.shape[:2] + (4,), np.float32)
-    rgba[..., :colour] = samples[..., :colour] / full
-    if alpha:
-        rgba[..., 3] = samples[..., colour] / full
-    if extra == ASSOCIATED_ALPHA:
-        rgba[..., :colour] = _straight(samples[..., :colour], samples[..., colour:])
     if colour == 1:
-        return _grey_rgba(rgba[..., 0], rgba[..., 3] if alpha else None)
-    return rgba, COLOUR_CHANNELS
+        return _grey_alpha_rgba(samples, extra == ASSOCIATED_ALPHA, full)
+    return _colour_rgba(samples, extra == ASSOCIATED_ALPHA, full), COLOUR_CHANNELS
 
 
 def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
@@ -775,17 +768,27 @@ def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
     return samples
 
 
-def _sixteen_bit_rgba(samples: np.ndarray, premultiplied: bool = False, full: float = 65535.0) -> np.ndarray:
-    """``(H, W, 4)`` float32 RGBA of ``(H, W, 3 or 4)`` 16-bit ``samples`` (whole numbers, as float32; of another
-    depth where ``full``, their largest value, says so), alpha 1 for three. ``premultiplied``: colour stored times
-    alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, 0 where alpha is 0 and at most 1, as Pillow unpremultiplies
-    8-bit samples (its ``RGBa`` raw mode), so every texture wrt reads holds straight colour: ``c / a`` of the stored
-    whole numbers, one rounding in float32. 16-bit ones were divided at 8 bits, the high bytes of both."""
+def _colour_rgba(samples: np.ndarray, premultiplied: bool = False, full: float = 65535.0) -> np.ndarray:
+    """``(H, W, 4)`` float32 RGBA of ``(H, W, 3 or 4)`` colour ``samples`` (whole numbers, as float32; 16-bit, or
+    of another depth where ``full``, their largest value, says so), alpha 1 for three. ``premultiplied``: colour
+    stored times alpha (a TIFF's ``ExtraSamples`` 1) is divided by it, 0 where alpha is 0 and at most 1, as Pillow
+    unpremultiplies 8-bit samples (its ``RGBa`` raw mode), so every texture wrt reads holds straight colour: ``c / a``
+    of the stored whole numbers, one rounding in float32. 16-bit ones were divided at 8 bits, the high bytes of
+    both."""
     rgba = np.ones(samples.shape[:2] + (4,), np.float32)
     rgba[..., : samples.shape[2]] = samples / np.float32(full)
     if premultiplied:
         rgba[..., :3] = _straight(samples[..., :3], samples[..., 3:])
     return rgba
+
+
+def _grey_alpha_rgba(samples: np.ndarray, premultiplied: bool, full: float) -> tuple[np.ndarray, tuple[int, ...]]:
+    """:func:`_grey_rgba` of ``(H, W, 1 or 2)`` grey (and alpha) ``samples`` (whole numbers, as float32, of largest
+    value ``full``): grey divided by alpha where ``premultiplied``, as :func:`_colour_rgba` divides colour."""
+    full = np.float32(full)
+    alpha = samples[..., 1] / full if samples.shape[2] > 1 else None
+    grey = _straight(samples[..., :1], samples[..., 1:])[..., 0] if premultiplied else samples[..., 0] / full
+    return _grey_rgba(grey, alpha)
 
 
 def _straight(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
