@@ -975,15 +975,11 @@ class MaterialReader:
         memo: a :class:`wrt.usd_material_memo.MaterialMemo` of reads to reuse and keep, or None.
         skipped: with ``memo``, the list ``skip`` records into, in order (``wrt.usd_problems``): a kept read's slice
             of it is kept with it, and added to it again where the read is reused.
-        shown_path: ``shown_path(prim)``, the path naming a prim in warnings (one in a native prototype under its
-            first instance), for the targets of bindings inside prototypes.
     """
 
-    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None, memo=None, skipped=None,
-                 shown_path=lambda prim: str(prim.GetPath())):
+    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None, memo=None, skipped=None):
         from .usd_ancestors import BindingsAbove  # (pxr: imported where USD is read)
 
-        self.shown_path = shown_path  # shown_path(prim): the path naming a prim in warnings (one in a prototype too)
         self.stage = stage  # where materials bound above native instances are found by path
         self.memo = memo  # a wrt.usd_material_memo.MaterialMemo: reads kept at another time of the stage, or None
         self.skipped = skipped
@@ -1051,17 +1047,11 @@ class MaterialReader:
         missing prim, an Xform): it binds nothing, and its prims were drawn as bound to no material without a word. An
         emptied binding (no target, deliberately unbound) is no binding to USD and is not named. A target reached
         through relationships is named with the prim USD reached (``-> /World.relay -> /World/Xform``)."""
-        from .usd_problems import shown_target
-
         targets = rel.GetTargets()
         if targets:  # a collection binding targets its collection, then its material
             reached = rel.GetForwardedTargets()
-            prim = rel.GetPrim()
-            # (inside a native prototype: under its first instance, not /__Prototype_1, a name no file holds)
-            through = f" -> {shown_target(prim, reached[-1], self.shown_path)}" if (
-                reached and reached[-1] != targets[-1]) else ""
-            self.skip(BINDING_TO_NO_MATERIAL, prim,
-                      f"{rel.GetName()} -> {shown_target(prim, targets[-1], self.shown_path)}{through}")
+            through = f" -> {reached[-1]}" if reached and reached[-1] != targets[-1] else ""
+            self.skip(BINDING_TO_NO_MATERIAL, rel.GetPrim(), f"{rel.GetName()} -> {targets[-1]}{through}")
 
     def _walk(self, prim, outer, missing):
         """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
@@ -1086,12 +1076,10 @@ class MaterialReader:
         targets USD ignores; a collection binding of an attribute is held back (:func:`wrt.usd_bindings.hold_back`)
         before any walk meets it."""
         from .usd_bindings import NOT_A_COLLECTION, hold_back
-        from .usd_problems import shown_target
 
         binds = self.bindings_above.any(prim)
-        for p, name, problem, *target in self.bindings_above.problems(prim) if binds else ():
-            # (a target inside a native prototype named under its first instance, as the prim is)
-            self.skip(problem, p, f"{name} -> {shown_target(p, target[0], self.shown_path)}" if target else name)
+        for p, name, problem, *detail in self.bindings_above.problems(prim) if binds else ():
+            self.skip(problem, p, detail[0] if detail else name)
             if problem == NOT_A_COLLECTION:
                 hold_back(p, name)
         return binds

@@ -341,8 +341,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.collections_inside = CollectionsInside(stage)  # collection bindings that reach into native instances
         self.skipped = []  # [(reason, prim path, detail or None)], reported once per reason at the end
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None,
-                                        stage=self.stage, memo=material_memo, skipped=self.skipped,
-                                        shown_path=self._shown_path)
+                                        stage=self.stage, memo=material_memo, skipped=self.skipped)
         self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles

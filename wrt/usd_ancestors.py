@@ -190,7 +190,7 @@ class BindingsAbove:
         """``[(p, name, problem[, detail])]``: the binding relationships of ``prim`` and its ancestors not asked
         before whose purpose USD's calls disagree on (:func:`wrt.usd_bindings.has_ambiguous_purpose`) or whose
         targets USD ignores (:func:`wrt.usd_bindings.is_ignored_binding`; :func:`wrt.usd_bindings.not_a_collection`,
-        its target, an ``Sdf.Path``, in ``detail``), with the words that say which; each prim looked at once."""
+        naming the target in ``detail``), with the words that say which; each prim looked at once."""
         from .usd_bindings import (
             AMBIGUOUS_PURPOSE,
             IGNORED_BINDING,
@@ -210,6 +210,6 @@ class BindingsAbove:
                 elif is_ignored_binding(p, name):
                     found.append((p, name, IGNORED_BINDING))
                 elif (target := not_a_collection(p, name)) is not None:
-                    found.append((p, name, NOT_A_COLLECTION, target))
+                    found.append((p, name, NOT_A_COLLECTION, f"{name} -> {target}"))
             p = p.GetParent()
         return found

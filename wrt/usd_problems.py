@@ -18,21 +18,6 @@ NOT_FINITE_TRANSFORM = "prims whose world transform is not finite (NaN or inf) w
 BEYOND_FLOAT32 = "prims that their world transform places beyond float32's range (|x| > 3.4e38) were skipped"
 
 
-def shown_target(prim: Usd.Prim, path, shown_path) -> str:
-    """``path`` (a target of a relationship of ``prim``) as warnings name it: inside a native prototype
-    (``/__Prototype_1/Root/Nope``, a name USD makes up per opening that no file holds) under the prototype's first
-    instance (``/A/Root/Nope``), as ``shown_path(prim)`` (:meth:`ProblemReport._shown_path`) names prims there;
-    elsewhere as it is."""
-    path = Sdf.Path(path)
-    if not (prim.IsInPrototype() and path.IsAbsolutePath()):
-        return str(path)
-    root = path.GetPrefixes()[0]
-    prototype = prim.GetStage().GetPrimAtPath(root)
-    if not (prototype and prototype.IsPrototype()):
-        return str(path)
-    return shown_path(prototype) + str(path)[len(str(root)):]
-
-
 def property_stack(attr: Usd.Attribute, time: Usd.TimeCode) -> list:
     """The property specs of ``attr`` at ``time``, strongest first (empty when USD cannot give them)."""
     try:

@@ -41,7 +41,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from .usd_ancestors import KEEP_LOOKING, AncestorMemo
 from .usd_primvars import flattened, index_problem
-from .usd_problems import authored_type, shown_target
+from .usd_problems import authored_type
 from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
@@ -113,7 +113,7 @@ class SkelPoser:
             if skeleton is not None and self._has_influences_or_shapes(prim, own):  # a target that is no Skeleton
                 target = self._skeleton_target(prim)
                 why = _not_a("Skeleton", prim.GetStage(), target)
-                self.skip(FAILED, prim, f"skel:skeleton targets {self._shown(prim, target)}, but {why}")
+                self.skip(FAILED, prim, f"skel:skeleton targets {target}, but {why}")
             return None
         if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
             try:
@@ -179,11 +179,6 @@ class SkelPoser:
             prim = prim.GetParent()
         return None
 
-    def _shown(self, prim: Usd.Prim, path: Sdf.Path) -> str:
-        """``path``, a target of a relationship of ``prim``, named under its prototype's first instance
-        (:func:`wrt.usd_problems.shown_target`)."""
-        return shown_target(prim, path, self.shown_path)
-
     @staticmethod
     def _skeleton_target(prim: Usd.Prim) -> Sdf.Path:
         """The first target of the ``skel:skeleton`` that binds ``prim`` (its own or the nearest ancestor's)."""
@@ -224,8 +219,7 @@ class SkelPoser:
         missing = skin.weighted_joints_missing_from(self.cache.GetSkelQuery(skeleton).GetJointOrder())
         if missing:  # USD says nothing of them; almost always a skeleton renamed or re-exported without the mesh
             k, name = missing[0]
-            self.skip(MISSING_JOINTS, prim,
-                      f"skel:joints[{k}] = '{name}' is not a joint of {self._shown(prim, skeleton.GetPath())}")
+            self.skip(MISSING_JOINTS, prim, f"skel:joints[{k}] = '{name}' is not a joint of {skeleton.GetPath()}")
         if query.IsRigidlyDeformed():
             m = skin.rigid_transform()
             if normals is not None:
@@ -254,7 +248,7 @@ class SkelPoser:
             singular = [k for k, m in enumerate(binds) if not (np.isfinite(m).all() and m.GetDeterminant() != 0.0)]
             xforms = "the skeleton cannot be posed (no animation or rest transforms for its joints)"
             if not skeleton.GetPrim().IsActive():  # UsdSkel has no query for it; it has rest transforms all the same
-                xforms = f"the skeleton {self._shown(skeleton.GetPrim(), skeleton.GetPath())} is inactive"
+                xforms = f"the skeleton {skeleton.GetPath()} is inactive"
             elif skel_query and len(binds) != joints:
                 # ComputeSkinningTransforms then returns the joints' unbound transforms (its failure is not seen here).
                 xforms = f"the skeleton's bindTransforms do not match its {joints} joints"
@@ -278,8 +272,7 @@ class SkelPoser:
                 found = prim.GetStage().GetPrimAtPath(targets[0]) if targets else None
                 if targets and not (found and found.IsA(UsdSkel.Animation) and found.IsActive()):  # (else: unbound)
                     why = _not_a("SkelAnimation", prim.GetStage(), targets[0])
-                    self.skip(NO_ANIMATION, skeleton,
-                              f"skel:animationSource targets {self._shown(prim, targets[0])}, but {why}")
+                    self.skip(NO_ANIMATION, skeleton, f"skel:animationSource targets {targets[0]}, but {why}")
                 return
             prim = prim.GetParent()
 
@@ -309,8 +302,7 @@ class SkelPoser:
             # (wrt's skinning failed on it, IndexError, the mesh unposed): left out, as BakeSkinning poses the mesh.
             if not shapes.GetBlendShape(shape):
                 misfits[shape] = _not_a("BlendShape", prim.GetStage(), targets[shape])
-                self.skip(BAD_SHAPE, prim,
-                          f"skel:blendShapeTargets[{shape}] = {self._shown(prim, targets[shape])}: {misfits[shape]}")
+                self.skip(BAD_SHAPE, prim, f"skel:blendShapeTargets[{shape}] = {targets[shape]}: {misfits[shape]}")
         for weight, shape, sub in zip(sub_weights, shape_ids, sub_ids):
             why = None if weight == 0.0 or shape in misfits else _misfit(
                 shapes, shape, sub, point_indices[shape], sub_offsets[sub], len(points), normals is not None)
@@ -341,7 +333,7 @@ class SkelPoser:
             names = list(binding.GetBlendShapesAttr().Get() or [])[count : len(weights)]
             left_out = f"skel:blendShapes {names} past its {count} skel:blendShapeTargets"
         else:
-            targets = [self._shown(prim, t) for t in binding.GetBlendShapeTargetsRel().GetTargets()][len(weights):count]
+            targets = [str(t) for t in binding.GetBlendShapeTargetsRel().GetTargets()][len(weights) : count]
             left_out = f"skel:blendShapeTargets {targets} past its {len(weights)} skel:blendShapes"
         self.skip(UNPAIRED_SHAPES, prim, left_out)
         paired = np.zeros(count, np.float32)
