@@ -129,7 +129,12 @@ CASES = {
                                                 (0.1, 0.2, 1.05)),
     "sheared plane": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {}, (0.1, 0.2, 0.95)),
     "sheared plane just off, shading normal": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]),
-                                               {"normal": (0.3, 0.0, -1.0)}, (0.1, 0.2, 0.99)),
+                                               {"normal": (0.3, 0.0, 1.0)}, (0.1, 0.2, 0.99)),
+    # as "plane near, normal leaning away": the cosine-weighted draws about the normal meet the plane at grazing
+    # angles only
+    "sheared plane just off, normal leaning away": ("plane", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]),
+                                                    {"normal": (0.3, 0.0, -1.0), "least_share": 0.02},
+                                                    (0.1, 0.2, 0.99)),
     "sheared disk": ("disk", placed(SHEAR @ PANEL[:3, :3], PANEL[:3, 3]), {"double_sided": True}, (0.1, 0.2, 1.02)),
 }
 

@@ -567,7 +567,7 @@ def flat_light_pdf(f: FlatLight, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float
     scaled = dist * f.down
     by_area = scaled * scaled / (cos_l * f.area)
     if f.disk == 0 and f.right_angled == 0:
-        s = seen_parallelogram(p, n, f.centre, f.u, f.v, f.normal)
+        s = seen_parallelogram(p, n, f.centre, f.u, f.v)
         if not parallelogram_usable(s):
             return by_area
         return parallelogram_pdf(s, p + dist * d, d, by_area)
@@ -1100,7 +1100,7 @@ def sample_light(
     if flat:
         f = flat_light(lights, scene, k)
         if f.disk == 0 and f.right_angled == 0:
-            sheared = seen_parallelogram(p, n, f.centre, f.u, f.v, f.normal)
+            sheared = seen_parallelogram(p, n, f.centre, f.u, f.v)
             if parallelogram_usable(sheared):
                 by_parallelogram = True
                 cosine_draw, u1 = by_cosine(sheared, u1)

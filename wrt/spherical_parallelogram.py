@@ -40,14 +40,17 @@ class SeenParallelogram:
     omega_acd: float  # that of triangle a, c, d
     solid_angle: float  # their sum
     share: float  # the share of cosine-weighted draws (0 without a shading normal)
-    axis: wp.vec3  # the unit axis they are drawn about: the shading normal turned towards the plane
+    axis: wp.vec3  # the unit axis they are drawn about: the shading normal, turned where the light lies behind it
 
 
 @wp.func
-def seen_parallelogram(p: wp.vec3, n: wp.vec3, centre: wp.vec3, u: wp.vec3, v: wp.vec3, normal: wp.vec3):
-    """The parallelogram ``centre + a u + b v`` (a, b in [-1/2, 1/2]; unit ``normal``) seen from ``p``, of shading
-    normal ``n`` (zero if none). Split along its shorter diagonal: the triangles of the longer one are needles for a
-    strongly sheared light."""
+def seen_parallelogram(p: wp.vec3, n: wp.vec3, centre: wp.vec3, u: wp.vec3, v: wp.vec3):
+    """The parallelogram ``centre + a u + b v`` (a, b in [-1/2, 1/2]) seen from ``p``, of shading normal ``n`` (zero
+    if none). Split along its shorter diagonal: the triangles of the longer one are needles for a strongly sheared
+    light. The cosine-weighted share is drawn about ``n`` where some corner lies above its horizon, where an opaque
+    surface takes light, else about ``-n`` (glass alone takes it), as a rect's (:func:`wrt.spherical_rect.
+    cosine_share`): turned by the side of the plane ``p`` lies on, a surface tilted 1 degree away from a sheared light
+    0.01 below it drew its cosine-weighted draws on its back, a relative noise per draw of 8.1, not 1.04."""
     s = SeenParallelogram()
     hu = 0.5 * u
     hv = 0.5 * v
@@ -69,7 +72,8 @@ def seen_parallelogram(p: wp.vec3, n: wp.vec3, centre: wp.vec3, u: wp.vec3, v: w
     if wp.length_sq(n) > 0.0:
         fill = wp.min(s.solid_angle / (2.0 * PI), 1.0)  # squared: see the module docstring
         s.share = fill * fill
-        s.axis = wp.where(wp.dot(n, normal) * wp.dot(centre - p, normal) < 0.0, -n, n)
+        above = wp.max(wp.max(wp.dot(n, s.a - p), wp.dot(n, s.b - p)), wp.max(wp.dot(n, s.c - p), wp.dot(n, s.d - p)))
+        s.axis = wp.where(above > 0.0, n, -n)
     return s
 
 
