@@ -1322,3 +1322,38 @@ def test_a_catch_warnings_of_another_thread_around_a_read_end_leaves_warnings_sh
         read_while("reader 2", lambda release, reader: warnings.warn("another thread's warning", UserWarning))
         assert warnings.showwarning is hook
     assert [str(w.message) for w in caught] == ["another thread's warning"]
+
+
+def test_a_warning_hook_put_in_place_while_a_texture_is_read_is_kept_after_the_read(tmp_path, monkeypatch):
+    """A warning hook put in place while another thread reads a texture (``logging.captureWarnings(True)`` as a
+    program sets up its logging, a test tool's recorder) stays the process's hook after the read: the read's end put
+    back the hook it had found as it began, so every later warning went past the new hook (printed, not logged).
+    Oracle: Python's warnings machinery, a warning given after the read reaching the hook put in place."""
+    tif = write_tiff(tmp_path / "plain.tif", np.full((2, 3, 3), 9, np.uint8))
+    inside, release, opened = threading.Event(), threading.Event(), PilImage.open
+
+    def open_slowly(*args, **kwargs):  # the reading thread waits inside the read until the hook is in place
+        if threading.current_thread().name == "reader":
+            inside.set()
+            release.wait(10)
+        return opened(*args, **kwargs)
+
+    shown = []
+
+    def users_hook(message, category, filename, lineno, file=None, line=None):
+        shown.append(str(message))
+
+    monkeypatch.setattr(PilImage, "open", open_slowly)
+    with warnings.catch_warnings():  # (puts the hook of before back as it ends)
+        warnings.simplefilter("always")
+        reader = threading.Thread(target=load_image, args=(str(tif), "raw"), name="reader")
+        reader.start()
+        try:
+            assert inside.wait(10)
+            warnings.showwarning = users_hook
+        finally:
+            release.set()
+            reader.join(30)
+        assert warnings.showwarning is users_hook
+        warnings.warn("a warning after the read", UserWarning)
+    assert shown == ["a warning after the read"]

@@ -414,7 +414,9 @@ def _warnings_told(name: str, warn=None):
             else:
                 capture["records"][ident] = outer
             capture["readers"] -= 1
-            if not capture["readers"]:
+            if not capture["readers"] and warnings.showwarning is _record_warning:
+                # (a hook another thread put in place while the reads ran, as logging.captureWarnings does, stays:
+                # the hook of before was put back over it, and later warnings went past it)
                 warnings.showwarning = capture["hook"]
         _tell(name, caught, warn)
 
