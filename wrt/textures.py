@@ -62,11 +62,12 @@ from .tiff_checks import (
     UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
+    tiff_directory,
     tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
 )
-from .tiff_planes import tiff_plane
+from .tiff_planes import tags_past_end, tiff_plane
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -754,6 +755,9 @@ def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
     (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads at full depth."""
     from PIL import Image as PilImage
 
+    for tag in tags_past_end(tiff_directory(data)):  # (left out of each plane's file, where Pillow warned of it)
+        words = f"TIFF tag {tag}'s values lie past the file's end (a damaged file); the tag is skipped"
+        _texture_warning(TextureWarning(f"image {name}: {words}", words), stacklevel=5)
     samples = None
     for k in range(planes):
         plane = tiff_plane(data, k)

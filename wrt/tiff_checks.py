@@ -9,12 +9,17 @@ the first image file directory, 12-byte entries of tag, type, count and value or
 from __future__ import annotations
 
 import struct
+from typing import NamedTuple
 
 # Little- and big-endian headers -> struct byte order and the file's layout: the struct codes of an offset and of an
 # entry count, and the bytes of a directory entry's value field (TIFF 6.0; BigTIFF: 8-byte offsets and counts)
 TIFF_MAGIC = {b"II*\0": ("<", "I", "H", 4), b"MM\0*": (">", "I", "H", 4),
               b"II+\0": ("<", "Q", "Q", 8), b"MM\0+": (">", "Q", "Q", 8)}
-SHORT = 3  # TIFF field type of unsigned 16-bit values
+SHORT, LONG, LONG8 = 3, 4, 16  # TIFF field types of unsigned 16-, 32- and 64-bit values (LONG8: BigTIFF)
+UNSIGNED_CODES = {SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
+# Bytes of one value of each field type: TIFF 6.0's BYTE, ASCII, SHORT, LONG, RATIONAL, SBYTE, UNDEFINED, SSHORT,
+# SLONG, SRATIONAL, FLOAT, DOUBLE, IFD (TIFF Technical Note 1) and BigTIFF's LONG8, SLONG8, IFD8
+TYPE_BYTES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
@@ -42,24 +47,72 @@ def tiff_first_values(data: bytes, wanted: tuple[int, ...]) -> dict[int, int] | 
     """The first value of each tag of ``wanted`` the TIFF (or BigTIFF) file ``data``'s first image directory holds
     as SHORT values (tags missing, or of another type, are left out); None for data that is no TIFF or whose
     directory is cut short."""
+    directory = tiff_directory(data)
+    if directory is None:
+        return None
+    tags = {}
+    try:
+        for tag in wanted:
+            kind, n, _ = directory.entries.get(tag, (None, 0, b""))
+            if kind == SHORT and n > 0:
+                tags[tag] = struct.unpack_from(directory.order + "H", *directory.where(tag))[0]
+    except struct.error:
+        return None
+    return tags
+
+
+class TiffDirectory(NamedTuple):
+    """The first image file directory of a TIFF (or BigTIFF) file: its entries as stored, read where a reader asks
+    (:meth:`values`), and the file's layout (:data:`TIFF_MAGIC`)."""
+
+    data: bytes  # the whole file
+    order: str  # struct byte order
+    offset: str  # struct code of an offset
+    counter: str  # struct code of the directory's entry count
+    inline: int  # bytes of an entry's value field
+    entries: dict  # tag -> (field type, count of values, value field bytes)
+
+    def where(self, tag: int) -> tuple[bytes, int]:
+        """``(source, position)`` of the values of entry ``tag``: its value field where they fit in it, else the
+        file and the offset the field holds (TIFF 6.0)."""
+        kind, n, field = self.entries[tag]
+        if n * TYPE_BYTES.get(kind, 1) <= self.inline:
+            return field, 0
+        return self.data, struct.unpack(self.order + self.offset, field)[0]
+
+    def values(self, tag: int) -> list[int]:
+        """The values of entry ``tag`` of unsigned integer type (SHORT, LONG or LONG8); none for a missing entry or
+        another type. Raises ``struct.error`` for values past the file's end."""
+        kind, n, _ = self.entries.get(tag, (None, 0, b""))
+        if kind not in UNSIGNED_CODES:
+            return []
+        return list(struct.unpack_from(f"{self.order}{n}{UNSIGNED_CODES[kind]}", *self.where(tag)))
+
+    def first(self, tag: int, default: int) -> int:
+        """The first of :meth:`values` of ``tag``, ``default`` where it has none (an unset tag's TIFF default)."""
+        values = self.values(tag)
+        return values[0] if values else default
+
+
+def tiff_directory(data: bytes) -> TiffDirectory | None:
+    """The first image file directory of the TIFF (or BigTIFF) file ``data``; None for data that is no TIFF or whose
+    directory is cut short."""
     layout = TIFF_MAGIC.get(data[:4])
     if layout is None:
         return None
     order, offset, counter, inline = layout
     entry = struct.Struct(f"{order}HH{offset}{inline}s")  # tag, type, count, value or offset
-    tags = {}
+    entries = {}
     try:
-        (directory,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
-        (count,) = struct.unpack_from(order + counter, data, directory)
+        (at,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
+        (count,) = struct.unpack_from(order + counter, data, at)
+        first = at + struct.calcsize(order + counter)
         for k in range(count):
-            tag, kind, n, field = entry.unpack_from(data, directory + struct.calcsize(order + counter) + entry.size * k)
-            if tag in wanted and kind == SHORT and n > 0:
-                # the first value: in the field, or where it points for values past its bytes
-                source, at = (field, 0) if 2 * n <= inline else (data, struct.unpack(order + offset, field)[0])
-                tags[tag] = struct.unpack_from(order + "H", source, at)[0]
+            tag, kind, n, field = entry.unpack_from(data, first + entry.size * k)
+            entries[tag] = (kind, n, field)
     except struct.error:
         return None
-    return tags
+    return TiffDirectory(data, order, offset, counter, inline, entries)
 
 
 def tiff_sample_layout(data: bytes) -> str | None:

@@ -3,10 +3,11 @@ image, so that Pillow decodes a 16-bit colour TIFF's planes at full depth: its l
 plane to 8 bits (it picks the band unpackers itself, whatever raw mode it is given), so such a texture kept the high
 byte of each sample. Every 8- or 16-bit grey or RGB TIFF stored plane by plane is read so: Pillow decoded a grey + alpha
 one's alpha plane into no band, opened no 16-bit one, and knew no raw mode for uncompressed 8-bit RGB of premultiplied
-alpha, or of more samples past it. The plane's file is the original's bytes with a new image file directory appended and
-the header pointed at it (TIFF 6.0: an 8-byte header, 12-byte entries of tag, type, count and value or offset; BigTIFF:
-16 and 20 bytes): its strips or tiles (compressed or not, with any predictor, which works on each plane alone) are those
-of the plane, its other tags the original's; the tags of every sample are made those of one."""
+alpha, or of more samples past it. The plane's file holds the original's directory, made that of one sample, with the
+values it points at and the plane's strips or tiles (compressed or not, with any predictor, which works on each plane
+alone) copied after it, nothing else of the original (TIFF 6.0: an 8-byte header, 12-byte entries of tag, type, count
+and value or offset; BigTIFF: 16 and 20 bytes). It was the original's bytes with a directory appended: a copy of the
+whole file per plane, and a strip cut short by the file's end read the appended directory as samples."""
 
 from __future__ import annotations
 
@@ -16,100 +17,198 @@ from .tiff_checks import (
     BITS_PER_SAMPLE,
     BLACK_IS_ZERO,
     EXTRA_SAMPLES,
+    LONG,
+    LONG8,
     PHOTOMETRIC,
     PLANAR_CONFIGURATION,
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SHORT,
-    TIFF_MAGIC,
+    TYPE_BYTES,
+    tiff_directory,
 )
 
-LONG, LONG8 = 4, 16  # TIFF field types of unsigned 32- and 64-bit values (LONG8: BigTIFF)
-TYPE_BYTES = {SHORT: 2, LONG: 4, LONG8: 8}  # bytes of the types an offset or byte count is stored in
+IMAGE_WIDTH, IMAGE_LENGTH, COMPRESSION, ROWS_PER_STRIP = 256, 257, 259, 278
+TILE_WIDTH, TILE_LENGTH = 322, 323
+NO_COMPRESSION, OLD_JPEG = 1, 6  # Compression values: none, and TIFF 6.0's old JPEG (whose tables lie at offsets)
 # Tags whose values locate the image's data, one per strip or tile of each plane: (offsets, byte counts)
 STRIP_TAGS, TILE_TAGS = (273, 279), (324, 325)
 # Tags of several samples (MinSampleValue, MaxSampleValue, ExtraSamples, SMin/SMaxSampleValue) or of colour alone
 # (ColorMap, TransferFunction, YCbCr and ReferenceBlackWhite), left out of a grey plane's directory
 PER_SAMPLE_TAGS = {280, 281, EXTRA_SAMPLES, 340, 341, 320, 301, 529, 530, 531, 532}
+# Tags whose values are offsets of other parts of the file (FreeOffsets and FreeByteCounts, SubIFDs, old JPEG's
+# JPEGInterchangeFormat(Length) and tables, the Exif, GPS and Interoperability directories), and field types of such
+# offsets (IFD, IFD8): none is a plane's, and none is copied, so they are left out of its directory
+OFFSET_TAGS = {288, 289, 330, 513, 514, 519, 520, 521, 34665, 34853, 40965}
+OFFSET_TYPES = {13, 18}
+
+
+class PlaneError(ValueError):
+    """A TIFF stored plane by plane whose strips or tiles are not as its header says (cut short by the file's end,
+    too few or too many, of no stated size where compressed) or whose samples differ in depth: the words say which."""
 
 
 def tiff_plane(data: bytes, plane: int) -> bytes | None:
     """The TIFF (or BigTIFF) file ``data``, whose first image is stored plane by plane, with plane ``plane`` (0 for
-    its first sample) as that first image, a one-sample grey image of the same size, bits, sample format,
-    compression and predictor; None where ``data`` is no such TIFF or its directory is cut short."""
-    layout = TIFF_MAGIC.get(data[:4])
-    if layout is None:
+    its first sample) as its one image, a one-sample grey image of the same size, bits, sample format, compression and
+    predictor; None where ``data`` is no such TIFF or its directory is cut short.
+
+    Raises:
+        PlaneError: the plane's strips or tiles lie past the file's end (its last ones cut short, as a file cut off
+            mid-way is: they read the bytes after the file's end, the directory appended to it, as samples), there
+            are not as many of them as the image's size makes (they were laid out over each other), a compressed
+            one has no byte count (libtiff refuses it), or the samples differ in depth (BitsPerSample: each plane was
+            decoded as of the first's depth) or sample format.
+    """
+    directory = tiff_directory(data)
+    if directory is None:
         return None
-    order, offset, counter, inline = layout
-    entry = struct.Struct(f"{order}HH{offset}{inline}s")  # tag, type, count, value or offset
+    entries = directory.entries
+    located = TILE_TAGS if TILE_TAGS[0] in entries else STRIP_TAGS
     try:
-        (directory,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
-        (count,) = struct.unpack_from(order + counter, data, directory)
-        first = directory + struct.calcsize(order + counter)
-        entries = {}
-        for k in range(count):
-            tag, kind, n, field = entry.unpack_from(data, first + entry.size * k)
-            entries[tag] = (kind, n, field)
-        samples = _first_value(data, order, offset, inline, entries.get(SAMPLES_PER_PIXEL), 1)
-        planar = _first_value(data, order, offset, inline, entries.get(PLANAR_CONFIGURATION), 1)
-        located = TILE_TAGS if TILE_TAGS[0] in entries else STRIP_TAGS
-        starts, sizes = (_values(data, order, offset, inline, entries.get(tag)) for tag in located)
-        bits = _first_value(data, order, offset, inline, entries.get(BITS_PER_SAMPLE), 1)
-        sample_format = _first_value(data, order, offset, inline, entries.get(SAMPLE_FORMAT), 1)
+        samples = directory.first(SAMPLES_PER_PIXEL, 1)
+        planar = directory.first(PLANAR_CONFIGURATION, 1)
+        starts, sizes = directory.values(located[0]), directory.values(located[1])
+        bits = directory.values(BITS_PER_SAMPLE) or [1]
+        sample_formats = directory.values(SAMPLE_FORMAT) or [1]
+        width, height = directory.first(IMAGE_WIDTH, 0), directory.first(IMAGE_LENGTH, 0)
+        compression = directory.first(COMPRESSION, NO_COMPRESSION)
+        # (a tile's rows and row bytes, or a strip's: RowsPerStrip's default is 2^32 - 1, the whole image)
+        across, rows = ((directory.first(TILE_WIDTH, 0), directory.first(TILE_LENGTH, 0)) if located == TILE_TAGS
+                        else (width, min(directory.first(ROWS_PER_STRIP, 2**32 - 1), height)))
     except struct.error:
         return None
-    # (no byte counts: a plane's directory has none either, and they are inferred from the plane's size as
-    # libtiff and Pillow infer them from a file's)
     if planar != 2 or not 0 <= plane < samples or len(sizes) not in (0, len(starts)) or len(starts) % samples:
         return None
+    for name, values, words in (("BitsPerSample", bits, "depth"), ("SampleFormat", sample_formats, "sample format")):
+        if len(set(values[:samples])) > 1:  # (libtiff reads no such file either)
+            raise PlaneError(f"its samples differ in {words} ({name} {', '.join(map(str, values))}), which wrt does "
+                             "not read")
+    if compression == OLD_JPEG:
+        raise PlaneError("its planes are of old-style JPEG compression (Compression 6), whose tables lie at offsets "
+                         "wrt does not carry over to a plane")
     per_plane = len(starts) // samples
+    made = _pieces_per_plane(located, width, height, across, rows)
+    if per_plane != made:
+        kind = "tile" if located == TILE_TAGS else "strip"
+        raise PlaneError(f"it has {len(starts)} {kind}s, where {samples} planes of {width} x {height} pixels in "
+                         f"{kind}s of {across} x {rows} make {made} a plane")
+    part = slice(plane * per_plane, (plane + 1) * per_plane)
+    extents = _extents(starts[part], sizes[part], compression, len(data), located == TILE_TAGS, height, across,
+                       rows, bits[0], f"plane {plane + 1} of {samples}", part.start)
+    return _plane_file(directory, located, bits[0], sample_formats[0], starts[part], extents, plane)
+
+
+def tags_past_end(directory) -> list[int]:
+    """The tags of TIFF ``directory`` (:func:`wrt.tiff_checks.tiff_directory`) whose values lie past its file's end,
+    wholly or in part (a damaged file), of the types whose size is known."""
+    past = []
+    for tag, (kind, n, field) in directory.entries.items():
+        if kind in TYPE_BYTES and n * TYPE_BYTES[kind] > directory.inline:
+            (at,) = struct.unpack(directory.order + directory.offset, field)
+            if at + n * TYPE_BYTES[kind] > len(directory.data):
+                past.append(tag)
+    return past
+
+
+def _pieces_per_plane(located, width: int, height: int, across: int, rows: int) -> int:
+    """Strips or tiles (``located``) a plane of ``width`` x ``height`` pixels is stored in (TIFF 6.0:
+    ``StripsPerImage``, ``TilesPerImage``), of ``across`` x ``rows`` pixels each; 0 for an empty size."""
+    if min(across, rows) <= 0:
+        return 0
+    down = -(-height // rows)
+    return down * -(-width // across) if located == TILE_TAGS else down
+
+
+def _extents(starts, sizes, compression: int, end: int, tiled: bool, height: int, across: int, rows: int,
+             bits: int, plane: str, first: int) -> list[int]:
+    """Bytes of each of a plane's strips or tiles (``tiled``) at ``starts`` (their byte counts ``sizes``, none where
+    the file has none; ``across`` x ``rows`` pixels of ``bits`` each, of an image ``height`` rows high) in a file of
+    ``end`` bytes (``plane`` names the plane in an error, ``first``: the file's number of its first strip or tile,
+    from 0, as TIFF 6.0 numbers them): uncompressed, those its pixels fill (TIFF 6.0: a tile is whole, padded past the
+    image's edge; the last strip holds the rows left), as Pillow reads them whatever the count says and libtiff
+    infers a missing count; compressed, the count."""
+    if compression != NO_COMPRESSION and not sizes:
+        raise PlaneError(f"its strips are compressed (Compression {compression}) and it has no byte counts "
+                         "(StripByteCounts or TileByteCounts, which TIFF 6.0 requires and libtiff needs to read them)")
+    row_bytes = -(-across * bits // 8)  # (each row starts on a byte)
+    extents = []
+    for k, start in enumerate(starts):
+        if compression != NO_COMPRESSION:
+            extents.append(sizes[k])
+        else:  # a strip holds RowsPerStrip rows, the last the rows left
+            extents.append((rows if tiled else min(rows, height - k * rows)) * row_bytes)
+        if start + extents[-1] > end:
+            kind = "tile" if tiled else "strip"
+            raise PlaneError(f"{kind} {first + k} ({plane}, bytes {start} to {start + extents[-1]}) lies past the "
+                             f"file's end ({end} bytes): the file is cut short")
+    return extents
+
+
+def _plane_file(directory, located, bits: int, sample_format: int, starts, extents, plane: int) -> bytes:
+    """The plane's file (:func:`tiff_plane`): the header, the directory of ``directory``'s entries made those of one
+    sample, the values they point at, and the plane's strips or tiles (``starts``, ``extents`` bytes each) copied from
+    ``directory``'s file. A tag whose values lie past the file's end (:func:`tags_past_end`) is left out, as Pillow
+    and libtiff skip it: pointed past the plane's end, Pillow counted its size against the file's and took every later
+    tag's values for past the end too, the strips' offsets among them."""
+    data, order, offset, counter, inline = directory[:5]
     wide = offset == "Q"  # BigTIFF: offsets and counts as LONG8
     value_type, value_code = (LONG8, "Q") if wide else (LONG, "I")
-    tail = bytearray(data)
-    tail += bytes(-len(tail) % 8)  # the arrays and directory start on a word boundary
-
-    def value_field(kind: int, code: str, values: list[int]) -> tuple[int, int, bytes]:
-        """``(type, count, field)`` of ``values``: in the field where they fit, else appended to ``tail``."""
-        packed = struct.pack(order + code * len(values), *values)
-        if len(packed) > inline:
-            at = len(tail)
-            tail.extend(packed + bytes(-len(packed) % 8))
-            packed = struct.pack(order + offset, at)
-        return kind, len(values), packed.ljust(inline, b"\0")
-
-    new = {tag: value for tag, value in entries.items() if tag not in PER_SAMPLE_TAGS}
+    fields = {tag: found for tag, found in directory.entries.items()
+              if tag not in PER_SAMPLE_TAGS | OFFSET_TAGS and found[0] not in OFFSET_TYPES and found[0] in TYPE_BYTES}
+    values = {}  # tag -> the bytes of its values past its field
+    for tag, (kind, n, field) in fields.items():
+        if n * TYPE_BYTES[kind] > inline:
+            (at,) = struct.unpack(order + offset, field)
+            values[tag] = data[at : at + n * TYPE_BYTES[kind]]
+    for tag in tags_past_end(directory):
+        fields.pop(tag, None)
+        values.pop(tag, None)
     for tag, value in ((BITS_PER_SAMPLE, bits), (SAMPLES_PER_PIXEL, 1), (PHOTOMETRIC, BLACK_IS_ZERO),
                        (PLANAR_CONFIGURATION, 1)):
-        new[tag] = value_field(SHORT, "H", [value])
-    if SAMPLE_FORMAT in entries:
-        new[SAMPLE_FORMAT] = value_field(SHORT, "H", [sample_format])
-    part = slice(plane * per_plane, (plane + 1) * per_plane)
-    new[located[0]] = value_field(value_type, value_code, starts[part])
-    if sizes:
-        new[located[1]] = value_field(value_type, value_code, sizes[part])
+        fields[tag] = (SHORT, 1, struct.pack(order + "H", value).ljust(inline, b"\0"))
+        values.pop(tag, None)
+    if SAMPLE_FORMAT in fields:
+        fields[SAMPLE_FORMAT] = (SHORT, 1, struct.pack(order + "H", sample_format).ljust(inline, b"\0"))
+        values.pop(SAMPLE_FORMAT, None)
+    for tag, numbers in ((located[0], [0] * len(starts)), (located[1], extents)):  # (the offsets are set below)
+        packed = struct.pack(f"{order}{len(numbers)}{value_code}", *numbers)
+        fields[tag] = (value_type, len(numbers), packed.ljust(inline, b"\0")[:inline])
+        values.pop(tag, None)
+        if len(packed) > inline:
+            values[tag] = packed
+    header = 8 if offset == "I" else 16
+    entry = struct.Struct(f"{order}HH{offset}{inline}s")  # tag, type, count, value or offset
+    at = header + struct.calcsize(order + counter) + entry.size * len(fields) + struct.calcsize(order + offset)
+    places = {}
+    for tag in sorted(values):
+        at += at % 2  # (values start on a word boundary)
+        places[tag], at = at, at + len(values[tag])
+    pieces = []
+    for extent in extents:
+        pieces.append(at)
+        at += extent
+    end = at
+    offsets = struct.pack(f"{order}{len(pieces)}{value_code}", *pieces)
+    if located[0] in values:
+        values[located[0]] = offsets
     else:
-        new.pop(located[1], None)
-    at = len(tail)
-    tail += struct.pack(order + counter, len(new))
-    for tag in sorted(new):  # TIFF 6.0: entries in ascending order of tag
-        tail += entry.pack(tag, *new[tag])
-    tail += struct.pack(order + offset, 0)  # no next image
-    struct.pack_into(order + offset, tail, 4 if offset == "I" else 8, at)
-    return bytes(tail)
-
-
-def _values(data: bytes, order: str, offset: str, inline: int, found) -> list[int]:
-    """The unsigned values of a directory entry ``found`` (``(type, count, field)``, SHORT, LONG or LONG8); none
-    for a missing entry or another type."""
-    if found is None or found[0] not in TYPE_BYTES:
-        return []
-    kind, n, field = found
-    code = {SHORT: "H", LONG: "I", LONG8: "Q"}[kind]
-    source, at = (field, 0) if n * TYPE_BYTES[kind] <= inline else (data, struct.unpack(order + offset, field)[0])
-    return list(struct.unpack_from(f"{order}{n}{code}", source, at))
-
-
-def _first_value(data: bytes, order: str, offset: str, inline: int, found, default: int) -> int:
-    """The first of :func:`_values` of ``found``, ``default`` where it has none (an unset tag's TIFF default)."""
-    values = _values(data, order, offset, inline, found)
-    return values[0] if values else default
+        fields[located[0]] = (value_type, len(pieces), offsets.ljust(inline, b"\0"))
+    out = bytearray(end)
+    out[:4] = data[:4]
+    struct.pack_into(order + offset, out, header - struct.calcsize(order + offset), header)
+    if offset == "Q":
+        struct.pack_into(order + "HH", out, 4, 8, 0)  # BigTIFF: the bytes of an offset, and a reserved 0
+    struct.pack_into(order + counter, out, header, len(fields))
+    at = header + struct.calcsize(order + counter)
+    for tag in sorted(fields):  # TIFF 6.0: entries in ascending order of tag (the next directory's offset: 0)
+        kind, n, field = fields[tag]
+        if tag in values:
+            field = struct.pack(order + offset, places[tag]).ljust(inline, b"\0")
+        entry.pack_into(out, at, tag, kind, n, field)
+        at += entry.size
+    for tag, place in places.items():
+        out[place : place + len(values[tag])] = values[tag]
+    for start, extent, place in zip(starts, extents, pieces):
+        out[place : place + extent] = data[start : start + extent]
+    return bytes(out)
