@@ -1,10 +1,12 @@
 """TIFFs stored plane by plane (PlanarConfiguration 2) read as textures one plane at a time (``wrt.tiff_planes``):
 files whose strips are not as their header says (cut short, too few or too many, of differing depths, compressed
-without byte counts) are named, never read from bytes that are not the plane's; planes of LZW and JPEG strips, of
-uncompressed tiles and with a damaged tag read as written. Files written byte by byte here (``tiff_files``), samples
-checked in float64 (Pillow's decode of the same JPEG strips for JPEG)."""
+without byte counts) or of a compression Pillow does not know (pixel by pixel too) are named, never read from bytes
+that are not the plane's; planes of LZW and JPEG strips, of uncompressed tiles and with a damaged tag read as
+written. Files written byte by byte here (``tiff_files``), samples checked in float64 (Pillow's decode of the same
+JPEG strips for JPEG)."""
 
 import io
+import re
 import struct
 import warnings
 import zlib
@@ -163,3 +165,18 @@ def test_a_damaged_tag_of_a_planar_tiff_is_warned_of_once(tmp_path):
     assert [str(w.message).split(": ", 1)[1] for w in caught] == [
         "TIFF tag 270's values lie past the file's end (a damaged file); the tag is skipped"]
     np.testing.assert_allclose(image, expected(samples, 255.0), atol=1e-7)
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize("compression, words", [(34887, "Compression 34887 (LERC)"), (99, "Compression 99")])
+def test_a_tiff_of_a_compression_pillow_does_not_know_is_named_by_it(tmp_path, planar, compression, words):
+    """A TIFF of a compression Pillow has no decoder for (LERC, as GDAL writes elevation maps; an unknown number),
+    pixel by pixel or plane by plane: it was named as "a TIFF of 3 channels of 8-bit unsigned integer samples, which
+    Pillow does not decode; an EXR holds such samples", samples wrt reads in any other TIFF. It is named by its
+    compression now."""
+    samples = np.zeros((2, 3, 3), np.uint8)
+    chunks = strips(samples) if planar else [samples[r : r + 2].tobytes() for r in (0,)]
+    tags = planar_tags(samples, compression=compression, more={284: (SHORT, [2 if planar else 1])})
+    with pytest.raises(TextureError, match=rf"p\.tif: a TIFF of {re.escape(words)}, which Pillow \(wrt's TIFF "
+                                           r"reader\) does not decode; save it uncompressed, or with LZW, deflate"):
+        read(tmp_path, tiff_file(tags, chunks))

@@ -52,6 +52,8 @@ from .tiff_checks import (
     ASSOCIATED_ALPHA,
     BITS_PER_SAMPLE,
     BLACK_IS_ZERO,
+    COMPRESSION,
+    COMPRESSION_NAMES,
     EXTRA_SAMPLES,
     PHOTOMETRIC,
     PLANAR_CONFIGURATION,
@@ -511,6 +513,14 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 return _colour_rgba(samples, True, 255.0), COLOUR_CHANNELS, True, tagged
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
+        from PIL.TiffImagePlugin import COMPRESSION_INFO
+
+        compression = (tiff_first_values(data, (COMPRESSION,)) or {}).get(COMPRESSION, 1)
+        if compression not in COMPRESSION_INFO:  # (Pillow's decoders by Compression value; 1 for other formats)
+            known = f" ({COMPRESSION_NAMES[compression]})" if compression in COMPRESSION_NAMES else ""
+            raise TextureError(f"cannot read image {name}: a TIFF of Compression {compression}{known}, which Pillow "
+                               "(wrt's TIFF reader) does not decode; save it uncompressed, or with LZW, deflate or "
+                               "ZSTD compression, or as EXR") from None
         layout = tiff_sample_layout(data)  # a TIFF of samples Pillow does not decode (float colour, ...)
         if layout is not None:
             raise TextureError(f"cannot read image {name}: a TIFF of {layout}, which Pillow (wrt's TIFF reader) does "

@@ -22,6 +22,9 @@ UNSIGNED_CODES = {SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
 TYPE_BYTES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
+COMPRESSION = 259  # how strips or tiles are compressed (1: not)
+# Compression values of other writers than TIFF 6.0's, which Pillow has no decoder for, by name (GDAL's LERC, ...)
+COMPRESSION_NAMES = {34712: "JPEG 2000", 34887: "LERC", 34892: "lossy JPEG", 50002: "JPEG XL"}
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
 ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA = 1, 2  # ExtraSamples values: alpha the colour is premultiplied by, or not
 PHOTOMETRIC = 262  # PhotometricInterpretation: how samples read as colour

@@ -16,6 +16,7 @@ import struct
 from .tiff_checks import (
     BITS_PER_SAMPLE,
     BLACK_IS_ZERO,
+    COMPRESSION,
     EXTRA_SAMPLES,
     LONG,
     LONG8,
@@ -28,7 +29,7 @@ from .tiff_checks import (
     tiff_directory,
 )
 
-IMAGE_WIDTH, IMAGE_LENGTH, COMPRESSION, ROWS_PER_STRIP = 256, 257, 259, 278
+IMAGE_WIDTH, IMAGE_LENGTH, ROWS_PER_STRIP = 256, 257, 278
 TILE_WIDTH, TILE_LENGTH = 322, 323
 NO_COMPRESSION, OLD_JPEG = 1, 6  # Compression values: none, and TIFF 6.0's old JPEG (whose tables lie at offsets)
 # Tags whose values locate the image's data, one per strip or tile of each plane: (offsets, byte counts)
