@@ -180,3 +180,44 @@ def test_a_tiff_of_a_compression_pillow_does_not_know_is_named_by_it(tmp_path, p
     with pytest.raises(TextureError, match=rf"p\.tif: a TIFF of {re.escape(words)}, which Pillow \(wrt's TIFF "
                                            r"reader\) does not decode; save it uncompressed, or with LZW, deflate"):
         read(tmp_path, tiff_file(tags, chunks))
+
+
+def with_values_past_the_end(data, tag):
+    """TIFF ``data`` (little-endian) with the values of its entry ``tag`` pointed past the file's end."""
+    data = bytearray(data)
+    (count,) = struct.unpack_from("<H", data, 8)
+    (entry,) = [10 + 12 * k for k in range(count) if struct.unpack_from("<H", data, 10 + 12 * k)[0] == tag]
+    struct.pack_into("<I", data, entry + 8, 1 << 30)
+    return bytes(data)
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_tiff_whose_description_lies_past_its_end_reads_its_samples(tmp_path, planar, dtype):
+    """An ImageDescription of 50 bytes whose offset points past the file's end (a damaged file): Pillow opens no such
+    file (its read of the tag fails, "Truncated File Read"), and wrt named it "a TIFF of 3 channels of 8-bit unsigned
+    integer samples, which Pillow does not decode; an EXR holds such samples"; libtiff, under Storm's reader, skips
+    the tag. Now the tag is skipped and named, and the samples read as written (float64)."""
+    samples = np.random.default_rng(68).integers(0, np.iinfo(dtype).max + 1, (3, 4, 3)).astype(dtype)
+    tags = planar_tags(samples, more={270: (2, b"x" * 50), 284: (SHORT, [2 if planar else 1])})
+    chunks = strips(samples) if planar else [samples[r : r + 2].astype("<" + samples.dtype.str[1:]).tobytes()
+                                             for r in (0, 2)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = read(tmp_path, with_values_past_the_end(tiff_file(tags, chunks), 270))
+    np.testing.assert_allclose(image, expected(samples, np.iinfo(dtype).max), atol=1e-7)
+    told = [str(w.message).split(": ", 1)[1] for w in caught]
+    assert "TIFF tag 270's values lie past the file's end (a damaged file); the tag is skipped" in told, told
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_a_tiff_whose_sample_format_lies_past_its_end_is_named(tmp_path, planar):
+    """A tag that says how to read the samples (SampleFormat, three values past the entry) pointed past the file's
+    end is not skipped (the samples would be read as of another type): the file is named as damaged. It was named as
+    samples Pillow does not decode, or of a format no reader of wrt's knows."""
+    samples = np.zeros((2, 3, 3), np.uint8)
+    tags = planar_tags(samples, more={339: (SHORT, [1, 1, 1]), 284: (SHORT, [2 if planar else 1])})
+    chunks = strips(samples) if planar else [samples.tobytes()]
+    with pytest.raises(TextureError, match=r"p\.tif: its TIFF tag 339's values lie past the file's end: the file is "
+                                           "damaged or cut short"):
+        read(tmp_path, with_values_past_the_end(tiff_file(tags, chunks), 339))

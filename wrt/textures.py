@@ -56,6 +56,7 @@ from .tiff_checks import (
     COMPRESSION_NAMES,
     EXTRA_SAMPLES,
     PHOTOMETRIC,
+    PIXEL_TAGS,
     PLANAR_CONFIGURATION,
     RGB,
     SAMPLE_FORMAT,
@@ -64,12 +65,14 @@ from .tiff_checks import (
     UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
+    tags_past_end,
     tiff_directory,
     tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
+    without_tags,
 )
-from .tiff_planes import tags_past_end, tiff_plane
+from .tiff_planes import tiff_plane
 
 # UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
@@ -484,6 +487,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         raise TextureError(f"cannot read image {name}: a big-endian BigTIFF, which Pillow (wrt's TIFF reader) does not "
                            "open (it reads its header as a classic TIFF's); save it in little-endian (Intel) byte "
                            "order, or as EXR")
+    _refuse_damaged_pixel_tags(data, name)
     try:
         with _pillow_size_limit_lifted():
             _refuse_undefined_alpha(data, name)
@@ -514,6 +518,12 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             img.load()
     except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
         from PIL.TiffImagePlugin import COMPRESSION_INFO
+
+        directory = tiff_directory(data)
+        damaged = [] if directory is None else tags_past_end(directory)
+        if damaged:  # (none of PIXEL_TAGS, refused above: Pillow opens no TIFF with some tags past its end)
+            _warn_skipped_tags(name, damaged)
+            return _read_pillow_samples(without_tags(directory, damaged), name, auto)
 
         compression = (tiff_first_values(data, (COMPRESSION,)) or {}).get(COMPRESSION, 1)
         if compression not in COMPRESSION_INFO:  # (Pillow's decoders by Compression value; 1 for other formats)
@@ -577,6 +587,26 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             arr = arr.copy()
             arr[..., 3] = alpha
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def _refuse_damaged_pixel_tags(data: bytes, name: str) -> None:
+    """Refuses a TIFF (file ``data``, named ``name``) with a tag of :data:`wrt.tiff_checks.PIXEL_TAGS` whose values
+    lie past its end (a damaged or cut file), before Pillow, which skipped some with a warning and read the samples by
+    the tag's default (SampleFormat: as unsigned integers) and refused others in words of samples it does not decode."""
+    directory = tiff_directory(data)
+    damaged = [] if directory is None else [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
+    if damaged:
+        raise TextureError(f"cannot read image {name}: its TIFF tag {damaged[0]}'s values lie past the file's end: "
+                           "the file is damaged or cut short")
+
+
+def _warn_skipped_tags(name: str, tags: list[int]) -> None:
+    """Names the tags of a TIFF (file ``name``) whose values lie past its end and are skipped (none of
+    :data:`wrt.tiff_checks.PIXEL_TAGS`, as libtiff skips them): Pillow refused such a file where their sizes fit in it
+    (pixel by pixel: as samples it does not decode, "an EXR holds such samples"; plane by plane too)."""
+    for tag in tags:
+        words = f"TIFF tag {tag}'s values lie past the file's end (a damaged file); the tag is skipped"
+        _texture_warning(TextureWarning(f"image {name}: {words}", words), stacklevel=6)
 
 
 def _refuse_undefined_alpha(data: bytes, name: str) -> None:
@@ -765,9 +795,8 @@ def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
     (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads at full depth."""
     from PIL import Image as PilImage
 
-    for tag in tags_past_end(tiff_directory(data)):  # (left out of each plane's file, where Pillow warned of it)
-        words = f"TIFF tag {tag}'s values lie past the file's end (a damaged file); the tag is skipped"
-        _texture_warning(TextureWarning(f"image {name}: {words}", words), stacklevel=5)
+    # (left out of each plane's file; none is of PIXEL_TAGS: _refuse_damaged_pixel_tags)
+    _warn_skipped_tags(name, tags_past_end(tiff_directory(data)))
     samples = None
     for k in range(planes):
         plane = tiff_plane(data, k)

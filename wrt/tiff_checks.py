@@ -32,6 +32,12 @@ WHITE_IS_ZERO, BLACK_IS_ZERO = 0, 1  # its values of grey: 0 white and the large
 RGB = 2  # its value of colour of three samples, red, green and blue
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
 SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "floating-point"}  # their words
+# Tags that say how the samples are stored and read (size, depth, compression, strips and tiles, photometric and
+# colour tags, alpha, sample format, JPEG tables): one whose values lie past the file's end makes the file unreadable
+# (skipped, its samples would be read by defaults). Other tags (names, dates, resolution, XMP, ICC, GeoTIFF, ...) are
+# skipped there, as libtiff, under Storm's TIFF reader, skips them, and named.
+PIXEL_TAGS = {256, 257, 258, 259, 262, 266, 273, 277, 278, 279, 284, 317, 320, 322, 323, 324, 325, 338, 339, 347, 513,
+              514, 519, 520, 521, 529, 530, 531, 532}
 
 
 def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
@@ -74,6 +80,7 @@ class TiffDirectory(NamedTuple):
     counter: str  # struct code of the directory's entry count
     inline: int  # bytes of an entry's value field
     entries: dict  # tag -> (field type, count of values, value field bytes)
+    places: dict  # tag -> where its entry lies in the file
 
     def where(self, tag: int) -> tuple[bytes, int]:
         """``(source, position)`` of the values of entry ``tag``: its value field where they fit in it, else the
@@ -105,17 +112,38 @@ def tiff_directory(data: bytes) -> TiffDirectory | None:
         return None
     order, offset, counter, inline = layout
     entry = struct.Struct(f"{order}HH{offset}{inline}s")  # tag, type, count, value or offset
-    entries = {}
+    entries, places = {}, {}
     try:
         (at,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
         (count,) = struct.unpack_from(order + counter, data, at)
         first = at + struct.calcsize(order + counter)
         for k in range(count):
             tag, kind, n, field = entry.unpack_from(data, first + entry.size * k)
-            entries[tag] = (kind, n, field)
+            entries[tag], places[tag] = (kind, n, field), first + entry.size * k
     except struct.error:
         return None
-    return TiffDirectory(data, order, offset, counter, inline, entries)
+    return TiffDirectory(data, order, offset, counter, inline, entries, places)
+
+
+def tags_past_end(directory: TiffDirectory) -> list[int]:
+    """The tags of ``directory`` whose values lie past its file's end, wholly or in part (a damaged file), of the
+    field types whose size is known."""
+    past = []
+    for tag, (kind, n, field) in directory.entries.items():
+        if kind in TYPE_BYTES and n * TYPE_BYTES[kind] > directory.inline:
+            (at,) = struct.unpack(directory.order + directory.offset, field)
+            if at + n * TYPE_BYTES[kind] > len(directory.data):
+                past.append(tag)
+    return past
+
+
+def without_tags(directory: TiffDirectory, tags) -> bytes:
+    """``directory``'s file with the entries of ``tags`` given field type 0, which no TIFF reader knows: Pillow and
+    libtiff skip such an entry."""
+    data = bytearray(directory.data)
+    for tag in tags:
+        struct.pack_into(directory.order + "H", data, directory.places[tag] + 2, 0)
+    return bytes(data)
 
 
 def tiff_sample_layout(data: bytes) -> str | None:

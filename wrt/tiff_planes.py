@@ -21,11 +21,13 @@ from .tiff_checks import (
     LONG,
     LONG8,
     PHOTOMETRIC,
+    PIXEL_TAGS,
     PLANAR_CONFIGURATION,
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SHORT,
     TYPE_BYTES,
+    tags_past_end,
     tiff_directory,
 )
 
@@ -58,8 +60,9 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         PlaneError: the plane's strips or tiles lie past the file's end (its last ones cut short, as a file cut off
             mid-way is: they read the bytes after the file's end, the directory appended to it, as samples), there
             are not as many of them as the image's size makes (they were laid out over each other), a compressed
-            one has no byte count (libtiff refuses it), or the samples differ in depth (BitsPerSample: each plane was
-            decoded as of the first's depth) or sample format.
+            one has no byte count (libtiff refuses it), the samples differ in depth (BitsPerSample: each plane was
+            decoded as of the first's depth) or sample format, or the values of one of
+            :data:`wrt.tiff_checks.PIXEL_TAGS` lie past the file's end.
     """
     directory = tiff_directory(data)
     if directory is None:
@@ -85,6 +88,10 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         if len(set(values[:samples])) > 1:  # (libtiff reads no such file either)
             raise PlaneError(f"its samples differ in {words} ({name} {', '.join(map(str, values))}), which wrt does "
                              "not read")
+    damaged = [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
+    if damaged:
+        raise PlaneError(f"its TIFF tag {damaged[0]}'s values lie past the file's end: the file is damaged or cut "
+                         "short")
     if compression == OLD_JPEG:
         raise PlaneError("its planes are of old-style JPEG compression (Compression 6), whose tables lie at offsets "
                          "wrt does not carry over to a plane")
@@ -98,18 +105,6 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
     extents = _extents(starts[part], sizes[part], compression, len(data), located == TILE_TAGS, height, across,
                        rows, bits[0], f"plane {plane + 1} of {samples}", part.start)
     return _plane_file(directory, located, bits[0], sample_formats[0], starts[part], extents, plane)
-
-
-def tags_past_end(directory) -> list[int]:
-    """The tags of TIFF ``directory`` (:func:`wrt.tiff_checks.tiff_directory`) whose values lie past its file's end,
-    wholly or in part (a damaged file), of the types whose size is known."""
-    past = []
-    for tag, (kind, n, field) in directory.entries.items():
-        if kind in TYPE_BYTES and n * TYPE_BYTES[kind] > directory.inline:
-            (at,) = struct.unpack(directory.order + directory.offset, field)
-            if at + n * TYPE_BYTES[kind] > len(directory.data):
-                past.append(tag)
-    return past
 
 
 def _pieces_per_plane(located, width: int, height: int, across: int, rows: int) -> int:
@@ -149,9 +144,10 @@ def _extents(starts, sizes, compression: int, end: int, tiled: bool, height: int
 def _plane_file(directory, located, bits: int, sample_format: int, starts, extents, plane: int) -> bytes:
     """The plane's file (:func:`tiff_plane`): the header, the directory of ``directory``'s entries made those of one
     sample, the values they point at, and the plane's strips or tiles (``starts``, ``extents`` bytes each) copied from
-    ``directory``'s file. A tag whose values lie past the file's end (:func:`tags_past_end`) is left out, as Pillow
-    and libtiff skip it: pointed past the plane's end, Pillow counted its size against the file's and took every later
-    tag's values for past the end too, the strips' offsets among them."""
+    ``directory``'s file. A tag whose values lie past the file's end (:func:`wrt.tiff_checks.tags_past_end`, none of
+    :data:`wrt.tiff_checks.PIXEL_TAGS`) is left out, as libtiff skips it: pointed past the plane's end, Pillow
+    counted its size against the file's and took every later tag's values for past the end too, the strips' offsets
+    among them."""
     data, order, offset, counter, inline = directory[:5]
     wide = offset == "Q"  # BigTIFF: offsets and counts as LONG8
     value_type, value_code = (LONG8, "Q") if wide else (LONG, "I")
