@@ -221,3 +221,19 @@ def test_a_tiff_whose_sample_format_lies_past_its_end_is_named(tmp_path, planar)
     with pytest.raises(TextureError, match=r"p\.tif: its TIFF tag 339's values lie past the file's end: the file is "
                                            "damaged or cut short"):
         read(tmp_path, with_values_past_the_end(tiff_file(tags, chunks), 339))
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_a_tiff_whose_compressed_strip_is_damaged_says_what_libtiff_could_not_do(tmp_path, planar):
+    """Deflated strips whose last is damaged (its last 8 bytes, the stream's end and check, zeroed), pixel by pixel or
+    plane by plane: the read failed as "decoder error -2", Pillow's words for any failure of its libtiff decoder; the
+    words now say what failed and what it means, Pillow's kept."""
+    samples = np.random.default_rng(69).integers(0, 256, (4, 5, 3)).astype(np.uint8)
+    chunks = (strips(samples, compress=zlib.compress) if planar
+              else [zlib.compress(samples[r : r + 2].tobytes()) for r in (0, 2)])
+    chunks[-1] = chunks[-1][:-8] + bytes(8)
+    tags = planar_tags(samples, compression=8, more={284: (SHORT, [2 if planar else 1])})
+    with pytest.raises(TextureError, match=r"p\.tif: libtiff could not decode its compressed strips or tiles "
+                                           r"\(Pillow's decoder error -2, a decoding error\): their data is damaged, "
+                                           "cut short or of a kind libtiff does not read"):
+        read(tmp_path, tiff_file(tags, chunks))

@@ -540,7 +540,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
     except TextureError:
         raise
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
-        raise TextureError(f"cannot read image {name}: {str(e) or type(e).__name__}") from None
+        raise TextureError(f"cannot read image {name}: {_pillows_words(e)}") from None
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
@@ -598,6 +598,20 @@ def _refuse_damaged_pixel_tags(data: bytes, name: str) -> None:
     if damaged:
         raise TextureError(f"cannot read image {name}: its TIFF tag {damaged[0]}'s values lie past the file's end: "
                            "the file is damaged or cut short")
+
+
+def _pillows_words(error: Exception) -> str:
+    """Words for an ``error`` Pillow raised reading an image: its own, but for a failure of its libtiff decoder,
+    which Pillow words "decoder error -2" whatever failed (a damaged or cut deflate stream, JPEG data libtiff refuses,
+    ...): that is said, Pillow's words kept."""
+    from PIL.ImageFile import ERRORS
+
+    words = str(error) or type(error).__name__
+    code = words.removeprefix("decoder error ")
+    if code == words or not code.lstrip("-").isdigit():  # (TiffImagePlugin's words, of libtiff's decoder alone)
+        return words
+    return (f"libtiff could not decode its compressed strips or tiles (Pillow's {words}, a "
+            f"{ERRORS.get(int(code), 'failure')}): their data is damaged, cut short or of a kind libtiff does not read")
 
 
 def _warn_skipped_tags(name: str, tags: list[int]) -> None:
