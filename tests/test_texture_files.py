@@ -243,15 +243,18 @@ def test_compressed_big_endian_grey_tiffs_read_their_samples(tmp_path, dtype, sa
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
 @pytest.mark.parametrize("deflate", [False, True])
 @pytest.mark.parametrize("planar", [False, True])
-def test_a_white_is_zero_grey_tiff_reads_inverted(tmp_path, dtype, deflate, planar):
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+def test_a_white_is_zero_grey_tiff_reads_inverted(tmp_path, dtype, deflate, planar, byte_order):
     """A grey TIFF of PhotometricInterpretation 0 (WhiteIsZero) images 0 as white and its largest value as black
     (TIFF 6.0). Pillow inverts 8-bit samples so (raw mode ``L;I``), but handed 16-bit ones over as stored: white read
-    black, a quarter grey 0.25 for 0.75, raw, deflated and tagged plane by plane alike. Oracle: 1 - samples / full
-    of the samples written here, in float64 (``planar``: one sample, PlanarConfiguration 2, read as 1)."""
+    black, a quarter grey 0.25 for 0.75, raw, deflated and tagged plane by plane alike; and it opens no big-endian
+    16-bit one, which was named as samples "an EXR holds". Oracle: 1 - samples / full of the samples written here,
+    in float64 (``planar``: one sample, PlanarConfiguration 2, read as 1)."""
     full = np.iinfo(dtype).max
     samples = np.random.default_rng(17).integers(0, full + 1, (3, 4, 1)).astype(dtype)
     samples[0, :3, 0] = (0, full // 4, full)
-    path = write_tiff(tmp_path / "w.tif", samples, rows_per_strip=2, deflate=deflate, planar=planar, photometric=0)
+    path = write_tiff(tmp_path / "w.tif", samples, byte_order, rows_per_strip=2, deflate=deflate, planar=planar,
+                      photometric=0)
     image = load_image(path, "auto")
     np.testing.assert_allclose(image[..., :3], np.repeat(1.0 - samples / float(full), 3, -1), atol=1e-7)
     np.testing.assert_array_equal(image[..., 3], 1.0)
@@ -371,6 +374,43 @@ def test_a_grey_and_alpha_tiff_stored_plane_by_plane_reads_its_samples(tmp_path,
     elif extra_sample == 0:
         alpha = np.ones_like(grey)
     np.testing.assert_allclose(image, np.stack([grey, grey, grey, alpha], axis=-1), rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("deflate", [False, True])
+@pytest.mark.parametrize("extra_sample", [2, 0])
+def test_a_white_is_zero_grey_and_alpha_tiff_pixel_by_pixel_reads_inverted_grey(tmp_path, byte_order, deflate,
+                                                                                 extra_sample):
+    """8-bit grey + a second sample of WhiteIsZero (PhotometricInterpretation 0) stored pixel by pixel, the second
+    unassociated alpha (ExtraSamples 2) or of no stated meaning (0): Pillow has no mode for it, and it was named as "a
+    TIFF of 2 channels of 8-bit unsigned integer samples, which Pillow does not decode; an EXR holds such samples",
+    where plane by plane it was read. Now its grey reads inverted (TIFF 6.0), its alpha as stored (1 for a sample of
+    no stated meaning). Oracle: the samples written here, in float64."""
+    samples = np.random.default_rng(19).integers(0, 256, (3, 5, 2)).astype(np.uint8)
+    path = write_tiff(tmp_path / "wla.tif", samples, byte_order, rows_per_strip=2, deflate=deflate, photometric=0,
+                      extra_sample=extra_sample)
+    image = load_image(path, "auto")
+    np.testing.assert_allclose(image[..., :3], np.repeat(1.0 - samples[..., :1] / 255.0, 3, -1), atol=1e-7)
+    np.testing.assert_allclose(image[..., 3], samples[..., 1] / 255.0 if extra_sample == 2 else 1.0, atol=1e-7)
+
+
+def test_a_12_bit_white_is_zero_grey_tiff_reads_inverted_over_4095(tmp_path):
+    """A 12-bit grey TIFF of WhiteIsZero: Pillow opens none (it reads 12-bit BlackIsZero grey as 16-bit), named as
+    samples it does not decode; now its grey reads ``1 - sample / 4095`` (float64 of the samples written here, each
+    row packed 12 bits at a time, most significant bit first)."""
+    grey = np.array([[0, 4095, 7], [2048, 1000, 4094]])
+    rows = b""
+    for row in grey:
+        bits = "".join(f"{v:012b}" for v in row)
+        bits += "0" * (-len(bits) % 8)  # each row starts on a byte
+        rows += int(bits, 2).to_bytes(len(bits) // 8, "big")
+    tags = [(256, 4, 3), (257, 4, 2), (258, 3, 12), (259, 3, 1), (262, 3, 0), (273, 4, 8 + 2 + 12 * 9 + 4),
+            (277, 3, 1), (278, 4, 2), (279, 4, len(rows))]
+    entries = b"".join(struct.pack("<HHI", tag, kind, 1) + struct.pack("<I" if kind == 4 else "<Hxx", value)
+                       for tag, kind, value in tags)
+    path = tmp_path / "white12.tif"
+    path.write_bytes(b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4) + rows)
+    np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], 1.0 - grey / 4095.0, atol=1e-7)
 
 
 def test_a_white_is_zero_grey_and_alpha_tiff_stored_plane_by_plane_reads_inverted_grey(tmp_path):

@@ -70,6 +70,7 @@ from .tiff_checks import (
     tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
+    with_short,
     without_tags,
 )
 from .tiff_planes import tiff_plane
@@ -494,6 +495,11 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             planar = _planar_layout(data)
             if planar is not None:  # (read before Pillow opens it, which it does not for some; TIFFs are not PNGs)
                 return *_read_planes(data, name, *planar), planar[:2] == (8, 3), None
+            white = _white_is_zero_bits(data)
+            if white is not None:  # (read as BlackIsZero, which Pillow opens, and inverted here)
+                rgba, channels, colour, tagged = _read_pillow_samples(
+                    with_short(tiff_directory(data), PHOTOMETRIC, BLACK_IS_ZERO), name, auto)
+                return _inverted_grey(rgba, white), channels, colour, tagged
             img = PilImage.open(io.BytesIO(data))
             _refuse_oversized(img, name)
             _tiff_decoded_as_stored(img)
@@ -550,10 +556,6 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             samples = tiff_samples(data)
             bits = samples[1] if samples is not None and 1 < samples[1] < 16 else 16
             full, grey = float((1 << bits) - 1), np.asarray(img, dtype=np.float32)
-            if img.format == "TIFF" and img.tag_v2.get(PHOTOMETRIC) == WHITE_IS_ZERO:
-                # TIFF 6.0: 0 is white, the largest value black. Pillow inverts 8-bit grey so (raw mode L;I) but
-                # hands 16-bit over as stored: white read black, a quarter grey 0.25 for 0.75
-                grey = full - grey
         else:
             full, grey = _integer_grey(data, img)
         return *_grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
@@ -587,6 +589,28 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             arr = arr.copy()
             arr[..., 3] = alpha
     return arr, COLOUR_CHANNELS, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def _white_is_zero_bits(data: bytes) -> int | None:
+    """Bits of the samples of file ``data`` where it is a TIFF of WhiteIsZero unsigned grey (TIFF 6.0: 0 is white,
+    the largest value black) that Pillow reads only as BlackIsZero grey (then inverted: :func:`_inverted_grey`): of 12
+    or 16 bits, or of 8 bits and more than one sample; None for any other file. Pillow inverts 8-bit grey alone (raw
+    mode ``L;I``): it handed 16-bit grey over as stored (white read black, a quarter grey 0.25 for 0.75), and opened
+    no 12-bit, big-endian 16-bit or 8-bit grey + alpha one (named as samples "an EXR holds")."""
+    tags = tiff_first_values(data, (PHOTOMETRIC, SAMPLES_PER_PIXEL, BITS_PER_SAMPLE, SAMPLE_FORMAT))
+    if tags is None or tags.get(PHOTOMETRIC) != WHITE_IS_ZERO or tags.get(SAMPLE_FORMAT, UNSIGNED) != UNSIGNED:
+        return None
+    bits = tags.get(BITS_PER_SAMPLE, 1)
+    return bits if bits in (12, 16) or (bits == 8 and tags.get(SAMPLES_PER_PIXEL, 1) > 1) else None
+
+
+def _inverted_grey(rgba: np.ndarray, bits: int) -> np.ndarray:
+    """``rgba`` (float32 grey of ``bits``-bit samples over their largest value, in places 0 to 2) with its grey
+    inverted in place, of the whole samples: ``(full - sample) / full``, one rounding in float32 as the samples were
+    divided."""
+    full = np.float32((1 << bits) - 1)
+    rgba[..., :3] = (full - np.rint(rgba[..., :3] * full)) / full
+    return rgba
 
 
 def _refuse_damaged_pixel_tags(data: bytes, name: str) -> None:

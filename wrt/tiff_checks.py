@@ -137,6 +137,14 @@ def tags_past_end(directory: TiffDirectory) -> list[int]:
     return past
 
 
+def with_short(directory: TiffDirectory, tag: int, value: int) -> bytes:
+    """``directory``'s file with the value of its entry ``tag`` (one SHORT, in the entry's field) set to ``value``."""
+    data = bytearray(directory.data)
+    field = directory.places[tag] + 4 + struct.calcsize(directory.order + directory.offset)  # past tag, type, count
+    struct.pack_into(directory.order + "H", data, field, value)
+    return bytes(data)
+
+
 def without_tags(directory: TiffDirectory, tags) -> bytes:
     """``directory``'s file with the entries of ``tags`` given field type 0, which no TIFF reader knows: Pillow and
     libtiff skip such an entry."""
