@@ -4,7 +4,8 @@ of 12 bits, unscaled). Pillow reads 8- and 16-bit integer colour and grey and 32
 (16-, 32- or 64-bit), half or double grey, nor 32-bit integer colour: it calls those an image it cannot identify,
 and wrt said no reader it has knew the format of a ``.tif`` it plainly named (TIFF 6.0: an 8-byte header pointing at
 the first image file directory, 12-byte entries of tag, type, count and value or offset; BigTIFF: a 16-byte header,
-20-byte entries)."""
+20-byte entries). That directory is read here for every reader of wrt's (:func:`tiff_directory`: the plane files of
+``tiff_planes`` too), and its tags whose values lie past the file's end found (:func:`tags_past_end`)."""
 
 from __future__ import annotations
 
