@@ -140,10 +140,9 @@ def tags_past_end(directory: TiffDirectory) -> list[int]:
 
 def with_short(directory: TiffDirectory, tag: int, value: int) -> bytes:
     """``directory``'s file with the value of its entry ``tag`` (one SHORT, in the entry's field) set to ``value``."""
-    data = bytearray(directory.data)
     field = directory.places[tag] + 4 + struct.calcsize(directory.order + directory.offset)  # past tag, type, count
-    struct.pack_into(directory.order + "H", data, field, value)
-    return bytes(data)
+    data = memoryview(directory.data)  # (one copy of the file: the join's)
+    return b"".join((data[:field], struct.pack(directory.order + "H", value), data[field + 2 :]))
 
 
 def without_tags(directory: TiffDirectory, tags) -> bytes:
