@@ -234,6 +234,6 @@ def test_a_tiff_whose_compressed_strip_is_damaged_says_what_libtiff_could_not_do
     chunks[-1] = chunks[-1][:-8] + bytes(8)
     tags = planar_tags(samples, compression=8, more={284: (SHORT, [2 if planar else 1])})
     with pytest.raises(TextureError, match=r"p\.tif: libtiff could not decode its compressed strips or tiles "
-                                           r"\(Pillow's decoder error -2, a decoding error\): their data is damaged, "
+                                           r"\(Pillow's decoder error -2: decoding error\): their data is damaged, "
                                            "cut short or of a kind libtiff does not read"):
         read(tmp_path, tiff_file(tags, chunks))

@@ -634,8 +634,9 @@ def _pillows_words(error: Exception) -> str:
     code = words.removeprefix("decoder error ")
     if code == words or not code.lstrip("-").isdigit():  # (TiffImagePlugin's words, of libtiff's decoder alone)
         return words
-    return (f"libtiff could not decode its compressed strips or tiles (Pillow's {words}, a "
-            f"{ERRORS.get(int(code), 'failure')}): their data is damaged, cut short or of a kind libtiff does not read")
+    return (f"libtiff could not decode its compressed strips or tiles (Pillow's {words}: "
+            f"{ERRORS.get(int(code), 'a failure')}): their data is damaged, cut short or of a kind libtiff does not "
+            "read, or too large")
 
 
 def _warn_skipped_tags(name: str, tags: list[int]) -> None:
