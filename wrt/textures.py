@@ -513,11 +513,14 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
                 key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
-            if {_tile_rawmode(tile) for tile in img.tile} == {"RGBa"}:
-                # 8-bit colour premultiplied by alpha (a TIFF's ExtraSamples 1): Pillow's RGBa unpacker divides it
-                # by alpha truncating (100 over 201 read 126/255 for 126.87/255, 3.4e-3 off); decoded as stored and
-                # divided here in float32, as 8-bit grey (La), 16-bit colour and planes are
-                img.tile = [tile._replace(args=("RGBA", *tile[3][1:])) for tile in img.tile]
+            premultiplied = {_tile_rawmode(tile) for tile in img.tile}
+            if premultiplied in ({"RGBa"}, {"RGBaX"}):
+                # 8-bit colour premultiplied by alpha (a TIFF's ExtraSamples 1; RGBaX: a sample of no stated meaning
+                # past alpha): Pillow's RGBa and RGBaX unpackers divide it by alpha truncating (100 over 201 read
+                # 126/255 for 126.87/255, 3.4e-3 off); decoded as stored (RGBA, RGBAX) and divided here in float32,
+                # as 8-bit grey (La), 16-bit colour and planes are
+                stored = premultiplied.pop().replace("RGBa", "RGBA")
+                img.tile = [tile._replace(args=(stored, *tile[3][1:])) for tile in img.tile]
                 img.load()
                 samples = np.asarray(img, dtype=np.float32)
                 return _colour_rgba(samples, True, 255.0), COLOUR_CHANNELS, True, tagged
