@@ -17,6 +17,7 @@ from png_chunks import chunk as png_chunk
 from png_chunks import rgb_png
 from png_files import png
 from test_materials import textured_stage
+from tiff_files import LONG, SHORT, tiff_file
 
 import wrt
 from wrt.textures import PNG_SIGNATURE, TextureError, load_image
@@ -293,22 +294,27 @@ def test_a_16_bit_tiff_of_premultiplied_alpha_reads_straight_colour_at_full_prec
 
 
 @pytest.mark.parametrize("deflate", [False, True])
-@pytest.mark.parametrize("fifth", [False, True])
-def test_an_8_bit_tiff_of_premultiplied_alpha_reads_colour_over_alpha_unrounded(tmp_path, deflate, fifth):
+@pytest.mark.parametrize("past", [0, 1, 2])
+def test_an_8_bit_tiff_of_premultiplied_alpha_reads_colour_over_alpha_unrounded(tmp_path, deflate, past):
     """An 8-bit RGBA TIFF of premultiplied colour (ExtraSamples 1, pixel by pixel): Pillow's ``RGBa`` unpacker
     divides by alpha truncating to 8 bits (100 over 201 read 126/255, not 126.87/255: 3.4e-3 off); its colour reads
     over its alpha in float32 now, as 8-bit grey, 16-bit colour and planes do, and is sRGB under ``auto`` as 8-bit
-    colour is. ``fifth``: a fifth sample of no stated meaning past alpha (ExtraSamples 1, 0; Pillow's ``RGBaX``
-    unpacker, which truncated alike: 3.7e-3 off after the fix of ``RGBa``). Oracle: colour over alpha of the samples
-    written here, in float64."""
+    colour is. ``past``: samples of no stated meaning past alpha (ExtraSamples 1, 0 and 1, 0, 0; Pillow's ``RGBaX``
+    and ``RGBaXX`` unpackers, which truncated alike: 3.8e-3 off after the fix of ``RGBa``). Oracle: colour over alpha
+    of the samples written here, in float64."""
     rng = np.random.default_rng(65)
     alpha = rng.integers(0, 256, (3, 5, 1))
     samples = np.concatenate([rng.integers(0, 256, (3, 5, 3)) * alpha // 255, alpha], axis=-1)
     samples[0, 0] = (100, 50, 0, 201)
     samples[0, 1, 3] = 0
-    written = np.concatenate([samples, rng.integers(0, 256, (3, 5, 1))], axis=-1) if fifth else samples
-    path = write_tiff(tmp_path / "a8.tif", written.astype(np.uint8), deflate=deflate,
-                      extra_sample=(1, 0) if fifth else 1)
+    written = np.concatenate([samples, rng.integers(0, 256, (3, 5, past))], axis=-1).astype(np.uint8)
+    c = written.shape[2]
+    tags = {256: (LONG, [5]), 257: (LONG, [3]), 258: (SHORT, [8] * c), 259: (SHORT, [8 if deflate else 1]),
+            262: (SHORT, [2]), 277: (SHORT, [c]), 278: (LONG, [2]), 284: (SHORT, [1]), 338: (SHORT, [1] + [0] * past)}
+    strips = [written[r : r + 2].tobytes() for r in (0, 2)]
+    path = tmp_path / "a8.tif"
+    path.write_bytes(tiff_file(tags, [zlib.compress(strip) for strip in strips] if deflate else strips))
+    path = str(path)
     alpha = samples[..., 3:].astype(np.float64)
     colour = np.where(alpha > 0, np.minimum(samples[..., :3] / np.maximum(alpha, 1.0), 1.0), 0.0)
     expected = np.concatenate([colour, alpha / 255.0], axis=-1)

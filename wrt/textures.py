@@ -514,11 +514,11 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                 key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
                 return *_read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
             premultiplied = {_tile_rawmode(tile) for tile in img.tile}
-            if premultiplied in ({"RGBa"}, {"RGBaX"}):
-                # 8-bit colour premultiplied by alpha (a TIFF's ExtraSamples 1; RGBaX: a sample of no stated meaning
-                # past alpha): Pillow's RGBa and RGBaX unpackers divide it by alpha truncating (100 over 201 read
-                # 126/255 for 126.87/255, 3.4e-3 off); decoded as stored (RGBA, RGBAX) and divided here in float32,
-                # as 8-bit grey (La), 16-bit colour and planes are
+            if premultiplied in ({"RGBa"}, {"RGBaX"}, {"RGBaXX"}):
+                # 8-bit colour premultiplied by alpha (a TIFF's ExtraSamples 1; X: a sample of no stated meaning past
+                # alpha): Pillow's RGBa, RGBaX and RGBaXX unpackers divide it by alpha truncating (100 over 201 read
+                # 126/255 for 126.87/255, 3.4e-3 off); decoded as stored (RGBA, RGBAX, RGBAXX) and divided here in
+                # float32, as 8-bit grey (La), 16-bit colour and planes are
                 stored = premultiplied.pop().replace("RGBa", "RGBA")
                 img.tile = [tile._replace(args=(stored, *tile[3][1:])) for tile in img.tile]
                 img.load()
