@@ -237,3 +237,25 @@ def test_a_tiff_whose_compressed_strip_is_damaged_says_what_libtiff_could_not_do
                                            r"\(Pillow's decoder error -2: decoding error\): their data is damaged, "
                                            "cut short or of a kind libtiff does not read"):
         read(tmp_path, tiff_file(tags, chunks))
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize("compression", [1, 8])
+def test_a_tiff_of_a_strip_of_no_data_is_named(tmp_path, planar, compression):
+    """A strip of offset 0 and byte count 0 (as GDAL writes a sparse file's missing strips and tiles): uncompressed,
+    Pillow read the file's header as its samples (off by 0.98 pixel by pixel, 0.84 plane by plane, no word);
+    compressed, libtiff refused it ("Invalid strip byte count 0"), told as a decoding failure. It is named."""
+    samples = np.random.default_rng(70).integers(0, 65536, (4, 6, 3)).astype(np.uint16)
+    chunks = (strips(samples, compress=zlib.compress if compression == 8 else bytes) if planar
+              else [(zlib.compress if compression == 8 else bytes)(samples[r : r + 2].astype("<u2").tobytes())
+                    for r in (0, 2)])
+    tags = planar_tags(samples, compression=compression, more={284: (SHORT, [2 if planar else 1])})
+    data = bytearray(tiff_file(tags, chunks))
+    (count,) = struct.unpack_from("<H", data, 8)
+    for k in range(count):  # the first strip's offset and byte count: 0
+        tag, _, n, at = struct.unpack_from("<HHII", data, 10 + 12 * k)
+        if tag in (273, 279):
+            struct.pack_into("<I", data, at if n > 1 else 10 + 12 * k + 8, 0)
+    with pytest.raises(TextureError, match=r"p\.tif: strip 0 has no data \(offset 0, byte count 0: a sparse "
+                                           r"file's missing strip or tile, which libtiff does not read either\)"):
+        read(tmp_path, bytes(data))

@@ -65,6 +65,7 @@ from .tiff_checks import (
     UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
+    empty_piece,
     tags_past_end,
     tiff_directory,
     tiff_first_values,
@@ -488,7 +489,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         raise TextureError(f"cannot read image {name}: a big-endian BigTIFF, which Pillow (wrt's TIFF reader) does not "
                            "open (it reads its header as a classic TIFF's); save it in little-endian (Intel) byte "
                            "order, or as EXR")
-    _refuse_damaged_pixel_tags(data, name)
+    _refuse_damaged_tiff(data, name)
     try:
         with _pillow_size_limit_lifted():
             _refuse_undefined_alpha(data, name)
@@ -616,15 +617,22 @@ def _inverted_grey(rgba: np.ndarray, bits: int) -> np.ndarray:
     return rgba
 
 
-def _refuse_damaged_pixel_tags(data: bytes, name: str) -> None:
+def _refuse_damaged_tiff(data: bytes, name: str) -> None:
     """Refuses a TIFF (file ``data``, named ``name``) with a tag of :data:`wrt.tiff_checks.PIXEL_TAGS` whose values
-    lie past its end (a damaged or cut file), before Pillow, which skipped some with a warning and read the samples by
-    the tag's default (SampleFormat: as unsigned integers) and refused others in words of samples it does not decode."""
+    lie past its end (a damaged or cut file), or a strip or tile of no data (:func:`wrt.tiff_checks.empty_piece`),
+    before Pillow, which skipped some such tags with a warning and read the samples by the tag's default (SampleFormat:
+    as unsigned integers), refused others in words of samples it does not decode, and read an uncompressed file's
+    header as the samples of a strip of offset 0."""
     directory = tiff_directory(data)
-    damaged = [] if directory is None else [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
+    if directory is None:
+        return
+    damaged = [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
     if damaged:
         raise TextureError(f"cannot read image {name}: its TIFF tag {damaged[0]}'s values lie past the file's end: "
                            "the file is damaged or cut short")
+    empty = empty_piece(directory)
+    if empty is not None:
+        raise TextureError(f"cannot read image {name}: {empty}")
 
 
 def _pillows_words(error: Exception) -> str:
@@ -837,7 +845,7 @@ def _plane_samples(data: bytes, name: str, planes: int) -> np.ndarray:
     (:func:`wrt.tiff_planes.tiff_plane`), which Pillow (and libtiff, compressed) reads at full depth."""
     from PIL import Image as PilImage
 
-    # (left out of each plane's file; none is of PIXEL_TAGS: _refuse_damaged_pixel_tags)
+    # (left out of each plane's file; none is of PIXEL_TAGS: _refuse_damaged_tiff)
     _warn_skipped_tags(name, tags_past_end(tiff_directory(data)))
     samples = None
     for k in range(planes):

@@ -29,6 +29,8 @@ COMPRESSION_NAMES = {34712: "JPEG 2000", 34887: "LERC", 34892: "lossy JPEG", 500
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
 ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA = 1, 2  # ExtraSamples values: alpha the colour is premultiplied by, or not
 PHOTOMETRIC = 262  # PhotometricInterpretation: how samples read as colour
+# Tags whose values locate the image's data, one per strip or tile (of each plane): (offsets, byte counts)
+STRIP_TAGS, TILE_TAGS = (273, 279), (324, 325)
 WHITE_IS_ZERO, BLACK_IS_ZERO = 0, 1  # its values of grey: 0 white and the largest value black, or the other way
 RGB = 2  # its value of colour of three samples, red, green and blue
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
@@ -143,6 +145,21 @@ def with_short(directory: TiffDirectory, tag: int, value: int) -> bytes:
     field = directory.places[tag] + 4 + struct.calcsize(directory.order + directory.offset)  # past tag, type, count
     data = memoryview(directory.data)  # (one copy of the file: the join's)
     return b"".join((data[:field], struct.pack(directory.order + "H", value), data[field + 2 :]))
+
+
+def empty_piece(directory: TiffDirectory) -> str | None:
+    """Words for the first strip or tile of ``directory``'s image that holds no data (offset 0, or a byte count of
+    0: a sparse file's missing one, as GDAL writes them, which libtiff refuses to read and Pillow read the file's
+    header for, uncompressed); None where there is none. Raises ``struct.error`` for offsets past the file's end."""
+    located = TILE_TAGS if TILE_TAGS[0] in directory.entries else STRIP_TAGS
+    starts, sizes = directory.values(located[0]), directory.values(located[1])
+    for k, start in enumerate(starts):
+        size = sizes[k] if k < len(sizes) else None
+        if start == 0 or size == 0:
+            return (f"{'tile' if located == TILE_TAGS else 'strip'} {k} has no data (offset {start}"
+                    f"{'' if size is None else f', byte count {size}'}: a sparse file's missing strip or tile, which "
+                    "libtiff does not read either)")
+    return None
 
 
 def without_tags(directory: TiffDirectory, tags) -> bytes:

@@ -26,7 +26,10 @@ from .tiff_checks import (
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SHORT,
+    STRIP_TAGS,
+    TILE_TAGS,
     TYPE_BYTES,
+    empty_piece,
     tags_past_end,
     tiff_directory,
 )
@@ -34,8 +37,6 @@ from .tiff_checks import (
 IMAGE_WIDTH, IMAGE_LENGTH, ROWS_PER_STRIP = 256, 257, 278
 TILE_WIDTH, TILE_LENGTH = 322, 323
 NO_COMPRESSION, OLD_JPEG = 1, 6  # Compression values: none, and TIFF 6.0's old JPEG (whose tables lie at offsets)
-# Tags whose values locate the image's data, one per strip or tile of each plane: (offsets, byte counts)
-STRIP_TAGS, TILE_TAGS = (273, 279), (324, 325)
 # Tags of several samples (MinSampleValue, MaxSampleValue, ExtraSamples, SMin/SMaxSampleValue) or of colour alone
 # (ColorMap, TransferFunction, YCbCr and ReferenceBlackWhite), left out of a grey plane's directory
 PER_SAMPLE_TAGS = {280, 281, EXTRA_SAMPLES, 340, 341, 320, 301, 529, 530, 531, 532}
@@ -61,8 +62,9 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
             mid-way is: they read the bytes after the file's end, the directory appended to it, as samples), there
             are not as many of them as the image's size makes (they were laid out over each other), a compressed
             one has no byte count (libtiff refuses it), the samples differ in depth (BitsPerSample: each plane was
-            decoded as of the first's depth) or sample format, or the values of one of
-            :data:`wrt.tiff_checks.PIXEL_TAGS` lie past the file's end.
+            decoded as of the first's depth) or sample format, the values of one of
+            :data:`wrt.tiff_checks.PIXEL_TAGS` lie past the file's end, or a strip or tile holds no data
+            (:func:`wrt.tiff_checks.empty_piece`).
     """
     directory = tiff_directory(data)
     if directory is None:
@@ -88,6 +90,9 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         if len(set(values[:samples])) > 1:  # (libtiff reads no such file either)
             raise PlaneError(f"its samples differ in {words} ({name} {', '.join(map(str, values))}), which wrt does "
                              "not read")
+    empty = empty_piece(directory)
+    if empty is not None:
+        raise PlaneError(empty)
     damaged = [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
     if damaged:
         raise PlaneError(f"its TIFF tag {damaged[0]}'s values lie past the file's end: the file is damaged or cut "
