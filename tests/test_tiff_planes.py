@@ -63,8 +63,8 @@ def test_a_planar_tiff_cut_short_in_its_last_strip_is_named_as_cut(tmp_path, dty
     data = tiff_file(planar_tags(samples), strips(samples))
     np.testing.assert_allclose(read(tmp_path, data), expected(samples, np.iinfo(dtype).max), atol=1e-7)
     strip = 11 if cut == 3 else 10  # (the last plane's strips are 9 to 11, the last of one row)
-    with pytest.raises(TextureError, match=rf"p\.tif: strip {strip} \(plane 4 of 4, bytes .*\) lies past the file's "
-                                           rf"end \({len(data) - cut} bytes\): the file is cut short"):
+    with pytest.raises(TextureError, match=rf"p\.tif: strip {strip} \(bytes .*\) lies past the file's end "
+                                           rf"\({len(data) - cut} bytes\): the file is cut short"):
         read(tmp_path, data[:-cut])
 
 
@@ -147,7 +147,7 @@ def test_a_plane_of_uncompressed_tiles_cut_at_the_edges_reads_its_samples(tmp_pa
     del tags[278]
     data = tiff_file(tags, tiles, located=TILES)
     np.testing.assert_allclose(read(tmp_path, data), expected(samples, 65535.0), atol=1e-7)
-    with pytest.raises(TextureError, match=r"tile 15 \(plane 4 of 4, bytes .*\) lies past .* cut short"):
+    with pytest.raises(TextureError, match=r"tile 15 \(bytes .*\) lies past .* cut short"):
         read(tmp_path, data[:-1])
 
 
@@ -259,3 +259,37 @@ def test_a_tiff_of_a_strip_of_no_data_is_named(tmp_path, planar, compression):
     with pytest.raises(TextureError, match=r"p\.tif: strip 0 has no data \(offset 0, byte count 0: a sparse "
                                            r"file's missing strip or tile, which libtiff does not read either\)"):
         read(tmp_path, bytes(data))
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_an_uncompressed_tiff_whose_byte_counts_are_short_is_named(tmp_path, planar, dtype):
+    """Uncompressed strips whose StripByteCounts are short of the bytes their rows fill (here each a row short, the
+    strips laid one after another as counted): Pillow, which reads the bytes the rows fill whatever the count says,
+    read the next strip's bytes into each (off by 0.86) without a word; libtiff refuses such a strip ("Not enough
+    data for scanline"). It is named; the same samples with their full counts read as written (float64)."""
+    samples = np.random.default_rng(71).integers(0, np.iinfo(dtype).max + 1, (5, 6, 3)).astype(dtype)
+    tags = planar_tags(samples, rows=2, more={284: (SHORT, [2 if planar else 1])})
+    row = (1 if planar else 3) * 6 * samples.dtype.itemsize
+    chunks = strips(samples) if planar else [samples[r : r + 2].astype("<" + samples.dtype.str[1:]).tobytes()
+                                             for r in (0, 2, 4)]
+    np.testing.assert_allclose(read(tmp_path, tiff_file(tags, chunks)), expected(samples, np.iinfo(dtype).max),
+                               atol=1e-7)
+    with pytest.raises(TextureError, match=rf"p\.tif: strip 0 holds {row} bytes, where its rows need {2 * row} "
+                                           r"\(uncompressed\): its byte count is short"):
+        read(tmp_path, tiff_file(tags, [chunk[:-row] if len(chunk) > row else chunk for chunk in chunks]))
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_an_uncompressed_tiff_without_byte_counts_cut_short_is_named(tmp_path, planar):
+    """Uncompressed strips without StripByteCounts (their sizes inferred from their rows, as libtiff infers them) in a
+    file cut inside its last strip: named as cut short, as with counts."""
+    samples = np.random.default_rng(72).integers(0, 65536, (5, 6, 3)).astype(np.uint16)
+    tags = planar_tags(samples, more={284: (SHORT, [2 if planar else 1])})
+    chunks = strips(samples) if planar else [samples[r : r + 2].astype("<u2").tobytes() for r in (0, 2, 4)]
+    data = tiff_file(tags, chunks, byte_counts=False)
+    np.testing.assert_allclose(read(tmp_path, data), expected(samples, 65535.0), atol=1e-7)
+    last = len(chunks) - 1
+    with pytest.raises(TextureError, match=rf"strip {last} \(bytes .*\) lies past the file's end \({len(data) - 5} "
+                                           r"bytes\): the file is cut short"):
+        read(tmp_path, data[:-5])

@@ -65,7 +65,7 @@ from .tiff_checks import (
     UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
-    empty_piece,
+    piece_problem,
     tags_past_end,
     tiff_directory,
     tiff_first_values,
@@ -619,10 +619,10 @@ def _inverted_grey(rgba: np.ndarray, bits: int) -> np.ndarray:
 
 def _refuse_damaged_tiff(data: bytes, name: str) -> None:
     """Refuses a TIFF (file ``data``, named ``name``) with a tag of :data:`wrt.tiff_checks.PIXEL_TAGS` whose values
-    lie past its end (a damaged or cut file), or a strip or tile of no data (:func:`wrt.tiff_checks.empty_piece`),
-    before Pillow, which skipped some such tags with a warning and read the samples by the tag's default (SampleFormat:
-    as unsigned integers), refused others in words of samples it does not decode, and read an uncompressed file's
-    header as the samples of a strip of offset 0."""
+    lie past its end (a damaged or cut file), or a strip or tile of no data or, uncompressed, of fewer bytes than its
+    rows fill (:func:`wrt.tiff_checks.piece_problem`), before Pillow, which skipped some such tags with a warning and
+    read the samples by the tag's default (SampleFormat: as unsigned integers), refused others in words of samples it
+    does not decode, and read an uncompressed file's header, or the next strip's bytes, as samples."""
     directory = tiff_directory(data)
     if directory is None:
         return
@@ -630,9 +630,9 @@ def _refuse_damaged_tiff(data: bytes, name: str) -> None:
     if damaged:
         raise TextureError(f"cannot read image {name}: its TIFF tag {damaged[0]}'s values lie past the file's end: "
                            "the file is damaged or cut short")
-    empty = empty_piece(directory)
-    if empty is not None:
-        raise TextureError(f"cannot read image {name}: {empty}")
+    problem = piece_problem(directory)
+    if problem is not None:
+        raise TextureError(f"cannot read image {name}: {problem}")
 
 
 def _pillows_words(error: Exception) -> str:

@@ -23,7 +23,6 @@ UNSIGNED_CODES = {SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
 TYPE_BYTES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
-COMPRESSION = 259  # how strips or tiles are compressed (1: not)
 # Compression values of other writers than TIFF 6.0's, which Pillow has no decoder for, by name (GDAL's LERC, ...)
 COMPRESSION_NAMES = {34712: "JPEG 2000", 34887: "LERC", 34892: "lossy JPEG", 50002: "JPEG XL"}
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
@@ -32,7 +31,8 @@ PHOTOMETRIC = 262  # PhotometricInterpretation: how samples read as colour
 # Tags whose values locate the image's data, one per strip or tile (of each plane): (offsets, byte counts)
 STRIP_TAGS, TILE_TAGS = (273, 279), (324, 325)
 WHITE_IS_ZERO, BLACK_IS_ZERO = 0, 1  # its values of grey: 0 white and the largest value black, or the other way
-RGB = 2  # its value of colour of three samples, red, green and blue
+RGB, YCBCR = 2, 6  # its values of colour of three samples, red, green and blue, or luma and chroma
+COMPRESSION = 259  # how strips or tiles are compressed (1: not)
 UNSIGNED, SIGNED = 1, 2  # SampleFormat values of integer samples (3: floating-point)
 SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "floating-point"}  # their words
 # Tags that say how the samples are stored and read (size, depth, compression, strips and tiles, photometric and
@@ -147,19 +147,54 @@ def with_short(directory: TiffDirectory, tag: int, value: int) -> bytes:
     return b"".join((data[:field], struct.pack(directory.order + "H", value), data[field + 2 :]))
 
 
-def empty_piece(directory: TiffDirectory) -> str | None:
+def piece_problem(directory: TiffDirectory) -> str | None:
     """Words for the first strip or tile of ``directory``'s image that holds no data (offset 0, or a byte count of
-    0: a sparse file's missing one, as GDAL writes them, which libtiff refuses to read and Pillow read the file's
-    header for, uncompressed); None where there is none. Raises ``struct.error`` for offsets past the file's end."""
+    0: a sparse file's missing one, as GDAL writes them), that, uncompressed, holds fewer bytes than its rows fill
+    (TIFF 6.0: each row of whole bytes; a tile whole, the last strip the rows left), or whose bytes (those its rows
+    fill, uncompressed; its byte count, compressed) run past the file's end. libtiff refuses to read all three
+    ("Invalid strip byte count 0", "Not enough data for scanline", "Read error on strip"); Pillow, which reads the
+    bytes the rows fill from the offset whatever the count says, read the file's header or the next strip's bytes as
+    samples, and named a cut compressed file as a decoding failure. None where there is none; the rows are not
+    counted where the strips are not as many as the size makes, the planes differ in depth (both named where they are
+    read) or the colour is YCbCr (subsampled). Raises ``struct.error`` for values past the file's end."""
     located = TILE_TAGS if TILE_TAGS[0] in directory.entries else STRIP_TAGS
+    kind = "tile" if located == TILE_TAGS else "strip"
     starts, sizes = directory.values(located[0]), directory.values(located[1])
     for k, start in enumerate(starts):
         size = sizes[k] if k < len(sizes) else None
         if start == 0 or size == 0:
-            return (f"{'tile' if located == TILE_TAGS else 'strip'} {k} has no data (offset {start}"
-                    f"{'' if size is None else f', byte count {size}'}: a sparse file's missing strip or tile, which "
-                    "libtiff does not read either)")
+            return (f"{kind} {k} has no data (offset {start}{'' if size is None else f', byte count {size}'}: a "
+                    "sparse file's missing strip or tile, which libtiff does not read either)")
+    needs = _bytes_filled(directory, kind, len(starts)) if directory.first(COMPRESSION, 1) == 1 else None
+    for k, start in enumerate(starts):
+        size = sizes[k] if len(sizes) == len(starts) else None  # (none: inferred, uncompressed)
+        if needs is not None and size is not None and size < needs[k]:
+            return (f"{kind} {k} holds {size} bytes, where its rows need {needs[k]} (uncompressed): its byte count "
+                    "is short, or the file damaged (libtiff does not read it either)")
+        end = start + (needs[k] if needs is not None else size if size is not None else 0)
+        if end > len(directory.data):
+            return (f"{kind} {k} (bytes {start} to {end}) lies past the file's end ({len(directory.data)} bytes): the "
+                    "file is cut short")
     return None
+
+
+def _bytes_filled(directory: TiffDirectory, kind: str, pieces: int) -> list[int] | None:
+    """The bytes each of the ``pieces`` uncompressed strips or tiles (``kind``) of ``directory``'s image fill, in the
+    order its offsets list them; None where they are not counted (:func:`piece_problem`)."""
+    width, height = directory.first(256, 0), directory.first(257, 0)
+    across, rows = ((directory.first(322, 0), directory.first(323, 0)) if kind == "tile"
+                    else (width, min(directory.first(278, 2**32 - 1), height)))
+    samples, bits = directory.first(SAMPLES_PER_PIXEL, 1), directory.values(BITS_PER_SAMPLE) or [1]
+    planar = directory.first(PLANAR_CONFIGURATION, 1) == 2
+    if min(across, rows) <= 0 or directory.first(PHOTOMETRIC, 1) == YCBCR or (planar and len(set(bits[:samples])) > 1):
+        return None
+    per_plane = -(-height // rows) * (-(-width // across) if kind == "tile" else 1)
+    if pieces != per_plane * (samples if planar else 1):
+        return None
+    pixel_bits = bits[0] if planar else bits[0] * samples if len(bits) == 1 else sum(bits[:samples])
+    row_bytes = -(-across * pixel_bits // 8)
+    return [(rows if kind == "tile" else min(rows, height - (k % per_plane) * rows)) * row_bytes
+            for k in range(pieces)]
 
 
 def without_tags(directory: TiffDirectory, tags) -> bytes:

@@ -29,7 +29,7 @@ from .tiff_checks import (
     STRIP_TAGS,
     TILE_TAGS,
     TYPE_BYTES,
-    empty_piece,
+    piece_problem,
     tags_past_end,
     tiff_directory,
 )
@@ -49,7 +49,8 @@ OFFSET_TYPES = {13, 18}
 
 class PlaneError(ValueError):
     """A TIFF stored plane by plane whose strips or tiles are not as its header says (cut short by the file's end,
-    too few or too many, of no stated size where compressed) or whose samples differ in depth: the words say which."""
+    short of their rows, of no data, too few or too many, of no stated size where compressed) or whose samples differ
+    in depth: the words say which."""
 
 
 def tiff_plane(data: bytes, plane: int) -> bytes | None:
@@ -58,13 +59,12 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
     predictor; None where ``data`` is no such TIFF or its directory is cut short.
 
     Raises:
-        PlaneError: the plane's strips or tiles lie past the file's end (its last ones cut short, as a file cut off
-            mid-way is: they read the bytes after the file's end, the directory appended to it, as samples), there
-            are not as many of them as the image's size makes (they were laid out over each other), a compressed
-            one has no byte count (libtiff refuses it), the samples differ in depth (BitsPerSample: each plane was
-            decoded as of the first's depth) or sample format, the values of one of
-            :data:`wrt.tiff_checks.PIXEL_TAGS` lie past the file's end, or a strip or tile holds no data
-            (:func:`wrt.tiff_checks.empty_piece`).
+        PlaneError: a strip or tile lies past the file's end (the last ones of a file cut off mid-way: they read
+            the bytes after the file's end, the directory appended to it, as samples), holds no data or fewer bytes
+            than its rows fill (:func:`wrt.tiff_checks.piece_problem`); there are not as many of them as the image's
+            size makes (they were laid out over each other); a compressed one has no byte count (libtiff refuses
+            it); the samples differ in depth (BitsPerSample: each plane was decoded as of the first's depth) or
+            sample format; or the values of one of :data:`wrt.tiff_checks.PIXEL_TAGS` lie past the file's end.
     """
     directory = tiff_directory(data)
     if directory is None:
@@ -90,9 +90,9 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         if len(set(values[:samples])) > 1:  # (libtiff reads no such file either)
             raise PlaneError(f"its samples differ in {words} ({name} {', '.join(map(str, values))}), which wrt does "
                              "not read")
-    empty = empty_piece(directory)
-    if empty is not None:
-        raise PlaneError(empty)
+    problem = piece_problem(directory)
+    if problem is not None:
+        raise PlaneError(problem)
     damaged = [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
     if damaged:
         raise PlaneError(f"its TIFF tag {damaged[0]}'s values lie past the file's end: the file is damaged or cut "
@@ -107,9 +107,8 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         raise PlaneError(f"it has {len(starts)} {kind}s, where {samples} planes of {width} x {height} pixels in "
                          f"{kind}s of {across} x {rows} make {made} a plane")
     part = slice(plane * per_plane, (plane + 1) * per_plane)
-    extents = _extents(starts[part], sizes[part], compression, len(data), located == TILE_TAGS, height, across,
-                       rows, bits[0], f"plane {plane + 1} of {samples}", part.start)
-    return _plane_file(directory, located, bits[0], sample_formats[0], starts[part], extents, plane)
+    extents = _extents(per_plane, sizes[part], compression, located == TILE_TAGS, height, across, rows, bits[0])
+    return _plane_file(directory, located, bits[0], sample_formats[0], starts[part], extents)
 
 
 def _pieces_per_plane(located, width: int, height: int, across: int, rows: int) -> int:
@@ -121,32 +120,23 @@ def _pieces_per_plane(located, width: int, height: int, across: int, rows: int) 
     return down * -(-width // across) if located == TILE_TAGS else down
 
 
-def _extents(starts, sizes, compression: int, end: int, tiled: bool, height: int, across: int, rows: int,
-             bits: int, plane: str, first: int) -> list[int]:
-    """Bytes of each of a plane's strips or tiles (``tiled``) at ``starts`` (their byte counts ``sizes``, none where
-    the file has none; ``across`` x ``rows`` pixels of ``bits`` each, of an image ``height`` rows high) in a file of
-    ``end`` bytes (``plane`` names the plane in an error, ``first``: the file's number of its first strip or tile,
-    from 0, as TIFF 6.0 numbers them): uncompressed, those its pixels fill (TIFF 6.0: a tile is whole, padded past the
-    image's edge; the last strip holds the rows left), as Pillow reads them whatever the count says and libtiff
-    infers a missing count; compressed, the count."""
-    if compression != NO_COMPRESSION and not sizes:
+def _extents(pieces: int, sizes, compression: int, tiled: bool, height: int, across: int, rows: int,
+             bits: int) -> list[int]:
+    """Bytes of each of a plane's ``pieces`` strips or tiles (``tiled``; their byte counts ``sizes``, none where the
+    file has none; ``across`` x ``rows`` pixels of ``bits`` each, of an image ``height`` rows high): uncompressed,
+    those its pixels fill (TIFF 6.0: a tile is whole, padded past the image's edge; the last strip holds the rows
+    left), as Pillow reads them whatever the count says and libtiff infers a missing count; compressed, the count.
+    (Strips of no data, short of their rows or past the file's end: :func:`wrt.tiff_checks.piece_problem`.)"""
+    if compression == NO_COMPRESSION:
+        row_bytes = -(-across * bits // 8)  # (each row starts on a byte)
+        return [(rows if tiled else min(rows, height - k * rows)) * row_bytes for k in range(pieces)]
+    if not sizes:
         raise PlaneError(f"its strips are compressed (Compression {compression}) and it has no byte counts "
                          "(StripByteCounts or TileByteCounts, which TIFF 6.0 requires and libtiff needs to read them)")
-    row_bytes = -(-across * bits // 8)  # (each row starts on a byte)
-    extents = []
-    for k, start in enumerate(starts):
-        if compression != NO_COMPRESSION:
-            extents.append(sizes[k])
-        else:  # a strip holds RowsPerStrip rows, the last the rows left
-            extents.append((rows if tiled else min(rows, height - k * rows)) * row_bytes)
-        if start + extents[-1] > end:
-            kind = "tile" if tiled else "strip"
-            raise PlaneError(f"{kind} {first + k} ({plane}, bytes {start} to {start + extents[-1]}) lies past the "
-                             f"file's end ({end} bytes): the file is cut short")
-    return extents
+    return list(sizes)
 
 
-def _plane_file(directory, located, bits: int, sample_format: int, starts, extents, plane: int) -> bytes:
+def _plane_file(directory, located, bits: int, sample_format: int, starts, extents) -> bytes:
     """The plane's file (:func:`tiff_plane`): the header, the directory of ``directory``'s entries made those of one
     sample, the values they point at, and the plane's strips or tiles (``starts``, ``extents`` bytes each) copied from
     ``directory``'s file. A tag whose values lie past the file's end (:func:`wrt.tiff_checks.tags_past_end`, none of
