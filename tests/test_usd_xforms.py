@@ -583,3 +583,93 @@ def test_an_inverted_op_without_an_inverse_is_left_out_with_a_warning(tmp_path, 
     for prim_path, op in (("/ZeroScale", "!invert!xformOp:scale"), ("/SingularMatrix", "!invert!xformOp:transform")):
         assert prim_path in message and f"{op}: 1" in message, message
     assert "no transform op" not in " ".join(str(w.message) for w in caught)
+
+
+WEIGHTED = """#usda 1.0
+def Xform "H"
+{
+    matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (4, 0, 0, 2))
+    uniform token[] xformOpOrder = ["xformOp:transform"]
+    def Mesh "M"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+    def Xform "Inst" (instanceable = true
+        references = </Lib>)
+    {
+        matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 3, 0, 0.5))
+        uniform token[] xformOpOrder = ["xformOp:transform"]
+    }
+    def PointInstancer "PI"
+    {
+        rel prototypes = </H/PI/P/R>
+        int[] protoIndices = [0, 0]
+        point3f[] positions = [(0, 8, 0), (5, 8, 0)]
+        def Scope "P"
+        {
+            def Xform "R" (references = </Lib>)
+            {
+                matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (1, 1, 1, 4))
+                uniform token[] xformOpOrder = ["xformOp:transform"]
+            }
+        }
+    }
+    def Sphere "S"
+    {
+        double3 xformOp:translate = (0, 12, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def SphereLight "L"
+    {
+        double3 xformOp:translate = (0, 0, 6)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+class Xform "Lib"
+{
+    def Mesh "T"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+}
+"""
+
+
+def test_a_transform_whose_last_column_is_a_weight_places_prims_as_usd_transforms_points(tmp_path):
+    """A last column (0, 0, 0, w) projects nothing: it is the matrix over w in homogeneous coordinates, as
+    ``Gf.Matrix4d.Transform`` (and Hydra's divide) reads it, so ``m * 2`` draws as ``m``. wrt dropped the column as
+    for a projective transform, with that warning: meshes, instances, PointInstancer instances, gprims and lights
+    were drawn w times as large and as far from the origin (under w = 2: a triangle at x = 4..5, USD's at 2..2.5)."""
+    path = tmp_path / "weighted.usda"
+    path.write_text(WEIGHTED)
+    stage = Usd.Stage.Open(str(path))
+    cache = UsdGeom.XformCache()
+    corners = [Gf.Vec3d(0, 0, 0), Gf.Vec3d(1, 0, 0), Gf.Vec3d(0, 1, 0)]
+
+    def moved(m: Gf.Matrix4d) -> list:  # the oracle: USD's point transform, its divide by w included
+        return [list(m.Transform(c)) for c in corners]
+
+    expected = [moved(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(p))) for p in ("/H/M", "/H/Inst/T")]
+    instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/H/PI"))
+    root = stage.GetPrimAtPath("/H/PI/P/R")
+    inside, _ = cache.ComputeRelativeTransform(stage.GetPrimAtPath("/H/PI/P/R/T"), root)
+    for m in instancer.ComputeInstanceTransformsAtTime(DEFAULT, DEFAULT):
+        expected.append(moved(inside * m * cache.GetLocalToWorldTransform(instancer.GetPrim())))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "projective" warning: nothing is dropped
+        scene = wrt.load_usd(path)
+    points, indices = scene.triangles()
+    assert len(indices) == 4  # the mesh, the native instance's and the two PointInstancer instances'
+    np.testing.assert_allclose(sorted(points[indices].tolist()), sorted(expected), atol=1e-6)
+    (sphere,) = scene.shapes
+    sphere_world = cache.GetLocalToWorldTransform(stage.GetPrimAtPath("/H/S"))
+    np.testing.assert_allclose(sphere.to_world[:3, 3], sphere_world.Transform(Gf.Vec3d(0, 0, 0)))
+    radius = (sphere_world.Transform(Gf.Vec3d(1, 0, 0)) - sphere_world.Transform(Gf.Vec3d(0, 0, 0))).GetLength()
+    np.testing.assert_allclose(np.linalg.norm(sphere.to_world[:3, :3], axis=0), radius)  # a unit sphere, scaled
+    (light,) = scene.lights
+    light_world = cache.GetLocalToWorldTransform(stage.GetPrimAtPath("/H/L"))
+    np.testing.assert_allclose(light.position, light_world.Transform(Gf.Vec3d(0, 0, 0)))

@@ -26,7 +26,7 @@ from .primitives import Shape
 from .scene import Mesh, Scene, instances_past_float32
 from .tubes import place_round
 from .usd_placement_groups import MIN_GROUP, PlacedRows, drawn_root, expand_group, member_groups, nested_looks
-from .usd_xforms import PROJECTIVE
+from .usd_xforms import PROJECTIVE, divide_weights
 
 # The prims a prototype's walk takes: active, loaded, not abstract, and with a defining specifier of their own,
 # their ancestors' not asked (see wrt.usd's _content), as Hydra's prototype predicate takes them. Without the last
@@ -258,7 +258,7 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
     world = np.stack([world_source, placed.index], axis=1)
     order = np.lexsort((world[:, 1], world[:, 0]))  # stable
     world, element = world[order], element[order]
-    to_world = placed.to_world[order]
+    to_world = divide_weights(placed.to_world[order])  # (a copy: indexed)
     projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
     to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
     colors, opacities = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)  # none given: no arrays

@@ -72,16 +72,33 @@ def _singular_inverse(op: UsdGeom.XformOp, time: Usd.TimeCode) -> bool:
 def affine_part(m: np.ndarray, warn) -> np.ndarray:
     """``m``, a ``(4, 4)`` row-vector world transform (a ``Gf.Matrix4d`` as numpy reads it), with its last column set
     to ``(0, 0, 0, 1)``: meshes, gprims, curves, instances, cameras and lights are drawn by their affine part.
+    A column ``(0, 0, 0, w)``, ``w > 0``, is a weight, not a projection: ``m / w`` is returned without a word.
     ``warn(PROJECTIVE)`` is called when the column was not close to that. ``m`` itself is left as it is."""
     column = m[:, 3]
     # The exact column first: np.allclose took a twentieth of load_usd for 40k small meshes.
     if column.tolist() == [0.0, 0.0, 0.0, 1.0]:
         return m
+    if column[0] == column[1] == column[2] == 0.0 and math.isfinite(column[3]) and column[3] > 0.0:
+        # (0, 0, 0, w) projects nothing: it is m / w in homogeneous coordinates, as USD transforms points
+        # (Gf.Matrix4d.Transform divides by w) and Hydra's divide draws them, so ``m * 2`` is m; its last column
+        # dropped, the prim was drawn w times as large and as far from the origin, named as projective.
+        return m / column[3]
     if not np.allclose(column, (0.0, 0.0, 0.0, 1.0)):
         warn(PROJECTIVE)
     affine = m.copy()
     affine[:, 3] = (0.0, 0.0, 0.0, 1.0)
     return affine
+
+
+def divide_weights(to_world: np.ndarray) -> np.ndarray:
+    """``to_world``, ``(N, 4, 4)`` column-vector transforms, with each one whose bottom row is ``(0, 0, 0, w)``,
+    ``w > 0``, divided by ``w`` in place (:func:`affine_part`'s rule for a stack of instances); returned."""
+    bottom = to_world[:, 3]
+    weight = bottom[:, 3]
+    weighted = (bottom[:, :3] == 0.0).all(axis=1) & np.isfinite(weight) & (weight > 0.0) & (weight != 1.0)
+    if weighted.any():
+        to_world[weighted] /= weight[weighted, None, None]
+    return to_world
 
 
 def xform_cache(time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None, memo=None):
