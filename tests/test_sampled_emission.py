@@ -271,6 +271,23 @@ def test_a_cut_out_lamp_that_glows_by_its_fallback_is_the_stages_light(case):
     assert images[1].max() == 0.0
 
 
+def test_a_lamp_whose_glow_its_triangles_do_not_read_is_the_stages_light_whichever_way_it_glows():
+    """Two lamps that glow nowhere on their triangles (st on tile 1001, a black image): one's material glows by its
+    fallback (on tiles without a file), the other's by an image of :data:`RADIANCE` on tile 1002. Both are emissive
+    materials (:func:`wrt.materials.can_emit`, as the loader reads them), which the README gives no default lights:
+    each floor renders black (0 exactly), the stage's own light being none there. The one that glows by its
+    fallback got the default headlight and dome (a floor of 1.0), the other none."""
+    bright = np.full((4, 4, 4), RADIANCE, np.float32)
+    by_fallback = lamp_scene(TextureInput(image=0, tiles=udim_table(t1001=0), fallback=FALLBACK))
+    by_tile = lamp_scene(TextureInput(image=0, tiles=udim_table(t1001=0, t1002=1)))
+    by_tile.textures = [BLACK, bright]
+    camera = top_down_camera(center=(0, 2.25, 0), height=3.0)
+    for scene in (by_fallback, by_tile):
+        r = wrt.Renderer(scene, camera=camera, width=4, height=4, device="cpu")
+        assert r.lights == ()
+        assert r.render(spp=2, seed=1).rgb.max() == 0.0
+
+
 def held_bytes(read) -> int:
     """The bytes of the arrays ``read`` (what :func:`wrt.sampled_emission.sampled_emission` returned) holds."""
     if isinstance(read, np.ndarray):

@@ -2156,8 +2156,14 @@ def can_emit(mat: Material, textures: list[np.ndarray]) -> bool:
     tiles) or outside the unit square under a ``fallback`` wrap (MaterialX's ``constant`` address mode). Which
     triangles glow is then read on them (:mod:`wrt.sampled_emission`); a texels' mean of 0 left a gprim that glows
     by its fallback analytic and unsampled."""
-    if emission_estimate(mat, textures).max() > 0.0:
-        return True
+    return bool(emission_estimate(mat, textures).max() > 0.0) or fallback_glows(mat)
+
+
+def fallback_glows(mat: Material) -> bool:
+    """Whether ``mat``'s emission texture returns a fallback that glows (after scale and bias) where its lookup
+    returns it for ordinary texture coordinates: on a UDIM tile without a file (or outside the tiles), or outside the
+    unit square under a ``fallback`` wrap (MaterialX's ``constant`` address mode); :func:`can_emit` without a look
+    at the texels."""
     tex = mat.textures.get("emissiveColor")
     if tex is None or (tex.tiles is None and "fallback" not in tex.wrap):
         return False

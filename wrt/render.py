@@ -47,7 +47,13 @@ from .integrators.whitted import (
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
-from .materials import emission_estimates, tile_emission_estimates, upload_materials, wholly_cut_out
+from .materials import (
+    emission_estimates,
+    fallback_glows,
+    tile_emission_estimates,
+    upload_materials,
+    wholly_cut_out,
+)
 from .options import AOV_NAMES as AOV_NAMES  # re-exported: see wrt.options
 from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QUICK_LOOKS
 from .radiance_scale import glow_bounds, scaled_materials
@@ -985,7 +991,12 @@ class Renderer:
         mats, uvs, tri_materials, sided, emission, glow = shading_data(scene, dev)
         self._upload_cameras(self.cameras, self.batched)
         geometry_materials = scene.triangle_materials()
-        glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
+        # Per material: an emissive one (wrt.materials.can_emit, as the loader reads it), its texels' mean above 0 or
+        # its fallback glowing where a UDIM tile has no file or a constant address mode leaves [0, 1]. By the mean
+        # alone, a lamp glowing by its fallback whose triangles read only black tiles left the stage unlit (default
+        # lights), where one glowing by another tile's image (as dark there) left it dark.
+        glows = np.array([float(np.max(e)) > 0.0 for e in emission]) | np.array(
+            [False] + [fallback_glows(m) for m in scene.materials])
         # A material cut out everywhere emits nothing (rays pass its holes and see no light; its light samples were
         # zero): its triangles and glowing shapes take no light picks, which they wasted. (It still counts as the
         # stage's light below: the stage's author lit it with that glow, and gets no default lights.)
@@ -1005,7 +1016,7 @@ class Renderer:
             scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
-        # constant glow does: one that glows only by its fallback got the default lights as well.
+        # constant glow does; the reads add a glow no material tells (any texture's fallback at a NaN st).
         emissive_used = used_anywhere(glows, geometry_materials) or (
             read is not None and bool((read.values > 0.0).any()))
         sampled = read if read is None or not cut.any() else read.without(cut, geometry_materials)
