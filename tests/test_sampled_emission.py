@@ -6,6 +6,8 @@ entries; a USD ``Sphere`` gprim and a ``wrt.Shape`` sphere that glow by the fall
 sphere of constant emission does; a lamp whose glow lies only between the points its emission is read at (a
 corner past [0, 1], a missing tile inside the triangle) is sampled too, and lights the floor as the quadrature says."""
 
+import warnings
+
 import numpy as np
 import pytest
 from shading_helpers import pixel_points, quad, top_down_camera
@@ -275,8 +277,9 @@ def test_a_lamp_whose_glow_its_triangles_do_not_read_is_the_stages_light_whichev
     """Two lamps that glow nowhere on their triangles (st on tile 1001, a black image): one's material glows by its
     fallback (on tiles without a file), the other's by an image of :data:`RADIANCE` on tile 1002. Both are emissive
     materials (:func:`wrt.materials.can_emit`, as the loader reads them), which the README gives no default lights:
-    each floor renders black (0 exactly), the stage's own light being none there. The one that glows by its
-    fallback got the default headlight and dome (a floor of 1.0), the other none."""
+    each floor renders black (0 exactly), the stage's own light being none there, and the render says why, naming
+    the material. The one that glows by its fallback got the default headlight and dome (a floor of 1.0), the other
+    none, without a word. The same lamp read on its glowing tile lights the floor, without the warning."""
     bright = np.full((4, 4, 4), RADIANCE, np.float32)
     by_fallback = lamp_scene(TextureInput(image=0, tiles=udim_table(t1001=0), fallback=FALLBACK))
     by_tile = lamp_scene(TextureInput(image=0, tiles=udim_table(t1001=0, t1002=1)))
@@ -286,6 +289,14 @@ def test_a_lamp_whose_glow_its_triangles_do_not_read_is_the_stages_light_whichev
         r = wrt.Renderer(scene, camera=camera, width=4, height=4, device="cpu")
         assert r.lights == ()
         assert r.render(spp=2, seed=1).rgb.max() == 0.0
+        with pytest.warns(UserWarning, match=r"no light: the stage's glowing materials glow nowhere .*: /Glow; "):
+            wrt.Renderer(scene, camera=camera, width=4, height=4, device="cpu")
+    lit = lamp_scene(TextureInput(image=0, tiles=udim_table(t1001=0, t1002=1)), st_corner=(1.0, 0.0))
+    lit.textures = [BLACK, bright]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert wrt.render(lit, camera=camera, width=4, height=4, spp=2, seed=1, device="cpu").rgb.max() > 0.0
+    assert not [w for w in caught if "no light" in str(w.message)]
 
 
 def held_bytes(read) -> int:

@@ -986,6 +986,22 @@ class Renderer:
         warnings.warn(f"{self.scene.source or 'scene'}: {' and '.join(parts)} are not sampled as lights: {effect}",
                       stacklevel=user_stacklevel())
 
+    def _warn_glows_giving_none(self, constant: np.ndarray, sampled, glows: np.ndarray, materials: np.ndarray):
+        """Warns, naming them, where the stage's only light sources, its glowing materials (``glows``, per device
+        material, those named; ``materials`` per triangle), give no light where their geometry reads them: no
+        triangle of a material of constant glow (``constant``, not cut out) and no row of ``sampled`` (the textured
+        ones' reads, less those cut out) above 0. They keep the default lights away, as lights that give none do:
+        the image is dark, said as for those."""
+        if used_anywhere(constant, materials) or (sampled is not None and bool((sampled.values > 0.0).any())):
+            return
+        used = np.zeros(len(glows), bool)
+        used[np.unique(materials)] = True
+        paths = [self.scene.materials[m - 1].path or f"materials[{m - 1}]" for m in np.flatnonzero(glows & used)]
+        warnings.warn(f"{self.scene.source or 'scene'}: no light: the stage's glowing materials glow nowhere on their "
+                      "geometry (cut out everywhere, or their emission textures are black where it reads them): "
+                      f"{', '.join(paths[:5])}{f' and {len(paths) - 5} more' if len(paths) > 5 else ''}; rendered "
+                      "without the default lights, which are for stages without lights", stacklevel=user_stacklevel())
+
     def _upload_shading(self):
         scene, dev = self.scene, self.device
         mats, uvs, tri_materials, sided, emission, glow = shading_data(scene, dev)
@@ -1006,8 +1022,8 @@ class Renderer:
         # mode's default, ... glow where the texels' mean says none (wrt.sampled_emission). Kept with the scene: 500k
         # such triangles took 0.35 s of every Renderer.
         key = ("sampled_emission", str(dev))
+        textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
         if key not in scene._cache:
-            textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
             # Of the images as checked and made RGBA float32 (an (H, W, 3) one built in Python was read as RGBA rows:
             # its channels mixed, or a reshape error that stopped the render); not made where nothing reads them.
             images = scene_images(scene.textures) if textured.any() else []
@@ -1032,6 +1048,11 @@ class Renderer:
                           f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
                           "rendered without the default lights, which are for stages without lights",
                           stacklevel=user_stacklevel())
+        if not scene.lights and emissive_used and self.integrator in LIGHT_SAMPLING_INTEGRATORS:
+            named = glows.copy()  # and those that glow by a fallback at a NaN st alone
+            if read is not None:
+                named[geometry_materials[read.ids[(read.values > 0.0).any(axis=1)]]] = True
+            self._warn_glows_giving_none(glows & ~cut & ~textured, sampled, named, geometry_materials)
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
         self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow, sampled)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
