@@ -472,3 +472,56 @@ def test_an_instanced_normalized_mesh_light_is_divided_by_its_whole_area(dark):
     want = half_lamp_irradiance(points, 4.0 / 2.0).mean() / np.pi
     assert images[0].mean() == pytest.approx(want, rel=0.03)
     assert images[1].mean() == pytest.approx(want, rel=0.03)
+
+
+def half_lit_lamp(s_ranges, material_ids) -> wrt.Mesh:
+    """A lamp of two unit squares side by side at :data:`HEIGHT` (two triangles each), the first's ``s`` over
+    ``s_ranges[0]``, the second's over ``s_ranges[1]`` (``t`` over [0, 1]), of device-material ``material_ids``."""
+    uvs = []
+    for s0, s1 in s_ranges:
+        corners = np.float32([[s0, 0], [s1, 0], [s1, 1], [s0, 1]])
+        uvs += [corners[[0, 1, 2]], corners[[0, 2, 3]]]
+    return wrt.Mesh("/lamp", np.array([[x - 1.0, y - 0.5, HEIGHT] for y in (0, 1) for x in (0, 1, 2)], np.float64),
+                    np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]]), [0, 0, 1, 1], uvs=np.stack(uvs),
+                    material_ids=np.asarray(material_ids, np.int32), double_sided=True)
+
+
+# 4 rows of 16 texels: columns 0-7 black, 8-15 of RADIANCE (alpha 1)
+HALF_LIT = np.concatenate([np.zeros((4, 8, 4), np.float32), np.full((4, 8, 4), RADIANCE, np.float32)], axis=1)
+HALF_LIT[..., 3] = 1.0
+
+
+def test_triangles_over_the_black_texels_of_an_emission_image_take_no_light_picks():
+    """A lamp whose emission image is black on its left half and :data:`RADIANCE` on its right (clamped), the first
+    square's ``s`` over [0, 0.25] (columns 0-4 read, bilinear: all black), the second's over [0.75, 1]: the first's
+    triangles, which glow nowhere, take no light picks, as the same lamp with them of a material without glow (the
+    oracle) gives them, and the floor renders as under it. They had the image's mean as their estimate (half the
+    picks, all wasted)."""
+    texture = TextureInput(image=0, wrap=("clamp", "clamp"))
+    floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
+    white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
+    glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
+    ranges = [(0.0, 0.25), (0.75, 1.0)]
+    textured = wrt.Scene(meshes=[floor, half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[HALF_LIT],
+                         materials=[glow, white])
+    plain = wrt.Scene(meshes=[floor, half_lit_lamp(ranges, [2, 2, 0, 0])], textures=[HALF_LIT],
+                      materials=[glow, white, Material(path="/Dark", diffuse_color=0.0)])
+    np.testing.assert_allclose(triangle_pmf(textured), triangle_pmf(plain), rtol=1e-6, atol=1e-12)
+    camera = top_down_camera(center=(0, 2.0, 0), height=2.0)
+    images = [wrt.render(scene, camera=camera, width=8, height=8, spp=16, seed=1, device="cpu").rgb
+              for scene in (textured, plain)]
+    assert images[1].mean() > 0.0
+    np.testing.assert_allclose(images[0], images[1], rtol=1e-6)
+
+
+@pytest.mark.parametrize("case", ["reaches a bright texel by filtering", "wraps onto the bright texels"])
+def test_a_triangle_whose_filtered_texels_glow_keeps_its_light_picks(case):
+    """The lamp of the test above, its first square's ``s`` over [0.25, 0.5] (clamped: bilinear filtering near
+    s = 0.5 mixes in column 8, which glows) or over [0, 0.25] under ``repeat`` (filtering near s = 0 mixes in column
+    15 across the seam): its triangles glow there, so they keep light picks."""
+    wrap, ranges = {"reaches a bright texel by filtering": ("clamp", [(0.25, 0.5), (0.75, 1.0)]),
+                    "wraps onto the bright texels": ("repeat", [(0.0, 0.25), (0.75, 1.0)])}[case]
+    texture = TextureInput(image=0, wrap=(wrap, wrap))
+    glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
+    pmf = triangle_pmf(wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[HALF_LIT], materials=[glow]))
+    assert (pmf > 0.0).all(), pmf

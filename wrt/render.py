@@ -59,7 +59,7 @@ from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QU
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .sampled_emission import sampled_emission
+from .sampled_emission import glow_blocks, sampled_emission
 from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, has_area, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
@@ -1029,7 +1029,8 @@ class Renderer:
             images = scene_images(scene.textures) if textured.any() else []
             tiles = [None] + [tile_emission_estimates(m, images) if t else None for m, t in zip(scene.materials,
                                                                                              textured[1:])]
-            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles)
+            maps = [None] + [glow_blocks(m, images) if t else None for m, t in zip(scene.materials, textured[1:])]
+            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles, maps)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
         # constant glow does; the reads add a glow no material tells (any texture's fallback at a NaN st).

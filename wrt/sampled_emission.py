@@ -11,7 +11,9 @@ lights), and ``path`` found their light only through the rays that happened to h
 the larger of its material's estimate and the mean emission at :data:`BARYCENTRIC_POINTS`, so that the estimate and
 the render cannot disagree on where the glow is, and no triangle is estimated below its material's mean (of a UDIM
 texture, below the largest mean of the tiles under it, :func:`tiles_glow`: a triangle on a black tile glows nowhere,
-and took as many draws as one on a bright tile). Points can
+and took as many draws as one on a bright tile; of one image, not held at its mean where every texel the lookup
+reads on the triangle lies in a block in which none glows, :func:`reads_no_glow`: a triangle over the black part of
+an image took draws that found no light). Points can
 all miss a glow that only part of a triangle shows (a corner past [0, 1] along a ``constant`` address mode, a missing
 UDIM tile between the points): a triangle on which the lookup can return its fallback at all takes at least a fifth
 of the fallback's emission (:func:`may_read_fallback`), so that no light is left with no chance of being sampled (such
@@ -25,8 +27,8 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .materials import SLOT_EMISSIVE, DeviceMaterials, eval_emission
-from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK
+from .materials import CHANNELS, SLOT_EMISSIVE, DeviceMaterials, eval_emission
+from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK, WRAP_MIRROR, WRAP_REPEAT
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
@@ -109,19 +111,61 @@ def tiles_glow(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: w
     return glow
 
 
+# Blocks per side, at most, of the map of where an emission image glows (glow_blocks): 256 x 256 int32 counts, 264 kB.
+GLOW_BLOCKS = 256
+
+
+@wp.func
+def texel_span(lo: float, hi: float, n: int, wrap: int):
+    """``(i0, i1)``: the texels ``[i0, i1]`` (of ``n`` along an axis) that a lookup reads at coordinates in ``[lo,
+    hi]`` (texels ``x = c n - 0.5`` and the next: bilinear filtering, which holds the nearest texel too), after
+    ``wrap``: all ``n`` where ``repeat`` or ``mirror`` wraps them at all, else clamped (``clamp``, ``black`` and
+    ``fallback``, whose values outside the image are none of its texels)."""
+    i0 = int(wp.floor(wp.clamp(lo * float(n) - 0.5, -1.0e8, 1.0e8)))
+    i1 = int(wp.floor(wp.clamp(hi * float(n) - 0.5, -1.0e8, 1.0e8))) + 1
+    if wrap == WRAP_REPEAT or wrap == WRAP_MIRROR:
+        if i0 < 0 or i1 > n - 1:
+            return 0, n - 1
+        return i0, i1
+    return wp.clamp(i0, 0, n - 1), wp.clamp(i1, 0, n - 1)
+
+
+@wp.func
+def reads_no_glow(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: wp.vec2,
+                  counts: wp.array[wp.int32], row: int, block: int):
+    """Whether every texel of binding ``b``'s image that a lookup reads on the triangle of texture coordinates
+    ``st0, st1, st2`` (the texels under the box of its corners, one more on each side) lies in a block of ``block``
+    x ``block`` texels without one that glows: ``counts[row:]`` is the image's summed-area table of its blocks that
+    hold one (:func:`glow_blocks`). False where a corner is not finite. Its fallback is :func:`may_read_fallback`'s."""
+    lo, hi, finite = st_box(mats, b, st0, st1, st2)
+    if not finite:
+        return False
+    size = mats.image_sizes[mats.tex_image[b]]
+    wrap = mats.tex_wrap[b]
+    x0, x1 = texel_span(lo[0], hi[0], size[0], wrap[0])
+    y0, y1 = texel_span(1.0 - hi[1], 1.0 - lo[1], size[1], wrap[1])  # rows from the top
+    w = (size[0] + block - 1) // block + 1  # a row of the table
+    bx0, bx1, by0, by1 = x0 // block, x1 // block + 1, y0 // block, y1 // block + 1
+    return (counts[row + by1 * w + bx1] - counts[row + by0 * w + bx1] - counts[row + by1 * w + bx0]
+            + counts[row + by0 * w + bx0]) == 0
+
+
 @wp.kernel
 def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids: wp.array[wp.int32],
                            materials: wp.array[wp.int32], weights: wp.array[wp.vec3], tile_glow: wp.array[wp.vec3],
-                           tile_rows: wp.array[wp.int32],
+                           tile_rows: wp.array[wp.int32], glow_counts: wp.array[wp.int32],
+                           glow_rows: wp.array[wp.vec2i],
                            # outputs
-                           emission: wp.array[wp.vec3]):
+                           emission: wp.array[wp.vec3], dark: wp.array[wp.int32]):
     """``emission[i]``: the mean emission of material ``materials[i]`` on triangle ``ids[i]`` at the barycentric
     points ``weights``, each component clamped to 0 first (a component below 0 adds no light); at least the
     fallback's emission over ``len(weights) + 1`` where the texture may return its fallback on the triangle
     (:func:`may_read_fallback`): a glow that no point read lies between them, on less of the triangle than one
     point's share, as far as they tell; for a material of a UDIM emission texture, at least the largest mean
     emission of its tiles under the triangle (:func:`tiles_glow`; ``tile_rows[m]``: material ``m``'s first row of
-    ``tile_glow``, -1 for one of another texture), for the same reason."""
+    ``tile_glow``, -1 for one of another texture), for the same reason. ``dark[i]``: 1 where the texels the
+    triangle reads glow nowhere (:func:`reads_no_glow`; ``glow_rows[m]``: material ``m``'s first row of
+    ``glow_counts`` and its block size, -1 for none), so that the material's mean is not its estimate."""
     i = wp.tid()
     t = ids[i]
     m = materials[i]
@@ -150,6 +194,10 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
             least = wp.vec3(wp.max(least[0], e[0]), wp.max(least[1], e[1]), wp.max(least[2], e[2]))
     mean = total / float(n)
     emission[i] = wp.vec3(wp.max(mean[0], least[0]), wp.max(mean[1], least[1]), wp.max(mean[2], least[2]))
+    glow_row = glow_rows[m]
+    if glow_row[0] >= 0 and reads_no_glow(mats, b, uvs[t, 0], uvs[t, 1], uvs[t, 2], glow_counts, glow_row[0],
+                                          glow_row[1]):
+        dark[i] = 1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,9 +238,37 @@ class SampledEmission:
         return SampledEmission(self.ids[keep], self.values[keep])
 
 
+def glow_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | None:
+    """``(counts, block)`` for ``mat``'s emission texture of one image (of ``textures``, the scene's RGBA float32
+    images): the summed-area table (``(rows + 1, columns + 1)`` int32) of its blocks of ``block`` x ``block`` texels
+    (at most :data:`GLOW_BLOCKS` per side) that hold a texel it reads as glowing (a channel it reads times its scale
+    above 0, or not a number), for :func:`reads_no_glow`. None for a UDIM texture, a missing image, or a bias in a
+    channel it reads (the device's half-float texel, rounded, could then glow where this one does not)."""
+    tex = mat.textures.get("emissiveColor")
+    if tex is None or tex.tiles is not None or not 0 <= tex.image < len(textures):
+        return None
+    channels = [0, 1, 2] if CHANNELS[tex.channel] == 4 else [CHANNELS[tex.channel]]
+    scale, bias = np.asarray(tex.scale, np.float64), np.asarray(tex.bias, np.float64)
+    if np.any(bias[channels] != 0.0):
+        return None
+    image = textures[tex.image]
+    h, w = image.shape[:2]
+    glows = np.zeros((h, w), bool)
+    for c in channels:  # one channel at a time: a float64 copy of a 4k image took 400 MB
+        texel = image[..., c]
+        glows |= np.isnan(texel) | (texel > 0.0 if scale[c] > 0.0 else texel < 0.0 if scale[c] < 0.0 else False)
+    block = max(1, -(-max(h, w) // GLOW_BLOCKS))
+    rows, columns = -(-h // block), -(-w // block)
+    padded = np.zeros((rows * block, columns * block), bool)
+    padded[:h, :w] = glows
+    counts = np.zeros((rows + 1, columns + 1), np.int32)
+    counts[1:, 1:] = padded.reshape(rows, block, columns, block).any(axis=(1, 3)).cumsum(0).cumsum(1)
+    return counts, block
+
+
 def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materials: np.ndarray,
                      estimates: np.ndarray, sampled: np.ndarray, device,
-                     tile_estimates: list | None = None) -> SampledEmission | None:
+                     tile_estimates: list | None = None, glow_maps: list | None = None) -> SampledEmission | None:
     """The emission estimate of each row of a material marked in ``sampled`` (``tri_materials``: the geometry's
     triangles then one row per analytic shape): the largest of the mean emission at :data:`BARYCENTRIC_POINTS`, a
     fifth of a fallback it may read and its material's estimate, or for a material given ``tile_estimates``, the
@@ -213,6 +289,8 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
         device: the Warp device of ``mats`` and ``uvs``.
         tile_estimates: per device material None, or for one of a UDIM emission texture ``(UDIM_TILES, 3)`` each
             tile's estimate (:func:`wrt.materials.tile_emission_estimates`); None: none.
+        glow_maps: per device material None, or :func:`glow_blocks` of its emission image: a triangle whose texels
+            glow nowhere is not held at its material's estimate; None: none.
     """
     sampled = np.asarray(sampled, bool)
     if not sampled.any():  # (no per-triangle gather: most scenes have no textured emitter)
@@ -226,15 +304,24 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
     tiled = np.array([t is not None for t in tiles])
     tile_rows = np.where(tiled, np.cumsum(tiled) - 1, -1) * UDIM_TILES
     tile_glow = np.concatenate([t for t in tiles if t is not None] or [np.zeros((1, 3))]).astype(np.float32)
+    maps = [None] * len(sampled) if glow_maps is None else list(glow_maps)
+    sizes = np.array([0 if g is None else g[0].size for g in maps], np.int64)
+    glow_rows = np.stack([np.where(sizes > 0, np.cumsum(sizes) - sizes, -1),
+                          [1 if g is None else g[1] for g in maps]], axis=1).astype(np.int32)
+    glow_counts = np.concatenate([g[0].ravel() for g in maps if g is not None] or [np.zeros(1, np.int32)])
     read = wp.empty(len(ids), dtype=wp.vec3, device=device)
+    dark = wp.zeros(len(ids), dtype=wp.int32, device=device)
     wp.launch(sample_emission_kernel, dim=len(ids), device=device,
               inputs=[mats, uvs, wp.array(ids.astype(np.int32), dtype=wp.int32, device=device),
                       wp.array(materials.astype(np.int32), dtype=wp.int32, device=device),
                       wp.array(BARYCENTRIC_POINTS.astype(np.float32), dtype=wp.vec3, device=device),
                       wp.array(tile_glow, dtype=wp.vec3, device=device),
-                      wp.array(tile_rows.astype(np.int32), dtype=wp.int32, device=device)],
-              outputs=[read])
+                      wp.array(tile_rows.astype(np.int32), dtype=wp.int32, device=device),
+                      wp.array(glow_counts, dtype=wp.int32, device=device),
+                      wp.array(glow_rows, dtype=wp.vec2i, device=device)],
+              outputs=[read, dark])
     # A sum past float32's range (texels near 65504 times a huge scale) as the largest float.
     mean = np.nan_to_num(read.numpy(), nan=0.0, posinf=np.finfo(np.float32).max)
-    least = np.where(tiled[materials, None], 0.0, np.asarray(estimates, np.float64).reshape(-1, 3)[materials])
+    least = np.where(tiled[materials, None] | (dark.numpy()[:, None] == 1), 0.0,
+                     np.asarray(estimates, np.float64).reshape(-1, 3)[materials])
     return SampledEmission(ids.astype(np.int64), np.maximum(least, mean))
