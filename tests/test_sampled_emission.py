@@ -525,3 +525,33 @@ def test_a_triangle_whose_filtered_texels_glow_keeps_its_light_picks(case):
     glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
     pmf = triangle_pmf(wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[HALF_LIT], materials=[glow]))
     assert (pmf > 0.0).all(), pmf
+
+
+# 4 rows of 16 texels: columns 0-7 holes (opacity 0), 8-15 opaque (1)
+HALF_OPAQUE = np.concatenate([np.zeros((4, 8, 4), np.float32), np.ones((4, 8, 4), np.float32)], axis=1)
+
+
+@pytest.mark.parametrize("glow", ["constant", "textured"])
+def test_triangles_all_in_holes_of_a_cut_out_glow_take_no_light_picks(glow):
+    """A glowing card cut out by an opacity image (threshold 0.5, clamped) whose left half is holes, its first
+    square's ``s`` over [0, 0.25] (columns 0-4 read: all holes), the second's over [0.75, 1]; its glow constant
+    (:data:`RADIANCE`) or an image of it. The first's triangles, which emit nothing (rays pass them, light samples
+    there skip them), take no light picks, as the same card with them of a material without glow gives them (the
+    oracle), and the floor renders as under it. They took half the picks, all wasted."""
+    emission = ({"emissive_color": np.full(3, RADIANCE, np.float32)} if glow == "constant"
+                else {"textures": {"emissiveColor": TextureInput(image=1)}})
+    cut = Material(path="/Card", diffuse_color=0.0, opacity_threshold=0.5, **emission)
+    cut.textures = {**cut.textures, "opacity": TextureInput(image=0, channel="r", wrap=("clamp", "clamp"))}
+    floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor", material=1)
+    white = Material(path="/White", diffuse_color=1.0, use_specular_workflow=True)  # Lambertian: no specular
+    ranges = [(0.0, 0.25), (0.75, 1.0)]
+    textures = [HALF_OPAQUE, np.full((4, 4, 4), RADIANCE, np.float32)]
+    holed = wrt.Scene(meshes=[floor, half_lit_lamp(ranges, [0, 0, 0, 0])], textures=textures, materials=[cut, white])
+    plain = wrt.Scene(meshes=[floor, half_lit_lamp(ranges, [2, 2, 0, 0])], textures=textures,
+                      materials=[cut, white, Material(path="/Dark", diffuse_color=0.0)])
+    np.testing.assert_allclose(triangle_pmf(holed), triangle_pmf(plain), rtol=1e-6, atol=1e-12)
+    camera = top_down_camera(center=(0, 2.0, 0), height=2.0)
+    images = [wrt.render(scene, camera=camera, width=8, height=8, spp=16, seed=1, device="cpu").rgb
+              for scene in (holed, plain)]
+    assert images[1].mean() > 0.0
+    np.testing.assert_allclose(images[0], images[1], rtol=1e-6)

@@ -59,7 +59,7 @@ from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QU
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .sampled_emission import glow_blocks, sampled_emission
+from .sampled_emission import glow_blocks, opaque_blocks, sampled_emission
 from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, has_area, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
@@ -1023,6 +1023,10 @@ class Renderer:
         # such triangles took 0.35 s of every Renderer.
         key = ("sampled_emission", str(dev))
         textured = np.array([False] + ["emissiveColor" in m.textures for m in scene.materials])
+        # and those of a glow cut out by a texture: a triangle all in holes emits nothing (opaque_blocks)
+        holed = glows & np.array([False] + ["opacity" in m.textures and m.opacity_threshold > 0.0
+                                            for m in scene.materials])
+        textured |= holed
         if key not in scene._cache:
             # Of the images as checked and made RGBA float32 (an (H, W, 3) one built in Python was read as RGBA rows:
             # its channels mixed, or a reshape error that stopped the render); not made where nothing reads them.
@@ -1030,7 +1034,9 @@ class Renderer:
             tiles = [None] + [tile_emission_estimates(m, images) if t else None for m, t in zip(scene.materials,
                                                                                              textured[1:])]
             maps = [None] + [glow_blocks(m, images) if t else None for m, t in zip(scene.materials, textured[1:])]
-            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles, maps)
+            holes = [None] + [opaque_blocks(m, images) if h else None for m, h in zip(scene.materials, holed[1:])]
+            scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles, maps,
+                                                 holes)
         read = scene._cache[key]
         # Read for the cut-out ones too, which count as the stage's light where they glow, as a cut-out material of
         # constant glow does; the reads add a glow no material tells (any texture's fallback at a NaN st).

@@ -18,6 +18,8 @@ all miss a glow that only part of a triangle shows (a corner past [0, 1] along a
 UDIM tile between the points): a triangle on which the lookup can return its fallback at all takes at least a fifth
 of the fallback's emission (:func:`may_read_fallback`), so that no light is left with no chance of being sampled (such
 a lamp was no light: ``whitted`` left what it lit black, and a stage lit by it alone got the default lights).
+A glow cut out by an opacity image is read on its triangles too: one all in its holes (every texel it reads there
+under the threshold, :func:`opaque_blocks`) emits nothing, and took draws that found no light.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .materials import CHANNELS, SLOT_EMISSIVE, DeviceMaterials, eval_emission
+from .materials import CHANNELS, SLOT_EMISSIVE, SLOT_OPACITY, DeviceMaterials, eval_emission
 from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK, WRAP_MIRROR, WRAP_REPEAT
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
@@ -154,7 +156,8 @@ def reads_no_glow(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2
 def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids: wp.array[wp.int32],
                            materials: wp.array[wp.int32], weights: wp.array[wp.vec3], tile_glow: wp.array[wp.vec3],
                            tile_rows: wp.array[wp.int32], glow_counts: wp.array[wp.int32],
-                           glow_rows: wp.array[wp.vec2i],
+                           glow_rows: wp.array[wp.vec2i], hole_counts: wp.array[wp.int32],
+                           hole_rows: wp.array[wp.vec2i],
                            # outputs
                            emission: wp.array[wp.vec3], dark: wp.array[wp.int32]):
     """``emission[i]``: the mean emission of material ``materials[i]`` on triangle ``ids[i]`` at the barycentric
@@ -165,7 +168,9 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
     emission of its tiles under the triangle (:func:`tiles_glow`; ``tile_rows[m]``: material ``m``'s first row of
     ``tile_glow``, -1 for one of another texture), for the same reason. ``dark[i]``: 1 where the texels the
     triangle reads glow nowhere (:func:`reads_no_glow`; ``glow_rows[m]``: material ``m``'s first row of
-    ``glow_counts`` and its block size, -1 for none), so that the material's mean is not its estimate."""
+    ``glow_counts`` and its block size, -1 for none), so that the material's mean is not its estimate; and with
+    ``emission[i]`` 0 where every texel of its opacity texture read on the triangle cuts a hole (``hole_rows``,
+    ``hole_counts``: :func:`opaque_blocks`), and the texture returns no fallback there: it emits nothing."""
     i = wp.tid()
     t = ids[i]
     m = materials[i]
@@ -198,6 +203,13 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
     if glow_row[0] >= 0 and reads_no_glow(mats, b, uvs[t, 0], uvs[t, 1], uvs[t, 2], glow_counts, glow_row[0],
                                           glow_row[1]):
         dark[i] = 1
+    hole_row = hole_rows[m]
+    if hole_row[0] >= 0:
+        o = mats.slots[m, SLOT_OPACITY]
+        if not may_read_fallback(mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2]) and reads_no_glow(
+                mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2], hole_counts, hole_row[0], hole_row[1]):
+            emission[i] = wp.vec3(0.0)
+            dark[i] = 1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -252,15 +264,36 @@ def glow_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | Non
     if np.any(bias[channels] != 0.0):
         return None
     image = textures[tex.image]
-    h, w = image.shape[:2]
-    glows = np.zeros((h, w), bool)
+    glows = np.zeros(image.shape[:2], bool)
     for c in channels:  # one channel at a time: a float64 copy of a 4k image took 400 MB
         texel = image[..., c]
         glows |= np.isnan(texel) | (texel > 0.0 if scale[c] > 0.0 else texel < 0.0 if scale[c] < 0.0 else False)
+    return block_counts(glows)
+
+
+def opaque_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | None:
+    """``(counts, block)`` for ``mat``'s opacity texture of one image where it cuts holes (``opacity_threshold``
+    above 0): :func:`block_counts` of the texels it may read as opaque (at least the threshold, within the rounding
+    of the device's half-float texels, or not a number), so that a triangle all in holes, which emits nothing, is
+    found by :func:`reads_no_glow`. None for a UDIM texture, a missing image or no threshold."""
+    tex = mat.textures.get("opacity")
+    threshold = float(mat.opacity_threshold)
+    if tex is None or tex.tiles is not None or not threshold > 0.0 or not 0 <= tex.image < len(textures):
+        return None
+    c = CHANNELS[tex.channel] % 4  # a scalar input reads the first component: red of rgb
+    texel = textures[tex.image][..., c].astype(np.float64)
+    scaled = texel * float(tex.scale[c])
+    return block_counts(~(scaled + float(tex.bias[c]) + np.abs(scaled) * 2.0**-9 < threshold))
+
+
+def block_counts(marked: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(counts, block)``: the summed-area table (``(rows + 1, columns + 1)`` int32) of the blocks of ``block`` x
+    ``block`` texels (at most :data:`GLOW_BLOCKS` per side) of ``marked`` (``(H, W)`` bool) that hold a marked one."""
+    h, w = marked.shape
     block = max(1, -(-max(h, w) // GLOW_BLOCKS))
     rows, columns = -(-h // block), -(-w // block)
     padded = np.zeros((rows * block, columns * block), bool)
-    padded[:h, :w] = glows
+    padded[:h, :w] = marked
     counts = np.zeros((rows + 1, columns + 1), np.int32)
     counts[1:, 1:] = padded.reshape(rows, block, columns, block).any(axis=(1, 3)).cumsum(0).cumsum(1)
     return counts, block
@@ -268,7 +301,8 @@ def glow_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | Non
 
 def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materials: np.ndarray,
                      estimates: np.ndarray, sampled: np.ndarray, device,
-                     tile_estimates: list | None = None, glow_maps: list | None = None) -> SampledEmission | None:
+                     tile_estimates: list | None = None, glow_maps: list | None = None,
+                     hole_maps: list | None = None) -> SampledEmission | None:
     """The emission estimate of each row of a material marked in ``sampled`` (``tri_materials``: the geometry's
     triangles then one row per analytic shape): the largest of the mean emission at :data:`BARYCENTRIC_POINTS`, a
     fifth of a fallback it may read and its material's estimate, or for a material given ``tile_estimates``, the
@@ -285,12 +319,14 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
         tri_materials: ``(T,)`` int device material of each row.
         estimates: ``(M, 3)`` emission estimate per device material (:func:`wrt.materials.emission_estimates`).
         sampled: ``(M,)`` bool, the materials whose emission is read on their triangles (those with an emission
-            texture).
+            texture, and glows cut out by an opacity texture).
         device: the Warp device of ``mats`` and ``uvs``.
         tile_estimates: per device material None, or for one of a UDIM emission texture ``(UDIM_TILES, 3)`` each
             tile's estimate (:func:`wrt.materials.tile_emission_estimates`); None: none.
         glow_maps: per device material None, or :func:`glow_blocks` of its emission image: a triangle whose texels
             glow nowhere is not held at its material's estimate; None: none.
+        hole_maps: per device material None, or :func:`opaque_blocks` of its opacity image: a triangle all in holes
+            is estimated at 0; None: none.
     """
     sampled = np.asarray(sampled, bool)
     if not sampled.any():  # (no per-triangle gather: most scenes have no textured emitter)
@@ -304,11 +340,8 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
     tiled = np.array([t is not None for t in tiles])
     tile_rows = np.where(tiled, np.cumsum(tiled) - 1, -1) * UDIM_TILES
     tile_glow = np.concatenate([t for t in tiles if t is not None] or [np.zeros((1, 3))]).astype(np.float32)
-    maps = [None] * len(sampled) if glow_maps is None else list(glow_maps)
-    sizes = np.array([0 if g is None else g[0].size for g in maps], np.int64)
-    glow_rows = np.stack([np.where(sizes > 0, np.cumsum(sizes) - sizes, -1),
-                          [1 if g is None else g[1] for g in maps]], axis=1).astype(np.int32)
-    glow_counts = np.concatenate([g[0].ravel() for g in maps if g is not None] or [np.zeros(1, np.int32)])
+    glow_counts, glow_rows = _packed_maps(glow_maps, len(sampled))
+    hole_counts, hole_rows = _packed_maps(hole_maps, len(sampled))
     read = wp.empty(len(ids), dtype=wp.vec3, device=device)
     dark = wp.zeros(len(ids), dtype=wp.int32, device=device)
     wp.launch(sample_emission_kernel, dim=len(ids), device=device,
@@ -318,10 +351,22 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
                       wp.array(tile_glow, dtype=wp.vec3, device=device),
                       wp.array(tile_rows.astype(np.int32), dtype=wp.int32, device=device),
                       wp.array(glow_counts, dtype=wp.int32, device=device),
-                      wp.array(glow_rows, dtype=wp.vec2i, device=device)],
+                      wp.array(glow_rows, dtype=wp.vec2i, device=device),
+                      wp.array(hole_counts, dtype=wp.int32, device=device),
+                      wp.array(hole_rows, dtype=wp.vec2i, device=device)],
               outputs=[read, dark])
     # A sum past float32's range (texels near 65504 times a huge scale) as the largest float.
     mean = np.nan_to_num(read.numpy(), nan=0.0, posinf=np.finfo(np.float32).max)
     least = np.where(tiled[materials, None] | (dark.numpy()[:, None] == 1), 0.0,
                      np.asarray(estimates, np.float64).reshape(-1, 3)[materials])
     return SampledEmission(ids.astype(np.int64), np.maximum(least, mean))
+
+
+def _packed_maps(maps: list | None, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(counts, rows)``: the tables of ``maps`` (per device material None or ``(counts, block)``; None: none of
+    ``count``) one after another (int32), and per material ``(first row, block)`` (int32, -1 for none)."""
+    maps = [None] * count if maps is None else list(maps)
+    sizes = np.array([0 if g is None else g[0].size for g in maps], np.int64)
+    rows = np.stack([np.where(sizes > 0, np.cumsum(sizes) - sizes, -1), [1 if g is None else g[1] for g in maps]],
+                    axis=1).astype(np.int32)
+    return np.concatenate([g[0].ravel() for g in maps if g is not None] or [np.zeros(1, np.int32)]), rows
