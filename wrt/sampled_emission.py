@@ -277,13 +277,14 @@ def opaque_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | N
     of the device's half-float texels, or not a number), so that a triangle all in holes, which emits nothing, is
     found by :func:`reads_no_glow`. None for a UDIM texture, a missing image or no threshold."""
     tex = mat.textures.get("opacity")
-    threshold = float(mat.opacity_threshold)
+    threshold = float(np.float32(mat.opacity_threshold))  # as the device compares
     if tex is None or tex.tiles is not None or not threshold > 0.0 or not 0 <= tex.image < len(textures):
         return None
     c = CHANNELS[tex.channel] % 4  # a scalar input reads the first component: red of rgb
     texel = textures[tex.image][..., c].astype(np.float64)
     scaled = texel * float(tex.scale[c])
-    return block_counts(~(scaled + float(tex.bias[c]) + np.abs(scaled) * 2.0**-9 < threshold))
+    # The slack holds the half-float rounding of the texel and the float32 rounding of the sum.
+    return block_counts(~(scaled + float(tex.bias[c]) + np.abs(scaled) * 2.0**-9 + 2.0**-20 < threshold))
 
 
 def block_counts(marked: np.ndarray) -> tuple[np.ndarray, int]:
