@@ -202,3 +202,42 @@ def test_instances_moved_by_another_thread_in_the_middle_of_a_trace_are_traced_a
     assert not np.array_equal(before, after)
     np.testing.assert_array_equal(traced[0], before)
     np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)
+
+
+def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_traced_as_replaced(monkeypatch):
+    """As instances moved (above), but by a new ``scene.instances``: an assignment of the scene's own field took no
+    lock, and the trace built a TLAS of the new instances with the inverses of the old. It now waits for the build."""
+    grid = np.linspace(-1.2, 1.2, 13, dtype=np.float32)
+    origins = np.stack([*np.meshgrid(grid, grid), np.full((13, 13), 3.0, np.float32)], -1).reshape(-1, 3)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (len(origins), 1))
+    scene, replaced = instanced_scene(0.1), Instances.from_transforms([0, 0], two_instances(0.3))
+    real = Scene.instance_inverses
+    read, assigned = threading.Event(), threading.Event()
+
+    def inverses(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not read.is_set():
+            read.set()
+            assigned.wait(timeout=1.0)  # before the lock the assignment came at once; now it waits for this trace
+        return result
+
+    monkeypatch.setattr(Scene, "instance_inverses", inverses)
+    traced = []
+    a = threading.Thread(target=lambda: traced.append(wrt.trace(scene, origins, directions).t), name="A")
+    a.start()
+    assert read.wait(timeout=60)
+
+    def replace():
+        scene.instances = replaced
+        assigned.set()
+
+    b = threading.Thread(target=replace, name="B")
+    b.start()
+    a.join(timeout=60)
+    b.join(timeout=60)
+    assert not a.is_alive() and not b.is_alive()
+    monkeypatch.undo()
+    before, after = (wrt.trace(instanced_scene(shift), origins, directions).t for shift in (0.1, 0.3))
+    assert not np.array_equal(before, after)
+    np.testing.assert_array_equal(traced[0], before)
+    np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)

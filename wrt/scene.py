@@ -726,6 +726,18 @@ class Scene:
         # Accelerators cached before the instances last moved, by cache key: the next get_accelerator rebuilds their
         # TLAS alone (wrt.trace.moved_accelerator). Dropped by invalidate() and by any other change.
         self._moved_accels = {}
+        self._made = True  # from now on its fields are assigned under the lock (__setattr__)
+
+    def __setattr__(self, name, value):
+        # A field of the scene itself assigned from another thread (scene.instances = ..., scene.meshes = [...]) in
+        # the middle of a build, as a mesh's or the instances' own (CountsAssignments): taken without the lock, a
+        # trace built a TLAS of the new instances with the inverses of the old, and hit neither. Not while the
+        # constructor runs: a scene being made is in no other thread's build, and must not wait for one.
+        if "_made" not in self.__dict__:
+            object.__setattr__(self, name, value)
+            return
+        with EDITS:
+            object.__setattr__(self, name, value)
 
     def __getstate__(self) -> dict:
         # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable. Nor do
@@ -736,7 +748,7 @@ class Scene:
     def lock(self):
         """The reentrant lock held by every build of a scene's trees and device copies (:func:`wrt.trace`, a
         :class:`wrt.Renderer`'s build), every cache check and drop (:meth:`drop_stale_caches`, :meth:`invalidate`) and
-        every assignment of a field of a mesh, shape, prototype, material or ``scene.instances``
+        every assignment of a field of the scene or of a mesh, shape, prototype, material or ``scene.instances``
         (:data:`wrt.assignments.EDITS`, one for all scenes: an object does not know its scenes): a build sees one state
         of the scene. A drop or an assignment from another thread in the middle of a build put the old BVH into the
         fresh cache, or built a TLAS of one pose with the inverses of another, and the old or mixed scene was drawn
