@@ -204,6 +204,47 @@ def test_instances_moved_by_another_thread_in_the_middle_of_a_trace_are_traced_a
     np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)
 
 
+def mirrored_instances(shift: float) -> np.ndarray:
+    """:func:`two_instances`, each turned over by a mirror along x (its triangles' corners read in the other order)."""
+    to_world = two_instances(shift)
+    to_world[:, 0, 0] *= -1.0
+    return to_world
+
+
+def test_instances_mirrored_by_another_thread_after_a_trace_built_do_not_change_its_hits(monkeypatch):
+    """The trace's build holds the lock, but its hits were read after it (``read_hits``) from the scene as it is then:
+    instances mirrored by another thread in between swapped ``u`` and ``v`` of every hit on them, hits of the pose
+    traced given the barycentrics of another. The hits are read as of the state built: those of a fresh scene in the
+    pose traced."""
+    grid = np.linspace(-1.2, 1.2, 13, dtype=np.float32)
+    origins = np.stack([*np.meshgrid(grid, grid), np.full((13, 13), 3.0, np.float32)], -1).reshape(-1, 3)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (len(origins), 1))
+    scene = instanced_scene(0.0)
+    wrt.trace(scene, origins, directions)  # built before the thread starts: the move below keeps the BLASes
+    real = trace_module.Accelerator.intersect
+    launched, moved = threading.Event(), threading.Event()
+
+    def intersect(self, *args, **kwargs):
+        real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not launched.is_set():
+            launched.set()
+            moved.wait(timeout=5.0)
+
+    monkeypatch.setattr(trace_module.Accelerator, "intersect", intersect)
+    traced = []
+    a = threading.Thread(target=lambda: traced.append(wrt.trace(scene, origins, directions)), name="A")
+    a.start()
+    assert launched.wait(timeout=60)
+    scene.instances.to_world = mirrored_instances(0.0)
+    moved.set()
+    a.join(timeout=60)
+    assert not a.is_alive()
+    monkeypatch.undo()
+    fresh = wrt.trace(instanced_scene(0.0), origins, directions)
+    assert fresh.hit.sum() > 20 and not np.array_equal(fresh.u[fresh.hit], fresh.v[fresh.hit])
+    assert traced[0] == fresh
+
+
 def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_traced_as_replaced(monkeypatch):
     """As instances moved (above), but by a new ``scene.instances``: an assignment of the scene's own field took no
     lock, and the trace built a TLAS of the new instances with the inverses of the old. It now waits for the build."""

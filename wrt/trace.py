@@ -19,6 +19,7 @@ import functools
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -33,12 +34,12 @@ from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_h
 from .bvh.warp_mesh import WARP_BUILDERS
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean, stray_field, user_stacklevel
-from .instancing import unplaceable
+from .instancing import Instances, unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .options import ACCELERATOR_PRESPLIT, ACCELERATORS
 from .ray_batch import upload_rays
 from .ray_reach import RaysPastFloat32T
-from .scene import Scene
+from .scene import IdRows, Scene
 from .traced_in import TracedIn
 
 # No floating-point contraction (FMA) in the trace kernels: the watertight triangle test relies on an edge shared by
@@ -695,37 +696,60 @@ def trace(
     Returns:
         :class:`Hits` with numpy arrays.
     """
-    acc = get_accelerator(scene, accel, builder, device, layout)
+    check_scene(scene)  # (a path or None has no lock)
+    with scene.lock:  # the hits are read of the scene built, not of an edit another thread made since (HitIds)
+        acc = get_accelerator(scene, accel, builder, device, layout)
+        ids = hit_ids(scene)
     rays = upload_rays(origins, directions, t_min, t_max, acc.device, acc.unit_rays)
     past_float32 = RaysPastFloat32T(scene, rays, acc.device)
     hits = HitBuffer(len(rays[0]), acc.device)
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
-    result = read_hits(scene, hits)
+    result = read_hits(scene, hits, ids)
     past_float32.warn()
     return result
 
 
-def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
+class HitIds(NamedTuple):
+    """What :func:`read_hits` reads of a scene, taken with its accelerator under the scene's lock: read after the
+    trace, instances mirrored by another thread in the meantime swapped ``u`` and ``v`` of the hits on them, and
+    instances replaced named other rows. ``instances`` is a shallow copy (their arrays are replaced, never edited in
+    place: frozen); it and ``rows`` are None for a scene without instances or prototypes."""
+
+    instances: Instances | None
+    rows: IdRows | None
+    traced_in: TracedIn
+
+
+def hit_ids(scene: Scene) -> HitIds:
+    """The :class:`HitIds` of ``scene`` as it is now."""
+    if not len(scene.instances) and not scene.prototypes:
+        return HitIds(None, None, scene.traced_in)
+    return HitIds(copy.copy(scene.instances), scene.id_rows(copy=False), scene.traced_in)
+
+
+def read_hits(scene: Scene, hits: HitBuffer, ids: HitIds | None = None) -> Hits:
     """The ``Hits`` of a buffer an accelerator of ``scene`` filled: ``prim`` as rows of ``Scene.triangles()``, with
-    the barycentrics of those rows (the buffer holds geometry ids and the prototype's corner order)."""
+    the barycentrics of those rows (the buffer holds geometry ids and the prototype's corner order); ``ids``: those
+    of the scene as it was traced (:func:`hit_ids`; default: as it is now)."""
+    ids = hit_ids(scene) if ids is None else ids
     cost = hits.cost.numpy().reshape(-1, 2)
     # + 0.0 turns -0.0 into 0.0 (IEEE: -0 + 0 = +0) and leaves every other t as it is. The kernels' t is a quotient
     # whose signs follow the side a ray leaves from, so a hit at the origin of a ray leaving its surface came back
     # as -0.0 (every accelerator; wp.Mesh with a negative t_min), which 1 / t and np.signbit read as behind it.
     t = hits.t.numpy() + np.float32(0.0)
     u, v, prim = hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
-    if not len(scene.instances) and not scene.prototypes:
-        return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy(), traced_in=scene.traced_in)
+    if ids.rows is None:
+        return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy(), traced_in=ids.traced_in)
     # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there. Prototypes count
     # even without instances: their triangles are geometry ids but no rows, so shape ids shift down.
     instance = hits.instance.numpy()
     swap = instance >= 0
-    swap[swap] = scene.instances.mirrored_rows(instance[swap])
+    swap[swap] = ids.instances.mirrored_rows(instance[swap])
     u, v = np.where(swap, v, u), np.where(swap, u, v)
-    rows = scene.expanded_ids(prim, instance)
+    rows = ids.rows.expand(prim, instance)
     return Hits(t, u, v, rows, cost[:, 0].copy(), cost[:, 1].copy(), instance=instance, local_prim=prim,
-                traced_in=scene.traced_in)
+                traced_in=ids.traced_in)
 
 
 def occluded(
