@@ -282,3 +282,37 @@ def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_trace
     assert not np.array_equal(before, after)
     np.testing.assert_array_equal(traced[0], before)
     np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)
+
+
+def test_objects_made_in_another_thread_do_not_wait_for_a_build(monkeypatch):
+    """A mesh, material or instances being made are in no scene, so their constructors' assignments take no lock:
+    every field after the first waited for a build of any scene in another thread (a loader thread making the next
+    frame's meshes took turns with the render thread's builds). Made while a build is held in the middle, they are
+    made at once."""
+    scene = square_scene()
+    real = trace_module.BvhAccelerator
+    building, made = threading.Event(), threading.Event()
+    came = []
+
+    def build(*args, **kwargs):
+        building.set()
+        came.append(made.wait(timeout=2.0))  # False before: the constructors below waited for this build
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(trace_module, "BvhAccelerator", build)
+    a = threading.Thread(target=lambda: wrt.trace(scene, *RAY), name="A")
+    a.start()
+    assert building.wait(timeout=60)
+    objects = []
+
+    def make():
+        objects.extend([square_scene(2.0), wrt.Material(diffuse_color=(0.5, 0.5, 0.5)),
+                        Instances.from_transforms([0, 0], two_instances(0.0)), Prototype("/P")])
+        made.set()
+
+    b = threading.Thread(target=make, name="B")
+    b.start()
+    a.join(timeout=60)
+    b.join(timeout=60)
+    assert not a.is_alive() and not b.is_alive()
+    assert came == [True] and len(objects) == 4

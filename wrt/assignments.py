@@ -20,7 +20,10 @@ class CountsAssignments:
     :func:`assignments`. In-place edits of arrays are not assignments (see :meth:`wrt.Scene.invalidate`)."""
 
     def __setattr__(self, name, value):
-        if "_unchecked" not in self.__dict__:  # in its constructor, before its checks: in no scene yet, so no lock
+        # In its constructor, before its checks end (mark_checked): in no scene yet, so no lock. (Keyed on
+        # _unchecked, which the first assignment sets, every field after the first waited for a build of any scene
+        # in another thread.)
+        if not self.__dict__.get("_made", False):
             self._assign(name, value)
             return
         with EDITS:  # not in the middle of a build in another thread
@@ -38,8 +41,9 @@ class CountsAssignments:
 
 def mark_checked(obj) -> None:
     """Records that ``obj`` passed its checks (the end of its constructor's): :func:`check_assigned` skips it until a
-    field is assigned again."""
+    field is assigned again, and its fields are assigned under :data:`EDITS` from now on."""
     object.__setattr__(obj, "_unchecked", False)
+    object.__setattr__(obj, "_made", True)
 
 
 def mark_unchecked(obj) -> None:

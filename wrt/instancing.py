@@ -87,6 +87,7 @@ class Prototype(CountsAssignments):
         path = prim_path(self.path, "wrt.Prototype")
         if path is not self.path:
             self.path = path
+        mark_checked(self)  # made: a field assigned from now on waits for a build in another thread (EDITS)
 
     @property
     def num_triangles(self) -> int:
