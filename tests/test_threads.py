@@ -316,3 +316,45 @@ def test_objects_made_in_another_thread_do_not_wait_for_a_build(monkeypatch):
     b.join(timeout=60)
     assert not a.is_alive() and not b.is_alive()
     assert came == [True] and len(objects) == 4
+
+
+def two_prototypes(prototype_ids) -> Scene:
+    """Two instances side by side of two prototypes, a square of 2 triangles and one of 4, as ``prototype_ids``."""
+    fan = wrt.Mesh("/Fan", np.float32([*SQUARE, [0, 0, 0]]), np.int32([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]]),
+                   np.zeros(4, np.int32))
+    return wrt.Scene(prototypes=[Prototype("/Square", meshes=[square_scene().meshes[0]]), Prototype("/Fan", [fan])],
+                     instances=Instances.from_transforms(prototype_ids, two_instances(0.0)))
+
+
+def test_a_render_names_the_triangles_it_drew_after_another_thread_swapped_prototypes(monkeypatch):
+    """A render read the scene's ids (``Scene.id_rows``) after its build, outside the lock: instances given other
+    prototypes by another thread in between had the image's ``prim`` ids expanded by the new prototypes, naming
+    triangles that were not drawn (or none, -1 and past the end). They are read at the build: the ids of the same
+    render of a fresh scene of the prototypes drawn."""
+    options = {**OPTIONS, "integrator": "depth"}
+    scene = two_prototypes([0, 1])
+    renderer = wrt.Renderer(scene, **options)
+    real = wrt_render.Renderer._follow
+    followed, swapped = threading.Event(), threading.Event()
+
+    def follow(self):
+        real(self)
+        if threading.current_thread().name == "A" and not followed.is_set():
+            followed.set()
+            swapped.wait(timeout=5.0)
+
+    monkeypatch.setattr(wrt_render.Renderer, "_follow", follow)
+    images = []
+    a = threading.Thread(target=lambda: images.append(renderer.render()), name="A")
+    a.start()
+    assert followed.wait(timeout=60)
+    scene.instances.prototype = np.int32([1, 0])
+    swapped.set()
+    a.join(timeout=60)
+    assert not a.is_alive()
+    monkeypatch.undo()
+    fresh = wrt.render(two_prototypes([0, 1]), **options)
+    swapped_ids = wrt.render(two_prototypes([1, 0]), **options).aovs["prim"]
+    assert not np.array_equal(fresh.aovs["prim"], swapped_ids)
+    np.testing.assert_array_equal(images[0].rgb, fresh.rgb)
+    np.testing.assert_array_equal(images[0].aovs["prim"], fresh.aovs["prim"])

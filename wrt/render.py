@@ -782,6 +782,11 @@ class Renderer:
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
+        # The ids of the scene built, for every image drawn until the next build: read at each render, after the lock,
+        # instances given other prototypes by another thread meanwhile had the image's ids (and its misses) expanded
+        # by the new ones. Not copied here (20 MB per build at 5M instances, a build per frame of moving instances):
+        # what outlives the call (sums, a BatchImage) takes a copy (IdRows.copied).
+        self._id_rows = self.scene.id_rows(copy=False)
         self._scene_generation = generation
         stats = self.scene.stats()  # (counted here, not at each camera change: set_cameras may come every step)
         self._draws_anything = bool(stats["rendered_triangles"] or stats.get("rendered_shapes", 0))
@@ -1270,7 +1275,7 @@ class Renderer:
         progress, resume = flag(progress, "progress"), flag(resume, "resume")
         self._follow()  # a rebuild drops the progressive sums, and so does a camera edit
         # The ids of the scene drawn, kept with the sums: image_so_far() after an edit expanded them by the new scene.
-        rows = self.scene.id_rows()
+        rows = self._id_rows.copied()
         quick_look = self.integrator in QUICK_LOOKS
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
@@ -1468,9 +1473,9 @@ class Renderer:
         self.dropped_samples = int(dropped.numpy()[0])
         self._warn_dropped(1)
         # The scene is checked unchanged above, and one camera's ids are expanded at once (finish_image), so they
-        # read the instances' prototype ids as they are: copied, 20 MB per frame at 5M instances. A BatchImage
-        # expands its views later, after edits maybe, so it keeps a copy.
-        return self._mean_image(image, 1, aovs, self.scene.id_rows(copy=self.batched))
+        # read the instances' prototype ids of the build as they are: copied, 20 MB per frame at 5M instances. A
+        # BatchImage expands its views later, after edits maybe, so it keeps a copy.
+        return self._mean_image(image, 1, aovs, self._id_rows.copied() if self.batched else self._id_rows)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(

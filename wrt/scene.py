@@ -611,6 +611,11 @@ class IdRows(NamedTuple):
         """Whether geometry ids differ from rows (the scene has instances or prototypes)."""
         return bool(len(self.prototype) or len(self.layout.prototypes))
 
+    def copied(self) -> IdRows:
+        """These rows with the prototype ids copied, as :meth:`Scene.id_rows` copies them: an edit in place (after
+        :meth:`Scene.invalidate`) does not reach the copy."""
+        return IdRows(self.layout, np.array(self.prototype))
+
     def expand(self, prim, instance) -> np.ndarray:
         """:meth:`Scene.expanded_ids` of the scene this was made of."""
         prim = np.asarray(prim, np.int64)
@@ -1298,7 +1303,8 @@ class Scene:
         that a later edit in place (after :meth:`invalidate`) does not reach it: in their own int32, as the uncopied
         ones are read (widened to int64, a render's copy was 40 MB at 5M instances, not 20)."""
         prototype = self.instances.prototype if len(self.instances) else np.zeros(0, np.int32)
-        return IdRows(self._id_layout(), np.array(prototype) if copy else prototype)
+        rows = IdRows(self._id_layout(), prototype)
+        return rows.copied() if copy else rows
 
     def split_ids(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """The inverse of :meth:`expanded_ids`: ``(geometry id, instance)`` int64 of rows of :meth:`triangles`."""
