@@ -1,6 +1,7 @@
 """A scene traced and rendered from several threads at once, and edited from one while another builds: each result
 is compared with the same call on a freshly built scene in this thread (the oracle)."""
 
+import dataclasses
 import importlib
 import threading
 
@@ -358,3 +359,36 @@ def test_a_render_names_the_triangles_it_drew_after_another_thread_swapped_proto
     assert not np.array_equal(fresh.aovs["prim"], swapped_ids)
     np.testing.assert_array_equal(images[0].rgb, fresh.rgb)
     np.testing.assert_array_equal(images[0].aovs["prim"], fresh.aovs["prim"])
+
+
+def test_a_camera_moved_by_another_thread_while_a_render_uploads_it_is_drawn_by_the_next_render(monkeypatch):
+    """A render uploading an edited camera recorded the camera after the upload: moved again by another thread in
+    between, it was recorded as drawn at the second pose but uploaded at the first, and no later render uploaded it
+    (every image drew the first pose). The camera is recorded before it is read: the next render draws the second
+    pose, as a fresh Renderer there."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    renderer = wrt.Renderer(square_scene(), **{**OPTIONS, "camera": camera})
+    poses = [wrt.Camera.look_at((x, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60).to_world for x in (0.8, -0.9)]
+    real = wrt_render.Renderer._upload_cameras_at
+    uploaded, moved = threading.Event(), threading.Event()
+
+    def upload(self, *args, **kwargs):
+        real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not uploaded.is_set():
+            uploaded.set()
+            moved.wait(timeout=5.0)
+
+    monkeypatch.setattr(wrt_render.Renderer, "_upload_cameras_at", upload)
+    camera.to_world = poses[0]
+    a = threading.Thread(target=renderer.render, name="A")
+    a.start()
+    assert uploaded.wait(timeout=60)
+    camera.to_world = poses[1]
+    moved.set()
+    a.join(timeout=60)
+    assert not a.is_alive()
+    monkeypatch.undo()
+    at = [wrt.render(square_scene(), **{**OPTIONS, "camera": dataclasses.replace(camera, to_world=pose)}).rgb
+          for pose in poses]
+    assert not np.array_equal(*at)
+    np.testing.assert_array_equal(renderer.render().rgb, at[1])

@@ -856,15 +856,16 @@ class Renderer:
         if self._draws_anything:
             warn_clipped_away(self.scene, self.cameras, self._said_once)
 
-    def _camera_sources_key(self) -> tuple:
-        """What the renderer's cameras are made from, as it is now: each camera given, or the scene's camera at its
-        path, with its fields (:meth:`Camera.snapshot`); the scene's edit count where wrt frames the scene."""
+    def _camera_sources_key(self, camera_args=None) -> tuple:
+        """What the renderer's cameras (or ``camera_args``, as given to :meth:`set_cameras`) are made from, as it is
+        now: each camera given, or the scene's camera at its path, with its fields (:meth:`Camera.snapshot`); the
+        scene's edit count where wrt frames the scene."""
         # id(source) may be reused by a camera made after the old one was freed, but the key is then unchanged only
         # where the snapshot is too, i.e. every field (the whole view) is the same: a reused id never hides a change.
         # The render settings (frozen: replaced, never edited) choose the camera, the image size and the data window;
         # settings replaced by others of another product name alone keep the view, and resume=True's sums with it.
         key = [self._settings_view()]
-        for arg in self._camera_args:
+        for arg in self._camera_args if camera_args is None else camera_args:
             source = camera_source(self.scene, arg)
             # wrt frames the scene by its bounds and along its up_axis (a plain field, assigned without an edit count)
             framed = ("framed", self.scene.cache_generation, self.scene.up_axis)
@@ -964,7 +965,9 @@ class Renderer:
         check_asked_pixels(self.scene, *size, len(views), asked)
         self._upload_cameras_at([view[0] for view in views], size, self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
-        self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
+        # As it was before it was read (by value, so the checks' conversions change nothing): a camera moved by
+        # another thread after the upload was recorded as drawn at its new pose, and never uploaded.
+        self._camera_key = key
         self._note_views()
         self._drop_sums("a camera changed")  # the sums are of the old view
         self._warn_clipped_away()
@@ -1132,6 +1135,7 @@ class Renderer:
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
         cameras = given = camera_list(cameras)
+        key = self._camera_sources_key(given)  # before they are read (_follow_cameras)
         views = resolve_views(self.scene, cameras, *asked)
         windows = [view_window(self.scene, c, *asked) for c in cameras]
         # The renderer's size, unless the render settings were replaced since it last drew: then the size they give
@@ -1155,7 +1159,7 @@ class Renderer:
         self._batched = True
         self._camera_args = given
         self._sides = (self.width, self.height)  # set_cameras keeps the size made
-        self._camera_key = self._camera_sources_key()
+        self._camera_key = key
         self._note_views()
         if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
