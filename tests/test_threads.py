@@ -392,3 +392,72 @@ def test_a_camera_moved_by_another_thread_while_a_render_uploads_it_is_drawn_by_
           for pose in poses]
     assert not np.array_equal(*at)
     np.testing.assert_array_equal(renderer.render().rgb, at[1])
+
+
+class TimedLock:
+    """A renderer's lock whose waits end after ``seconds`` with TimeoutError: a deadlock fails the test (and lets go
+    of the locks it held) instead of hanging it."""
+
+    def __init__(self, seconds: float):
+        self._lock, self._seconds = threading.RLock(), seconds
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        if blocking and timeout < 0:
+            if not self._lock.acquire(timeout=self._seconds):
+                raise TimeoutError(f"waited {self._seconds} s for the renderer's lock")
+            return True
+        return self._lock.acquire(blocking, timeout)
+
+    def release(self) -> None:
+        self._lock.release()
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def test_a_renderer_called_inside_scene_lock_while_another_thread_renders_with_it_does_not_deadlock(monkeypatch):
+    """A simulation thread moving the scene and the cameras inside ``with scene.lock:`` (which makes edits seen all
+    or none) called ``renderer.set_cameras`` while a render thread's render of that Renderer waited for the scene's
+    lock holding the renderer's: each waited for the other for good. A call that finds the scene's lock taken lets
+    go of the renderer's until it is free (Renderer._scene_turn): the simulation's call goes first, and the render
+    draws its edits, as a fresh Renderer of the moved scene and cameras does."""
+    scene = square_scene()
+    renderer = wrt.Renderer(scene, **OPTIONS)
+    renderer._calls = TimedLock(5.0)
+    moved_camera = wrt.Camera.look_at((0.8, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    real = wrt_render.Renderer._follow
+    following, locked = threading.Event(), threading.Event()
+
+    def follow(self):
+        if threading.current_thread().name == "R":
+            following.set()  # it holds the renderer's lock, and asks for the scene's next
+        return real(self)
+
+    monkeypatch.setattr(wrt_render.Renderer, "_follow", follow)
+    errors, images = [], []
+
+    def simulate():
+        try:
+            with scene.lock:
+                locked.set()
+                assert following.wait(timeout=60)
+                scene.meshes[0].points = SQUARE + np.float32([0, 0, 1])
+                renderer.set_cameras([moved_camera])
+        except Exception as error:  # noqa: BLE001 - told by the assertion below
+            errors.append(error)
+
+    s = threading.Thread(target=simulate, name="S")
+    s.start()
+    assert locked.wait(timeout=60)
+    r = threading.Thread(target=lambda: images.append(renderer.render()), name="R")
+    r.start()
+    s.join(timeout=60)
+    r.join(timeout=60)
+    assert not s.is_alive() and not r.is_alive()
+    monkeypatch.undo()
+    assert errors == []
+    fresh = wrt.Renderer(square_scene(1.0), **{**OPTIONS, "camera": None, "cameras": [moved_camera]}).render()
+    np.testing.assert_array_equal(images[0].rgb, fresh.rgb)

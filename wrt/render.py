@@ -11,6 +11,7 @@ depend on how its samples are split into launches (``batch``). ``Image.rgb`` is 
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
@@ -491,12 +492,17 @@ SHORT_REPRS = ("integrator", "max_depth", "ao_radius", "width", "height", "devic
 def one_call_at_a_time(method):
     """A :class:`Renderer` method that holds the renderer's lock: its path, image and frame buffers are shared by
     its calls, and two threads rendering with one Renderer at once wrote their paths into each other's buffers, both
-    images of neither render, without a word. Reentrant, as these methods call each other."""
+    images of neither render, without a word. Reentrant, as these methods call each other. A call that reads the
+    scene takes the scene's lock first thing (:meth:`Renderer._scene_turn`)."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
         with self._calls:
-            return method(self, *args, **kwargs)
+            self._calls_held += 1
+            try:
+                return method(self, *args, **kwargs)
+            finally:
+                self._calls_held -= 1
 
     return locked
 
@@ -664,6 +670,7 @@ class Renderer:
         cameras=None,
     ):
         self._calls = threading.RLock()  # held by each render, frame and camera upload (one_call_at_a_time)
+        self._calls_held = 0  # how many calls the thread holding it is in (one_call_at_a_time, _scene_turn)
         check_scene(scene)
         check_sides(width, height)
         if cameras is not None:
@@ -812,11 +819,38 @@ class Renderer:
     def _follow(self) -> None:
         """:meth:`_follow_scene`, then :meth:`_follow_cameras`; a rebuilt scene's clipping warnings after both: a
         camera wrt frames follows the moved scene only in the second, and warned with its old framing that it 'sees
-        nothing' of the scene it then drew."""
-        rebuilt = self._follow_scene()
-        self._follow_cameras()
-        if rebuilt:
-            self._warn_clipped_away()  # the scene may have moved out of a camera's clipping range
+        nothing' of the scene it then drew. First thing in its call: the scene's turn (:meth:`_scene_turn`)."""
+        with self._scene_turn():
+            rebuilt = self._follow_scene()
+            self._follow_cameras()
+            if rebuilt:
+                self._warn_clipped_away()  # the scene may have moved out of a camera's clipping range
+
+    @contextlib.contextmanager
+    def _scene_turn(self):
+        """The scene's lock (:attr:`Scene.lock`), taken by a call (:func:`one_call_at_a_time`) that reads the scene
+        before it has changed anything. Where another thread holds it, the call lets go of the renderer's lock until
+        the scene's is free: that thread may be waiting for this renderer (``renderer.set_cameras(...)`` inside
+        ``with scene.lock:`` while another thread's render waited for the scene's lock holding the renderer's: each
+        waited for the other for good). Past its turn a call takes the scene's lock only where it holds it already,
+        so that a thread holding it never waits for a call that waits for it."""
+        lock = self.scene.lock
+        if self._calls_held == 1:  # (a call made inside another of this thread's, which has begun its work, waits)
+            while not lock.acquire(blocking=False):
+                self._calls_held = 0
+                self._calls.release()
+                try:
+                    with lock:  # the thread holding it goes first, with this renderer where it asks for it
+                        pass
+                finally:
+                    self._calls.acquire()
+                    self._calls_held = 1
+        else:
+            lock.acquire()
+        try:
+            yield
+        finally:
+            lock.release()
 
     def _follow_scene(self) -> bool:
         """Builds again when the scene changed since the last build (a mesh, material, light or instance array
@@ -1131,6 +1165,11 @@ class Renderer:
         # The uploads would be recorded: every replay copied the poses given then (from an array freed since) over
         # those set later, and the frame was refused as drawn before the cameras last changed.
         self._outside_capture("set_cameras()", "call it outside the capture (a replay draws the cameras set last)")
+        with self._scene_turn():  # first: it reads the scene (the cameras at its paths, its bounds)
+            self._set_cameras(cameras)
+
+    def _set_cameras(self, cameras) -> None:
+        """:meth:`set_cameras`, in the scene's turn (:meth:`_scene_turn`)."""
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
@@ -1433,23 +1472,11 @@ class Renderer:
         finally:
             self._sync_free = False
 
-    @one_call_at_a_time
-    def frame_image(self):
-        """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay).
-
-        Raises:
-            RuntimeError: no frame was launched since the camera count, the image size or the scene changed, the
-                frame is a replay of a graph recorded before such a change, or the frame was drawn (or its graph
-                recorded) before a camera got depth of field: record it again. Also where a camera was edited since
-                the cameras were uploaded (the error names it and its fields: a graph replays the uploaded view),
-                and where the frame was drawn before the last upload (:meth:`set_cameras`, or an edited camera that
-                :meth:`render` uploaded) with no replay since."""
-        # Its coverage (and a batch's mean) kernels would only be recorded: their arrays held garbage.
-        self._outside_capture("frame_image()", "call it after the capture, after a replay")
+    def _check_frame_scene(self) -> None:
+        """:meth:`frame_image`'s checks that the frame is of the scene and cameras as they are now."""
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
-        _, image, dropped, aovs, lens_pass, cameras_drawn = self._frame
         if self._scene_changed() or int(self._frame_number.numpy()[0]) != self._frames_made:
             # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame); one
             # replayed after a scene edit with no launch_frame outside a capture since drew the old scene.
@@ -1463,6 +1490,23 @@ class Renderer:
             raise RuntimeError(f"{changed} changed since the cameras were uploaded: the frame (or its graph's replay) "
                                "shows the old view; call launch_frame() once outside the capture (it uploads them), "
                                "then replay")
+
+    @one_call_at_a_time
+    def frame_image(self):
+        """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay).
+
+        Raises:
+            RuntimeError: no frame was launched since the camera count, the image size or the scene changed, the
+                frame is a replay of a graph recorded before such a change, or the frame was drawn (or its graph
+                recorded) before a camera got depth of field: record it again. Also where a camera was edited since
+                the cameras were uploaded (the error names it and its fields: a graph replays the uploaded view),
+                and where the frame was drawn before the last upload (:meth:`set_cameras`, or an edited camera that
+                :meth:`render` uploaded) with no replay since."""
+        # Its coverage (and a batch's mean) kernels would only be recorded: their arrays held garbage.
+        self._outside_capture("frame_image()", "call it after the capture, after a replay")
+        with self._scene_turn():  # first: the checks read the scene and its cameras
+            self._check_frame_scene()
+        _, image, dropped, aovs, lens_pass, cameras_drawn = self._frame
         if int(lens_pass.numpy()[0]) < self._lens_first():
             # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
             # camera uploaded since has depth of field, drawn without a word.
