@@ -461,3 +461,32 @@ def test_a_renderer_called_inside_scene_lock_while_another_thread_renders_with_i
     assert errors == []
     fresh = wrt.Renderer(square_scene(1.0), **{**OPTIONS, "camera": None, "cameras": [moved_camera]}).render()
     np.testing.assert_array_equal(images[0].rgb, fresh.rgb)
+
+
+def test_a_camera_moved_by_another_thread_while_a_renderer_is_made_is_drawn_by_its_first_render(monkeypatch):
+    """As a camera moved during a render's upload (above), but during the Renderer's own build, which uploads its
+    cameras: the camera was recorded after the build, at its new pose, and every render drew the pose uploaded."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    moved = wrt.Camera.look_at((0.8, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60).to_world
+    real = wrt_render.Renderer._upload_shading
+    uploaded, done = threading.Event(), threading.Event()
+
+    def upload(self):
+        real(self)
+        if threading.current_thread().name == "A" and not uploaded.is_set():
+            uploaded.set()
+            done.wait(timeout=5.0)
+
+    monkeypatch.setattr(wrt_render.Renderer, "_upload_shading", upload)
+    made = []
+    a = threading.Thread(target=lambda: made.append(wrt.Renderer(square_scene(), **{**OPTIONS, "camera": camera})),
+                         name="A")
+    a.start()
+    assert uploaded.wait(timeout=60)
+    camera.to_world = moved
+    done.set()
+    a.join(timeout=60)
+    assert not a.is_alive()
+    monkeypatch.undo()
+    fresh = wrt.render(square_scene(), **{**OPTIONS, "camera": dataclasses.replace(camera, to_world=moved)}).rgb
+    np.testing.assert_array_equal(made[0].render().rgb, fresh)

@@ -751,8 +751,11 @@ class Renderer:
         # each frame. A FrameRenderer gives each frame's Renderer a set of its own (every warning of the frame is in
         # its log row) and says each once over the frames itself, by the same keys.
         self._said_once = shown_set()
+        # Before the build uploads the cameras (_follow_cameras): a camera moved by another thread during the build was
+        # recorded at its new pose, and every render drew the pose uploaded.
+        key = self._camera_sources_key()
         self._build()
-        self._camera_key = self._camera_sources_key()
+        self._camera_key = key
         self._note_views()
         self._warn_clipped_away()
 
