@@ -246,13 +246,24 @@ def test_instances_mirrored_by_another_thread_after_a_trace_built_do_not_change_
     assert traced[0] == fresh
 
 
+def two_prototypes(prototype_ids) -> Scene:
+    """Two instances side by side of two prototypes, a square of 2 triangles and one of 4, as ``prototype_ids``."""
+    fan = wrt.Mesh("/Fan", np.float32([*SQUARE, [0, 0, 0]]), np.int32([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]]),
+                   np.zeros(4, np.int32))
+    return wrt.Scene(prototypes=[Prototype("/Square", meshes=[square_scene().meshes[0]]), Prototype("/Fan", [fan])],
+                     instances=Instances.from_transforms(prototype_ids, two_instances(0.0)))
+
+
 def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_traced_as_replaced(monkeypatch):
-    """As instances moved (above), but by a new ``scene.instances``: an assignment of the scene's own field took no
-    lock, and the trace built a TLAS of the new instances with the inverses of the old. It now waits for the build."""
+    """As instances moved (above), but by a new ``scene.instances``, of the other prototype: an assignment of the
+    scene's own field took no lock, and the trace built BLASes for the old instances' prototype and a TLAS of the new
+    instances, which found no BLAS: it hit nothing (0 of 36 hits), and a drop of the caches that the build itself
+    made on seeing the new instances left that build recorded as the new scene's, so every later trace hit nothing
+    too. The assignment now waits for the build: the trace is of the instances it began with, the next of the new."""
     grid = np.linspace(-1.2, 1.2, 13, dtype=np.float32)
     origins = np.stack([*np.meshgrid(grid, grid), np.full((13, 13), 3.0, np.float32)], -1).reshape(-1, 3)
     directions = np.tile(np.float32([0.0, 0.0, -1.0]), (len(origins), 1))
-    scene, replaced = instanced_scene(0.1), Instances.from_transforms([0, 0], two_instances(0.3))
+    scene, replaced = two_prototypes([0, 0]), Instances.from_transforms([1, 1], two_instances(0.0))
     real = Scene.instance_inverses
     read, assigned = threading.Event(), threading.Event()
 
@@ -265,7 +276,7 @@ def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_trace
 
     monkeypatch.setattr(Scene, "instance_inverses", inverses)
     traced = []
-    a = threading.Thread(target=lambda: traced.append(wrt.trace(scene, origins, directions).t), name="A")
+    a = threading.Thread(target=lambda: traced.append(wrt.trace(scene, origins, directions)), name="A")
     a.start()
     assert read.wait(timeout=60)
 
@@ -279,10 +290,10 @@ def test_instances_replaced_by_another_thread_in_the_middle_of_a_trace_are_trace
     b.join(timeout=60)
     assert not a.is_alive() and not b.is_alive()
     monkeypatch.undo()
-    before, after = (wrt.trace(instanced_scene(shift), origins, directions).t for shift in (0.1, 0.3))
-    assert not np.array_equal(before, after)
-    np.testing.assert_array_equal(traced[0], before)
-    np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, after)
+    before, after = (wrt.trace(two_prototypes(ids), origins, directions) for ids in ([0, 0], [1, 1]))
+    assert before.hit.sum() == 36 and before != after  # the same squares, of 2 and of 4 triangles
+    assert traced[0] == before
+    assert wrt.trace(scene, origins, directions) == after
 
 
 def test_objects_made_in_another_thread_do_not_wait_for_a_build(monkeypatch):
@@ -317,14 +328,6 @@ def test_objects_made_in_another_thread_do_not_wait_for_a_build(monkeypatch):
     b.join(timeout=60)
     assert not a.is_alive() and not b.is_alive()
     assert came == [True] and len(objects) == 4
-
-
-def two_prototypes(prototype_ids) -> Scene:
-    """Two instances side by side of two prototypes, a square of 2 triangles and one of 4, as ``prototype_ids``."""
-    fan = wrt.Mesh("/Fan", np.float32([*SQUARE, [0, 0, 0]]), np.int32([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]]),
-                   np.zeros(4, np.int32))
-    return wrt.Scene(prototypes=[Prototype("/Square", meshes=[square_scene().meshes[0]]), Prototype("/Fan", [fan])],
-                     instances=Instances.from_transforms(prototype_ids, two_instances(0.0)))
 
 
 def test_a_render_names_the_triangles_it_drew_after_another_thread_swapped_prototypes(monkeypatch):
