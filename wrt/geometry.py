@@ -2,8 +2,10 @@
 
 - Triangles: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2013. The ray is sheared so it
   runs along +Z; the three 2D edge functions are then evaluated with the same operands for an edge shared by two
-  triangles, so a ray can never slip between them. Edge functions that come out exactly zero are recomputed in
-  double precision, as the paper prescribes. The test is two-sided.
+  triangles, so a ray can never slip between them. Each is a compensated difference of products
+  (``difference_of_products``: about an ulp of its value, exactly antisymmetric, so shared edges still agree), as
+  ``wp.Mesh``'s test computes them, so slivers get their t and barycentrics to float32 precision too. Edge functions
+  that come out exactly zero are recomputed in double precision, as the paper prescribes. The test is two-sided.
 - Boxes: the slab test with the far distance scaled up by ``1 + 2 * gamma(3)`` (Ize, "Robust BVH Ray Traversal",
   JCGT 2013), so rounding can never cull a box that the ray touches.
 
@@ -125,6 +127,33 @@ def symmetric_sum(x: float, y: float, z: float):
     return (x + y) + z
 
 
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    return fmaf(a, b, c);
+#else
+    return __builtin_fmaf(a, b, c);
+#endif
+""")
+def fused_multiply_add(a: float, b: float, c: float) -> float:
+    """``a * b + c`` rounded once (IEEE fma: the same bits on every device; one instruction on GPUs and on CPUs with
+    FMA, which LLVM's intrinsic uses)."""
+
+
+@wp.func
+def difference_of_products(a: float, b: float, c: float, d: float):
+    """``a * b - c * d`` to about an ulp of the result: the rounded products' difference plus the difference of their
+    rounding errors, which fma gives exactly. Plain float32 rounds each product at its own scale, which swamps the
+    difference where they nearly cancel: on a sliver (a needle 2e4 x 2, products about 1e8 summing to 4e4) that put
+    t off by a median 4e-6 of itself, wp.Mesh's compensated test (Kahan's) 6e-8. Unlike Kahan's form it is exactly
+    antisymmetric: ``difference_of_products(c, d, a, b)`` is its negation bit for bit, as the plain form's was, so two
+    triangles sharing an edge (which evaluate it with the roles swapped) still agree on the ray's side of it (the
+    watertightness rests on that, not on the sign being exact), and a twin with its corners reversed gets the same
+    weights. Overflowing products give NaN and tiny ones a value below ``MIN_EDGE``: the float64 fallback takes both."""
+    p = a * b
+    q = c * d
+    return (p - q) + (fused_multiply_add(a, b, -p) - fused_multiply_add(c, d, -q))
+
+
 @wp.func
 def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3):
     """Watertight, two-sided ray-triangle test.
@@ -162,9 +191,9 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     cx = cx - ray.sx * cz
     cy = cy - ray.sy * cz
     # Scaled barycentric weights of p0, p1, p2 (2D edge functions).
-    e0 = cx * by - cy * bx
-    e1 = ax * cy - ay * cx
-    e2 = bx * ay - by * ax
+    e0 = difference_of_products(cx, by, cy, bx)
+    e1 = difference_of_products(ax, cy, ay, cx)
+    e2 = difference_of_products(bx, ay, by, ax)
     if not (edge_in_range(e0) and edge_in_range(e1) and edge_in_range(e2)):
         e0, e1, e2 = exact_edge_functions(ax, ay, bx, by, cx, cy)
     hit = True
