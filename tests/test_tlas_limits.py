@@ -2,6 +2,8 @@
 (``wrt.tlas.entry_ray``); ``wrt.tlas.shifted_limit`` turns the ray's limits into limits on ``t``. Checked here against
 numpy's float32 sums, which round as the kernels do."""
 
+import warnings
+
 import numpy as np
 import pytest
 import warp as wp
@@ -280,6 +282,38 @@ def test_an_update_across_2_to_100_names_the_instance_whose_scale_crossed_it():
         wrt.Scene(prototypes=protos, instances=Instances.from_transforms(np.array([0, 1, 0]), to_world)), "sah", "cpu")
     with pytest.raises(ValueError, match="the scene's prototypes changed"):
         accel.update(unused, refit_blas=False)
+
+
+@pytest.mark.parametrize("scale", [2.0**-110, 2.0**110])
+def test_instances_of_a_prototype_of_shapes_alone_past_2_to_100_are_traced_without_a_numpy_warning(scale):
+    """Instances scaled by 2^-110 or 2^110 of a prototype of one unit sphere (no triangles, so no BLAS to scale),
+    beside an octahedron instance of the same scale: the sphere's instances get exponent 0 (the octahedron's the
+    power of two that undoes its scale), tracing says nothing (warnings as errors), and unit rays from 10 radii
+    above each sphere's centre hit it at 9 radii, the closed form. ``instance_exponents`` gave a prototype without
+    triangles the exponent of a reach of 1e-38 (+25 at 2^-110), and the world-to-local matrix scaled by it (2^135)
+    overflowed float32 in ``device_transforms``: numpy's bare "overflow encountered in cast" (an error under
+    ``-W error``), for a matrix no BLAS reads."""
+    from wrt.primitives import Shape
+    from wrt.tlas import instance_exponents
+
+    pts, faces = OCTAHEDRON
+    protos = [Prototype("/Ball", shapes=[Shape("/Ball/sphere", "sphere", np.eye(4))]),
+              Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])]
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    to_world[:, :3, :3] *= scale
+    to_world[:, :3, 3] = np.array([(0.0, 0.0, 0.0), (5.0, 0.0, 0.0), (-5.0, 0.0, 0.0)]) * scale
+    scene = wrt.Scene(prototypes=protos, instances=Instances.from_transforms([0, 0, 1], to_world))
+    exponents = instance_exponents(scene)
+    np.testing.assert_array_equal(exponents[:2], [0, 0])
+    assert exponents[2] != 0  # the octahedron is traced in a scaled BLAS
+    centres = to_world[:2, :3, 3]
+    origins = (centres + [0.0, 0.0, 10.0 * scale]).astype(np.float32)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (2, 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.instance, [0, 1])
+    np.testing.assert_allclose(hits.t, 9.0 * scale, rtol=1e-6)
 
 
 def turned_octahedra(rng, scales, n_instances: int = 4):

@@ -750,7 +750,8 @@ def instance_exponents(scene: Scene) -> np.ndarray:
     one. Such an instance is traced in its prototype's BLAS scaled by ``2^k`` (exactly: a power of two), with ``2^k
     A``, so that a ray moved into its space has a direction near unit length, as in the world. ``k`` is capped so
     that the scaled prototype stays within ``2^SCALED_REACH`` (an instance scaled by 3e38 made its points inf) and
-    above ``2^-EXTREME_EXPONENT``."""
+    above ``2^-EXTREME_EXPONENT``; 0 for an instance of a prototype whose triangles reach nowhere (none, or all at
+    its origin), which has no scaled BLAS."""
     key = ("instance_exponents",)
     if key not in scene._cache:
         inverse, ok = scene.instance_inverses()
@@ -758,11 +759,14 @@ def instance_exponents(scene: Scene) -> np.ndarray:
         k = 1 - np.frexp(largest)[1]  # largest = m 2^e with m in [0.5, 1): 2^(1 - e) largest is in [1, 2)
         k = np.where(ok & (np.abs(k) > EXTREME_EXPONENT), k, 0).astype(np.int64)
         if k.any():
-            reach = np.array([_triangle_reach(p) for p in scene.prototypes])
-            exponent = np.frexp(np.maximum(reach, 1e-38))[1][scene.instances.prototype]
+            reach = np.array([_triangle_reach(p) for p in scene.prototypes])[scene.instances.prototype]
+            exponent = np.frexp(np.maximum(reach, 1e-38))[1]
             # 2^k reach within [2^-EXTREME_EXPONENT, 2^SCALED_REACH]: no inf, and no subnormal points (an instance
-            # scaled by 3e-39 scaled its prototype there too, and a ray leaked between its triangles).
-            k = np.where(k != 0, np.clip(k, -EXTREME_EXPONENT - exponent, SCALED_REACH - exponent), 0)
+            # scaled by 3e-39 scaled its prototype there too, and a ray leaked between its triangles). A prototype
+            # of no triangles (analytic shapes alone) has no BLAS to scale: 0. Given the exponent of a reach of
+            # 1e-38 (+26 at a scale of 2^-110), its 2^k A overflowed float32 (numpy's bare "overflow encountered in
+            # cast") for a matrix nothing reads.
+            k = np.where((k != 0) & (reach > 0), np.clip(k, -EXTREME_EXPONENT - exponent, SCALED_REACH - exponent), 0)
         scene._cache[key] = k
     return scene._cache[key]
 
