@@ -286,6 +286,31 @@ def test_analytic_shapes_too_small_for_float32_are_named_in_a_warning(radius, mi
     np.testing.assert_allclose(hits.t, 9.0 * radius, rtol=0.02)
 
 
+@pytest.mark.parametrize("instance_scale", [2.0**-110, 1.0e-30])
+def test_an_instanced_shape_placed_past_float32s_inverse_is_named_in_a_warning(instance_scale):
+    """A sphere in a prototype (radius 1e-6, or 2.5e-9), drawn by an instance of scale 1 and one of
+    ``instance_scale`` (2^-110, or 1e-30): float32 inverts each of the two transforms but not their product (a
+    sphere of radius 7.7e-40, or 2.5e-39). Rays aimed at the first sphere hit it at 9 radii, rays at the second miss
+    it, and the warning names it as too small for float32. It vanished without a word, where a shape placed so by
+    its own transform, or by an instance's, is named."""
+    radius = 1e-6 if instance_scale == 2.0**-110 else 2.5e-9
+    ball = np.diag([radius, radius, radius, 1.0])
+    proto = wrt.Prototype("/proto", shapes=[wrt.Shape("/proto/ball", "sphere", ball)])
+    to_world = np.stack([np.eye(4), np.diag([instance_scale] * 3 + [1.0])])
+    to_world[:, 0, 3] = [0.0, 1.0]
+    scene = wrt.Scene(prototypes=[proto], instances=wrt.Instances.from_transforms([0, 0], to_world))
+    sizes = radius * np.array([1.0, instance_scale])
+    origins = (to_world[:, :3, 3] + sizes[:, None] * [0.0, 0.0, 10.0]).astype(np.float32)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (2, 1))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hits = wrt.trace(scene, origins, directions)
+    said = [str(w.message) for w in caught if "too small" in str(w.message)]
+    assert len(said) == 1 and "1 prim(s): /proto/ball" in said[0], [str(w.message) for w in caught]
+    np.testing.assert_array_equal(hits.instance, [0, -1])
+    np.testing.assert_allclose(hits.t[0], 9.0 * radius, rtol=1e-6)
+
+
 @pytest.mark.parametrize("thickness", [1.0e-20, 1.0e-28])
 def test_a_card_instance_squashed_along_its_normal_renders_as_unsquashed(thickness):
     """A floor quad in its prototype's z = 0 plane, instanced flat under a small sphere light (a scale of

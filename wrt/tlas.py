@@ -732,15 +732,22 @@ def warn_shapes_too_small(scene: Scene, to_local: np.ndarray, ok: np.ndarray, sh
     """Warns naming the analytic shapes (``scene._geometry_shapes()[shapes[i]]`` placed by shape entry ``i``'s
     world-to-canonical matrix ``to_local[i]``, :func:`invert_transforms`' ``ok``) that rays miss, as they are too
     small for float32 (:data:`SHAPE_TO_LOCAL_LIMIT`): shapes scaled to 5e-39 or less, by their own transform or an
-    instance's, vanished without a word."""
+    instance's, vanished without a word. So do those with no float32 inverse (not ``ok``) whose own transform has
+    one (a singular one is named by :meth:`wrt.Scene.warn_vanishing_shapes`, a singular instance is skipped and
+    named): a sphere of radius 1e-6 in an instance scaled by 2^-110, each transform inverted by float32, their
+    product (7.7e-40) not, vanished too."""
     if not len(shapes):
         return
+    geometry = scene._geometry_shapes()
     small = ok & (np.abs(to_local[:, :, :3]).reshape(len(to_local), -1).max(axis=1) >= SHAPE_TO_LOCAL_LIMIT)
+    if not ok.all():  # per unique shape, not per entry (a million instanced spheres are one shape)
+        singular = np.array([getattr(shape, "draws_nothing", False) for shape in geometry], bool)
+        small |= ~ok & ~singular[shapes]
     if small.any():
-        geometry = scene._geometry_shapes()
         paths = list(dict.fromkeys(geometry[j].path for j in shapes[small]))
         scene._warn_prims("shapes too small for float32 (scaled by 5.9e-39 or less: their world-to-shape "
-                          "matrix passes 2^127) are missed by every ray; scale the scene up", paths)
+                          "matrix passes 2^127, or has no float32 inverse) are missed by every ray; scale the scene up",
+                          paths)
 
 
 def instance_exponents(scene: Scene) -> np.ndarray:
