@@ -64,6 +64,36 @@ def test_an_instances_blas_boxes_are_its_prototypes_tree_moved_by_its_transform(
         plotter.close()
 
 
+def test_the_blas_boxes_of_an_instance_of_an_off_centre_prototype_bound_its_triangles():
+    """A prototype of 60 random triangles 40 of their sizes off its origin, whose BLAS is built about its box's
+    centre (``wrt.tlas.blas_centres``): the leaf boxes drawn for a turned, stretched instance, taken back into
+    prototype space through the instance's float64 inverse, hold every triangle of their leaves and together span
+    the triangles' box. Drawn at ``to_world`` alone, they lay 40 sizes (moved by the instance) off the instance."""
+    rng = np.random.default_rng(5)
+    points = (rng.uniform(-1.0, 1.0, (180, 3)) + [40.0, -25.0, 10.0]).astype(np.float32)
+    prototype = Prototype("/P", [Mesh("/P/soup", points, np.arange(180).reshape(60, 3), np.arange(60))])
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] @ np.diag([0.5, 2.0, 3.0])
+    to_world[:3, 3] = (7.0, -3.0, 2.0)
+    scene = wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms([0], to_world[None]))
+    blas = get_accelerator(scene, "wrt", "sah", "cpu").blas[0]
+    plotter = wrt.preview(scene, bvh_instance=0, bvh_leaves=True, window_size=(64, 48), show_lights=False)
+    try:
+        drawn = np.asarray(plotter.actors["bvh"].mapper.dataset.points, np.float64).reshape(-1, 8, 3)
+    finally:
+        plotter.close()
+    local = (drawn - to_world[:3, 3]) @ np.linalg.inv(to_world[:3, :3]).T
+    lowers, uppers = local.min(axis=1), local.max(axis=1)
+    corners = points.astype(np.float64).reshape(60, 3, 3)
+    slack = 1e-5 * np.abs(points).max()
+    inside = ((corners.min(axis=1)[:, None] >= lowers[None] - slack)
+              & (corners.max(axis=1)[:, None] <= uppers[None] + slack)).all(axis=2)
+    assert len(drawn) == np.count_nonzero(blas.prim_count > 0)
+    assert inside.any(axis=1).all(), np.flatnonzero(~inside.any(axis=1))
+    np.testing.assert_allclose(lowers.min(axis=0), points.min(axis=0), atol=slack)
+    np.testing.assert_allclose(uppers.max(axis=0), points.max(axis=0), atol=slack)
+
+
 def test_bad_bvh_instances_are_refused_naming_the_choice(instanced):
     for which, needle in ((3, "the scene has 3 instances, 0 to 2"), ("/instances[7]", "names no instance"),
                           (True, "an instance index or path")):

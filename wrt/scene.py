@@ -94,7 +94,7 @@ KEPT_WHEN_INSTANCES_MOVE = frozenset(("geometry", "part_vertex_offsets", "corner
                                       "triangle_materials", "triangle_partners", "corner_uvs", "shading",
                                       "sampled_emission",
                                       "device_geometry", "mesh_bounds", "vertices_checked",
-                                      "meshes_past_traced_reach"))
+                                      "meshes_past_traced_reach", "blas_centres"))
 
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
 PER_TRIANGLE_ARRAYS = (

@@ -1,11 +1,12 @@
 """Two-level acceleration: a top-level BVH (TLAS) over instances, each pointing at a bottom-level BVH (BLAS).
 
-Every prototype gets one BLAS, built once in prototype space however many instances draw it (and a scaled copy per
-other power of two its instances need, below); the non-instanced meshes of the scene form one more BLAS, in world
-space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its
-prototype's BLAS and its world-to-prototype transform) plus one for the world-space BLAS. It is built by the same
-builders as any BVH: each entry is handed over as a degenerate triangle ``(lower, upper, lower)``, whose box is the
-entry's box and whose centroid is the box centre.
+Every prototype gets one BLAS, built once in prototype space however many instances draw it (about its box's centre
+where that box lies far off the prototype's origin, :func:`blas_centres`; and a scaled copy per other power of two
+its instances need, below); the non-instanced meshes of the scene form one more BLAS, in world space. The TLAS is
+a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its prototype's BLAS and its
+world-to-prototype transform) plus one for the world-space BLAS. It is built by the same builders as any BVH: each
+entry is handed over as a degenerate triangle ``(lower, upper, lower)``, whose box is the entry's box and whose
+centroid is the box centre.
 
 Traversal (:func:`tlas_intersect`) walks the TLAS in world space; at a leaf it transforms the ray into each entry's
 space by the inverse transform (origin as a point, direction as a vector, not renormalised, so ``t`` is the same in
@@ -572,11 +573,12 @@ class InstancedAccelerator(Accelerator):
         self.skipped_instances = np.flatnonzero(~invertible)
         rows = [r[invertible[r]] for r in instances.rows_of_prototypes(len(scene.prototypes))]
         exponents = self._exponents = instance_exponents(scene)
+        centres = blas_centres(scene)
         for (part, k), b in blas_of_part.items():
             if part == 0:
                 continue
             mine = rows[part - 1][exponents[rows[part - 1]] == k]
-            placed = as_placed(instances.to_world[mine])
+            placed = as_placed(centred(instances.to_world[mine], centres[part - 1]))
             placed[:, :3, :3] *= 2.0**-k  # from the BLAS's scaled space
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
                                  placed)
@@ -649,10 +651,11 @@ class InstancedAccelerator(Accelerator):
         t.entry_blas = wp.array(_non_empty(entry_blas[slots]), dtype=wp.int32, device=device)
         t.entry_instance = wp.array(_non_empty(entry_instance[slots]), dtype=wp.int32, device=device)
         t.world_to_local = scene.world_to_local(device)
-        if exponents.any():  # into the scaled BLASes' space: 2^k A
+        if len(instances) and (exponents.any() or centres.any()):  # into the scaled BLASes' space, about centres
             inverse, _ = scene.instance_inverses()
             scaled = inverse * np.ldexp(1.0, exponents)[:, None, None]
-            t.world_to_local = wp.array(device_transforms(scaled, instances.to_world), dtype=mat34, device=device)
+            origins = centred(instances.to_world, centres[instances.prototype])
+            t.world_to_local = wp.array(device_transforms(scaled, origins), dtype=mat34, device=device)
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
         t.shape_xforms = wp.array(_non_empty(shape_xforms), dtype=mat34, device=device)
@@ -766,7 +769,9 @@ def instance_exponents(scene: Scene) -> np.ndarray:
         k = 1 - np.frexp(largest)[1]  # largest = m 2^e with m in [0.5, 1): 2^(1 - e) largest is in [1, 2)
         k = np.where(ok & (np.abs(k) > EXTREME_EXPONENT), k, 0).astype(np.int64)
         if k.any():
-            reach = np.array([_triangle_reach(p) for p in scene.prototypes])[scene.instances.prototype]
+            centres = blas_centres(scene)
+            reach = np.array([_triangle_reach(p, c) for p, c in zip(scene.prototypes, centres)])
+            reach = reach[scene.instances.prototype]
             exponent = np.frexp(np.maximum(reach, 1e-38))[1]
             # 2^k reach within [2^-EXTREME_EXPONENT, 2^SCALED_REACH]: no inf, and no subnormal points (an instance
             # scaled by 3e-39 scaled its prototype there too, and a ray leaked between its triangles). A prototype
@@ -778,28 +783,72 @@ def instance_exponents(scene: Scene) -> np.ndarray:
     return scene._cache[key]
 
 
-def _triangle_reach(prototype) -> float:
-    """The largest ``|coordinate|`` of the points ``prototype``'s triangles use (0 when none), the reach of its BLAS:
-    points no face uses are left out, as from its box (:meth:`Prototype.bounds`) and the BVH build's checks (an
-    unused point at 1e30 capped an instance's exponent at 25 instead of 120, and an unused NaN counted as a reach of
-    1); a used one that is not finite is named by the checks of finite vertices."""
+def _triangle_reach(prototype, centre=np.zeros(3)) -> float:
+    """The largest ``|coordinate|`` of the points ``prototype``'s triangles use (0 when none) less ``centre`` (its
+    :func:`blas_centres` row), the reach of its BLAS: points no face uses are left out, as from its box
+    (:meth:`Prototype.bounds`) and the BVH build's checks (an unused point at 1e30 capped an instance's exponent at
+    25 instead of 120, and an unused NaN counted as a reach of 1); a used one that is not finite is named by the
+    checks of finite vertices."""
     reach = 0.0
     for m in prototype.meshes:
         if len(m.indices):
-            size = np.abs(m.points[sorted_unique(m.indices)])
+            with np.errstate(invalid="ignore"):
+                size = np.abs(m.points[sorted_unique(m.indices)] - centre)
             reach = max(reach, float(size.max(initial=0.0, where=np.isfinite(size))))
     return reach
 
 
+def blas_centres(scene: Scene) -> np.ndarray:
+    """``(P, 3)`` float64 (float32 values): the point of each prototype's space that its BLAS is built about (its
+    points less it, :func:`_part_triangles`; its instances placed at ``to_world`` times it, :func:`centred`): the
+    centre of the box of the points its triangles use where that box lies farther from the prototype's origin than
+    its own size, else 0 (so that the BLAS of nearly every prototype holds its points bit for bit). Not for a
+    prototype with analytic shapes, whose entries take their instance's origin from the TLAS's transform
+    (:func:`shape_entry`).
+
+    A ray moves into an instance's space through the float32 inverse ``A``, whose rounding, relative to ``A``,
+    moves a local point by that much of its distance from the local origin: sheared octahedra 50 of their sizes
+    from their prototype's origin were entered 50 times as far off as centred ones, and 117 of 2,812 rays aimed well
+    inside their triangles missed them or hit another triangle (1 about the centre)."""
+    key = ("blas_centres",)
+    if key not in scene._cache:
+        centres = np.zeros((len(scene.prototypes), 3))
+        for p, prototype in enumerate(scene.prototypes):
+            used = [m.points[sorted_unique(m.indices)] for m in prototype.meshes if len(m.indices)]
+            if prototype.shapes or not used:
+                continue
+            used = np.concatenate(used).astype(np.float64)
+            used = used[np.isfinite(used).all(axis=1)]
+            if len(used) == 0:
+                continue
+            lower, upper = used.min(axis=0), used.max(axis=0)
+            centre = ((lower + upper) / 2).astype(np.float32).astype(np.float64)
+            if np.abs(centre).max() > (upper - lower).max():
+                centres[p] = centre
+        scene._cache[key] = centres
+    return scene._cache[key]
+
+
+def centred(to_world: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """``(N, 4, 4)`` ``to_world`` composed with a translation by ``centres`` (``(N, 3)`` or ``(3,)``, prototype
+    space), in float64: where each instance places its BLAS's origin (:func:`blas_centres`)."""
+    out = np.array(to_world, np.float64)
+    out[:, :3, 3] += np.einsum("nij,nj->ni", out[:, :3, :3], np.broadcast_to(centres, (len(out), 3)))
+    return out
+
+
 def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int, exponent: int = 0) -> tuple:
-    """Vertices (times ``2^exponent``) and triangles (re-indexed from 0) of one BLAS part (:func:`blas_parts`)."""
+    """Vertices (less the prototype's :func:`blas_centres` row, times ``2^exponent``) and triangles (re-indexed from
+    0) of one BLAS part (:func:`blas_parts`)."""
     # geometry() concatenates the world-space meshes' vertices, then each prototype's, in order.
     v0, v1 = _part_vertex_offsets(scene)[part : part + 2]
-    if exponent == 0:
-        part_points = points[v0:v1]
-    else:  # points no face uses may leave float32 (their reach is not the BLAS's): inf there, unused
+    part_points = points[v0:v1]
+    if part > 0 and blas_centres(scene)[part - 1].any():  # about its centre (shared corners stay shared)
         with np.errstate(over="ignore", invalid="ignore"):
-            part_points = np.ldexp(points[v0:v1], exponent).astype(np.float32)
+            part_points = (part_points.astype(np.float64) - blas_centres(scene)[part - 1]).astype(np.float32)
+    if exponent != 0:  # points no face uses may leave float32 (their reach is not the BLAS's): inf there, unused
+        with np.errstate(over="ignore", invalid="ignore"):
+            part_points = np.ldexp(part_points, exponent).astype(np.float32)
     return np.ascontiguousarray(part_points), np.ascontiguousarray(indices[first : first + count] - v0)
 
 
