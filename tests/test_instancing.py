@@ -2409,6 +2409,47 @@ def test_rays_from_afar_hit_sheared_instances_of_an_off_centre_prototype_as_a_fl
     assert wrong == 0, f"{wrong} of {resolved.sum()} rays hit another triangle or missed"
 
 
+def test_off_centre_instances_placed_far_at_float32_translations_are_hit_where_float64_puts_them():
+    """Turned, stretched octahedra 20 of their sizes off their prototype's origin (so their BLAS is built about its
+    centre), placed 1e6 to 1e7 from the world origin at translations float32 holds exactly (as a PointInstancer's
+    float positions are), rays from 3 to 30 sizes away aimed well inside random triangles: each hits that triangle
+    at the float64 ``t`` (to 1e-5 of the way over the cosine with the normal). Their BLAS's world origin
+    ``c + L m`` is no float32 there: held as one, it moved the octahedra by up to half a float32 step of 1e7 (0.5,
+    a quarter of their size), and 505 of 1,920 rays hit another triangle (``c`` and ``L m`` are held apart)."""
+    rng = np.random.default_rng(8)
+    n_instances, n = 6, 2000
+    to_world = np.tile(np.eye(4), (n_instances, 1, 1))
+    for k in range(n_instances):
+        to_world[k, :3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] @ np.diag(rng.uniform(0.5, 2.0, 3))
+    to_world[:, :3, 3] = (rng.choice([-1, 1], (n_instances, 3)) * 10 ** rng.uniform(6, 7, (n_instances, 3)))
+    to_world[:, :3, 3] = to_world[:, :3, 3].astype(np.float32)
+    points, faces = OCTAHEDRON
+    points = (points.astype(np.float64) + [20.0, -14.0, 9.0]).astype(np.float32)
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", points, faces, np.arange(8))])
+    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    assert wrt.tlas.blas_centres(scene).any()
+    world = np.concatenate([points.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
+    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    away = rng.normal(size=(n, 3))
+    away *= (rng.uniform(3, 30, n) / np.linalg.norm(away, axis=1))[:, None]
+    origins = (targets + away).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    clear = (barycentric_margins(world, indices, o64, d64, t, row) > 1e-2)
+    clear &= edge_clearances(world, indices, o64, d64, row) > 1e-3
+    assert clear.sum() > 0.9 * n
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.prim[clear], row[clear])
+    p0, p1, p2 = (world[indices[np.maximum(row, 0), k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    cosine = np.abs((normal * d64).sum(1)) / np.linalg.norm(normal, axis=1) / np.linalg.norm(d64, axis=1)
+    off = np.abs(hits.t - t) > 1e-5 / cosine  # a grazing ray's t moves most with its hit point
+    assert not off[clear].any(), f"{np.count_nonzero(off[clear])} of {clear.sum()} rays hit off the float64 t"
+
+
 def edge_clearances(points, indices, origins, directions, row) -> np.ndarray:
     """``(N,)`` float64 distance from each ray's line to the nearest edge line of its triangle ``row`` (any value
     for misses): below float32's step at the ray's origin, no float32 ray can tell the triangle from its

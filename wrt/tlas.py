@@ -34,7 +34,8 @@ An instance scaled past ``2^100`` (or below ``2^-100``) is traced in a copy of i
 of two that undoes its scale (:func:`instance_exponents`): moved into its own space, a ray's direction is as long as
 the inverse scale, and at 1e36 its components below 1e-38 (the box test's zero) were 1% of it, at 3e-39 it overflowed.
 
-Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance; the unique
+Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance (and 12
+bytes more where a prototype's BLAS is built about its centre, :func:`blas_centres`); the unique
 triangles once per prototype, plus once more per other power of two its instances are traced at (only instances
 scaled past ``2^100`` or below ``2^-100`` ask for one: :func:`blas_parts`); see
 :meth:`InstancedAccelerator.device_bytes`.
@@ -99,6 +100,8 @@ class DeviceTlas:
     entry_blas: wp.array[wp.int32]  # slot -> BLAS index into blases, or -1 - k for analytic shape entry k
     entry_instance: wp.array[wp.int32]  # slot -> instance (row of world_to_local), -1: world space, no transform
     world_to_local: wp.array[mat34]  # per instance: world -> prototype space
+    blas_offsets: wp.array[wp.vec3]  # per instance: its BLAS's origin less its own, world space (blas_offsets);
+    # one zero when no prototype is built about a centre (has_offsets 0), as in nearly every scene
     blases: wp.array[DeviceBvh]  # one BLAS per prototype (prototype space) plus the world-space one
     blas_first: wp.array[wp.int32]  # geometry id of triangle 0 of each BLAS
     shape_xforms: wp.array[mat34]  # per shape entry: world -> the shape's canonical space (an instanced shape's
@@ -108,6 +111,7 @@ class DeviceTlas:
     shape_params: wp.array[wp.vec4]  # per unique shape: its parameters
     num_triangles: int  # unique triangles; geometry ids from here on are shapes
     num_entries: int  # entries in the TLAS; 0 means every ray misses
+    has_offsets: int  # 1 when blas_offsets holds one row per instance, 0 when it holds one zero
 
 
 # A ray is moved (moved_ray) only when its local origin lies farther from the local origin than twice its geometry's
@@ -118,10 +122,13 @@ FAR_ORIGIN = wp.constant(2.0)
 
 
 @wp.func
-def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
+def moved_ray(m: mat34, offset: wp.vec3, origin: wp.vec3, direction: wp.vec3, reach: float):
     """``(o, d, t0)``: the ray in the local space of world-to-local ``m`` (an instance's, or a shape's canonical
-    space), its origin moved along it to ``t0`` (``o + t d`` there is the world ray's point at ``t0 + t``) when it
-    lies farther than ``FAR_ORIGIN`` times ``reach`` (how far the geometry reaches from the local origin) from it.
+    space) whose origin lies ``offset`` from ``m``'s ``c`` in the world (an instance's BLAS built about its centre,
+    :func:`blas_offsets`; else 0), its origin moved along it to ``t0`` (``o + t d`` there is the world ray's point at
+    ``t0 + t``) when it lies farther than ``FAR_ORIGIN`` times ``reach`` (how far the geometry reaches from the local
+    origin) from it. ``w = (origin - c) - offset``: ``c`` and ``offset`` each exact or rounded at their own size, as
+    one float32 ``c + offset`` was not (0.5 at 1e7, a quarter of a small instance's size there).
 
     Moved into local space from its own origin as ``A w`` (``w = origin - c``, ``m = [A | c]``), a ray's local
     origin is rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6) seen from
@@ -143,7 +150,7 @@ def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
     instance 2^-100 across overflowed to inf, of one 2^100 across underflowed to 0, and such rays were never moved).
     """
     a = linear_part(m)
-    w = origin - translation(m)
+    w = (origin - translation(m)) - offset
     d = transform_vector(m, direction)
     o = a * w
     t0 = float(0.0)
@@ -168,7 +175,8 @@ def entry_ray(tlas: DeviceTlas, instance: int, blas: DeviceBvh, origin: wp.vec3,
     if instance >= 0:
         lower, upper = node_box(blas, 0)
         reach = wp.max(largest_magnitude(lower), largest_magnitude(upper))
-        o, d, t0 = moved_ray(tlas.world_to_local[instance], origin, direction, reach)
+        offset = tlas.blas_offsets[instance * tlas.has_offsets]
+        o, d, t0 = moved_ray(tlas.world_to_local[instance], offset, origin, direction, reach)
     return o, d, t0
 
 
@@ -223,7 +231,7 @@ def shape_entry(tlas: DeviceTlas, b: int, instance: int, origin: wp.vec3, direct
     start = origin
     if instance >= 0:
         start = origin - translation(tlas.world_to_local[instance])
-    o, d, t0 = moved_ray(tlas.shape_xforms[e], start, direction, reach)
+    o, d, t0 = moved_ray(tlas.shape_xforms[e], wp.vec3(0.0), start, direction, reach)
     return o, d, t0, row, kind, params
 
 
@@ -573,12 +581,13 @@ class InstancedAccelerator(Accelerator):
         self.skipped_instances = np.flatnonzero(~invertible)
         rows = [r[invertible[r]] for r in instances.rows_of_prototypes(len(scene.prototypes))]
         exponents = self._exponents = instance_exponents(scene)
-        centres = blas_centres(scene)
+        offsets = blas_offsets(instances.to_world, blas_centres(scene)[instances.prototype]).astype(np.float64)
         for (part, k), b in blas_of_part.items():
             if part == 0:
                 continue
             mine = rows[part - 1][exponents[rows[part - 1]] == k]
-            placed = as_placed(centred(instances.to_world[mine], centres[part - 1]))
+            placed = as_placed(instances.to_world[mine])
+            placed[:, :3, 3] += offsets[mine]  # the BLAS's origin, held apart from the instance's (moved_ray)
             placed[:, :3, :3] *= 2.0**-k  # from the BLAS's scaled space
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
                                  placed)
@@ -651,11 +660,13 @@ class InstancedAccelerator(Accelerator):
         t.entry_blas = wp.array(_non_empty(entry_blas[slots]), dtype=wp.int32, device=device)
         t.entry_instance = wp.array(_non_empty(entry_instance[slots]), dtype=wp.int32, device=device)
         t.world_to_local = scene.world_to_local(device)
-        if len(instances) and (exponents.any() or centres.any()):  # into the scaled BLASes' space, about centres
+        if exponents.any():  # into the scaled BLASes' space: 2^k A
             inverse, _ = scene.instance_inverses()
             scaled = inverse * np.ldexp(1.0, exponents)[:, None, None]
-            origins = centred(instances.to_world, centres[instances.prototype])
-            t.world_to_local = wp.array(device_transforms(scaled, origins), dtype=mat34, device=device)
+            t.world_to_local = wp.array(device_transforms(scaled, instances.to_world), dtype=mat34, device=device)
+        t.has_offsets = int(offsets.any())  # else one zero: 12 bytes per instance only where a BLAS is centred
+        t.blas_offsets = wp.array(offsets.astype(np.float32) if t.has_offsets else np.zeros((1, 3), np.float32),
+                                  dtype=wp.vec3, device=device)
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
         t.shape_xforms = wp.array(_non_empty(shape_xforms), dtype=mat34, device=device)
@@ -665,7 +676,7 @@ class InstancedAccelerator(Accelerator):
         t.num_entries = self.num_entries
         self.device_tlas = t
         self._tlas_arrays = [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
-        self._tlas_arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
+        self._tlas_arrays += [t.world_to_local, t.blas_offsets, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
         self._blas_arrays = [a for d in self._device_blas[: len(self.blas)] for a in (
             d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes)]
 
@@ -800,7 +811,7 @@ def _triangle_reach(prototype, centre=np.zeros(3)) -> float:
 
 def blas_centres(scene: Scene) -> np.ndarray:
     """``(P, 3)`` float64 (float32 values): the point of each prototype's space that its BLAS is built about (its
-    points less it, :func:`_part_triangles`; its instances placed at ``to_world`` times it, :func:`centred`): the
+    points less it, :func:`_part_triangles`; its instances place it at ``c`` plus :func:`blas_offsets`): the
     centre of the box of the points its triangles use where that box lies farther from the prototype's origin than
     its own size, else 0 (so that the BLAS of nearly every prototype holds its points bit for bit). Not for a
     prototype with analytic shapes, whose entries take their instance's origin from the TLAS's transform
@@ -829,12 +840,12 @@ def blas_centres(scene: Scene) -> np.ndarray:
     return scene._cache[key]
 
 
-def centred(to_world: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """``(N, 4, 4)`` ``to_world`` composed with a translation by ``centres`` (``(N, 3)`` or ``(3,)``, prototype
-    space), in float64: where each instance places its BLAS's origin (:func:`blas_centres`)."""
-    out = np.array(to_world, np.float64)
-    out[:, :3, 3] += np.einsum("nij,nj->ni", out[:, :3, :3], np.broadcast_to(centres, (len(out), 3)))
-    return out
+def blas_offsets(to_world: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` float32 ``L m``: where each instance (``to_world`` ``(N, 4, 4)``, ``L`` its linear part) places its
+    BLAS's origin, the :func:`blas_centres` row ``m`` of its prototype (``centres`` ``(N, 3)``), from its own origin
+    ``c``; 0 for most. Held apart from ``c`` (:func:`moved_ray`): ``c + L m`` as one float32 moved instances placed
+    at 1e7 (``c`` exact, a PointInstancer's float positions) by up to 0.5."""
+    return np.einsum("nij,nj->ni", np.asarray(to_world, np.float64)[:, :3, :3], centres).astype(np.float32)
 
 
 def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int, exponent: int = 0) -> tuple:
