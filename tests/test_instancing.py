@@ -2409,13 +2409,16 @@ def test_rays_from_afar_hit_sheared_instances_of_an_off_centre_prototype_as_a_fl
     assert wrong == 0, f"{wrong} of {resolved.sum()} rays hit another triangle or missed"
 
 
-def test_off_centre_instances_placed_far_at_float32_translations_are_hit_where_float64_puts_them():
+@pytest.mark.parametrize("with_sphere", [False, True])
+def test_off_centre_instances_placed_far_at_float32_translations_are_hit_where_float64_puts_them(with_sphere):
     """Turned, stretched octahedra 20 of their sizes off their prototype's origin (so their BLAS is built about its
     centre), placed 1e6 to 1e7 from the world origin at translations float32 holds exactly (as a PointInstancer's
     float positions are), rays from 3 to 30 sizes away aimed well inside random triangles: each hits that triangle
     at the float64 ``t`` (to 1e-5 of the way over the cosine with the normal). Their BLAS's world origin
     ``c + L m`` is no float32 there: held as one, it moved the octahedra by up to half a float32 step of 1e7 (0.5,
-    a quarter of their size), and 505 of 1,920 rays hit another triangle (``c`` and ``L m`` are held apart)."""
+    a quarter of their size), and 505 of 1,920 rays hit another triangle (``c`` and ``L m`` are held apart). With a
+    sphere beside the octahedron in the prototype (40 sizes from it, where no ray passes), the same, and rays at the
+    sphere hit it where the closed form says: its entry is placed from the instance's own origin."""
     rng = np.random.default_rng(8)
     n_instances, n = 6, 2000
     to_world = np.tile(np.eye(4), (n_instances, 1, 1))
@@ -2425,7 +2428,10 @@ def test_off_centre_instances_placed_far_at_float32_translations_are_hit_where_f
     to_world[:, :3, 3] = to_world[:, :3, 3].astype(np.float32)
     points, faces = OCTAHEDRON
     points = (points.astype(np.float64) + [20.0, -14.0, 9.0]).astype(np.float32)
-    proto = Prototype("/Octa", [Mesh("/Octa/mesh", points, faces, np.arange(8))])
+    ball = np.diag([0.5, 0.5, 0.5, 1.0])
+    ball[:3, 3] = (-20.0, 14.0, -9.0)
+    shapes = [wrt.Shape("/Octa/ball", "sphere", ball)] if with_sphere else []
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", points, faces, np.arange(8))], shapes)
     scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
     assert wrt.tlas.blas_centres(scene).any()
     world = np.concatenate([points.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
@@ -2448,6 +2454,20 @@ def test_off_centre_instances_placed_far_at_float32_translations_are_hit_where_f
     cosine = np.abs((normal * d64).sum(1)) / np.linalg.norm(normal, axis=1) / np.linalg.norm(d64, axis=1)
     off = np.abs(hits.t - t) > 1e-5 / cosine  # a grazing ray's t moves most with its hit point
     assert not off[clear].any(), f"{np.count_nonzero(off[clear])} of {clear.sum()} rays hit off the float64 t"
+    if with_sphere:  # rays from 3 above each sphere's centre (float32: up to 0.5 off at 1e7) aimed at the centre
+        centres = np.einsum("nij,j->ni", to_world[:, :3, :3], ball[:3, 3]) + to_world[:, :3, 3]
+        linear = to_world[:, :3, :3] @ ball[:3, :3]
+        starts = (centres + [0.0, 0.0, 3.0]).astype(np.float32)
+        aims = (centres - starts).astype(np.float32)
+        hits = wrt.trace(scene, starts, aims)
+        np.testing.assert_array_equal(hits.instance, np.arange(n_instances))
+        # The ellipsoid |inverse(linear) (start + t aim - centre)| = 1, solved in float64 (the nearer root).
+        inverse = np.linalg.inv(linear)
+        local_o = np.einsum("nij,nj->ni", inverse, starts.astype(np.float64) - centres)
+        local_d = np.einsum("nij,nj->ni", inverse, aims.astype(np.float64))
+        a, b = (local_d * local_d).sum(1), (local_o * local_d).sum(1)
+        c = (local_o * local_o).sum(1) - 1.0
+        np.testing.assert_allclose(hits.t, (-b - np.sqrt(b * b - a * c)) / a, rtol=1e-6)
 
 
 def edge_clearances(points, indices, origins, directions, row) -> np.ndarray:

@@ -813,9 +813,8 @@ def blas_centres(scene: Scene) -> np.ndarray:
     """``(P, 3)`` float64 (float32 values): the point of each prototype's space that its BLAS is built about (its
     points less it, :func:`_part_triangles`; its instances place it at ``c`` plus :func:`blas_offsets`): the
     centre of the box of the points its triangles use where that box lies farther from the prototype's origin than
-    its own size, else 0 (so that the BLAS of nearly every prototype holds its points bit for bit). Not for a
-    prototype with analytic shapes, whose entries take their instance's origin from the TLAS's transform
-    (:func:`shape_entry`).
+    its own size, else 0 (so that the BLAS of nearly every prototype holds its points bit for bit). A prototype's
+    analytic shapes are placed from the instance's own origin as before (:func:`shape_entry`).
 
     A ray moves into an instance's space through the float32 inverse ``A``, whose rounding, relative to ``A``,
     moves a local point by that much of its distance from the local origin: sheared octahedra 50 of their sizes
@@ -826,7 +825,7 @@ def blas_centres(scene: Scene) -> np.ndarray:
         centres = np.zeros((len(scene.prototypes), 3))
         for p, prototype in enumerate(scene.prototypes):
             used = [m.points[sorted_unique(m.indices)] for m in prototype.meshes if len(m.indices)]
-            if prototype.shapes or not used:
+            if not used:
                 continue
             used = np.concatenate(used).astype(np.float64)
             used = used[np.isfinite(used).all(axis=1)]
