@@ -174,3 +174,27 @@ def test_the_first_frames_view_said_under_a_running_progress_bar_gets_a_line_of_
     assert "wrt frames" in err  # the bar was drawn
     shown = [line.split("\r")[-1] for line in err.split("\n") if "view:" in line]
     assert shown and all(line.startswith("wrt: view: camera /Cam") for line in shown), shown
+
+
+def test_a_resume_without_a_log_that_skips_every_frame_says_their_views_are_not_known(tmp_path, capsys):
+    """--frames --resume without --log skips the frames whose image is on disk, whatever drew them: no row records
+    their views, and a run that skipped every frame said no view at all, as if the stage had no render settings. It
+    says their views are not known, naming the frames; a stage without render settings (no view to say) says none.
+    The oracle: the stage's renderSettingsPrimPath as USD reads it."""
+    path, plain = tmp_path / "shot.usda", tmp_path / "plain.usda"
+    path.write_text(STAGE)
+    plain.write_text(STAGE.replace('    renderSettingsPrimPath = "/Render/Settings"\n', ""))
+    for scene, has_settings in ((path, True), (plain, False)):
+        assert bool(Usd.Stage.Open(str(scene)).GetMetadata("renderSettingsPrimPath")) == has_settings
+        argv = ["render", str(scene), "--frames", "1:2", "-o", str(tmp_path / f"{scene.stem}_#.npy"), "--integrator",
+                "normals"]
+        assert main(argv) == 0
+        drawn = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: view:")]
+        assert bool(drawn) == has_settings, drawn
+        assert main([*argv, "--resume"]) == 0
+        lines = capsys.readouterr().err.splitlines()
+        assert any("2 of 2 frames already on disk" in line for line in lines), lines
+        views = [line for line in lines if line.startswith("wrt: view:")]
+        expected = ["wrt: view: not known for frames 1, 2, skipped as on disk: --resume without --log keeps no record "
+                    "of how they were drawn (with --log FILE, their rows say their views)"]
+        assert views == (expected if has_settings else []), lines

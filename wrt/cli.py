@@ -1026,7 +1026,7 @@ def _run_frames(args, paths: list, progress) -> int:
     if not paths[0].exists():
         raise SceneError(missing_file(paths[0]), path=str(paths[0]))
     refuse_non_file(str(paths[0]))
-    frames = parse_frames(args.frames)
+    frames = frames_asked = parse_frames(args.frames)
     # {stem} goes in once the frame is numbered: a # in the scene's name (shot#1.usda) is no frame placeholder.
     pattern = args.output or "frame_####.png"
     output = pattern.replace("{stem}", paths[0].stem)  # as for still images
@@ -1129,6 +1129,11 @@ def _run_frames(args, paths: list, progress) -> int:
     for view, frames in views.items():
         if len(views) > 1 or view not in said:
             progress(f"view: {view}" + (f" ({_frame_list(frames)})" if len(views) > 1 else ""))
+    on_disk = sorted(frame for frame in frames_asked if frame not in {f for f, _ in jobs}) if not args.log else []
+    if on_disk and _has_render_settings(paths[0], args.render_settings):
+        # Skipped by their files alone: no row says their views, and a run that skipped every frame said none.
+        progress(f"view: not known for {_frame_list(on_disk)}, skipped as on disk: --resume without --log keeps no "
+                 "record of how they were drawn (with --log FILE, their rows say their views)")
     warn_mixed_sizes(paths[0], rows)
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
@@ -1148,6 +1153,21 @@ def _run_frames(args, paths: list, progress) -> int:
         print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _has_render_settings(path: Path, given: str | None) -> bool:
+    """Whether a render of the stage at ``path`` says its views: it has render settings, named by ``--render-settings``
+    (``given``) or by the ``renderSettingsPrimPath`` of its root layer (stage metadata is read from there). Read from
+    the root layer alone, not the composed stage: a resume that skips every frame loads nothing."""
+    if given is not None:
+        return True
+    from pxr import Sdf
+
+    try:
+        layer = Sdf.Layer.FindOrOpen(str(path))
+    except Exception:  # noqa: BLE001 - a layer USD cannot open: its frames' loads named the problem
+        return False
+    return bool(layer and layer.pseudoRoot.GetInfo("renderSettingsPrimPath"))
 
 
 def _aov_pattern(aov_dir: str, pattern: str) -> str:
