@@ -1269,6 +1269,50 @@ def test_relative_scene_paths_of_a_suite_are_read_from_its_folder(tmp_path, monk
     assert Grid.from_suite(str(old), overrides={"scenes": ["scenes/quad.usda"]}).scenes == ["scenes/quad.usda"]
 
 
+def test_a_suite_given_through_a_symbolic_link_reads_its_scenes_from_the_file_it_names(tmp_path, monkeypatch):
+    """A suite linked into another folder (ln -s ~/bench/suite.json here.json) read its relative scene paths from the
+    link's folder: its own scenes were missing there, or another file of that name was measured in their place.
+    They are read from the folder of the file the link names, as the suite's author wrote them. The oracle: the file
+    system's own reading of the path beside the real file (os.path.realpath)."""
+    real = tmp_path / "real"
+    (real / "scenes").mkdir(parents=True)
+    (real / "bench").mkdir()
+    (real / "scenes" / "quad.usda").write_text(TWO_TRIANGLES)
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "quad.usda").write_text(TWO_TRIANGLES.replace("-1, -1, 0", "-2, -2, 0"))  # beside the link
+    suite = real / "bench" / "suite.json"
+    suite.write_text(json.dumps({"scenes": ["../scenes/quad.usda"], "accels": ["wrt:sah"]}))
+    (tmp_path / "links").mkdir()
+    link = tmp_path / "links" / "suite.json"
+    link.symlink_to(Path("..") / "real" / "bench" / "suite.json")  # a relative link, as ln -s makes them
+    (tmp_path / "work").mkdir()
+    monkeypatch.chdir(tmp_path / "work")
+    expected = Path(os.path.realpath(real / "scenes" / "quad.usda"))
+    for given in (link, Path("..") / "links" / "suite.json"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no 'not beside the suite' warning either
+            scenes = Grid.from_suite(str(given)).scenes
+        assert [Path(os.path.realpath(name)) for name in scenes] == [expected], scenes
+    assert Grid.from_suite(str(suite)).scenes == [str(real / "bench" / "../scenes/quad.usda")]  # the file itself
+
+
+def test_a_suite_scene_path_starting_with_a_tilde_is_in_the_home_folder(tmp_path, monkeypatch):
+    """'~/models/quad.usda' in a suite was read as a folder named '~' beside the suite (an error row: no such file);
+    a shell reads it in the home folder, as os.path.expanduser does (the oracle)."""
+    home = tmp_path / "home"
+    (home / "models").mkdir(parents=True)
+    (home / "models" / "quad.usda").write_text(TWO_TRIANGLES)
+    monkeypatch.setenv("HOME", str(home))
+    (tmp_path / "bench").mkdir()
+    suite = tmp_path / "bench" / "suite.json"
+    suite.write_text(json.dumps({"scenes": ["~/models/quad.usda", "~nosuchuser1234/a.usda"], "accels": ["wrt:sah"]}))
+    monkeypatch.chdir(tmp_path)
+    scenes = Grid.from_suite(str(suite)).scenes
+    assert scenes[0] == os.path.expanduser("~/models/quad.usda") == str(home / "models" / "quad.usda"), scenes
+    assert scenes[1] == str(suite.parent / "~nosuchuser1234/a.usda")  # no such user: a name beside the suite
+    assert bench_module.scene_file_problem(scenes[0]) is None
+
+
 def test_the_shipped_suites_name_the_same_scenes_from_any_folder(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     for path in sorted(bench_module.SUITES_DIR.glob("*.json")):

@@ -325,13 +325,20 @@ def _suite_scene_paths(scenes, suite: Path):
     tools read paths in their files (a path beside it was read from the current folder, so a suite ran from one folder
     only). A path found from the current folder alone, not beside the suite, is kept, with a warning: suites written
     for the old rule still run. Scene kinds (``sphere:N``, ``warp:NAME``, ``asset:ID``, a misspelt kind) and absolute
-    paths are kept; anything not a list of names is left for the checks to refuse."""
-    folder = suite.parent
-    if not isinstance(scenes, list) or folder == Path("."):
+    paths are kept; anything not a list of names is left for the checks to refuse.
+
+    A path starting with ``~`` is in the user's home folder, as a shell reads it (it was a folder named ``~`` beside
+    the suite). A suite given through a symbolic link is read from the folder of the file the link names, where its
+    paths were written (they were read from the link's folder, so a suite linked elsewhere lost its scenes); a
+    folder linked on the way needs nothing: the file system follows it, ``..`` included."""
+    if not isinstance(scenes, list):
         return scenes
+    folder = Path(os.path.realpath(suite)).parent if suite.is_symlink() else suite.parent
     read = []
     for name in scenes:
-        if not isinstance(name, str) or not name.strip() or Path(name).is_absolute():
+        if isinstance(name, str) and name.startswith("~"):
+            name = os.path.expanduser(name)  # ~user that names no user stays as it is, and is read as below
+        if not isinstance(name, str) or not name.strip() or Path(name).is_absolute() or folder == Path("."):
             read.append(name)
             continue
         beside = folder / name
