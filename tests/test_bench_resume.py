@@ -2,9 +2,11 @@
 files named at the start rather than when the run reaches them."""
 
 import json
+import os
 import re
 import shlex
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -245,3 +247,46 @@ def test_an_earlier_runs_scaling_sweep_is_a_line_of_its_own(tmp_path, monkeypatc
     assert list(lines["wrt:sah x1 (earlier run)"].get_ydata()) == [sweep[1]["build_ms"]]
     assert lines["wrt:sah x1 (earlier run)"].get_markerfacecolor() == "none"
     assert lines["wrt:sah"].get_markerfacecolor() != "none"
+
+
+QUAD = """#usda 1.0
+def Mesh "Quad"
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+}
+"""
+
+
+def test_a_resume_from_another_folder_finds_the_rows_of_a_suites_scenes(tmp_path, monkeypatch, capsys):
+    """A suite's scene beside it is 'bench/quad.usda' run from tmp/ and 'quad.usda' run from bench/: a --resume from
+    there took the row of 'bench/quad.usda', read from bench/ (no such file), for another scene's, measured the scene
+    again and kept the earlier row as one outside its grid. Rows now record the folder their run started in (cwd), as
+    a render log's do, and a relative scene path is read from there. The oracle: the file the row was measured on,
+    the same path from either folder (os.path.samefile); a resume measures nothing and keeps the row as it was."""
+    (tmp_path / "bench").mkdir()
+    (tmp_path / "bench" / "quad.usda").write_text(QUAD)
+    (tmp_path / "bench" / "suite.json").write_text(json.dumps(
+        {"scenes": ["quad.usda"], "accels": ["wrt:sah"], "devices": ["cpu"], "rays": ["primary"], "n_rays": 100,
+         "repeats": 1}))
+    monkeypatch.chdir(tmp_path)
+    assert main(["bench", "bench/suite.json", "-q", "-o", "out"]) == 0
+    first = read_rows(tmp_path / "out")
+    assert len(first) == 1 and os.path.samefile(first[0]["scene"], tmp_path / "bench" / "quad.usda"), first
+    capsys.readouterr()
+    monkeypatch.chdir(tmp_path / "bench")
+    assert main(["bench", "suite.json", "-q", "-o", "../out", "--resume"]) == 0
+    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    assert len(summary) == 1 and summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), summary
+    again = read_rows(tmp_path / "out")
+    assert len(again) == 1 and os.path.samefile(Path(again[0]["cwd"]) / again[0]["scene"],
+                                                tmp_path / "bench" / "quad.usda"), again
+    assert {k: v for k, v in again[0].items() if k not in ("scene", "cwd")} == \
+        {k: v for k, v in first[0].items() if k not in ("scene", "cwd")}
+    # And back: the row as this run named it (quad.usda from bench/) is found from tmp/ too.
+    capsys.readouterr()
+    monkeypatch.chdir(tmp_path)
+    assert main(["bench", "bench/suite.json", "-q", "-o", "out", "--resume"]) == 0
+    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    assert summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), summary

@@ -618,12 +618,20 @@ def _warn_scene_files(grid: Grid) -> None:
                       stacklevel=3)
 
 
-def _scene_key(name: str) -> str:
-    """What a scene name measures: ``sphere:N`` by its triangle count, a file that exists by its resolved path."""
+def _scene_key(name: str, cwd: str | None = None) -> str:
+    """What a scene name measures: ``sphere:N`` by its triangle count, a file that exists by its resolved path, a
+    relative one read from ``cwd`` (the folder a row's run started in; None: the current folder)."""
     if name.startswith("sphere:"):
         return f"sphere:{sphere_count(name)}"
-    path = Path(name)
+    path = Path(cwd or ".") / name  # an absolute name stays itself
     return str(path.resolve()) if path.exists() else name
+
+
+def _row_scene_key(row: dict) -> str:
+    """:func:`_scene_key` of a row's scene, read from the folder its run started in (``cwd``; rows of runs before
+    that field: the current folder), as a render log's rows are: a ``--resume`` from another folder measured every
+    scene of a relative path again (a suite's ``bench/a.usda`` is ``a.usda`` from ``bench/``)."""
+    return _scene_key(row["scene"], row.get("cwd"))
 
 
 def sphere_triangles(name: str) -> int:
@@ -1146,9 +1154,11 @@ def _as_grid_scenes(rows: list[dict], scenes: list[str]) -> list[dict]:
     for row in rows:
         if not row.get("sweep") and isinstance(row.get("scene"), str):
             try:
-                row = dict(row, scene=spelling.get(_scene_key(row["scene"]), row["scene"]))
+                key = _row_scene_key(row)
             except (ValueError, OSError):  # a name no longer read (sphere:abc): kept as it is, never matched
-                pass
+                key = None
+            if key in spelling:  # named as this run names it, from the folder it runs in
+                row = dict(row, scene=spelling[key], cwd=os.getcwd())
         kept.pop(row_key(row), None)  # the later row of a key, in its place in the file
         kept[row_key(row)] = row
     return list(kept.values())
@@ -1231,6 +1241,7 @@ def run_grid(
             raise TypeError(f"run_grid: dask must be None, True or False, or a scheduler address str, got "
                             f"{type(dask).__name__} {dask!r}") from None
     rows, resumed, warned = [], {}, set()  # resumed: row key -> a row of the earlier run, kept until measured again
+    cwd = os.getcwd()  # the folder the rows' relative scene paths are read from
     earlier_settings = None  # the settings of the rows resumed (SETTINGS_FILE)
     jsonl = None
     if out is not None:
@@ -1307,7 +1318,7 @@ def run_grid(
 
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
         begin()
-        row.update(info.get(row["device"], {}))
+        row.update(info.get(row["device"], {}), cwd=cwd)  # cwd: what the row's scene path is relative to
         if replaces and _replace_resumed(row, resumed, rows, warned, outside) and jsonl is not None:
             _write_rows(jsonl, rows)
         rows.append(row)
@@ -1405,7 +1416,7 @@ def _in_grid(row: dict, grid: Grid) -> bool:
         return (row["scene"] in sizes and row["accel"] in scaling.get("accels", grid.accels) and threads
                 and row["rays"] == scaling.get("rays", "incoherent") and row["device"] in _device_names(grid))
     try:
-        scene = _scene_key(row["scene"])
+        scene = _row_scene_key(row)
     except (ValueError, OSError):  # a name no longer read: not this grid's
         return False
     return (scene in {_scene_key(name) for name in grid.scenes} and row["accel"] in grid.accels
