@@ -124,9 +124,11 @@ def test_batch_on_a_full_disk_logs_each_failed_scene(tmp_path, full_disk, capsys
 
 
 @pytest.mark.parametrize("devices", [[], ["--devices", "cpu,cpu"]], ids=["one-device", "two-workers"])
-def test_frames_run_stopped_by_a_full_disk_logs_the_frame(tmp_path, monkeypatch, capsys, devices):
-    """The disk fills at frame 2's write: the run stops (status 2), frame 1's image stays, and the log has frame 2's
-    error row; it had frame 1's row alone, no word of the frame that stopped the run."""
+def test_frames_run_past_a_full_disk_logs_the_frame_and_goes_on(tmp_path, monkeypatch, capsys, devices):
+    """The disk fills at frame 2's write: frame 2 gets an error row naming its file and the cause, and frames 1 and 3
+    are written, status 1 (some frames rendered), as a batch of scenes goes on past a scene whose write failed
+    (test_batch_on_a_full_disk_logs_each_failed_scene, the oracle of the row's words). The run stopped there, status
+    2, frame 3 never rendered."""
     real_open = builtins.open
 
     def open_full(file, mode="r", *args, **kwargs):
@@ -144,13 +146,16 @@ def test_frames_run_stopped_by_a_full_disk_logs_the_frame(tmp_path, monkeypatch,
     scene, out, log = tmp_path / "a.usda", tmp_path / "out", tmp_path / "log.jsonl"
     scene.write_text(STAGE)
     argv = ["render", str(scene), "--frames", "1:3", "-o", f"{out}/f_#.npy", "--log", str(log), *SIZE, *devices]
-    assert main(argv) == 2
-    assert f"wrt: error: {out / 'f_2.npy'}: no space left on device" in capsys.readouterr().err
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert f"wrt: error: frame 2: {scene}: {out / 'f_2.npy'}: no space left on device" in err, err  # as a batch says it
+    assert "wrt: 1 of 3 frames failed" in err and "Traceback" not in err, err
     rows = {r["frame"]: r for r in map(json.loads, log.read_text().splitlines())}
-    assert rows[2.0]["status"] == "error", rows  # with two workers, frames 1 and 3 may have come back first
+    assert sorted(rows) == [1.0, 2.0, 3.0], rows
+    assert rows[2.0]["status"] == "error", rows
     assert rows[2.0]["error"] == f"OSError: {out / 'f_2.npy'}: no space left on device"
-    assert all(rows[f]["status"] == "ok" for f in rows if f != 2.0)
-    assert files_in(out) == [f"f_{f:g}.npy" for f in sorted(rows) if f != 2.0]
+    assert rows[1.0]["status"] == rows[3.0]["status"] == "ok", rows
+    assert files_in(out) == ["f_1.npy", "f_3.npy"]
 
 
 def test_ctrl_c_with_a_full_disk_still_stops_the_batch(tmp_path, full_disk, ctrl_c_after, capsys):

@@ -632,9 +632,10 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         without ``aov_pattern``), ``seconds``
         (render and encode), ``finished_at`` (``time.time()``) and ``warnings`` (:func:`frame_warnings`), in the
         order the frames finished. A frame whose
-        stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) gets an error row
-        (:func:`frame_error_row`) and no file, and the other frames go on; other errors (bad options, an unwritable
-        file, Ctrl-C), the same for every frame, stop the run.
+        stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) or whose file cannot be
+        written (an OSError: a full disk) gets an error row (:func:`frame_error_row`) and no file, and the other
+        frames go on, as the scenes of a ``wrt render`` batch do; other errors (bad options, no memory left, Ctrl-C)
+        stop the run.
     """
     from tqdm import tqdm
 
@@ -669,6 +670,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                         aovs = [] if aov_pattern is None else _written_aovs(image, aov_pattern, frame)
                 except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
+                except OSError as e:  # a full disk at its write: the frame's error, as a batch of scenes logs one
+                    rows.append(frame_write_error_row(frame, file, e, str(devices[0])))
                 except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
                     rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
                     raise
@@ -704,6 +707,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     write(future.result(), futures[future][1])
                 except SceneError as e:
                     rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
+                except OSError as e:  # its write failed (a full disk): as in a serial run, the others go on
+                    rows.append(frame_write_error_row(*futures[future], e, getattr(e, "device", None)))
                 except Exception as e:
                     _log_stopping_frame(rows, *futures[future], e)
                     raise
@@ -751,14 +756,22 @@ class LogRows(list):
 
 
 def _log_stopping_frame(rows: LogRows, frame: float, file, error: Exception, device: str | None = None) -> None:
-    """Adds the error row of a frame whose error stops the run (a full disk at its write, no memory left): the
-    log said nothing of it, only that the frames before had finished. Where the row cannot be written either (that
-    full disk), the frame's own error is the one that goes on."""
-    row = frame_error_row(frame, file, error, device)
-    if isinstance(error, OSError) and error.strerror and error.filename is not None:  # as a batch's rows read it
-        row["error"] = f"{type(error).__name__}: {error.filename}: {error.strerror[:1].lower()}{error.strerror[1:]}"
+    """Adds the error row of a frame whose error stops the run (no memory left, a fault in wrt): the log said nothing
+    of it, only that the frames before had finished. Where the row cannot be written either, the frame's own error
+    is the one that goes on."""
+    row = frame_write_error_row(frame, file, error, device) if isinstance(error, OSError) else \
+        frame_error_row(frame, file, error, device)
     with contextlib.suppress(Exception):
         rows.append(row)
+
+
+def frame_write_error_row(frame: float, file, error: OSError, device: str | None = None) -> dict:
+    """:func:`frame_error_row` of an OSError (its image's write failed: a full disk), its ``error`` read as a batch of
+    scenes' rows read it (``OSError: out/f_2.npy: no space left on device``)."""
+    row = frame_error_row(frame, file, error, device)
+    if error.strerror and error.filename is not None:
+        row["error"] = f"{type(error).__name__}: {error.filename}: {error.strerror[:1].lower()}{error.strerror[1:]}"
+    return row
 
 
 def frame_error_row(frame: float, file, error: Exception, device: str | None = None) -> dict:
@@ -1006,6 +1019,12 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
         else:
             others.append(error)
 
+    def arrived(job, result):
+        try:
+            write(result, job["file"])
+        except OSError as e:  # its write failed (a full disk): the frame's error, as in render_frames
+            rows.append(frame_write_error_row(job["frame"], job["file"], e, result.get("row", {}).get("device")))
+
     def interrupted(cut_short):  # Ctrl-C: rows for the frames on a worker or sent back and not written, as --devices
         logged = _logged_jobs(rows)
         for job in sorted(cut_short, key=lambda job: (job["frame"], job["file"])):
@@ -1013,7 +1032,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
                 rows.append(frame_interrupted_row(job["frame"], job["file"]))
 
     run_tasks(task, tasks, address=address, n_workers=n_workers,
-              on_result=lambda job, result: write(result, job["file"]), on_error=failed, on_interrupt=interrupted,
+              on_result=arrived, on_error=failed, on_interrupt=interrupted,
               progress=progress, desc="wrt frames")
     if others:
         raise others[0]

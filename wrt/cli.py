@@ -1145,7 +1145,7 @@ def _run_frames(args, paths: list, progress) -> int:
     # over 240 frames is one line.
     frames_of = collections.defaultdict(list)
     for row in failures:
-        frames_of[row["error"].removeprefix("SceneError: ")].append(row["frame"])
+        frames_of[_bad_input_words(row["error"])].append(row["frame"])
     for message, frames in frames_of.items():
         where = "" if paths[0].name in message else f"{paths[0]}: "
         print(f"wrt: error: {_frame_list(frames)}: {where}{message}", file=sys.stderr)
@@ -1153,6 +1153,18 @@ def _run_frames(args, paths: list, progress) -> int:
         print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _bad_input_words(error: str) -> str:
+    """A frame row's ``error`` as ``wrt render`` says it: without the class of bad input (a ``SceneError``, an
+    OSError such as a full disk at the frame's write), as a batch of scenes says its scenes' errors; the class of any
+    other error stays."""
+    import builtins
+
+    kind, colon, message = error.partition(": ")
+    quiet = kind == "SceneError" or (isinstance(getattr(builtins, kind, None), type)
+                                     and issubclass(getattr(builtins, kind), OSError))
+    return message if colon and quiet else error
 
 
 def _has_render_settings(path: Path, given: str | None) -> bool:
