@@ -198,3 +198,30 @@ def test_resume_of_a_folder_per_scene_batch_reads_the_log_an_earlier_wrt_wrote_i
     assert main([*argv, "--resume"]) == 0
     err = capsys.readouterr().err
     assert f"--resume: no log at {out / 'render-log.jsonl'}" in err and "2 of 2 scenes rendered" in err, err
+
+
+def test_resume_from_another_folder_compares_the_aov_folder_named_not_its_spelling(tmp_path, monkeypatch, capsys):
+    """--aov-dir was compared as typed: resumed from another folder, 'aovs' (another folder from there) skipped the
+    scenes, their AOV files never written where asked, and '../first/aovs' (the same folder) rendered them again
+    ('options changed: --aov-dir aovs -> ../first/aovs'). The skipped rows also carried the AOV files as the first
+    run spelt them, relative to its folder, so the next resume found them missing. The oracle: the files on disk."""
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(STAGE)
+    for folder in ("first", "second"):
+        (tmp_path / folder).mkdir()
+    argv = ["render", "../a.usda", "../b.usda", "-o", "../out/", *SIZE]
+    monkeypatch.chdir(tmp_path / "first")
+    assert main([*argv, "--aov-dir", "aovs"]) == 0
+    written = sorted(p.relative_to(tmp_path / "first") for p in (tmp_path / "first" / "aovs").rglob("*.npy"))
+    assert written and {p.parts[1] for p in written} == {"a", "b"}, written
+    monkeypatch.chdir(tmp_path / "second")
+    for _ in range(2):  # the same folder, named from here: skipped, and so by the next resume, from its rows
+        capsys.readouterr()
+        assert main([*argv, "--aov-dir", "../first/aovs", "--resume"]) == 0
+        assert "0 of 2 scenes rendered, 2 skipped" in capsys.readouterr().err
+    capsys.readouterr()
+    assert main([*argv, "--aov-dir", "aovs", "--resume"]) == 0  # another folder: rendered, its AOVs written there
+    err = capsys.readouterr().err
+    assert "2 of 2 scenes rendered, 0 skipped" in err, err
+    assert f"--aov-dir {tmp_path / 'first' / 'aovs'} -> {tmp_path / 'second' / 'aovs'}" in err, err
+    assert sorted(p.relative_to(tmp_path / "second") for p in (tmp_path / "second" / "aovs").rglob("*.npy")) == written

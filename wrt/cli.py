@@ -929,7 +929,7 @@ def _run_render(args) -> int:
         return 0
     log = Path(args.log) if args.log else _batch_log(outputs, args.resume, progress)
     _check_log_path(log, [file for written in files for file in written], paths)
-    from .render_log import append_row, mtime_ns, new_run, skipped_fields
+    from .render_log import append_row, carried_files, mtime_ns, new_run, skipped_fields
 
     jobs = [(path, output, path.name) for path, output in zip(paths, outputs)]
     options = _log_options(args)
@@ -951,7 +951,7 @@ def _run_render(args) -> int:
         if output in done:  # the image and its AOV files as that run left them
             before = done[output]
             progress(f"--resume: skipped {path.name}: {output} is finished (run {before['run']}, same options)")
-            write_row({**row, **skipped_fields(before), "aov_files": before.get("aov_files", [])}, start)
+            write_row({**row, **skipped_fields(before), "aov_files": carried_files(before)}, start)
             continue
         try:
             image, *aovs = _render_one(args, path, output, progress)
@@ -1051,7 +1051,7 @@ def _run_frames(args, paths: list, progress) -> int:
         _check_output_location(Path(args.aov_dir))
         check_aov_pattern(aov_pattern, jobs)  # -o d/depth_####.npy --aov-dir d: refused before any frame
     _warn_unused_exposure(args.exposure, [output], args.integrator)
-    from .render_log import append_row, mtime_ns, new_run, skipped_fields
+    from .render_log import append_row, carried_files, mtime_ns, new_run, skipped_fields
     from .strict_json import strict_json
 
     run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov")}
@@ -1071,7 +1071,7 @@ def _run_frames(args, paths: list, progress) -> int:
                     skipped_rows.append((frame, before))
                     # Its AOV files too, as a batch's skipped rows carry them: the next --resume checks them. And its
                     # view: the next --resume says the views of the frames it skips from these rows (it said none).
-                    aovs = {"aov_files": before["aov_files"]} if "aov_files" in before else {}
+                    aovs = {"aov_files": carried_files(before)} if "aov_files" in before else {}
                     view = {"view": before["view"]} if "view" in before else {}
                     append_row(log, strict_json({**fields, "frame": frame, "output": str(file),
                                                  **skipped_fields(before), **aovs, **view}))

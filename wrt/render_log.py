@@ -180,9 +180,9 @@ class ResumeIndex:
             return None, f"{run} wrote it from {row.get('scene')}"
         if "run" not in row or "scene_mtime_ns" not in row:
             return None, f"{run} recorded no options (an older wrt)"
-        changed = [name for name in OPTION_FIELDS if name in options and row.get(name) != options[name]]
+        changed = [name for name in OPTION_FIELDS if name in options and not _same_option(row, name, options[name])]
         if changed:
-            said = ", ".join(f"--{n.replace('_', '-')} {_shown(row.get(n))} -> {_shown(options[n])}"
+            said = ", ".join(f"--{n.replace('_', '-')} {_shown(row.get(n), row, n)} -> {_shown(options[n], {}, n)}"
                              for n in changed)
             return None, f"options changed since {run}: {said}"
         if row["scene_mtime_ns"] != mtime_ns(scene):
@@ -200,8 +200,33 @@ class ResumeIndex:
         return row, ""
 
 
-def _shown(value) -> str:
-    """An option value as a user typed it: None is the default, lists are the repeated option's values."""
+def _same_option(row: dict, name: str, value) -> bool:
+    """Whether ``row`` was rendered with option ``name`` at ``value`` (this run's, as given). A folder (``aov_dir``)
+    is compared as the folder it names, read from the folder each run started in: ``--aov-dir aovs`` resumed from
+    another folder names another folder (its AOV files were not written there, and the scene was skipped), and
+    ``../first/aovs`` from there the same one (the scene was rendered again)."""
+    before = row.get(name)
+    if name == "aov_dir" and isinstance(before, str) and isinstance(value, str):
+        return _row_path(row, before) == Path(value).resolve()
+    return before == value
+
+
+def carried_files(before: dict, name: str = "aov_files") -> list[str]:
+    """The files of ``before`` (a row ``--resume`` skips the image of) under ``name``, as this run's row names them:
+    a relative path is relative to the folder a row's run started in (``cwd``), and this run may have started in
+    another, so it is spelt from this run's folder (absolute ones stay): carried as they were, the next resume looked
+    for them beside this run's folder, and rendered the image again."""
+    files = []
+    for file in before.get(name, []):
+        files.append(file if os.path.isabs(file) else os.path.relpath(_row_path(before, file)))
+    return files
+
+
+def _shown(value, row: dict | None = None, name: str = "") -> str:
+    """An option value as a user typed it: None is the default, lists are the repeated option's values; a folder
+    (``aov_dir``) as the one it names from the folder ``row``'s run started in (this run's: ``{}``)."""
+    if name == "aov_dir" and isinstance(value, str):
+        return str(_row_path(row or {}, value))
     if value is None:
         return "(default)"
     if isinstance(value, list):
@@ -209,5 +234,5 @@ def _shown(value) -> str:
     return str(value)
 
 
-__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "check_appendable", "device_kind", "is_bench_row", "mtime_ns",
-           "new_run", "read_rows", "skipped_fields"]
+__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "carried_files", "check_appendable", "device_kind",
+           "is_bench_row", "mtime_ns", "new_run", "read_rows", "skipped_fields"]
