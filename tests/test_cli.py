@@ -116,6 +116,16 @@ def test_the_preview_window_size_help_names_its_unit(capsys):
      "(--width): give it after the command, in full (see 'wrt --help')"),
     (["--sp=4", "render"], "unrecognized arguments: --sp=4; it is an option of wrt render (--spp): give it after the "
      "command, in full (see 'wrt --help')"),
+    # After the command, an option of wrt itself or of another command: 'unrecognized' alone, or a close option of
+    # this command that means something else ('--bvh-depth 3 (did you mean '--max-depth'?)').
+    (["render", "--version"], "unrecognized arguments: --version; it is an option of wrt itself: give it before the "
+     "command (wrt --version) (see 'wrt render --help')"),
+    (["render", "x.usda", "--bvh-depth", "3"], "unrecognized arguments: --bvh-depth 3; it is an option of wrt "
+     "preview, not of wrt render (see 'wrt render --help')"),
+    (["render", "x.usda", "--bvh-dep", "3"], "unrecognized arguments: --bvh-dep 3; it is an option of wrt preview "
+     "(--bvh-depth), not of wrt render (see 'wrt render --help')"),
+    (["bvh-stats", "x.usda", "--spp=4"], "unrecognized arguments: --spp=4; it is an option of wrt render, not of wrt "
+     "bvh-stats (see 'wrt bvh-stats --help')"),
 ])
 def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsys, args, message):
     """An unknown option after a command was reported by the top parser: 'see wrt --help', which lists commands, not

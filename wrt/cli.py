@@ -127,8 +127,25 @@ class _Parser(argparse.ArgumentParser):
             hint = did_you_mean(unknown[dashes:].split("=")[0], names).replace(" '", " '--") if dashes else ""
             if not dashes and unknown.swapcase() in command._option_string_actions:  # -O for -o
                 hint = f" (did you mean {unknown.swapcase()!r}?)"
+            if dashes == 2:  # another command's own option first: a close one of this command's misled
+                hint = self._owner_hint(command, unknown.split("=")[0], exact=True) or hint or \
+                    self._owner_hint(command, unknown.split("=")[0], exact=False)
             command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return parsed
+
+    def _owner_hint(self, command: argparse.ArgumentParser, name: str, exact: bool) -> str:
+        """Where an option that ``command`` has not (``name``; with ``exact`` False, the start of one) belongs: wrt's
+        own (``wrt render --version``: give it before the command), or another command's (``wrt render
+        --bvh-depth``, preview's), as an option before the command is named
+        (:meth:`_check_options_before_the_command`); '' for none. They were 'unrecognized' alone, or got a close
+        option of ``command`` that meant something else ('--bvh-depth (did you mean '--max-depth'?)')."""
+        own = _option_named(self, name, prefix=not exact)
+        if command is not self and own is not None:
+            return f"; it is an option of wrt itself: give it before the command (wrt {own})"
+        others = [(c, p) for c, p in self._commands().items() if p is not command]
+        options = [(c, _option_named(p, name, prefix=not exact)) for c, p in others]
+        owners = [f"wrt {c}" + ("" if option == name else f" ({option})") for c, option in options if option]
+        return f"; it is an option of {', '.join(owners)}, not of {command.prog}" if owners else ""
 
     def _without_dashes_before_the_command(self, args: list) -> list:
         """``args`` without a ``--`` before the command (``wrt -- render``), which ends the top parser's options, as
