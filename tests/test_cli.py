@@ -1592,3 +1592,47 @@ def test_an_aov_folder_at_a_file_the_run_writes_is_refused_before_a_render(tmp_p
     assert f"cannot write {tmp_path / file}" in errors[0] and f"into {tmp_path / folder}: that is " in errors[0]
     assert "give -o and --aov-dir other names" in errors[0], errors
     assert list(tmp_path.iterdir()) == [tmp_path / "a.usda"]
+
+
+BEHIND_THE_CAMERA = """#usda 1.0
+def Mesh "M"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+def Camera "C"
+{
+    double3 xformOp:translate = (0, 0, -5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_a_warning_made_an_error_is_said_as_an_error_not_a_traceback(tmp_path, capsys):
+    """Under Python's warning filters that make warnings errors (python -W error), a render stopped with a traceback
+    (status 1), and a batch printed one for the scene as for a fault in wrt. They are said as wrt's errors, as --frames
+    says them (an error row, no traceback): one line, status 2 (the option's warning) or 1 (one of two scenes). The
+    oracle: the warning's own words, as they are said without the filter."""
+    import warnings
+
+    scene, seen = tmp_path / "cam.usda", tmp_path / "tri.usda"
+    scene.write_text(BEHIND_THE_CAMERA)
+    seen.write_text(BEHIND_THE_CAMERA.replace("(0, 0, -5)", "(0, 0, 5)"))
+    size = ["--width", "4", "--height", "4"]
+    assert main(["render", str(scene), "-o", str(tmp_path / "w.png"), *size, "-q"]) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if "sees nothing" in line]
+    assert len(said) == 1 and said[0].startswith(f"wrt: warning: {scene}: camera /C sees nothing"), said
+    words = said[0].removeprefix("wrt: warning: ")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["render", str(seen), "-o", str(tmp_path / "x.png"), "--ao-radius", "1", *size]) == 2
+        err = capsys.readouterr().err
+        assert error_lines(err) == ["wrt: error: --ao-radius applies to --integrator ao only; whitted does not use it "
+                                    "(see 'wrt render --help')"] and "Traceback" not in err, err
+        out = tmp_path / "out"
+        assert main(["render", str(seen), str(scene), "-o", f"{out}/", *size, "-q"]) == 1
+        err = capsys.readouterr().err
+    assert "Traceback" not in err and f"wrt: error: {words}" in err.splitlines(), err
+    rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
+    assert [(r["status"], r.get("error")) for r in rows] == [("ok", None), ("error", f"UserWarning: {words}")], rows

@@ -980,7 +980,8 @@ def _run_render(args) -> int:
             message = error_line(e)
             row.update(status="error", error=f"{type(e).__name__}: {message}")
             failures.append(row)
-            if not isinstance(e, (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError)):
+            # A Warning: one that Python's warning filters make an error (python -W error), as --frames takes it.
+            if not isinstance(e, (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError, Warning)):
                 # Not bad input but a fault in wrt (an IndexError, a KeyError): its traceback, to report, and on.
                 traceback.print_exc(file=sys.stderr)
                 message = f"{type(e).__name__}: {message}"
@@ -1758,7 +1759,9 @@ def main(argv: list[str] | None = None) -> int:
         # Python's own flush at exit would fail on the closed pipe again: stdout goes to the null device.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
-    except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
+    # OSError: unwritable output paths too; a Warning: one that Python's warning filters make an error (python -W
+    # error), said in wrt's words as a batch's scenes and --frames' frames say it, not as a traceback.
+    except (SceneError, ValueError, TypeError, OSError, MemoryError, Warning) as e:
         message = error_line(e)
         # Not for an OSError: a file's state, which no option's help mends ('--log x: permission denied').
         hint = "" if isinstance(e, OSError) else _help_hint(parser._commands()[args.command], message)
