@@ -1636,3 +1636,19 @@ def test_a_warning_made_an_error_is_said_as_an_error_not_a_traceback(tmp_path, c
     assert "Traceback" not in err and f"wrt: error: {words}" in err.splitlines(), err
     rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
     assert [(r["status"], r.get("error")) for r in rows] == [("ok", None), ("error", f"UserWarning: {words}")], rows
+
+
+@pytest.mark.parametrize("given", [["--devices", "cpu"], ["--dask"]], ids=["devices", "dask"])
+def test_a_device_given_with_devices_or_dask_is_refused_not_dropped(tmp_path, capsys, given):
+    """--device with --devices (or --dask), which choose the devices the frames render on, was dropped without a
+    word: --devices cpu --device cuda:0 rendered on the CPU, and did not even say that cuda:0 is missing here. Both
+    are refused before any frame, naming the two options, as --devices with --dask is."""
+    scene = tmp_path / "a.usda"
+    scene.write_text(BEHIND_THE_CAMERA)
+    out = tmp_path / "out"
+    argv = ["render", str(scene), "--frames", "1:1", "-o", f"{out}/f_#.png", "--width", "4", "--height", "4", "-q"]
+    assert main([*argv, "--device", "cuda:0", *given]) == 2
+    other = given[0]
+    assert error_lines(capsys.readouterr().err) == [f"wrt: error: give --device or {other}, not both: {other} chooses "
+                                                    "the devices the frames render on (see 'wrt render --help')"]
+    assert not out.exists()

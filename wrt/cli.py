@@ -442,7 +442,9 @@ def _add_render(sub) -> None:
     p.add_argument("--spp", type=int_at_least(1, "an integer from 1 to 2^31 - 1", MAX_SPP), default=1,
                    help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
-    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device, e.g. cpu or cuda:0")
+    # No default here: given with --devices or --dask, which choose the devices, it was dropped without a word.
+    p.add_argument("--device", type=_non_empty, help="Warp device, e.g. cpu or cuda:0; default: cpu (with --frames, "
+                   "--devices or --dask choose the devices instead)")
     builders = [b.value for b in Builder] + ["binned_sah"]
     builders += [b for b in WARP_BUILDERS if b not in builders]  # cubql: wp.Mesh's alone
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder: with --accel wrt, any but cubql; "
@@ -907,6 +909,10 @@ def _run_render(args) -> int:
         raise ValueError("--workers sizes the LocalCluster of --dask without an ADDRESS; it applies to nothing else")
     if args.devices and args.dask is not None:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
+    if args.device is not None and (args.devices or args.dask is not None):  # it would be dropped without a word
+        others = "--devices" if args.devices else "--dask"
+        raise ValueError(f"give --device or {others}, not both: {others} chooses the devices the frames render on")
+    args.device = args.device or "cpu"
     _warn_unused_integrator_options(args)
     _check_builder(args)
     if not (args.devices or args.dask is not None):  # those choose their own devices, checked where they are used
