@@ -1269,6 +1269,21 @@ def test_relative_scene_paths_of_a_suite_are_read_from_its_folder(tmp_path, monk
     assert Grid.from_suite(str(old), overrides={"scenes": ["scenes/quad.usda"]}).scenes == ["scenes/quad.usda"]
 
 
+def test_a_suite_name_is_the_shipped_suite_beside_a_folder_of_that_name(tmp_path, monkeypatch):
+    """'wrt bench cpu' run beside a folder named cpu (an earlier 'wrt bench --quick -o cpu') was refused as 'cpu: a
+    directory, not a benchmark suite': a folder is no suite, so the name is the shipped suite's. The oracle: the
+    shipped suite file read as JSON; a file of that name is still read as the suite it is."""
+    monkeypatch.chdir(tmp_path)
+    for name in ("quick", "cpu"):
+        (tmp_path / name).mkdir()
+        shipped = json.loads((bench_module.SUITES_DIR / f"{name}.json").read_text(encoding="utf-8"))
+        grid = Grid.from_suite(name)
+        assert grid.scenes == shipped["scenes"] and grid.accels == [bench_module.check_accel_spec(a)
+                                                                    for a in shipped["accels"]], name
+    (tmp_path / "mine").write_text(json.dumps({"scenes": ["sphere:300"], "accels": ["wrt:sah"]}))
+    assert Grid.from_suite("mine").scenes == ["sphere:300"]
+
+
 def test_a_suite_given_through_a_symbolic_link_reads_its_scenes_from_the_file_it_names(tmp_path, monkeypatch):
     """A suite linked into another folder (ln -s ~/bench/suite.json here.json) read its relative scene paths from the
     link's folder: its own scenes were missing there, or another file of that name was measured in their place.

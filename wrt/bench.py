@@ -387,9 +387,11 @@ class GridError(ValueError):
 
 
 def suite_path(path) -> Path:
-    """The file a suite name gives: ``path`` itself, or the file of that name in ``wrt/suites`` (``quick``)."""
+    """The file a suite name gives: ``path`` itself, or the file of that name in ``wrt/suites`` (``quick``) where no
+    file has that name: a folder of that name (``wrt bench --quick -o quick``, ``-o cpu``) is no suite, and ``wrt
+    bench cpu`` run beside one was refused as 'cpu: a directory, not a benchmark suite'."""
     path = Path(path)
-    if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
+    if (not path.exists() or path.is_dir()) and (SUITES_DIR / f"{path}.json").exists():
         return SUITES_DIR / f"{path}.json"
     return path
 
