@@ -225,3 +225,32 @@ def test_resume_from_another_folder_compares_the_aov_folder_named_not_its_spelli
     assert "2 of 2 scenes rendered, 0 skipped" in err, err
     assert f"--aov-dir {tmp_path / 'first' / 'aovs'} -> {tmp_path / 'second' / 'aovs'}" in err, err
     assert sorted(p.relative_to(tmp_path / "second") for p in (tmp_path / "second" / "aovs").rglob("*.npy")) == written
+
+
+def test_a_frames_resume_whose_one_frame_left_fails_exits_as_a_batch_resume_does(tmp_path, capsys):
+    """A --frames --resume that skips the finished frames and fails at the one left exited 2 ('none rendered', bad
+    input), where a batch resume that skips the finished scenes and fails at the one left exits 1: the batch counts
+    the scenes it skipped among those asked, the frames run counted only the frames it drew. The oracle: the batch's
+    status for the same case (README: 1 where some failed, 2 where none could be rendered)."""
+    from pxr import Usd, UsdGeom
+
+    good, bad = tmp_path / "good.usda", tmp_path / "bad.usda"
+    good.write_text(STAGE)
+    bad.write_text(STAGE.replace("(1, 0, 0)", "(nan, 0, 0)"))
+    batch = ["render", str(good), str(bad), "-o", f"{tmp_path / 'out'}/", *SIZE, "-q"]
+    assert main(batch) == 1
+    assert main([*batch, "--resume"]) == 1  # good.usda skipped, bad.usda failed again
+    capsys.readouterr()
+    path = tmp_path / "shot.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    points = UsdGeom.Mesh.Define(stage, "/M").CreatePointsAttr()
+    for time, x in ((1, 1.0), (2, float("nan"))):
+        points.Set([(0, 0, 0), (x, 0, 0), (0, 1, 0)], time)
+    UsdGeom.Mesh(stage.GetPrimAtPath("/M")).CreateFaceVertexCountsAttr([3])
+    UsdGeom.Mesh(stage.GetPrimAtPath("/M")).CreateFaceVertexIndicesAttr([0, 1, 2])
+    stage.Save()
+    frames = ["render", str(path), "--frames", "1:2", "-o", str(tmp_path / "f_#.npy"), "--log",
+              str(tmp_path / "log.jsonl"), *SIZE, "-q"]
+    assert main(frames) == 1
+    assert main([*frames, "--resume"]) == 1  # frame 1 skipped, frame 2 failed again
+    assert "wrt: 1 of 2 frames failed" in capsys.readouterr().err.splitlines()

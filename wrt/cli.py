@@ -1174,8 +1174,10 @@ def _run_frames(args, paths: list, progress) -> int:
         where = "" if paths[0].name in message else f"{paths[0]}: "
         print(f"wrt: error: {_frame_list(frames)}: {where}{message}", file=sys.stderr)
     if failures:
-        print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
-        return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
+        # Of every frame asked, the frames --resume skipped as finished included, as a batch of scenes counts the
+        # scenes it skipped: a resume whose one frame left failed exited 2, 'none rendered', where a batch exits 1.
+        print(f"wrt: {counted_of(len(failures), len(frames_asked), 'frame')} failed", file=sys.stderr)
+        return 1 if len(failures) < len(frames_asked) else EXIT_BAD_INPUT  # none rendered: bad input, as one render
     return 0
 
 
