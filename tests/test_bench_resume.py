@@ -290,3 +290,23 @@ def test_a_resume_from_another_folder_finds_the_rows_of_a_suites_scenes(tmp_path
     assert main(["bench", "bench/suite.json", "-q", "-o", "out", "--resume"]) == 0
     summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
     assert summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), summary
+
+
+def test_a_resume_without_settings_json_measures_rows_of_other_repeats_again(tmp_path, capsys):
+    """settings.json says the repeats of every row in rows.jsonl; without it (deleted, or rows.jsonl copied alone) a
+    --resume with --repeats 1 kept a row timed over 3 launches as its own, and then wrote settings.json saying every
+    row was timed over 1. Each row now records its repeats, and one of other repeats is measured again, named in the
+    warning. The oracle: the repeats given to each run."""
+    argv = ["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+            "--n-rays", "100", "-q", "-o", str(tmp_path)]
+    assert main([*argv, "--repeats", "3"]) == 0
+    first = read_rows(tmp_path)
+    (tmp_path / "settings.json").unlink()
+    capsys.readouterr()
+    assert main([*argv, "--repeats", "1", "--resume"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert "wrt: warning: sphere:100 / cpu / primary: rows of the resumed run measured again, as repeats 3 -> 1" in err
+    summary = [line for line in err if "results in" in line]
+    assert summary[0].startswith("wrt: 1 row measured, 0 resumed, 0 failed"), summary
+    assert [row["repeats"] for row in first] == [3] and [row["repeats"] for row in read_rows(tmp_path)] == [1]
+    assert json.loads((tmp_path / "settings.json").read_text())["repeats"] == 1

@@ -839,8 +839,9 @@ def row_key(row: dict) -> tuple:
 
 # What a row was measured on, beyond its key: ``resume`` keeps a row only when all of these are the same now. ``inputs``
 # hashes the triangles and rays traced (a changed scene file or a layer it references, another camera, ray count or
-# ray generation); the rest is hardware() of the row's device.
-IDENTITY_FIELDS = ("inputs", "wrt", "wrt_source", "warp", "cpu", "cpu_cores", "gpu", "driver", "gpu_driver")
+# ray generation); ``repeats`` is the timed launches its median is of (settings.json says it for the whole file, and
+# a resume without that file kept rows of other repeats as this run's); the rest is hardware() of the row's device.
+IDENTITY_FIELDS = ("inputs", "repeats", "wrt", "wrt_source", "warp", "cpu", "cpu_cores", "gpu", "driver", "gpu_driver")
 
 
 def identity_changes(before: dict, now: dict) -> list[str]:
@@ -906,7 +907,8 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     any_hit = kind in ANY_HIT_KINDS
     scale = float(np.abs(points).max()) if len(points) else 0.0
     base = {"scene": scene_name, "triangles": triangles, "device": str(device), "rays": kind}
-    base.update(n_rays=int(len(origins)), inputs=inputs_digest(points, indices, origins, directions))
+    base.update(n_rays=int(len(origins)), inputs=inputs_digest(points, indices, origins, directions),
+                repeats=grid.repeats)
     if kind == "shadow":  # one light, named: a scene lit by others must not look measured towards them
         light = shadow_target(scene)[1]
         base.update(shadow_light=light, lights_not_aimed_at=len(scene.lights) - (light != "default sun"))
