@@ -1247,6 +1247,27 @@ def test_default_camera_of_a_z_up_stage_is_the_y_up_one_turned_with_the_robot(tm
     assert (np.diff(d[6, :, 0]) > 0).all()  # right in the image is along +X: not mirrored
 
 
+OCTAHEDRON = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+OCTAHEDRON_FACES = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]]
+
+
+@pytest.mark.parametrize("up_axis", ["Y", "Z"])
+@pytest.mark.parametrize("size", [(40, 30), (30, 40), (12, 120), (120, 12)])
+def test_the_camera_framing_a_stage_without_cameras_sees_all_of_it_at_any_aspect(size, up_axis):
+    """The camera wrt makes for a scene without cameras keeps its whole square field of view in the image, as
+    USD's expandAperture does: it kept the vertical one only, so a portrait image cut the scene at its sides (12x120:
+    the octahedron ran off both sides, 100 of 264 border pixels hit). Oracle: a convex solid inside the view leaves
+    the image's border pixels empty, and is crossed by the middle row and column; a width alone still gives 4:3."""
+    scene = wrt.Scene.from_triangles(OCTAHEDRON, OCTAHEDRON_FACES)
+    scene.up_axis = up_axis
+    width, height = size
+    prim = wrt.render(scene, width=width, height=height, integrator="albedo").aovs["prim"]
+    border = np.concatenate([prim[0], prim[-1], prim[:, 0], prim[:, -1]])
+    assert (border < 0).all(), f"{np.count_nonzero(border >= 0)} of {border.size} border pixels hit"
+    assert (prim[height // 2] >= 0).any() and (prim[:, width // 2] >= 0).any()
+    assert resolve_view(scene, None, width, None)[1:] == (width, round(width * 3 / 4))
+
+
 def edge_renderer(rows: int) -> tuple[wrt.Renderer, np.ndarray]:
     """A renderer of an orthographic view, 4 pixels of 1 unit across and ``rows`` down, of a glowing half-plane
     ``x < -0.7`` (radiance 1, reflecting nothing) over black, and each column's exact share of the half-plane's

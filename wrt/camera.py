@@ -621,7 +621,8 @@ def _look_at_matrix(eye, target, up) -> np.ndarray:
 
 
 def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Camera:
-    """A perspective camera that sees the whole box ``[lower, upper]`` from the front and above (a box of no size
+    """A perspective camera that sees the whole box ``[lower, upper]``, in an image of any aspect (``fov_y_deg`` is
+    the narrower of its two fields of view), from the front and above (a box of no size
     as one 1e-6 across), and everything behind it: its far clipping plane is at infinity. A box of any other size
     fills the view: its radius was taken as at least 1e-6, and a scene scaled by 1e-20 was a dot in the middle of
     the image."""
@@ -639,6 +640,9 @@ def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Ca
     offset = _normalized(view) * distance
     # No far plane: the box bounds the geometry, not the lights, and an area light behind it (a backdrop, or any
     # light of a stage of lights alone, framed as the unit cube) was hidden by a far plane just past the box.
-    camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg, clipping_range=(distance * 1e-4, math.inf))
+    # expandAperture keeps the whole square field of view in the image whatever its aspect (the vertical one alone,
+    # look_at's fit, cut a portrait image's scene at its sides); a landscape image gets the same view.
+    camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg, clipping_range=(distance * 1e-4, math.inf),
+                            fit="expandAperture")
     camera.to_world[:3, 3] = center + offset
     return camera

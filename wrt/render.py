@@ -257,14 +257,15 @@ def camera_source(scene: Scene, camera) -> Camera | None:
     return scene.cameras.get(str(camera))
 
 
-def default_image_size(camera: Camera, width: int | None, height: int | None) -> tuple[int, int]:
+def default_image_size(camera: Camera | None, width: int | None, height: int | None) -> tuple[int, int]:
     """``(width, height)`` of a render without render settings: the given ones; where one alone is given, the other
-    keeps ``camera``'s aspect (:meth:`Camera.image_aspect`: its apertures', else the 4:3 of ``DEFAULT_WIDTH x
-    DEFAULT_HEIGHT``), rounded and at least 1, so a smaller image is the same shot, not a stretched one (as
-    ``usdrecord --imageWidth`` takes the height from the camera); neither: ``DEFAULT_WIDTH x DEFAULT_HEIGHT``."""
+    keeps ``camera``'s aspect (:meth:`Camera.image_aspect`: its apertures', else, and for ``None``, the camera wrt
+    frames a scene with, the 4:3 of ``DEFAULT_WIDTH x DEFAULT_HEIGHT``), rounded and at least 1, so a smaller image
+    is the same shot, not a stretched one (as ``usdrecord --imageWidth`` takes the height from the camera); neither:
+    ``DEFAULT_WIDTH x DEFAULT_HEIGHT``."""
     if width is None and height is None:
         return DEFAULT_WIDTH, DEFAULT_HEIGHT
-    aspect = camera.image_aspect() or DEFAULT_WIDTH / DEFAULT_HEIGHT
+    aspect = (camera.image_aspect() if camera is not None else None) or DEFAULT_WIDTH / DEFAULT_HEIGHT
     if height is None:
         return width, max(1, round(width / aspect))
     if width is None:
@@ -283,7 +284,8 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
     settings = scene.render_settings if settings is None else settings
     if settings is None:
         cam = resolve_camera(scene, camera)
-        return (cam, *default_image_size(cam, width, height))
+        framed = not isinstance(camera, Camera) and not cam.path  # wrt's own camera: 4:3, its square film expanded
+        return (cam, *default_image_size(None if framed else cam, width, height))
     width, height = settings.image_size(width, height)
     if camera is None and settings.camera is not None:
         if settings.camera in scene.skipped_cameras:
