@@ -129,6 +129,21 @@ def test_look_at_fov_is_vertical():
     np.testing.assert_allclose(origins, 0.0)
 
 
+@pytest.mark.parametrize("length", [1e-13, 1e-200, 1e6])
+def test_look_at_takes_an_up_of_any_length(length):
+    """``up`` is a direction: its length changes nothing. The check for an up along the view compared the cross
+    product of the unnormalised up with 1e-12, so an up of (0, 1e-13, 0) was refused as 'zero or parallel to the
+    viewing direction'. Oracle: the closed-form frame of a camera at +Z looking at the origin with +Y up (the
+    identity turned by nothing, placed at the eye)."""
+    eye = (0.0, 0.0, 5.0)
+    cam = wrt.Camera.look_at(eye, (0.0, 0.0, 0.0), (0.0, length, 0.0))
+    want = np.eye(4)
+    want[:3, 3] = eye
+    np.testing.assert_array_equal(cam.to_world, want)
+    with pytest.raises(ValueError, match="parallel to the viewing direction"):
+        wrt.Camera.look_at(eye, (0.0, 0.0, 0.0), (0.0, 0.0, length))
+
+
 def test_look_at_and_orthographic_take_another_fit():
     """fit="horizontal" puts the look_at angle (and the orthographic extent) across the width; passing it raised
     "got multiple values for keyword argument 'fit'"."""

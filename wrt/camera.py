@@ -609,7 +609,10 @@ def _look_at_matrix(eye, target, up) -> np.ndarray:
     if np.array_equal(eye, target):
         raise ValueError(f"look_at: eye and target are the same point {eye.tolist()}, so there is no view direction")
     back = _normalized(eye - target)
-    right = np.cross(up, back)
+    # up is a direction: brought to a largest component of 1 (a norm underflows for 1e-200), so that the test for
+    # one along the view is of its angle, not its length (an up of (0, 1e-13, 0) was refused as parallel).
+    largest = np.abs(up).max()
+    right = np.cross(up / largest if largest > 0.0 else up, back)
     if np.linalg.norm(right) < 1e-12:
         raise ValueError(f"look_at: up {up.tolist()} is zero or parallel to the viewing direction "
                          f"{(0.0 - back).tolist()}; pass another up")
