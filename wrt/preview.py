@@ -66,7 +66,7 @@ from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
-from .render import Renderer, render, resolve_view
+from .render import Renderer, check_asked_pixels, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
 from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_device
@@ -838,7 +838,10 @@ def preview(
         alone = "the camera and the lights" if scene.lights and show_lights else "the camera"
         warnings.warn(f"{scene.source or 'scene'}: nothing to draw (no triangles or analytic shapes): the preview "
                       f"shows {alone} alone", stacklevel=2)
+    asked = (width, height)
     cam, width, height = resolve_view(scene, camera, width, height)
+    if image:  # refused now, as the CLI refuses it, not after the scene is drawn and its tree built
+        check_asked_pixels(scene, width, height, 1, asked)
     if off_screen is None:
         off_screen = bool(pv.OFF_SCREEN) or not has_display()
     if off_screen:
@@ -847,79 +850,86 @@ def preview(
     name = Path(scene.source).name if scene.source else "scene"
     title = f"wrt preview: {name}, {contents_summary(scene.stats())}"
     plotter = pv.Plotter(off_screen=off_screen, window_size=list(window_size), title=title)
-    plotter.set_background(BACKGROUND)
-    lines = [title.removeprefix("wrt preview: ")]  # the summary text
+    # A preview that fails part-way (a render refused, an interrupt) closes its plotter: pyvista keeps every open
+    # plotter in a registry, which held the failed one's window and the meshes drawn so far for the session.
+    try:
+        plotter.set_background(BACKGROUND)
+        lines = [title.removeprefix("wrt preview: ")]  # the summary text
 
-    note = _add_scene(pv, plotter, scene, max_triangles)
-    if note:
-        title += f", {note}"
-        lines.append(note)
-    # Trace the sample rays before drawing the frustum: their hits place the image plane.
-    lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
-    eye, forward = camera_frame(cam, width, height)
-    # The image first, then the rays, whose renderer shares the warnings said (the far-view ones, a camera that sees
-    # nothing): each was said by both, and the image's words are those of the image it makes.
-    with shown_across_renderers(set()):
-        picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder) if image \
-            else None
-        ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
-    far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
-    diagonal = _scene_diagonal(lower, upper)
-    # A perspective frustum narrows to its apex at the eye: a dot larger than a fifth of the image plane's depth
-    # would hide it. An orthographic one does not, and its image plane may lie at or behind the eye (a near plane
-    # behind it), where that cap made the radius negative and the dot vanished.
-    eye_radius = 0.01 * diagonal if cam.projection == "orthographic" else min(0.01 * diagonal, 0.2 * image_depth)
-    _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=eye_radius)
-    if show_lights and scene.lights:
-        glyphs, light_note = light_glyphs(scene.lights, lower, upper)
-        if glyphs is not None:
-            plotter.add_mesh(glyphs, color=LIGHT_COLOR, line_width=2, name="lights")
-        lines.append(light_note)
-    label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
-    lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
-    if bvh_depth is not None or bvh_leaves:
-        accel = get_accelerator(scene, "wrt", builder, device)
-        bvh, to_world = (accel.bvh, None) if instance is None else instance_blas(accel, scene, instance)
-        summary, capped = _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes, window_size[0], to_world)
-        if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
-            title += f", {capped}"
-        if instance is not None:
-            prototype = scene.prototypes[scene.instances.prototype[instance]].path
-            lines.append(f"BLAS ({builder}) of instance {scene.instances.path(instance)} (prototype {prototype}, "
-                         f"placed by the instance's transform) {summary}")
-        elif hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
-            # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than drawn.
-            lines.append(f"TLAS ({builder}) {summary} ({tlas_entries(scene, accel.num_entries)}; up to "
-                         f"{TLAS_LEAF_SIZE} per leaf)")
-        else:
-            lines.append(f"BVH ({builder}) {summary}")
-    if ray_data is not None:
-        lines.append(_add_rays(pv, plotter, *ray_data, view_depths(cam, width, height, ray_data[1]), far))
-    if image:
-        quad = pv.PolyData(frustum_corners(cam, width, height, image_depth), faces=[4, 0, 1, 2, 3])
-        quad.active_texture_coordinates = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # row 0 on top
-        plotter.add_mesh(quad, texture=pv.Texture(to_srgb8(picture.rgb)), lighting=False, name="image")
-        lines.append("image: wrt render on the image plane")
+        note = _add_scene(pv, plotter, scene, max_triangles)
+        if note:
+            title += f", {note}"
+            lines.append(note)
+        # Trace the sample rays before drawing the frustum: their hits place the image plane.
+        lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
+        eye, forward = camera_frame(cam, width, height)
+        # The image first, then the rays, whose renderer shares the warnings said (the far-view ones, a camera that sees
+        # nothing): each was said by both, and the image's words are those of the image it makes.
+        with shown_across_renderers(set()):
+            picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder) if image \
+                else None
+            ray_data = _sample_ray_ranges(scene, cam, width, height, rays, builder, device) if rays else None
+        far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
+        diagonal = _scene_diagonal(lower, upper)
+        # A perspective frustum narrows to its apex at the eye: a dot larger than a fifth of the image plane's depth
+        # would hide it. An orthographic one does not, and its image plane may lie at or behind the eye (a near plane
+        # behind it), where that cap made the radius negative and the dot vanished.
+        eye_radius = 0.01 * diagonal if cam.projection == "orthographic" else min(0.01 * diagonal, 0.2 * image_depth)
+        _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=eye_radius)
+        if show_lights and scene.lights:
+            glyphs, light_note = light_glyphs(scene.lights, lower, upper)
+            if glyphs is not None:
+                plotter.add_mesh(glyphs, color=LIGHT_COLOR, line_width=2, name="lights")
+            lines.append(light_note)
+        label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
+        lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
+        if bvh_depth is not None or bvh_leaves:
+            accel = get_accelerator(scene, "wrt", builder, device)
+            bvh, to_world = (accel.bvh, None) if instance is None else instance_blas(accel, scene, instance)
+            summary, capped = _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes, window_size[0], to_world)
+            if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
+                title += f", {capped}"
+            if instance is not None:
+                prototype = scene.prototypes[scene.instances.prototype[instance]].path
+                lines.append(f"BLAS ({builder}) of instance {scene.instances.path(instance)} (prototype {prototype}, "
+                             f"placed by the instance's transform) {summary}")
+            elif hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
+                # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than
+                # drawn.
+                lines.append(f"TLAS ({builder}) {summary} ({tlas_entries(scene, accel.num_entries)}; up to "
+                             f"{TLAS_LEAF_SIZE} per leaf)")
+            else:
+                lines.append(f"BVH ({builder}) {summary}")
+        if ray_data is not None:
+            lines.append(_add_rays(pv, plotter, *ray_data, view_depths(cam, width, height, ray_data[1]), far))
+        if image:
+            quad = pv.PolyData(frustum_corners(cam, width, height, image_depth), faces=[4, 0, 1, 2, 3])
+            quad.active_texture_coordinates = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # row 0 on top
+            plotter.add_mesh(quad, texture=pv.Texture(to_srgb8(picture.rgb)), lighting=False, name="image")
+            lines.append("image: wrt render on the image plane")
 
-    # Look at everything from above, behind and beside the camera, so the frustum is seen from outside.
-    up = np.array([0.0, 0.0, 1.0]) if scene.up_axis == "Z" else np.array([0.0, 1.0, 0.0])
-    side = np.cross(forward, up)
-    if np.linalg.norm(side) < 1e-6:  # camera looks straight up or down
-        side = np.cross(forward, np.roll(up, 1))
-    side /= np.linalg.norm(side)
-    view = 0.3 * side + 1.1 * up - 0.9 * forward
-    focus = 0.5 * (lower + upper)
-    plotter.camera_position = [focus + view * diagonal, focus, up]
-    plotter.reset_camera()
-    plotter.title = title
-    if show_text:
-        # VTK's corner text shrinks to fit the window and, where a line is too wide even at its smallest font (about
-        # 2.2 pixels a character), draws nothing at all: a 180-character TLAS line took the whole text out of a
-        # 320-pixel-wide window. Lines are wrapped to fit with room to spare.
-        chars = max(MIN_TEXT_COLUMNS, window_size[0] // TEXT_PIXELS_PER_CHARACTER)
-        wrapped = (textwrap.fill(line, chars, subsequent_indent="  ", break_on_hyphens=False) for line in lines)
-        text = "\n".join(wrapped)
-        plotter.add_text(text, position="upper_left", font_size=9, color="black", name="summary")
+        # Look at everything from above, behind and beside the camera, so the frustum is seen from outside.
+        up = np.array([0.0, 0.0, 1.0]) if scene.up_axis == "Z" else np.array([0.0, 1.0, 0.0])
+        side = np.cross(forward, up)
+        if np.linalg.norm(side) < 1e-6:  # camera looks straight up or down
+            side = np.cross(forward, np.roll(up, 1))
+        side /= np.linalg.norm(side)
+        view = 0.3 * side + 1.1 * up - 0.9 * forward
+        focus = 0.5 * (lower + upper)
+        plotter.camera_position = [focus + view * diagonal, focus, up]
+        plotter.reset_camera()
+        plotter.title = title
+        if show_text:
+            # VTK's corner text shrinks to fit the window and, where a line is too wide even at its smallest font (about
+            # 2.2 pixels a character), draws nothing at all: a 180-character TLAS line took the whole text out of a
+            # 320-pixel-wide window. Lines are wrapped to fit with room to spare.
+            chars = max(MIN_TEXT_COLUMNS, window_size[0] // TEXT_PIXELS_PER_CHARACTER)
+            wrapped = (textwrap.fill(line, chars, subsequent_indent="  ", break_on_hyphens=False) for line in lines)
+            text = "\n".join(wrapped)
+            plotter.add_text(text, position="upper_left", font_size=9, color="black", name="summary")
+    except BaseException:
+        plotter.close()
+        raise
     return plotter
 
 
