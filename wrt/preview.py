@@ -66,7 +66,7 @@ from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
-from .render import Renderer, check_asked_pixels, render, resolve_view
+from .render import Renderer, check_asked_pixels, check_lights, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
 from .trace import HitBuffer, check_finite_transforms, get_accelerator, resolve_device
@@ -833,6 +833,8 @@ def preview(
     device = resolve_device(device)
     scene = _as_scene(scene)
     instance = None if bvh_instance is None else instance_row(scene, bvh_instance)  # refused before any work
+    if show_lights:  # as a render checks them: a NaN assigned to a light's position or transform was drawn as NaN
+        check_lights(scene.lights)  # points without a word, where a render refuses it naming the light
     stats = scene.stats()
     if not stats["rendered_triangles"] and not stats.get("rendered_shapes", 0):  # an empty view, else unexplained
         alone = "the camera and the lights" if scene.lights and show_lights else "the camera"
