@@ -493,3 +493,59 @@ def test_a_camera_moved_by_another_thread_while_a_renderer_is_made_is_drawn_by_i
     monkeypatch.undo()
     fresh = wrt.render(square_scene(), **{**OPTIONS, "camera": dataclasses.replace(camera, to_world=moved)}).rgb
     np.testing.assert_array_equal(made[0].render().rgb, fresh)
+
+
+class InterruptedWait:
+    """A renderer's lock whose second blocking wait in the thread named R raises KeyboardInterrupt, as Ctrl-C does
+    to a wait for a lock another thread holds; ``let_go`` is set when R first lets go of it."""
+
+    def __init__(self):
+        self._lock, self.waits, self.let_go = threading.RLock(), 0, threading.Event()
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        if blocking and threading.current_thread().name == "R":
+            self.waits += 1
+            if self.waits == 2:
+                raise KeyboardInterrupt("Ctrl-C while waiting for the renderer")
+        return self._lock.acquire(blocking, timeout)
+
+    def release(self) -> None:
+        self._lock.release()
+        if threading.current_thread().name == "R":
+            self.let_go.set()
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def test_a_render_interrupted_while_it_waits_for_its_renderer_back_leaves_the_renderer_as_it_was():
+    """A render that found the scene's lock taken let go of its Renderer's until it was free; interrupted as it waited
+    to take the Renderer's back (Ctrl-C), its call released a lock it did not hold ('cannot release un-acquired lock'
+    in place of the KeyboardInterrupt) and left the renderer's count of calls at -1, so that every later first call
+    counted as a nested one and waited for the scene's lock holding the renderer's: the deadlock of
+    _scene_turn again. The interrupt comes through, and the renderer renders as a fresh one after it."""
+    scene = square_scene()
+    renderer = wrt.Renderer(scene, **OPTIONS)
+    renderer._calls = InterruptedWait()
+    errors = []
+
+    def render():
+        try:
+            renderer.render()
+        except BaseException as error:  # noqa: BLE001 - told by the assertions below
+            errors.append(error)
+
+    r = threading.Thread(target=render, name="R")
+    with scene.lock:
+        r.start()
+        assert renderer._calls.let_go.wait(timeout=60)  # R waits for the scene's lock, not holding the renderer's
+    r.join(timeout=60)
+    assert not r.is_alive()
+    assert [type(error) for error in errors] == [KeyboardInterrupt], errors
+    assert renderer._calls_held == 0
+    assert renderer._calls._lock.acquire(blocking=False)  # no thread holds it
+    renderer._calls._lock.release()
+    np.testing.assert_array_equal(renderer.render().rgb, wrt.render(square_scene(), **OPTIONS).rgb)

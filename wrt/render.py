@@ -499,12 +499,20 @@ def one_call_at_a_time(method):
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
-        with self._calls:
-            self._calls_held += 1
-            try:
-                return method(self, *args, **kwargs)
-            finally:
+        self._calls.acquire()
+        self._calls_held += 1
+        self._calls_owner = threading.get_ident()
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            # Not where its wait to take the lock back (_scene_turn) was interrupted (Ctrl-C): it holds nothing then,
+            # and released the lock of no call, or another thread's ('cannot release un-acquired lock' in place of
+            # the interrupt), leaving the count at -1: every later first call waited as a nested one (_scene_turn).
+            if self._calls_owner == threading.get_ident():
                 self._calls_held -= 1
+                if self._calls_held == 0:
+                    self._calls_owner = None
+                self._calls.release()
 
     return locked
 
@@ -673,6 +681,7 @@ class Renderer:
     ):
         self._calls = threading.RLock()  # held by each render, frame and camera upload (one_call_at_a_time)
         self._calls_held = 0  # how many calls the thread holding it is in (one_call_at_a_time, _scene_turn)
+        self._calls_owner = None  # the thread holding it (threading.get_ident), None while none does
         check_scene(scene)
         check_sides(width, height)
         if cameras is not None:
@@ -842,14 +851,14 @@ class Renderer:
         lock = self.scene.lock
         if self._calls_held == 1:  # (a call made inside another of this thread's, which has begun its work, waits)
             while not lock.acquire(blocking=False):
-                self._calls_held = 0
+                self._calls_held, self._calls_owner = 0, None
                 self._calls.release()
                 try:
                     with lock:  # the thread holding it goes first, with this renderer where it asks for it
                         pass
                 finally:
                     self._calls.acquire()
-                    self._calls_held = 1
+                    self._calls_held, self._calls_owner = 1, threading.get_ident()
         else:
             lock.acquire()
         try:
