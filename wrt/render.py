@@ -499,16 +499,17 @@ def one_call_at_a_time(method):
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
+        me = threading.get_ident()  # (first: nothing that can raise between the acquire and the try)
         self._calls.acquire()
+        self._calls_owner = me
         self._calls_held += 1
-        self._calls_owner = threading.get_ident()
         try:
             return method(self, *args, **kwargs)
         finally:
             # Not where its wait to take the lock back (_scene_turn) was interrupted (Ctrl-C): it holds nothing then,
             # and released the lock of no call, or another thread's ('cannot release un-acquired lock' in place of
             # the interrupt), leaving the count at -1: every later first call waited as a nested one (_scene_turn).
-            if self._calls_owner == threading.get_ident():
+            if self._calls_owner == me:
                 self._calls_held -= 1
                 if self._calls_held == 0:
                     self._calls_owner = None
