@@ -555,3 +555,24 @@ def test_triangles_all_in_holes_of_a_cut_out_glow_take_no_light_picks(glow):
               for scene in (holed, plain)]
     assert images[1].mean() > 0.0
     np.testing.assert_allclose(images[0], images[1], rtol=1e-6)
+
+
+def test_a_cut_out_glow_whose_tiny_opacity_texels_read_opaque_on_the_device_keeps_its_light_picks():
+    """A glowing card cut out by an opacity image scaled by 1e4 (threshold 1.1e-3), its left half of texels 1.05e-7:
+    the device stores them as float16 subnormals, 1.19e-7 (np.float16, the oracle), read 1.19e-3, opaque. The host's
+    slack for the float16 rounding was relative alone (2^-9 of the value, plus 2^-20), far under a subnormal's step
+    (6e-8 x 1e4): it took them for holes, and the left triangles, which glow, took no light picks. They take as
+    many as the same card not cut out."""
+    texel, scale, threshold = 1.05e-7, 1.0e4, 1.1e-3
+    assert float(np.float16(np.float32(texel))) * scale >= threshold  # the device reads them opaque
+    opacity = np.concatenate([np.full((4, 8, 4), texel, np.float32), np.ones((4, 8, 4), np.float32)], axis=1)
+    scales = np.float32([scale, 1.0, 1.0, 1.0])
+    ranges = [(0.0, 0.25), (0.75, 1.0)]
+
+    def card(cut: bool) -> wrt.Scene:
+        glow = Material(path="/Card", diffuse_color=0.0, emissive_color=np.full(3, RADIANCE, np.float32),
+                        opacity_threshold=threshold if cut else 0.0,
+                        textures={"opacity": TextureInput(image=0, channel="r", wrap=("clamp", "clamp"), scale=scales)})
+        return wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[opacity], materials=[glow])
+
+    np.testing.assert_allclose(triangle_pmf(card(True)), triangle_pmf(card(False)), rtol=1e-6)

@@ -30,7 +30,7 @@ import numpy as np
 import warp as wp
 
 from .materials import CHANNELS, SLOT_EMISSIVE, SLOT_OPACITY, DeviceMaterials, eval_emission
-from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK, WRAP_MIRROR, WRAP_REPEAT
+from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK, WRAP_MIRROR, WRAP_REPEAT, image_scale
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
@@ -281,10 +281,16 @@ def opaque_blocks(mat, textures: list[np.ndarray]) -> tuple[np.ndarray, int] | N
     if tex is None or tex.tiles is not None or not threshold > 0.0 or not 0 <= tex.image < len(textures):
         return None
     c = CHANNELS[tex.channel] % 4  # a scalar input reads the first component: red of rgb
-    texel = textures[tex.image][..., c].astype(np.float64)
+    image = textures[tex.image]
+    texel = image[..., c].astype(np.float64)
     scaled = texel * float(tex.scale[c])
-    # The slack holds the half-float rounding of the texel and the float32 rounding of the sum.
-    return block_counts(~(scaled + float(tex.bias[c]) + np.abs(scaled) * 2.0**-9 + 2.0**-20 < threshold))
+    # The slack holds the half-float rounding of the texel and the float32 rounding of the sum; for a half-float
+    # subnormal (below 2^-14 of its image's power of two) the rounding is absolute, half a step of 2^-24: a texel of
+    # 1.05e-7 is stored as 1.19e-7, which a scale of 1e4 read as opaque over a threshold of 1.1e-3 that the relative
+    # slack alone took for a hole (the glow's triangles there took no light picks).
+    subnormal_step = abs(float(tex.scale[c])) * float(image_scale(image)[c]) * 2.0**-24
+    slack = np.abs(scaled) * 2.0**-9 + subnormal_step + 2.0**-20
+    return block_counts(~(scaled + float(tex.bias[c]) + slack < threshold))
 
 
 def block_counts(marked: np.ndarray) -> tuple[np.ndarray, int]:
