@@ -577,6 +577,36 @@ def test_a_missing_udim_tile_of_a_normalmap_keeps_the_surface_normal(tmp_path):
     np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile([0, 0, 1], (4, 1)), atol=1e-6)
 
 
+@pytest.mark.parametrize("placement", ["place2d", "tiledimage"])
+def test_a_normalmap_s_tangent_frame_is_the_mesh_s_whatever_places_its_image(tmp_path, placement):
+    """MaterialX's ``normalmap`` takes its tangent from the geometry (``tangent``'s defaultgeomprop ``Tworld``, which
+    Storm computes from the mesh's ``st``), not from the coordinates its image is read at: a ``place2d`` turning the
+    image by 90 degrees, or a ``tiledimage`` mirrored by ``uvtiling`` (-1, 1), moves where texels land, not the
+    frame they are decoded in. Oracle (float64): on the quad (dp/ds = +X, dp/dt = +Y) a uniform map's texel ``v``
+    is the normal ``(v_x, v_y, v_z)`` normalised, as with no placement. The frame followed the placed coordinates:
+    the tilt (0.381, 0.318, 0.868) was drawn turned, (-0.318, 0.382, 0.868), and mirrored, (-0.382, 0.318, 0.868)."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    path = normal_mapped_mtlx_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    image = UsdShade.Shader.Get(stage, "/Looks/Bumpy/Graph/Image")
+    if placement == "place2d":
+        place = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Graph/Place")
+        place.CreateIdAttr("ND_place2d_vector2")
+        place.CreateInput("rotate", Sdf.ValueTypeNames.Float).Set(90.0)
+        place.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
+    else:
+        image.CreateIdAttr("ND_tiledimage_vector3")
+        image.CreateInput("uvtiling", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(-1.0, 1.0))
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(stored_normal(MAP_NORMAL), (4, 1)),
+                               atol=1e-3)
+
+
 def test_a_normal_from_another_node_is_named_in_the_warning(tmp_path):
     """``normal`` connected to anything but a normalmap node of an image (here an image node straight, a world-space
     normal in MaterialX) keeps the mesh's normals, and the material's warning says so."""

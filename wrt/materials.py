@@ -155,6 +155,9 @@ class TextureInput(CountsAssignments):
             tiles), before ``scale`` and ``bias`` as every texel.
         filter: ``"linear"`` (bilinear between texel centres) or ``"closest"`` (the one texel whose square holds
             ``st``: MaterialX's ``filtertype`` ``closest``).
+        mesh_frame: for a normal map, whether its tangent frame comes from the mesh's own ``uv_set`` coordinates
+            (MaterialX's ``normalmap``, whose ``tangent`` is the geometry's ``Tworld`` whatever places the image)
+            rather than from them after ``transform`` (UsdPreviewSurface's, the map's own ``st``).
     """
 
     image: int
@@ -168,6 +171,7 @@ class TextureInput(CountsAssignments):
     tiles: np.ndarray | None = None
     fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
     filter: str = "linear"
+    mesh_frame: bool = False
 
     def check(self, where: str = "TextureInput") -> None:
         """Raises ``ValueError`` (``TypeError`` for a ``uv_set`` that is no name) starting with ``where`` for a field
@@ -199,6 +203,9 @@ class TextureInput(CountsAssignments):
         if not isinstance(self.filter, str) or self.filter not in FILTER_MODES:
             raise ValueError(f"{where}: filter must be one of {', '.join(FILTER_MODES)}, got {self.filter!r}"
                              f"{did_you_mean(self.filter, FILTER_MODES)}")
+        if not isinstance(self.mesh_frame, (bool, np.bool_)):
+            raise TypeError(f"{where}: mesh_frame must be a bool, got {type(self.mesh_frame).__name__} "
+                            f"{self.mesh_frame!r}")
         if self.uv_set is not None and not isinstance(self.uv_set, str):
             raise TypeError(f"{where}: uv_set must be a str, a primvar name such as 'st', or None (a constant st), "
                             f"got {type(self.uv_set).__name__} {self.uv_set!r}")
@@ -466,6 +473,7 @@ class DeviceMaterials:
     tex_scale: wp.array[wp.vec4]  # (B,)
     tex_bias: wp.array[wp.vec4]  # (B,)
     tex_transform: wp.array[wp.mat33]  # (B,) st transform
+    tex_mesh_frame: wp.array[wp.int32]  # (B,) 1: a normal map's tangent frame from the untransformed st (mesh_frame)
     tex_tiles: wp.array[wp.int32]  # (B,) first row of the binding's UDIM table in tile_images, -1: one image
     tex_fallback: wp.array[wp.vec4]  # (B,) texel where a UDIM binding has no tile (then scaled and biased)
     tile_images: wp.array[wp.int32]  # (UDIM_TILES * U,) image of each tile of the U UDIM bindings, -1: none
@@ -561,6 +569,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     scale = np.ones((b, 4), np.float32)
     bias = np.zeros((b, 4), np.float32)
     transform = np.tile(np.eye(3, dtype=np.float32), (b, 1, 1))
+    mesh_frame = np.zeros(b, np.int32)
     tiles = np.full(b, -1, np.int32)
     fallback = np.zeros((b, 4), np.float32)
     tile_tables = []
@@ -572,6 +581,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
         scale[k] = tex.scale
         bias[k] = tex.bias
         transform[k] = tex.transform
+        mesh_frame[k] = int(bool(tex.mesh_frame))
         fallback[k] = tex.fallback
         if tex.tiles is not None:
             tiles[k] = UDIM_TILES * len(tile_tables)
@@ -591,6 +601,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.tex_scale = wp.array(scale, dtype=wp.vec4, device=device)
     d.tex_bias = wp.array(bias, dtype=wp.vec4, device=device)
     d.tex_transform = wp.array(transform, dtype=wp.mat33, device=device)
+    d.tex_mesh_frame = wp.array(mesh_frame, dtype=wp.int32, device=device)
     d.tex_tiles = wp.array(tiles, dtype=wp.int32, device=device)
     d.tex_fallback = wp.array(fallback, dtype=wp.vec4, device=device)
     d.tile_images = wp.array(tile_images, dtype=wp.int32, device=device)

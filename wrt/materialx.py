@@ -469,6 +469,9 @@ class _Graph:
         sx, sy = (1.0, 1.0) if scale is None else scale
         texture.scale = np.array([2.0 * sx, 2.0 * sy, 2.0, 1.0], np.float32)
         texture.bias = np.array([-sx, -sy, -1.0, 0.0], np.float32)
+        # MaterialX's normalmap takes its tangent from the geometry (Tworld: the mesh's st, as Storm computes it),
+        # not from the image's coordinates: a place2d turning the image turned the normals' tilt with it.
+        texture.mesh_frame = True
         # A missing UDIM tile reads the image's default (0.5, 0.5, 1) decoded as every texel: the flat normal.
         return texture
 

@@ -409,6 +409,8 @@ def mapped_normal(
     ``N`` would turn the tilt with the object's orientation in world space: a rotated instance shaded unlike the
     object rotated.)"""
     xf = mats.tex_transform[binding]
+    if mats.tex_mesh_frame[binding] != 0:  # MaterialX's normalmap: the frame of the mesh's st (Tworld)
+        xf = wp.identity(n=3, dtype=float)
     if xf[0, 0] == 0.0 and xf[0, 1] == 0.0 and xf[1, 0] == 0.0 and xf[1, 1] == 0.0:  # constant_st_transform
         return unmapped_normal(h, d)
     # Tangents of the triangle: dp/ds and dp/dt of the map's coordinates, times the sign of the st area (their
