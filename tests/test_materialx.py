@@ -607,6 +607,27 @@ def test_a_normalmap_s_tangent_frame_is_the_mesh_s_whatever_places_its_image(tmp
                                atol=1e-3)
 
 
+@pytest.mark.parametrize("frame_input", ["normal", "tangent", "bitangent"])
+def test_a_normalmap_s_authored_frame_is_named_in_the_warning(tmp_path, frame_input):
+    """A ``normalmap``'s ``normal``, ``tangent`` or ``bitangent`` authored (the nodedefs' ``Nworld``, ``Tworld`` and
+    ``Bworld`` replaced: here a tangent along +Y) is not followed: the material's warning names the node and the
+    input, and the mesh's frame is drawn (float64: the texel's normal on the quad's frame). It was dropped without
+    a word."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    path = normal_mapped_mtlx_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    node = UsdShade.Shader.Get(stage, "/Looks/Bumpy/Graph/NormalMap")
+    node.CreateInput(frame_input, Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.0, 1.0, 0.0))
+    stage.Save()
+    scene, messages = load(path)
+    (warning,) = [m for m in messages if "/Looks/Bumpy" in m]
+    assert f"/Looks/Bumpy/Graph/NormalMap: its {frame_input} (0, 1, 0) is not read" in warning, warning
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(stored_normal(MAP_NORMAL), (4, 1)),
+                               atol=1e-3)
+
+
 def test_a_normal_from_another_node_is_named_in_the_warning(tmp_path):
     """``normal`` connected to anything but a normalmap node of an image (here an image node straight, a world-space
     normal in MaterialX) keeps the mesh's normals, and the material's warning says so."""

@@ -50,7 +50,9 @@ Approximations, each named in the material's one warning when it changes what is
   and roughness) are ignored.
 - ``normal`` (OpenPBR ``geometry_normal``) from a tangent-space ``normalmap`` node of an image is wrt's normal map
   (:func:`wrt.shade.shading_point`, the same frame as UsdPreviewSurface's); from anything else it is ignored.
-  ``coat_normal`` and ``tangent`` inputs are not read (the coat takes the mapped normal too).
+  ``coat_normal`` and ``tangent`` inputs are not read (the coat takes the mapped normal too). The normalmap's frame
+  is the mesh's ``st`` (``Tworld``), not the image's placed coordinates; its own ``normal``, ``tangent`` and
+  ``bitangent`` authored are not read, with a note.
 
 An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node: ``ND_image_*`` or
 ``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or through a NodeGraph
@@ -472,6 +474,11 @@ class _Graph:
         # MaterialX's normalmap takes its tangent from the geometry (Tworld: the mesh's st, as Storm computes it),
         # not from the image's coordinates: a place2d turning the image turned the normals' tilt with it.
         texture.mesh_frame = True
+        for frame_input in ("normal", "tangent", "bitangent"):  # the nodedefs' Nworld, Tworld and Bworld
+            found_frame = self.reader._producer(node, frame_input)
+            if found_frame is not None:  # a frame wrt does not follow: it was dropped without a word
+                self.notes.append(f"{node.GetPath()}: its {frame_input} ({_describe(found_frame)}) is not read; "
+                                  "the mesh's is used")
         # A missing UDIM tile reads the image's default (0.5, 0.5, 1) decoded as every texel: the flat normal.
         return texture
 
