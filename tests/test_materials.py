@@ -2328,6 +2328,55 @@ def test_materialx_preview_surface_textures_are_read(tmp_path, wrap):
     np.testing.assert_allclose(img[4:, 4:], outside[4:, 4:], atol=2e-3)
 
 
+@pytest.mark.parametrize("source", ["ND_constant_string", "ND_dot_string"])
+def test_materialx_usd_uv_texture_wrap_modes_fed_by_a_constant_node_are_its_token(tmp_path, source):
+    """An ``ND_UsdUVTexture``'s ``wrapS`` and ``wrapT`` fed by an ``ND_constant_string`` of ``black`` (or a ``dot``
+    of one) are ``black`` (MaterialX's ``constant``: the node's fallback outside [0, 1]), as an image node's
+    address modes so fed are. Oracle: the 2 x 2 texels inside [0, 1]^2 and the fallback (0.2, 0.4, 0.6) outside,
+    written out. They were read as unauthored, ``periodic``, without a word: the image repeated 4 times."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = materialx_preview_stage(tmp_path, png, None, f"fed_{source}")
+    stage = Usd.Stage.Open(path)
+    constant = UsdShade.Shader.Define(stage, "/Looks/Mx/Black")
+    constant.CreateIdAttr("ND_constant_string")
+    constant.CreateInput("value", Sdf.ValueTypeNames.String).Set("black")
+    constant.CreateOutput("out", Sdf.ValueTypeNames.String)
+    if source == "ND_dot_string":
+        dot = UsdShade.Shader.Define(stage, "/Looks/Mx/Dot")
+        dot.CreateIdAttr("ND_dot_string")
+        dot.CreateInput("in", Sdf.ValueTypeNames.String).ConnectToSource(constant.ConnectableAPI(), "out")
+        dot.CreateOutput("out", Sdf.ValueTypeNames.String)
+        constant = dot
+    tex = UsdShade.Shader.Get(stage, "/Looks/Mx/Image")
+    for key in ("wrapS", "wrapT"):
+        tex.CreateInput(key, Sdf.ValueTypeNames.String).ConnectToSource(constant.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert not messages, messages
+    img = albedo_of(scene, res=8)  # st over [0, 2]^2
+    texels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [128 / 255] * 3]])  # 2x2 blocks, rows from the top
+    expected = np.broadcast_to([0.2, 0.4, 0.6], (8, 8, 3)).copy()
+    expected[4:, :4] = np.repeat(np.repeat(texels, 2, 0), 2, 1)  # st in [0, 1]^2
+    np.testing.assert_allclose(img, expected, atol=2e-3)
+
+
+def test_a_materialx_usd_uv_texture_wrap_mode_from_another_node_is_named(tmp_path):
+    """An ``ND_UsdUVTexture``'s ``wrapS`` fed by a node that gives no constant string is named in a warning with the
+    node, and read as unauthored (``periodic``)."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = materialx_preview_stage(tmp_path, png, None, "fed_other")
+    stage = Usd.Stage.Open(path)
+    other = UsdShade.Shader.Define(stage, "/Looks/Mx/Other")
+    other.CreateIdAttr("ND_geompropvalue_string")
+    other.CreateOutput("out", Sdf.ValueTypeNames.String)
+    UsdShade.Shader.Get(stage, "/Looks/Mx/Image").CreateInput("wrapS", Sdf.ValueTypeNames.String).ConnectToSource(
+        other.ConnectableAPI(), "out")
+    stage.Save()
+    _, messages = load_with_messages(path)
+    assert any("/Looks/Mx" in m and "wrapS comes from a ND_geompropvalue_string node (/Looks/Mx/Other)" in m
+               for m in messages), messages
+
+
 @pytest.mark.parametrize("mode, source_color_space", [("RGB", "raw"), ("L", "sRGB")])
 def test_a_materialx_usd_uv_texture_reads_its_source_color_space(tmp_path, mode, source_color_space):
     """An ``ND_UsdUVTexture`` whose ``file`` has no ``colorSpace`` reads an authored ``sourceColorSpace`` as a

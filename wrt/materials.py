@@ -1696,9 +1696,14 @@ class MaterialReader:
 
     def _materialx_wrap_mode(self, tex, key: str, material_path: str) -> str:
         """``wrapS`` or ``wrapT`` (``key``) of MaterialX's ``ND_UsdUVTexture`` ``tex`` as a :data:`WRAP_MODES` token
-        (:data:`MATERIALX_WRAPS`; unauthored: ``periodic``); another token is named in a warning and read as
-        ``periodic``."""
-        token = str(self._constant(tex, key) or "periodic")
+        (:data:`MATERIALX_WRAPS`; unauthored: ``periodic``), also from ``constant`` or ``dot`` string nodes
+        (:func:`wrt.materialx.token_input`, as an image node's address modes; such a node's token was read as
+        unauthored, ``periodic``, without a word); another token is named in a warning and read as ``periodic``."""
+        from .materialx import token_input  # that module imports this one
+
+        token, notes = token_input(self, tex, key, "periodic", material_path)
+        for note in notes:
+            self.skip(f"material {material_path}: {note}", tex.GetPrim())
         if token not in MATERIALX_WRAPS:
             self.skip(f"material {material_path}: {key} is not one of black, clamp, periodic or mirror; it is read as "
                       "periodic", tex.GetPrim(), detail=token)

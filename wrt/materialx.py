@@ -254,6 +254,14 @@ def texcoord_node_map(reader, node, path: str) -> tuple | None:
     return None if mapped is None else (*mapped, graph.notes)
 
 
+def token_input(reader, node, key: str, unauthored: str, path: str) -> tuple[str, list[str]]:
+    """``(token, notes)`` of string input ``key`` of MaterialX node ``node`` (of the material at ``path``), read as
+    an image node's address modes are (:meth:`_Graph._token`: its value, or that of the ``constant`` or ``dot``
+    string nodes feeding it; ``unauthored`` where it has none, or, noted, where another node feeds it)."""
+    graph = _Graph(reader, node, path, {})
+    return graph._token(node, key, unauthored), graph.notes
+
+
 class _Graph:
     """The inputs of one surface shader, resolved through interface inputs and NodeGraph outputs, and the notes
     (approximations, unsupported nodes) for its material's warning."""
