@@ -2360,6 +2360,30 @@ def test_materialx_usd_uv_texture_wrap_modes_fed_by_a_constant_node_are_its_toke
     np.testing.assert_allclose(img, expected, atol=2e-3)
 
 
+def test_a_materialx_usd_primvar_reader_s_varname_from_a_constant_node_is_read(tmp_path):
+    """An ``ND_UsdPrimvarReader_vector2`` feeding an ``ND_UsdUVTexture``'s ``st`` (through its ``ND_UsdTransform2d``
+    scaling by 2) whose ``varname`` is fed by an ``ND_constant_string`` of ``half`` reads the mesh's primvar
+    ``half`` (``st / 2``): the image once over the quad. Oracle: :data:`CHECKER`'s texels written out. The name
+    was read as none, the fallback (0, 0) drawn on every point (the bottom-left texel, blue)."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = materialx_preview_stage(tmp_path, png, None, "varname_node")
+    stage = Usd.Stage.Open(path)
+    constant = UsdShade.Shader.Define(stage, "/Looks/Mx/Name")
+    constant.CreateIdAttr("ND_constant_string")
+    constant.CreateInput("value", Sdf.ValueTypeNames.String).Set("half")
+    constant.CreateOutput("out", Sdf.ValueTypeNames.String)
+    UsdShade.Shader.Get(stage, "/Looks/Mx/Reader").GetInput("varname").ConnectToSource(constant.ConnectableAPI(),
+                                                                                      "out")
+    quad = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad"))
+    half = [Gf.Vec2f(st[0] / 2, st[1] / 2) for st in quad.GetPrimvar("st").Get()]
+    quad.CreatePrimvar("half", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(half)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert not messages, messages
+    texels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [128 / 255] * 3]])  # 2x2 blocks, rows from the top
+    np.testing.assert_allclose(albedo_of(scene, res=8), np.repeat(np.repeat(texels, 4, 0), 4, 1), atol=2e-3)
+
+
 def test_a_materialx_usd_uv_texture_wrap_mode_from_another_node_is_named(tmp_path):
     """An ``ND_UsdUVTexture``'s ``wrapS`` fed by a node that gives no constant string is named in a warning with the
     node, and read as unauthored (``periodic``)."""

@@ -815,6 +815,74 @@ def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primva
     np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
 
 
+def name_from_a_constant_node(stage, reader, key: str, name: str) -> None:
+    """Feeds string input ``key`` of shader ``reader`` from an ``ND_constant_string`` of ``name`` beside it."""
+    constant = UsdShade.Shader.Define(stage, reader.GetPath().AppendElementString(f"{key}_name"))
+    constant.CreateIdAttr("ND_constant_string")
+    constant.CreateInput("value", Sdf.ValueTypeNames.String).Set(name)
+    constant.CreateOutput("out", Sdf.ValueTypeNames.String)
+    reader.CreateInput(key, Sdf.ValueTypeNames.String).ConnectToSource(constant.ConnectableAPI(), "out")
+
+
+@pytest.mark.parametrize("reader", ["ND_geompropvalue_vector2", "ND_UsdPrimvarReader_vector2"])
+def test_a_texcoord_primvar_named_by_a_constant_node_is_read(tmp_path, reader):
+    """A texcoord reader whose ``geomprop`` (``varname``) is fed by an ``ND_constant_string`` of ``uv2`` reads the
+    mesh's primvar ``uv2``, as with the name authored on the input. Oracle: ``uv2`` is the quad's st mirrored in s,
+    so the 2 x 2 pixels show :data:`CORNERS` mirrored left to right. The name was read as none, the reader's
+    ``default`` (0, 0) drawn on every point (blue) with a warning that it was empty or unauthored."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    path = texcoord_stage(tmp_path, png, (reader, "", None))
+    stage = Usd.Stage.Open(path)
+    source = UsdShade.Shader.Get(stage, "/Looks/Coords/Reader")
+    name_from_a_constant_node(stage, source, READER_INPUTS[reader][0], "uv2")
+    quad = UsdGeom.Mesh.Get(stage, "/Quad")
+    mirrored = [Gf.Vec2f(1.0 - (p[0] + 1.0) / 2.0, (p[1] + 1.0) / 2.0) for p in quad.GetPointsAttr().Get()]
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("uv2", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        mirrored)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene, 2), np.asarray(CORNERS)[:, ::-1] / 255.0, atol=1e-3)
+
+
+def test_a_colour_primvar_named_by_a_constant_node_is_read(tmp_path):
+    """An ``ND_geompropvalue_color3`` base_color whose ``geomprop`` is fed by an ``ND_constant_string`` of ``tint``
+    reads the mesh's constant primvar ``tint`` (0.25, 0.5, 0.75), as with the name authored on the input. It was
+    read as none: the reader's fallback (0) drawn, with a warning that it names no primvar."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant).Set(
+        [Gf.Vec3f(0.25, 0.5, 0.75)])
+    material, shader = mtlx_material(stage, "/Looks/Tinted")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Tinted/Reader")
+    reader.CreateIdAttr("ND_geompropvalue_color3")
+    reader.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    name_from_a_constant_node(stage, reader, "geomprop", "tint")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0.25, 0.5, 0.75], (2, 2, 3)), atol=1e-6)
+
+
+def test_a_primvar_name_from_another_node_is_named(tmp_path):
+    """A texcoord reader's ``geomprop`` fed by a node that gives no constant string is named in a warning with the
+    node; the reader names no primvar then (its default on every point, as before, with that warning too)."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    path = texcoord_stage(tmp_path, png, ("ND_geompropvalue_vector2", "", None))
+    stage = Usd.Stage.Open(path)
+    other = UsdShade.Shader.Define(stage, "/Looks/Coords/Other")
+    other.CreateIdAttr("ND_geompropvalue_string")
+    other.CreateOutput("out", Sdf.ValueTypeNames.String)
+    UsdShade.Shader.Get(stage, "/Looks/Coords/Reader").GetInput("geomprop").ConnectToSource(other.ConnectableAPI(),
+                                                                                          "out")
+    stage.Save()
+    _, messages = load(path)
+    assert any("/Looks/Coords" in m and "geomprop comes from a ND_geompropvalue_string node (/Looks/Coords/Other)" in m
+               for m in messages), messages
+
+
 @pytest.mark.parametrize("surface", ["UsdPreviewSurface", "standard_surface"])
 def test_a_colour_primvar_reader_that_names_no_primvar_gives_its_fallback(tmp_path, surface):
     """A colour primvar reader (USD's ``UsdPrimvarReader_float3``, MaterialX's ``ND_geompropvalue_color3``) whose

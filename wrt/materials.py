@@ -1487,7 +1487,7 @@ class MaterialReader:
         redirect reads none then and gives the reader's fallback, which the caller takes as the input's constant (the
         input kept the surface's own constant)."""
         name_input, fallback_input = COLOR_PRIMVAR_READERS[reader.GetShaderId()]
-        varname = str(self._constant(reader, name_input) or "").strip()  # a token or a string, or an interface input's
+        varname = self.primvar_name(reader, name_input, material_path).strip()
         fallback = _rgb(self._constant(reader, fallback_input))
         if fallback is not None and reader.GetShaderId().startswith(COLOR_READER_PREFIXES):
             # A colour in the reader's nodedef: decoded from its colorSpace (an srgb_texture 0.5 was read as 0.5);
@@ -1498,6 +1498,19 @@ class MaterialReader:
             self.skip(f"material {material_path}: a primvar reader names no primvar; its fallback is the input's "
                       "value, as Storm reads it", reader.GetPrim(), detail=f"{name_input} is empty")
         return PrimvarInput(varname, fallback)
+
+    def primvar_name(self, reader, key: str, material_path: str) -> str:
+        """The primvar name input ``key`` (``varname``, ``geomprop``) of primvar reader ``reader`` gives: its value (a
+        token or a string, or an interface input's), or that of the MaterialX ``constant`` or ``dot`` string nodes
+        feeding it (:func:`wrt.materialx.token_input`); ``""`` where it has none, or, with a warning, where another
+        node feeds it. A name fed by a constant node was read as none: the reader's fallback on every point, said to
+        be unauthored."""
+        from .materialx import token_input  # that module imports this one
+
+        name, notes = token_input(self, reader, key, "", material_path)
+        for note in notes:
+            self.skip(f"material {material_path}: {note}", reader.GetPrim())
+        return name
 
     def _read_normal_map(self, shader, mat: Material):
         """``normal``: a ``UsdUVTexture``'s ``rgb`` output is a tangent-space normal map, used as its ``scale`` and
@@ -1743,7 +1756,7 @@ class MaterialReader:
             node = found[1]
             node_id = node.GetShaderId() or ""
             if node_id.startswith(ST_READER_PREFIXES):
-                varname = self._constant(node, "varname")
+                varname = self.primvar_name(node, "varname", material_path)
                 fallback = self._st_fallback(node, material_path)
                 if not varname:
                     # Sdr's varname is "" (names no primvar): Storm's primvar redirect reads nothing and gives the
@@ -1760,7 +1773,7 @@ class MaterialReader:
                               node.GetPrim(), detail=f"index = {index}")
                 return "st", transform, no_fallback
             if node_id == "ND_geompropvalue_vector2":  # MaterialX's primvar reader: geomprop, default
-                geomprop = self._constant(node, "geomprop")
+                geomprop = self.primvar_name(node, "geomprop", material_path)
                 fallback = self._st_fallback(node, material_path, "default")
                 if not geomprop:  # names no primvar, as an empty varname (above)
                     self.skip(f"material {material_path}: a texture-coordinate reader names no primvar (its geomprop "

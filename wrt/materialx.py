@@ -845,7 +845,7 @@ class _Graph:
             return "st", no_fallback, None
         if source_id in TEXCOORD_READERS:
             name_input, default_input = TEXCOORD_READERS[source_id]
-            name = self.reader._constant(source, name_input)
+            name = self.reader.primvar_name(source, name_input, self.path)
             default = self.reader._constant(source, default_input)
             st_fallback = two_finite_numbers(default)
             if default is not None and st_fallback is None:
