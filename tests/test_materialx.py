@@ -607,6 +607,57 @@ def test_a_normalmap_s_tangent_frame_is_the_mesh_s_whatever_places_its_image(tmp
                                atol=1e-3)
 
 
+@pytest.mark.parametrize("surface", ["UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader"])
+def test_a_preview_normal_map_turned_by_its_transform2d_takes_the_frame_its_surface_gives(tmp_path, surface):
+    """A normal map (scale 2, bias -1) read through a UsdTransform2d turning st by 90 degrees: UsdPreviewSurface's
+    frame is the map's own st (Storm's), so the tilt turns with it; MaterialX's UsdPreviewSurface graph feeds
+    ``normal * 0.5 + 0.5`` to a ``normalmap`` node, whose tangent is the mesh's (``Tworld``), so the tilt keeps the
+    quad's frame. Oracle (float64): the texel's normal (0.381, 0.318, 0.868), its x along +X (MaterialX) or along
+    -Y, its y along +X (UsdTransform2d turns st counter-clockwise: the map's s runs along -Y, t along +X).
+    MaterialX's was drawn turned, as UsdPreviewSurface's: (0.318, -0.382, 0.868)."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    stage, path = new_stage(tmp_path, f"turned_{surface}.usda")
+    materialx = surface != "UsdPreviewSurface"
+    prefix = "ND_" if materialx else ""
+    material = UsdShade.Material.Define(stage, "/Looks/Bumpy")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Surface")
+    shader.CreateIdAttr(surface)
+    material.CreateSurfaceOutput("mtlx" if materialx else "").ConnectToSource(shader.ConnectableAPI(),
+                                                                              "out" if materialx else "surface")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Reader")
+    reader.CreateIdAttr("ND_UsdPrimvarReader_vector2" if materialx else "UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+    reader.CreateOutput("out" if materialx else "result", Sdf.ValueTypeNames.Float2)
+    turn = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Turn")
+    turn.CreateIdAttr(f"{prefix}UsdTransform2d")
+    turn.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(),
+                                                                      "out" if materialx else "result")
+    turn.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(90.0)
+    turn.CreateOutput("out" if materialx else "result", Sdf.ValueTypeNames.Float2)
+    tex = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Map")
+    tex.CreateIdAttr(f"{prefix}UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(turn.ConnectableAPI(),
+                                                                     "out" if materialx else "result")
+    if not materialx:  # (MaterialX's node: raw and periodic unauthored)
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+        for key in ("wrapS", "wrapT"):  # the turned st lie outside [0, 1]
+            tex.CreateInput(key, Sdf.ValueTypeNames.Token).Set("repeat")
+    tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+    tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    shader.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    n = stored_normal(MAP_NORMAL)
+    expected = n if materialx else np.array([n[1], -n[0], n[2]])
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(expected, (4, 1)), atol=1e-3)
+
+
 @pytest.mark.parametrize("frame_input", ["normal", "tangent", "bitangent"])
 def test_a_normalmap_s_authored_frame_is_named_in_the_warning(tmp_path, frame_input):
     """A ``normalmap``'s ``normal``, ``tangent`` or ``bitangent`` authored (the nodedefs' ``Nworld``, ``Tworld`` and

@@ -1533,6 +1533,9 @@ class MaterialReader:
             return
         tex, _ = self._texture(source, output, mat.path)
         if tex is not None:
+            # MaterialX's UsdPreviewSurface graph feeds normal * 0.5 + 0.5 to a normalmap node, whose tangent is the
+            # geometry's (Tworld, of the mesh's st), not that of the texture's coordinates after its UsdTransform2d.
+            tex.mesh_frame = (shader.GetShaderId() or "") != "UsdPreviewSurface"
             mat.textures["normal"] = tex
 
     def _set_constant(self, mat: Material, name: str, field: str, is_color: bool, value, prim):

@@ -399,9 +399,10 @@ def mapped_normal(
 ):
     """The shading normal of hit ``h`` on triangle ``prim`` perturbed by normal map ``binding`` (a texture binding
     of ``mats``): ``normalize(x T + y B + z N)`` for the map's value ``(x, y, z)``, with ``N = h.ns`` (facing the
-    ray, as Storm's), ``T`` the direction of increasing s (the map's coordinates, after its ``UsdTransform2d``)
-    made orthogonal to ``N``, and ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the
-    map; the side also follows mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
+    ray, as Storm's), ``T`` the direction of increasing s (the map's coordinates, after its ``UsdTransform2d``; of
+    the mesh's own for a binding's ``tex_mesh_frame``, MaterialX's ``Tworld``) made orthogonal to ``N``, and
+    ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the map; the side also follows
+    mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
     side of the surface (:func:`keep_reflection_above`). ``h.ns``, so kept (:func:`unmapped_normal`), is returned
     where the frame or the map value has no direction (texture coordinates of zero area, a zero texel), and so for
     a map read at a constant ``st``, which has no tangent directions at all: Storm's ``T`` and ``B``, from the
