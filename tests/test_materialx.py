@@ -658,6 +658,33 @@ def test_a_preview_normal_map_turned_by_its_transform2d_takes_the_frame_its_surf
     np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(expected, (4, 1)), atol=1e-3)
 
 
+@pytest.mark.parametrize("default", [None, (0.0, 0.0, 0.0)])
+def test_a_normalmap_s_image_outside_its_constant_addressing_is_the_flat_normal(tmp_path, default):
+    """A normalmap of an image of ``constant`` address modes reads the image's ``default`` outside [0, 1], 0 when
+    unauthored (or authored so), which MaterialX's normalmap decodes as the flat normal (0, 0, 1) (``mx_normalmap``:
+    a value of 0 is (0, 0, 1)). Oracle: on st over [0, 2] the pixel inside the image shows the texel's normal
+    (float64), the three outside (0, 0, 1). They read 0 * 2 - 1 = (-1, -1, -1), a normal bent into the surface:
+    (-0.497, -0.497, 0.711) after it was kept above it."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    path = normal_mapped_mtlx_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    image = UsdShade.Shader.Get(stage, "/Looks/Bumpy/Graph/Image")
+    for key in ("uaddressmode", "vaddressmode"):
+        image.CreateInput(key, Sdf.ValueTypeNames.String).Set("constant")
+    if default is not None:
+        image.CreateInput("default", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(*default))
+    st = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad")).GetPrimvar("st")
+    st.Set([Gf.Vec2f(2 * a, 2 * b) for a, b in st.Get()])  # shading_normals' pixel centres: st 0.75 and 1.25
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    expected = np.tile([0.0, 0.0, 1.0], (2, 2, 1))
+    expected[1, 0] = stored_normal(MAP_NORMAL)  # the bottom-left pixel, st (0.75, 0.75)
+    np.testing.assert_allclose(shading_normals(scene), expected, atol=1e-3)
+
+
 @pytest.mark.parametrize("frame_input", ["normal", "tangent", "bitangent"])
 def test_a_normalmap_s_authored_frame_is_named_in_the_warning(tmp_path, frame_input):
     """A ``normalmap``'s ``normal``, ``tangent`` or ``bitangent`` authored (the nodedefs' ``Nworld``, ``Tworld`` and

@@ -475,6 +475,8 @@ class _Graph:
         _, texture = self._image(source[1], image_id, unauthored_default=np.array([0.5, 0.5, 1.0]))
         if texture is None:
             return None
+        if not np.any(texture.fallback[:3]):  # MaterialX's normalmap reads a value of 0 as the flat normal
+            texture.fallback = np.array([0.5, 0.5, 1.0, texture.fallback[3]], np.float32)
         scale = self._folded_constant(node, "scale", 2, "1")
         sx, sy = (1.0, 1.0) if scale is None else scale
         texture.scale = np.array([2.0 * sx, 2.0 * sy, 2.0, 1.0], np.float32)
@@ -569,7 +571,10 @@ class _Graph:
         else:
             # "constant" gives the node's default outside [0, 1]: its fallback where authored, else the default's own
             # default, 0 in every channel (black).
-            modes = {**ADDRESS_MODES, "constant": "black" if default is None else "fallback"}
+            # A normal map's unauthored default reads (0.5, 0.5, 1), the flat normal MaterialX's normalmap makes of
+            # the default's 0 (its black outside the image was a normal bent into the surface).
+            modes = {**ADDRESS_MODES, "constant": "black" if default is None and unauthored_default is None
+                     else "fallback"}
             wrap = tuple(self._address_mode(node, key, modes) for key in ("uaddressmode", "vaddressmode"))
         channel = "r" if node_id.endswith("_float") else "rgb"
         texture_filter = self._filter(node)
