@@ -923,6 +923,28 @@ def test_a_texcoord_primvar_named_by_a_constant_node_is_read(tmp_path, reader):
     np.testing.assert_allclose(albedo(scene, 2), np.asarray(CORNERS)[:, ::-1] / 255.0, atol=1e-3)
 
 
+@pytest.mark.parametrize("reader", list(READER_INPUTS))
+def test_a_texcoord_default_fed_by_a_constant_node_is_its_value(tmp_path, reader):
+    """A texcoord reader of a primvar the mesh lacks whose ``default`` (``fallback``) is fed by an
+    ``ND_constant_vector2`` of (0.75, 0.25) reads that st on every point, as with the value authored on the input
+    (the warning names the missing primvar and that st). Oracle: the bottom-right texel of :data:`CORNERS`, white.
+    It was read as unauthored, (0, 0), without a word: the bottom-left texel, blue."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    path = texcoord_stage(tmp_path, png, (reader, "uv_missing", None))
+    stage = Usd.Stage.Open(path)
+    constant = UsdShade.Shader.Define(stage, "/Looks/Coords/Corner")
+    constant.CreateIdAttr("ND_constant_vector2")
+    constant.CreateInput("value", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.75, 0.25))
+    constant.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+    UsdShade.Shader.Get(stage, "/Looks/Coords/Reader").CreateInput(READER_INPUTS[reader][1],
+                                                                   Sdf.ValueTypeNames.Float2).ConnectToSource(
+        constant.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert any("uv_missing, fallback (0.75, 0.25)" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)
+
+
 def test_a_colour_primvar_named_by_a_constant_node_is_read(tmp_path):
     """An ``ND_geompropvalue_color3`` base_color whose ``geomprop`` is fed by an ``ND_constant_string`` of ``tint``
     reads the mesh's constant primvar ``tint`` (0.25, 0.5, 0.75), as with the name authored on the input. It was

@@ -1856,7 +1856,7 @@ class MaterialReader:
     def _st_fallback(self, reader, material_path: str, name: str = "fallback") -> np.ndarray:
         """``(2,)`` float32 ``fallback`` (``name``: MaterialX's geompropvalue's ``default``) of texture-coordinate
         reader ``reader``: zero when unauthored; one that is not two finite numbers is zero too, with a warning."""
-        value = self._constant(reader, name)
+        value = self.st_reader_default(reader, name, material_path)
         if value is None:
             return np.zeros(2, np.float32)
         v = two_finite_numbers(value)
@@ -1865,6 +1865,22 @@ class MaterialReader:
                       "(0, 0) is used", reader.GetPrim(), detail=str(value))
             return np.zeros(2, np.float32)
         return v.astype(np.float32)
+
+    def st_reader_default(self, reader, name: str, material_path: str):
+        """The value of texture-coordinate reader ``reader``'s ``fallback`` (``name``: a geompropvalue's
+        ``default``): its constant, or that of the MaterialX nodes feeding it folded
+        (:func:`wrt.materialx.folded_input`: a ``constant`` node, math of constants; a node giving none is named in a
+        warning); None where it has none. One fed by a constant node was read as unauthored, (0, 0), without a
+        word."""
+        found = self._producer(reader, name)
+        if found is None or found[0] == "value":
+            return None if found is None else found[1]
+        from .materialx import folded_input  # that module imports this one
+
+        value, notes = folded_input(self, reader, name, 2, "(0, 0)", material_path)
+        for note in notes:
+            self.skip(f"material {material_path}: {note}", reader.GetPrim())
+        return value
 
     def _note_unread_file_color_space(self, tex, material_path: str, color_space: str) -> None:
         """Names a ``colorSpace`` on a UsdUVTexture's ``file`` (or the interface input it connects to) as not read:

@@ -262,6 +262,14 @@ def token_input(reader, node, key: str, unauthored: str, path: str) -> tuple[str
     return graph._token(node, key, unauthored), graph.notes
 
 
+def folded_input(reader, node, name: str, size: int, unauthored: str, path: str) -> tuple:
+    """``(value, notes)`` of input ``name`` of MaterialX node ``node`` (of the material at ``path``) as ``size``
+    numbers, read as a normalmap's ``scale`` is (:meth:`_Graph._folded_constant`: its value, or the constant the
+    nodes feeding it fold to; None where it is unauthored or, noted, gives none)."""
+    graph = _Graph(reader, node, path, {})
+    return graph._folded_constant(node, name, size, unauthored), graph.notes
+
+
 class _Graph:
     """The inputs of one surface shader, resolved through interface inputs and NodeGraph outputs, and the notes
     (approximations, unsupported nodes) for its material's warning."""
@@ -851,7 +859,7 @@ class _Graph:
         if source_id in TEXCOORD_READERS:
             name_input, default_input = TEXCOORD_READERS[source_id]
             name = self.reader.primvar_name(source, name_input, self.path)
-            default = self.reader._constant(source, default_input)
+            default = self.reader.st_reader_default(source, default_input, self.path)
             st_fallback = two_finite_numbers(default)
             if default is not None and st_fallback is None:
                 self.notes.append(f"the default of {source.GetPath()} is not two finite numbers; (0, 0) is used")
