@@ -1431,6 +1431,36 @@ def test_a_place2d_node_maps_the_texture_coordinates(tmp_path, order):
     assert_reads_the_texels_at(scene, texels, st)
 
 
+def test_a_place2d_s_inputs_fed_by_constant_nodes_place_the_image(tmp_path):
+    """A ``place2d`` whose pivot, scale, rotate, offset and operationorder each come from a ``constant`` node (of
+    vector2, float, integer) places the image as with them authored on it. Oracle: :func:`place2d_oracle`'s texel
+    under each pixel centre (order 1). Such inputs were named and the place2d ignored: the image read unplaced."""
+    texels = PIXELS
+    png = write_png(tmp_path / "pixels.png", texels)
+    stage, path = new_stage(tmp_path, "place_fed.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Placed")[0])
+    place = UsdShade.Shader.Define(stage, "/Looks/Placed/Place")
+    place.CreateIdAttr("ND_place2d_vector2")
+    inputs = {"pivot": (0.5, 0.25), "scale": (0.4, 1.6), "rotate": 30.0, "offset": (0.2, -0.35),
+              "operationorder": 1}
+    for name, value in inputs.items():
+        kind, type_name = {"rotate": ("float", Sdf.ValueTypeNames.Float),
+                           "operationorder": ("integer", Sdf.ValueTypeNames.Int)}.get(
+            name, ("vector2", Sdf.ValueTypeNames.Float2))
+        constant = UsdShade.Shader.Define(stage, f"/Looks/Placed/{name}_value")
+        constant.CreateIdAttr(f"ND_constant_{kind}")
+        constant.CreateInput("value", type_name).Set(value)
+        constant.CreateOutput("out", type_name)
+        place.CreateInput(name, type_name).ConnectToSource(constant.ConnectableAPI(), "out")
+    closest_image(stage, "/Looks/Placed", png, place)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    st = place2d_oracle(pixel_centre_st(16), np.array(inputs["pivot"]), np.array(inputs["scale"]), inputs["rotate"],
+                        np.array(inputs["offset"]), 1)
+    assert_reads_the_texels_at(scene, texels, st)
+
+
 def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
     """A ``place2d`` whose ``offset`` comes from another node (wrt folds constants only) is named in the material's
     warning, with the input, and the image read at its unplaced texture coordinates: texel 0 then texel 1."""

@@ -808,15 +808,23 @@ class _Graph:
         """``(3, 3)`` float64 map of ``place2d`` node ``place``, as MaterialX's ``NG_place2d_vector2`` computes it with
         ``rotate2d``'s turn by ``a`` degrees, ``(x cos a + y sin a, -x sin a + y cos a)``: ``operationorder`` 0 (SRT)
         ``rot((st - pivot) / scale) - offset + pivot``, 1 (TRS) ``rot(st - pivot - offset) / scale + pivot``. An
-        input fed by a node, a scale with a zero or another order is named in a note and the node ignored (identity);
+        input fed by nodes is the constant they fold to (:func:`wrt.materialx_fold.fold`: a constant node, math of
+        constants; it was named and the place2d ignored); one fed by another node, a scale with a zero or another
+        order is named in a note and the node ignored (identity);
         a value that is not finite numbers of its type keeps its default, with a note. Such nodes were named as
         unsupported and the image read unplaced."""
         values = {}
         for name, default in PLACE2D_INPUTS:
             found = self.reader._producer(place, name)
-            if found is not None and found[0] != "value":
-                self.notes.append(f"{place.GetPath()}: {name} comes from a node; the place2d is ignored")
-                return np.eye(3)
+            if found is not None and found[0] != "value":  # a constant node or math of constants: their value
+                try:
+                    found = ("value", fold(self.reader, found[1], lambda source, source_id: None,
+                                           output=found[2]).value)
+                except Unfoldable as e:
+                    why = f", whose {e.problem}" if e.problem else ""
+                    self.notes.append(f"{place.GetPath()}: {name} comes from a node; the place2d is ignored (a "
+                                      f"{e.node.GetShaderId() or 'node'} node, {e.node.GetPath()}{why})")
+                    return np.eye(3)
             value = None if found is None else _array(found[1], None)
             if found is not None and (value is None or value.size != len(default)):
                 self.notes.append(f"{place.GetPath()}: {name} is not {len(default)} finite number(s); its default is "
