@@ -392,3 +392,12 @@ def test_bent_normals_reflect_every_view_above_the_surface():
                                           >= np.minimum(0.9 * cos_o, 0.01) + 1e-4)
     assert 0.1 < valid.mean() < 0.9
     np.testing.assert_allclose(bent[valid], ns[valid], atol=1e-6)
+
+
+def test_a_mesh_frame_that_is_no_bool_names_the_material():
+    """``TextureInput.mesh_frame`` (a normal map's frame from the untransformed st, MaterialX's) takes a bool; any
+    other value is a TypeError naming the material and input, as the other fields' checks are."""
+    with pytest.raises(TypeError, match=r"material /bumpy: normal: mesh_frame must be a bool, got str 'yes'"):
+        Material(path="/bumpy", textures={"normal": TextureInput(image=0, mesh_frame="yes")})
+    assert Material(path="/bumpy", textures={"normal": TextureInput(image=0, mesh_frame=True)}).textures[
+        "normal"].mesh_frame
