@@ -1295,6 +1295,10 @@ def _add_preview(sub) -> None:
     )
     bvh.add_argument("--bvh-leaves", action="store_true", help="draw every BVH leaf")
     p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")
+    p.add_argument("--bvh-layout", default="binary", choices=LAYOUTS,
+                   help="layout whose boxes --bvh-depth and --bvh-leaves draw: binary or compact (the same binary "
+                   "tree), wide (BVH4) or wide8 (BVH8), collapsed as wrt traces it; only binary for a scene with "
+                   "instances or analytic shapes")
     p.add_argument("--bvh-instance", type=_instance_choice, metavar="I", help="with --bvh-depth or --bvh-leaves, "
                    "draw the boxes of this instance's own BVH (its prototype's BLAS, placed by the instance's "
                    "transform) instead of the top-level BVH's: its index, or its path (/Instancer[3] for a "
@@ -1380,6 +1384,9 @@ def _run_preview(args) -> int:
     if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)
+    if args.bvh_layout != "binary" and args.bvh_depth is None and not args.bvh_leaves:
+        warnings.warn(f"--bvh-layout {args.bvh_layout} picks the BVH whose boxes are drawn, and none are drawn without "
+                      "--bvh-depth K or --bvh-leaves", stacklevel=2)
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time, refine_level=args.refine_level, **stage_options(args))
     stats = scene.stats()
@@ -1390,6 +1397,9 @@ def _run_preview(args) -> int:
         from .preview_blas import CLI_NAMES, instance_row
 
         instance = instance_row(scene, instance, CLI_NAMES)
+    from .preview_wide import check_wide_layout  # refused now, naming the flag, as --bvh-instance is
+
+    check_wide_layout(scene, args.bvh_layout, "--bvh-layout {}", "--bvh-layout binary")
     if args.image:  # the film is rendered: refused now, naming the options, not inside the preview
         from .render import resolve_view
 
@@ -1414,6 +1424,7 @@ def _run_preview(args) -> int:
             max_triangles=args.max_triangles,
             off_screen=output is not None,
             bvh_instance=instance,
+            bvh_layout=args.bvh_layout,
         )
     except PreviewUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)

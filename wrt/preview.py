@@ -55,7 +55,9 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from .bvh import Builder, FlatBvh
+from .bvh import Builder, FlatBvh, convert_layout
+from .bvh.layout import check_layout
+from .bvh.wide import WIDE_WIDTHS
 from .camera import Camera, generate_rays_kernel
 from .errors import did_you_mean, flag
 from .far_views import shown_across_renderers
@@ -66,6 +68,7 @@ from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
+from .preview_wide import WideBoxes, check_wide_layout, wide_boxes
 from .render import Renderer, check_asked_pixels, check_lights, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
@@ -602,7 +605,7 @@ def subtree_prim_counts(bvh: FlatBvh, depths: np.ndarray | None = None) -> np.nd
     return counts
 
 
-def select_bvh_nodes(bvh: FlatBvh, depth: int | None = None, leaves: bool = False) -> np.ndarray:
+def select_bvh_nodes(bvh: FlatBvh | WideBoxes, depth: int | None = None, leaves: bool = False) -> np.ndarray:
     """Node ids to draw: the cut at ``depth`` (nodes at that depth plus shallower leaves) or, with ``leaves``,
     every leaf. Either way every triangle reference (slot) lies in exactly one selected node."""
     if bvh.num_prims == 0:
@@ -616,11 +619,11 @@ def select_bvh_nodes(bvh: FlatBvh, depth: int | None = None, leaves: bool = Fals
     return np.flatnonzero((depths == depth) | (is_leaf & (depths < depth)))
 
 
-def bvh_boxes(bvh: FlatBvh, nodes, color: str = "depth", max_boxes: int = BOX_BUDGET):
+def bvh_boxes(bvh: FlatBvh | WideBoxes, nodes, color: str = "depth", max_boxes: int = BOX_BUDGET):
     """Wireframe boxes of the BVH nodes ``nodes``, as one ``pyvista.PolyData`` of 12 line cells per box.
 
     Args:
-        bvh: the tree.
+        bvh: the tree, or a wide one's boxes (:func:`wrt.preview_wide.wide_boxes`).
         nodes: ``(K,)`` int node ids, e.g. from :func:`select_bvh_nodes`.
         color: ``"depth"`` (cell array ``"depth"``) or ``"sah"`` (cell array ``"sah_share"``, see module
             docstring); the SAH share is computed over all of ``nodes``, before any subsampling.
@@ -638,7 +641,8 @@ def bvh_boxes(bvh: FlatBvh, nodes, color: str = "depth", max_boxes: int = BOX_BU
     if color == "sah":
         extent = np.maximum(bvh.uppers[nodes] - bvh.lowers[nodes], 0.0).astype(np.float64)
         area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
-        cost = area * subtree_prim_counts(bvh, depths)[nodes]
+        below = subtree_prim_counts(bvh, depths) if isinstance(bvh, FlatBvh) else bvh.refs_below  # WideBoxes
+        cost = area * below[nodes]
         values = cost / max(float(cost.sum()), 1e-300)
         name = "sah_share"
     else:
@@ -757,6 +761,7 @@ def preview(
     show_text: bool = True,
     show_lights: bool = True,
     bvh_instance: int | str | None = None,
+    bvh_layout: str = "binary",
 ):
     """A ``pyvista.Plotter`` showing the scene, the camera frustum with its near clipping plane, the scene's lights
     and, on request, BVH boxes, rays and the image.
@@ -790,11 +795,16 @@ def preview(
         bvh_instance: with ``bvh_depth`` or ``bvh_leaves``, draw the boxes of this instance's own BVH (its
             prototype's BLAS, placed by its transform; :mod:`wrt.preview_blas`) instead of the TLAS: its index in
             ``scene.instances`` or its path (``/instancer[index]`` for a PointInstancer's).
+        bvh_layout: the layout whose boxes ``bvh_depth`` and ``bvh_leaves`` draw, as :func:`wrt.trace` names them:
+            ``binary`` or ``compact`` (the same binary tree), ``wide`` (BVH4) or ``wide8`` (BVH8), collapsed from
+            the binary tree as the trace collapses it (:mod:`wrt.preview_wide`). Only ``binary`` for a scene with
+            instances or analytic shapes, whose two-level BVH has no wide form.
 
     Raises:
         PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
             a window where there is no display.
-        ValueError: bad arguments (unknown camera, builder or colouring, both ``bvh_depth`` and ``bvh_leaves``).
+        ValueError: bad arguments (unknown camera, builder, layout or colouring, both ``bvh_depth`` and
+            ``bvh_leaves``, a wide ``bvh_layout`` of a scene with instances or analytic shapes).
     """
     pv = import_pyvista()
     # By their truth, image="false" rendered the scene, show_text="false" wrote the summary and off_screen="false"
@@ -830,8 +840,10 @@ def preview(
             raise ValueError(f"{label} must be a positive integer, got {value!r}")  # True too, as wrt.render says
     check_window_size(window_size)
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
+    check_layout(bvh_layout)
     device = resolve_device(device)
     scene = _as_scene(scene)
+    check_wide_layout(scene, bvh_layout)  # before any work
     instance = None if bvh_instance is None else instance_row(scene, bvh_instance)  # refused before any work
     if show_lights:  # as a render checks them: a NaN assigned to a light's position or transform was drawn as NaN
         check_lights(scene.lights)  # points without a word, where a render refuses it naming the light
@@ -888,6 +900,8 @@ def preview(
         if bvh_depth is not None or bvh_leaves:
             accel = get_accelerator(scene, "wrt", builder, device)
             bvh, to_world = (accel.bvh, None) if instance is None else instance_blas(accel, scene, instance)
+            if bvh_layout in WIDE_WIDTHS:  # collapsed from the binary tree, as wrt.trace collapses it
+                bvh = wide_boxes(convert_layout(bvh, bvh_layout))
             summary, capped = _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes, window_size[0], to_world)
             if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
                 title += f", {capped}"
@@ -900,6 +914,8 @@ def preview(
                 # drawn.
                 lines.append(f"TLAS ({builder}) {summary} ({tlas_entries(scene, accel.num_entries)}; up to "
                              f"{TLAS_LEAF_SIZE} per leaf)")
+            elif bvh_layout in WIDE_WIDTHS:
+                lines.append(f"BVH{WIDE_WIDTHS[bvh_layout]} ({builder}, layout {bvh_layout}) {summary}")
             else:
                 lines.append(f"BVH ({builder}) {summary}")
         if ray_data is not None:
@@ -1141,7 +1157,7 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     plotter.add_mesh(dot, color=FRUSTUM_COLOR, name="eye")
 
 
-def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int, window_width: int = 1280,
+def _add_bvh(plotter, bvh: FlatBvh | WideBoxes, depth, color: str, max_boxes: int, window_width: int = 1280,
              to_world=None) -> tuple[str, str]:
     """Draws the BVH cut at ``depth`` (every leaf when ``None``), its colour bar fitted to a window ``window_width``
     pixels wide, its boxes' corners moved by ``to_world`` (``(4, 4)``, from the tree's space: an instance's BLAS);
