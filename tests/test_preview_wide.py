@@ -154,3 +154,13 @@ def test_cli_bvh_layout(tmp_path, capsys):
         main(["preview", str(usda), "--bvh-depth", "1", "--bvh-layout", "wide4", "-q"])
     assert e.value.code == 2
     assert "--bvh-layout: invalid choice: 'wide4'" in capsys.readouterr().err
+
+
+def test_cli_refuses_a_wide_layout_of_analytic_shapes_naming_the_flag(tmp_path, capsys):
+    usda = tmp_path / "ball.usda"
+    usda.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
+    out = tmp_path / "ball.png"
+    assert main(["preview", str(usda), "--bvh-leaves", "--bvh-layout", "wide", "-o", str(out), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "--bvh-layout wide: " in errors[0] and "use --bvh-layout binary" in errors[0]
+    assert not out.exists()
