@@ -13,8 +13,13 @@ The default modules are those a ``wrt render`` loads on the default room and on 
 ``--integrator path`` and ``whitted``, as ``tests/test_module_loads.py`` lists them on the CPU, plus the binned
 builder's parallel splitter, which the ``sah`` build launches on CUDA only.
 
-    python benchmarks/cuda_compile_time.py [--arch 90] [--modules wrt.shade,...] [--set optimization_level=2]
-        [--keep DIR] [--trace N]
+    python benchmarks/cuda_compile_time.py [--arch 90] [--modules wrt.shade,...] [--features all,none]
+        [--set optimization_level=2] [--keep DIR] [--trace N]
+
+The integrators' shading kernels are built per :class:`wrt.light_features.LightFeatures` (the kinds of light a scene
+has), each in a module of its own; ``--features`` names the variants to compile: ``all`` (every feature: any scene),
+``none`` (the default room's: a sun and a dome) or features joined by ``+`` (``shape_lights+shaping``); ``""``
+compiles none.
 
 ``--set`` overrides a module option for every module (``enable_backward=True``, ``fuse_fp=True``, ...); ``--trace N``
 turns on NVRTC's ``--fdevice-time-trace`` and prints each module's seconds per stage of NVRTC, its N functions the
@@ -49,6 +54,34 @@ MODULES = (
     "wrt.integrators.path",
     "wrt.integrators.whitted",
 )
+
+# The factories of the kernels built per light features (wrt.light_features), as "module:factory".
+VARIANT_FACTORIES = (
+    "wrt.integrators.path:shade_path_kernel_for",
+    "wrt.integrators.whitted:shade_whitted_kernel_for",
+    "wrt.integrators.whitted:whitted_lights_kernel_for",
+)
+
+
+def parse_features(spec: str):
+    """``all``, ``none`` or feature names joined by ``+`` as a :class:`wrt.light_features.LightFeatures`."""
+    from wrt.light_features import ALL_FEATURES, NO_FEATURES, LightFeatures
+
+    if spec in ("all", "none"):
+        return ALL_FEATURES if spec == "all" else NO_FEATURES
+    return LightFeatures(**{name: name in spec.split("+") for name in LightFeatures.__dataclass_fields__})
+
+
+def variant_modules(specs: str) -> list:
+    """``(label, module)`` of the variant kernels' modules for each comma-separated spec of ``specs``."""
+    out = []
+    for spec in filter(None, specs.split(",")):
+        features = parse_features(spec)
+        for entry in VARIANT_FACTORIES:
+            module_name, factory = entry.split(":")
+            kernel = getattr(importlib.import_module(module_name), factory)(features)
+            out.append((f"{kernel.key}[{spec}]", kernel.module))
+    return out
 
 
 @wp.kernel
@@ -127,6 +160,9 @@ def main() -> None:
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--arch", type=int, default=90, help="SM architecture to compile for (H100: 90)")
     parser.add_argument("--modules", default=",".join(MODULES), help="comma list of modules to compile")
+    parser.add_argument("--features", default="all",
+                        help="comma list of light-feature variants of the shading kernels to compile (all, none, "
+                             "or names joined by +)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="module option to override in every module (a Python literal), repeatable")
     parser.add_argument("--keep", help="folder to keep the generated sources and CUBINs in")
@@ -152,11 +188,13 @@ def main() -> None:
     print(f"{'module':26s} {'codegen s':>9s} {'nvrtc s':>8s} {'cpu s':>8s} {'kernels':>7s} {'entries':>7s} "
           f"{'source KB':>9s}")
     total, total_cpu = 0.0, 0.0
-    for name in args.modules.split(","):
-        importlib.import_module(name)
-        module = wp.get_module(name)
+    modules = [(name, None) for name in filter(None, args.modules.split(","))]
+    for name, module in modules + variant_modules(args.features):
+        if module is None:
+            importlib.import_module(name)
+            module = wp.get_module(name)
         module.options.update(overrides)
-        source = compile_module(module, args.arch, root / name)
+        source = compile_module(module, args.arch, root / module.name)
         text = source.read_text()
         kernels = len(module._get_live_kernels())
         wall, cpu = nvrtc[-1]
@@ -164,7 +202,7 @@ def main() -> None:
         print(f"{name:26s} {codegen[-1]:9.2f} {wall:8.1f} {cpu:8.1f} {kernels:7d} {text.count('__global__'):7d} "
               f"{len(text) / 1024:9.0f}", flush=True)
         if args.trace:
-            for trace in (root / name).glob("*time-trace*.json"):
+            for trace in (root / module.name).glob("*time-trace*.json"):
                 for line in time_trace_summary(trace, args.trace):
                     print("    " + line)
     print(f"{'total':26s} {'':9s} {total:8.1f} {total_cpu:8.1f}")

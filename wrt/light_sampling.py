@@ -22,6 +22,8 @@ luminance of its filtered texture averaged over each texel (piecewise-constant 2
 
 from __future__ import annotations
 
+import functools
+
 import warp as wp
 
 from .affine_lights import (
@@ -40,6 +42,7 @@ from .glowing_hulls import flat_front, flat_shape, hull_pdf, sample_hull
 from .glowing_spheres import GLOW_HULL
 from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf, tube_pdf_terms, tube_point_density
 from .ies import ies_factor
+from .light_features import ALL_FEATURES, LightFeatures
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
 from .materials import DeviceMaterials, cut_out, eval_emission
@@ -330,6 +333,15 @@ def light_kind(lights: DeviceLights, k: int):
 
 
 @wp.func
+def drawn_as_shape(kind: int):
+    """Whether lights of ``kind`` are drawn by the shapes' code, which kernels built without
+    ``LightFeatures.shape_lights`` leave out (:mod:`wrt.light_features`): glowing shapes and cylinder, line,
+    ellipsoid and elliptic tube lights."""
+    return kind == LIGHT_CYLINDER or kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE or kind == LIGHT_LINE or (
+        kind == LIGHT_GLOWING_SPHERE or kind == LIGHT_GLOWING_TUBE or kind == LIGHT_GLOWING_HULL)
+
+
+@wp.func
 def light_scales(lights: DeviceLights, k: int):
     """``(down, up = 1 / down)``: the power of two that brings analytic light ``k``'s lengths near 1 (a sphere's
     radius into [1, 2); a rect's, disk's or cylinder's largest edge, radius or axis component, an ellipsoid's or
@@ -382,6 +394,17 @@ def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
     if info[1] > 0:
         f = f * ies_factor(lights.ies_data, info, lights.ies_frame[k], w)
     return f
+
+
+@wp.func
+def unshaped_emission(lights: DeviceLights, k: int, w: wp.vec3):
+    """:func:`emission_shaping` of a scene without shaped lights: 1 (the cone, focus and IES code not compiled)."""
+    return wp.vec3(1.0)
+
+
+def emission_shaping_for(features: LightFeatures):
+    """:func:`emission_shaping`, or :func:`unshaped_emission` where ``features`` has no shaping."""
+    return emission_shaping if features.shaping else unshaped_emission
 
 
 @wp.func
@@ -446,63 +469,73 @@ def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
     return cone_of_sphere(lights.position[k], lights.params[k][0], p)
 
 
-@wp.func
-def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
-    """Distance along unit ray ``(o, d)`` to the emitting side of analytic light ``k`` (inf if missed or not
-    emitting towards the ray) and the cosine at the light (1 for spheres)."""
-    kind = lights.kinds[k]
-    c = lights.position[k]
-    if kind == LIGHT_SPHERE:
-        return intersect_sphere_light(lights, k, o, d), 1.0
-    if kind == LIGHT_RECT or kind == LIGHT_DISK:
-        n = lights.normal[k]
-        denom = wp.dot(d, n)
-        if denom >= 0.0:
+@functools.cache
+def intersect_light_for(features: LightFeatures):
+    """:func:`intersect_light` of the lights of ``features`` (a cylinder, ellipsoid or elliptic tube light is missed
+    where ``shape_lights`` is off): see :mod:`wrt.light_features`."""
+    @wp.func
+    def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
+        """Distance along unit ray ``(o, d)`` to the emitting side of analytic light ``k`` (inf if missed or not
+        emitting towards the ray) and the cosine at the light (1 for spheres)."""
+        kind = lights.kinds[k]
+        c = lights.position[k]
+        if kind == LIGHT_SPHERE:
+            return intersect_sphere_light(lights, k, o, d), 1.0
+        if kind == LIGHT_RECT or kind == LIGHT_DISK:
+            n = lights.normal[k]
+            denom = wp.dot(d, n)
+            if denom >= 0.0:
+                return float(wp.inf), 0.0
+            t = wp.dot(c - o, n) / denom
+            if t <= 0.0:
+                return float(wp.inf), 0.0
+            ab = plane_coords(lights.axis_u[k], lights.axis_v[k], o + t * d - c)
+            inside = False
+            if kind == LIGHT_RECT:
+                inside = wp.abs(ab[0]) <= 0.5 and wp.abs(ab[1]) <= 0.5
+            else:
+                inside = wp.length_sq(ab) <= 1.0
+            if inside:
+                return t, -denom
             return float(wp.inf), 0.0
-        t = wp.dot(c - o, n) / denom
-        if t <= 0.0:
-            return float(wp.inf), 0.0
-        ab = plane_coords(lights.axis_u[k], lights.axis_v[k], o + t * d - c)
-        inside = False
-        if kind == LIGHT_RECT:
-            inside = wp.abs(ab[0]) <= 0.5 and wp.abs(ab[1]) <= 0.5
-        else:
-            inside = wp.length_sq(ab) <= 1.0
-        if inside:
-            return t, -denom
+        if wp.static(features.shape_lights):  # (else they are met nowhere)
+            if kind == LIGHT_CYLINDER:
+                # In the light's scaled lengths (light_scales): the squares below overflowed for a tube 1e19 wide.
+                down, up = light_scales(lights, k)
+                axis = lights.axis_u[k] * down
+                half = 0.5 * wp.length(axis)
+                if half <= 0.0:
+                    return float(wp.inf), 0.0
+                w = axis / (2.0 * half)
+                r = lights.params[k][0] * down
+                oc = (o - c) * down
+                dp = d - wp.dot(d, w) * w
+                op = oc - wp.dot(oc, w) * w
+                a = wp.dot(dp, dp)
+                b = wp.dot(op, dp)
+                cc = wp.dot(op, op) - r * r
+                if a <= 0.0 or cc <= 0.0:
+                    return float(wp.inf), 0.0
+                disc = b * b - a * cc
+                if disc < 0.0:
+                    return float(wp.inf), 0.0
+                t = (-b - wp.sqrt(disc)) / a
+                if t <= 0.0 or wp.abs(wp.dot(oc + t * d, w)) > half:
+                    return float(wp.inf), 0.0
+                radial = op + t * dp
+                return t * up, wp.max(-wp.dot(d, radial / r), 0.0)
+            if kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE:  # in the light's scaled lengths (light_scales)
+                down, up = light_scales(lights, k)
+                if kind == LIGHT_ELLIPSOID:
+                    return intersect_ellipsoid(c * down, lights.shape_inverses[k] * up, o * down, d) * up, 1.0
+                t, cos_l = intersect_elliptic_tube(c * down, lights.shape_inverses[k] * up, o * down, d)
+                return t * up, cos_l
         return float(wp.inf), 0.0
-    if kind == LIGHT_CYLINDER:
-        # In the light's scaled lengths (light_scales): the squares below overflowed for a tube 1e19 wide.
-        down, up = light_scales(lights, k)
-        axis = lights.axis_u[k] * down
-        half = 0.5 * wp.length(axis)
-        if half <= 0.0:
-            return float(wp.inf), 0.0
-        w = axis / (2.0 * half)
-        r = lights.params[k][0] * down
-        oc = (o - c) * down
-        dp = d - wp.dot(d, w) * w
-        op = oc - wp.dot(oc, w) * w
-        a = wp.dot(dp, dp)
-        b = wp.dot(op, dp)
-        cc = wp.dot(op, op) - r * r
-        if a <= 0.0 or cc <= 0.0:
-            return float(wp.inf), 0.0
-        disc = b * b - a * cc
-        if disc < 0.0:
-            return float(wp.inf), 0.0
-        t = (-b - wp.sqrt(disc)) / a
-        if t <= 0.0 or wp.abs(wp.dot(oc + t * d, w)) > half:
-            return float(wp.inf), 0.0
-        radial = op + t * dp
-        return t * up, wp.max(-wp.dot(d, radial / r), 0.0)
-    if kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE:  # in the light's scaled lengths (light_scales)
-        down, up = light_scales(lights, k)
-        if kind == LIGHT_ELLIPSOID:
-            return intersect_ellipsoid(c * down, lights.shape_inverses[k] * up, o * down, d) * up, 1.0
-        t, cos_l = intersect_elliptic_tube(c * down, lights.shape_inverses[k] * up, o * down, d)
-        return t * up, cos_l
-    return float(wp.inf), 0.0
+
+    return intersect_light
+
+
+intersect_light = intersect_light_for(ALL_FEATURES)
 
 
 @wp.func
@@ -581,47 +614,59 @@ def flat_light_pdf(f: FlatLight, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float
     return by_area
 
 
-@wp.func
-def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
-    """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` (shading normal
-    ``n``, zero if none) and seen along unit ``d`` at distance ``dist`` with cosine ``cos_l``."""
-    kind = lights.kinds[k]
-    if kind == LIGHT_SPHERE:
-        cos_max, one_minus = sphere_cone(lights, k, p)
-        if cos_max > 1.0 or one_minus <= 0.0:
+@functools.cache
+def area_light_pdf_for(features: LightFeatures):
+    """:func:`area_light_pdf` of the lights of ``features`` (0 for a cylinder, ellipsoid or elliptic tube light where
+    ``shape_lights`` is off): see :mod:`wrt.light_features`."""
+    @wp.func
+    def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
+        """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` (shading
+        normal ``n``, zero if none) and seen along unit ``d`` at distance ``dist`` with cosine ``cos_l``."""
+        kind = lights.kinds[k]
+        if kind == LIGHT_SPHERE:
+            cos_max, one_minus = sphere_cone(lights, k, p)
+            if cos_max > 1.0 or one_minus <= 0.0:
+                return 0.0
+            return 1.0 / (2.0 * PI * one_minus)
+        down, up = light_scales(lights, k)
+        if wp.static(features.shape_lights):
+            if kind == LIGHT_ELLIPSOID:
+                return ellipsoid_pdf(lights.position[k] * down, lights.shape_inverses[k] * up,
+                                     lights.params[k][0] * down, p * down, d)
+            if kind == LIGHT_ELLIPTIC_TUBE or kind == LIGHT_CYLINDER:
+                # The elliptic tube's pdf (wrt.affine_lights.elliptic_tube_pdf_terms) or the cylinder's
+                # (wrt.glowing_tubes.tube_pdf of its open single-sided tube), through one call of the tubes' density:
+                # each call site compiles it again.
+                tube_row = UNIT_TUBE
+                tube_axis = UNIT_TUBE_AXIS
+                drawn = bool(False)
+                to_p = wp.vec3(0.0)
+                q = wp.vec3(0.0)
+                tube_n = wp.vec3(0.0)
+                dist2 = float(0.0)
+                divisor = float(0.0)
+                if kind == LIGHT_ELLIPTIC_TUBE:
+                    drawn, to_p, q, tube_n, dist2, divisor = elliptic_tube_pdf_terms(
+                        lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up, p * down,
+                        (p + dist * d) * down, dist * down, cos_l)
+                elif not (cos_l <= 0.0):  # (a NaN goes on, as it did)
+                    tube_row, tube_axis = cylinder_tube(lights, k)
+                    w = wp.normalize(lights.axis_u[k] * down)
+                    rel = (p - lights.position[k]) * down + d * (dist * down)
+                    tube_n = wp.normalize(rel - wp.dot(rel, w) * w)
+                    to_p, q, dist2, divisor = tube_pdf_terms(tube_row, tube_axis, p, d, dist, tube_n)
+                    drawn = not (divisor <= 0.0)
+                if not drawn:
+                    return 0.0
+                return dist2 * tube_point_density(tube_row, tube_axis, 1.0, 1, to_p, q, tube_n) / divisor
+        elif drawn_as_shape(kind):  # (a stale variant's: nothing of a light it does not draw)
             return 0.0
-        return 1.0 / (2.0 * PI * one_minus)
-    down, up = light_scales(lights, k)
-    if kind == LIGHT_ELLIPSOID:
-        return ellipsoid_pdf(lights.position[k] * down, lights.shape_inverses[k] * up, lights.params[k][0] * down,
-                             p * down, d)
-    if kind == LIGHT_ELLIPTIC_TUBE or kind == LIGHT_CYLINDER:
-        # The elliptic tube's pdf (wrt.affine_lights.elliptic_tube_pdf_terms) or the cylinder's (wrt.glowing_tubes.
-        # tube_pdf of its open single-sided tube), through one call of the tubes' density: each call site compiles it
-        # again.
-        tube_row = UNIT_TUBE
-        tube_axis = UNIT_TUBE_AXIS
-        drawn = bool(False)
-        to_p = wp.vec3(0.0)
-        q = wp.vec3(0.0)
-        tube_n = wp.vec3(0.0)
-        dist2 = float(0.0)
-        divisor = float(0.0)
-        if kind == LIGHT_ELLIPTIC_TUBE:
-            drawn, to_p, q, tube_n, dist2, divisor = elliptic_tube_pdf_terms(
-                lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up, p * down,
-                (p + dist * d) * down, dist * down, cos_l)
-        elif not (cos_l <= 0.0):  # (a NaN goes on, as it did)
-            tube_row, tube_axis = cylinder_tube(lights, k)
-            w = wp.normalize(lights.axis_u[k] * down)
-            rel = (p - lights.position[k]) * down + d * (dist * down)
-            tube_n = wp.normalize(rel - wp.dot(rel, w) * w)
-            to_p, q, dist2, divisor = tube_pdf_terms(tube_row, tube_axis, p, d, dist, tube_n)
-            drawn = not (divisor <= 0.0)
-        if not drawn:
-            return 0.0
-        return dist2 * tube_point_density(tube_row, tube_axis, 1.0, 1, to_p, q, tube_n) / divisor
-    return flat_light_pdf(rect_light(lights, k), p, n, d, dist, cos_l)  # a rect or disk light
+        return flat_light_pdf(rect_light(lights, k), p, n, d, dist, cos_l)  # a rect or disk light
+
+    return area_light_pdf
+
+
+area_light_pdf = area_light_pdf_for(ALL_FEATURES)
 
 
 @wp.func
@@ -939,346 +984,373 @@ def sample_dome(lights: DeviceLights, k: int, n: wp.vec3, u1: float, u2: float):
     return out
 
 
-@wp.func
-def sample_light(
-    lights: DeviceLights,
-    scene: DeviceScene,
-    mats: DeviceMaterials,
-    uvs: wp.array2d[wp.vec2],
-    tri_materials: wp.array[wp.int32],
-    tri_double_sided: wp.array[wp.int32],
-    k: int,
-    p: wp.vec3,
-    n: wp.vec3,
-    u1: float,
-    u2: float,
-):
-    """A direction from ``p`` (shading normal ``n``, zero if none) towards light ``k``; see :class:`LightSample`."""
-    out = empty_sample()
-    kind = light_kind(lights, k)
-    # A glowing shape's emission, from its material at the shape's one texture coordinate (shapes read textures at a
-    # constant st): read here once for the three kinds, since each call site compiled the texture lookups again.
-    glow = wp.vec3(0.0)
-    if kind == LIGHT_GLOWING_SPHERE or kind == LIGHT_GLOWING_HULL or kind == LIGHT_GLOWING_TUBE:
-        glow_prim = lights.prims[k]
-        glow = shape_emission(lights, mats, k, tri_materials[glow_prim], uvs[glow_prim, 0])
-    if kind == LIGHT_DISTANT:
-        d = -lights.position[k]
-        cone = lights.params[k][1]
-        if cone > 0.0:
-            out.wi = to_world(sample_uniform_cone(u1, u2, lights.params[k][2]), d)
-            out.pdf = 1.0 / cone
-            out.value = lights.radiance[k] * cone
-        else:
-            out.wi = d
-            out.value = lights.radiance[k]
-        return out
-    if kind == LIGHT_POINT:
-        to = lights.position[k] - p
-        d2 = wp.length_sq(to)
-        if d2 > 0.0:
-            out.dist = wp.sqrt(d2)
-            out.wi = to / out.dist
-            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) / d2
-        return out
-    if kind == LIGHT_LINE:
-        # A point of the segment uniform in the angle phi it is seen at from p's foot on the line (s = h tan phi):
-        # the pdf h / ((phi_b - phi_a) d^2) cancels the 1 / d^2 and, with sin(theta) = h / d, leaves
-        # I_s sin(theta) / d^2 / pdf = I_s (phi_b - phi_a) / d (uniform along the length was 4x noisier up close).
-        seg = lights.axis_u[k]
-        # Its length from the axis scaled to a largest entry of 1: the squares of a line under 1e-19 long underflow
-        # float32, and it lit nothing (as a normalized tube too thin for float32 became, wrt.lights.drawn_as_line).
-        seg_scale = wp.max(wp.max(wp.abs(seg[0]), wp.abs(seg[1])), wp.abs(seg[2]))
-        seg_length = float(0.0)
-        if seg_scale > 0.0:
-            seg_length = seg_scale * wp.length(seg / seg_scale)
-        if seg_length > 0.0:
-            seg_dir = seg / seg_length
-            seg_s = wp.dot(p - lights.position[k], seg_dir)  # p's coordinate along the line, from the centre
-            seg_foot = lights.position[k] + seg_s * seg_dir
-            seg_h = wp.length(p - seg_foot)  # p's distance from the line
-            if seg_h > 0.0:  # (on the line itself: sin(theta) = 0, it sends p nothing)
-                end_a = -0.5 * seg_length - seg_s  # the ends' coordinates from p's foot
-                end_b = 0.5 * seg_length - seg_s
-                # The angle the segment spans, phi_b - phi_a, as one atan2 of the length itself: the difference of
-                # two atans (and of the ends' coordinates, each rounded at |seg_s|) lost most of its digits where
-                # p is far from a short line (0.3% off 1e5 lengths away).
-                span = wp.atan2(seg_length * seg_h, seg_h * seg_h + end_a * end_b)
-                # Step the angle w = u1 * span from the end nearer the foot, placing the point by the tangent's
-                # addition formula (its offset from that end, no angle near pi / 2 rounded): phi_a + w rounded
-                # there, near the axis past an end, put the points 1% off.
-                seg_near = end_a
-                seg_near_at = -0.5 * seg_length
-                seg_w = u1 * span
-                if wp.abs(end_b) < wp.abs(end_a):
-                    seg_near = end_b
-                    seg_near_at = 0.5 * seg_length
-                    seg_w = -seg_w
-                seg_sin = wp.sin(seg_w)
-                seg_offset = (seg_h * seg_h + seg_near * seg_near) * seg_sin
-                seg_offset = seg_offset / (seg_h * wp.cos(seg_w) - seg_near * seg_sin)
-                to = lights.position[k] + (seg_near_at + seg_offset) * seg_dir - p
-                out.dist = wp.length(to)
-                if out.dist > 0.0:
-                    out.wi = to / out.dist
-                    seg_value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi))
-                    out.value = seg_value * (span / out.dist)
-        return out
-    if kind == LIGHT_DOME:
-        return sample_dome(lights, k, n, u1, u2)
-    if kind == LIGHT_SPHERE:
-        wi, t, one_minus = sample_sphere_cone(lights.position[k], lights.params[k][0], p, u1, u2)
-        if one_minus <= 0.0:
-            return out  # inside the sphere: it emits outwards only
-        out.wi = wi
-        out.dist = t
-        out.pdf = 1.0 / (2.0 * PI * one_minus)
-        out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
-        return out
-    if kind == LIGHT_GLOWING_SPHERE:
-        row = lights.glowing_spheres[k - lights.first_glowing_sphere]
-        wi, t, g_one_minus = sample_sphere_cone(wp.vec3(row[0], row[1], row[2]), row[3], p, u1, u2)
-        if g_one_minus <= 0.0:
-            return out  # inside the sphere: sampled from outside only (a hit inside takes MIS weight 1)
-        out.wi = wi
-        out.dist = t
-        out.pdf = 1.0 / (2.0 * PI * g_one_minus)
-        out.value = glow * (2.0 * PI * g_one_minus)
-        return out
-    if kind == LIGHT_GLOWING_HULL and not flat_shape(scene, lights.prims[k]):
-        # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls); a plane
-        # or disk is drawn below, as a rect or disk light.
-        prim = lights.prims[k]
-        h_c, h_m, h_a, h_g, h_down = hull_frame(lights, k)
-        wi, t, pdf = sample_hull(scene, prim, lights.instances[k], tri_double_sided[prim], h_c, h_m, h_a, h_g, h_down,
-                                 p, u1, u2)
-        if pdf > 0.0:
+@functools.cache
+def sample_light_for(features: LightFeatures):
+    """:func:`sample_light` of the lights of ``features`` (see :mod:`wrt.light_features`): without ``shape_lights``
+    the draws of glowing shapes and of cylinder, line, ellipsoid and elliptic tube lights are left out (they draw
+    nothing), without ``shaping`` the cones, focus and IES profiles."""
+    emission_shaping = emission_shaping_for(features)
+
+    @wp.func
+    def sample_light(
+        lights: DeviceLights,
+        scene: DeviceScene,
+        mats: DeviceMaterials,
+        uvs: wp.array2d[wp.vec2],
+        tri_materials: wp.array[wp.int32],
+        tri_double_sided: wp.array[wp.int32],
+        k: int,
+        p: wp.vec3,
+        n: wp.vec3,
+        u1: float,
+        u2: float,
+    ):
+        """A direction from ``p`` (shading normal ``n``, zero if none) towards light ``k``; see :class:`LightSample`."""
+        out = empty_sample()
+        kind = light_kind(lights, k)
+        # A glowing shape's emission, from its material at the shape's one texture coordinate (shapes read textures at a
+        # constant st): read here once for the three kinds, since each call site compiled the texture lookups again.
+        glow = wp.vec3(0.0)
+        if wp.static(not features.shape_lights):
+            if drawn_as_shape(kind):
+                return out  # (a stale variant's: nothing from a light it does not draw)
+        if wp.static(features.shape_lights):
+            if kind == LIGHT_GLOWING_SPHERE or kind == LIGHT_GLOWING_HULL or kind == LIGHT_GLOWING_TUBE:
+                glow_prim = lights.prims[k]
+                glow = shape_emission(lights, mats, k, tri_materials[glow_prim], uvs[glow_prim, 0])
+        if kind == LIGHT_DISTANT:
+            d = -lights.position[k]
+            cone = lights.params[k][1]
+            if cone > 0.0:
+                out.wi = to_world(sample_uniform_cone(u1, u2, lights.params[k][2]), d)
+                out.pdf = 1.0 / cone
+                out.value = lights.radiance[k] * cone
+            else:
+                out.wi = d
+                out.value = lights.radiance[k]
+            return out
+        if kind == LIGHT_POINT:
+            to = lights.position[k] - p
+            d2 = wp.length_sq(to)
+            if d2 > 0.0:
+                out.dist = wp.sqrt(d2)
+                out.wi = to / out.dist
+                out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) / d2
+            return out
+        if wp.static(features.shape_lights):
+            if kind == LIGHT_LINE:
+                # A point of the segment uniform in the angle phi it is seen at from p's foot on the line (s = h tan
+                # phi): the pdf h / ((phi_b - phi_a) d^2) cancels the 1 / d^2 and, with sin(theta) = h / d, leaves
+                # I_s sin(theta) / d^2 / pdf = I_s (phi_b - phi_a) / d (uniform along the length was 4x noisier up
+                # close).
+                seg = lights.axis_u[k]
+                # Its length from the axis scaled to a largest entry of 1: the squares of a line under 1e-19 long
+                # underflow float32, and it lit nothing (as a normalized tube too thin for float32 became,
+                # wrt.lights.drawn_as_line).
+                seg_scale = wp.max(wp.max(wp.abs(seg[0]), wp.abs(seg[1])), wp.abs(seg[2]))
+                seg_length = float(0.0)
+                if seg_scale > 0.0:
+                    seg_length = seg_scale * wp.length(seg / seg_scale)
+                if seg_length > 0.0:
+                    seg_dir = seg / seg_length
+                    seg_s = wp.dot(p - lights.position[k], seg_dir)  # p's coordinate along the line, from the centre
+                    seg_foot = lights.position[k] + seg_s * seg_dir
+                    seg_h = wp.length(p - seg_foot)  # p's distance from the line
+                    if seg_h > 0.0:  # (on the line itself: sin(theta) = 0, it sends p nothing)
+                        end_a = -0.5 * seg_length - seg_s  # the ends' coordinates from p's foot
+                        end_b = 0.5 * seg_length - seg_s
+                        # The angle the segment spans, phi_b - phi_a, as one atan2 of the length itself: the difference
+                        # of two atans (and of the ends' coordinates, each rounded at |seg_s|) lost most of its digits
+                        # where p is far from a short line (0.3% off 1e5 lengths away).
+                        span = wp.atan2(seg_length * seg_h, seg_h * seg_h + end_a * end_b)
+                        # Step the angle w = u1 * span from the end nearer the foot, placing the point by the tangent's
+                        # addition formula (its offset from that end, no angle near pi / 2 rounded): phi_a + w rounded
+                        # there, near the axis past an end, put the points 1% off.
+                        seg_near = end_a
+                        seg_near_at = -0.5 * seg_length
+                        seg_w = u1 * span
+                        if wp.abs(end_b) < wp.abs(end_a):
+                            seg_near = end_b
+                            seg_near_at = 0.5 * seg_length
+                            seg_w = -seg_w
+                        seg_sin = wp.sin(seg_w)
+                        seg_offset = (seg_h * seg_h + seg_near * seg_near) * seg_sin
+                        seg_offset = seg_offset / (seg_h * wp.cos(seg_w) - seg_near * seg_sin)
+                        to = lights.position[k] + (seg_near_at + seg_offset) * seg_dir - p
+                        out.dist = wp.length(to)
+                        if out.dist > 0.0:
+                            out.wi = to / out.dist
+                            seg_value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi))
+                            out.value = seg_value * (span / out.dist)
+                return out
+        if kind == LIGHT_DOME:
+            return sample_dome(lights, k, n, u1, u2)
+        if kind == LIGHT_SPHERE:
+            wi, t, one_minus = sample_sphere_cone(lights.position[k], lights.params[k][0], p, u1, u2)
+            if one_minus <= 0.0:
+                return out  # inside the sphere: it emits outwards only
             out.wi = wi
             out.dist = t
-            out.pdf = pdf
-            out.value = glow / pdf
-        return out
-    if kind == LIGHT_ELLIPSOID:
-        ell_down, ell_up = light_scales(lights, k)
-        wi, t, pdf = sample_ellipsoid(lights.position[k] * ell_down, lights.shapes[k] * ell_down,
-                                      lights.shape_inverses[k] * ell_up, lights.params[k][0] * ell_down, p * ell_down,
-                                      u1, u2)
-        if pdf > 0.0:
-            out.wi = wi
-            out.dist = t * ell_up
-            out.pdf = pdf
-            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
-        return out
+            out.pdf = 1.0 / (2.0 * PI * one_minus)
+            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
+            return out
+        if wp.static(features.shape_lights):
+            if kind == LIGHT_GLOWING_SPHERE:
+                row = lights.glowing_spheres[k - lights.first_glowing_sphere]
+                wi, t, g_one_minus = sample_sphere_cone(wp.vec3(row[0], row[1], row[2]), row[3], p, u1, u2)
+                if g_one_minus <= 0.0:
+                    return out  # inside the sphere: sampled from outside only (a hit inside takes MIS weight 1)
+                out.wi = wi
+                out.dist = t
+                out.pdf = 1.0 / (2.0 * PI * g_one_minus)
+                out.value = glow * (2.0 * PI * g_one_minus)
+                return out
+            if kind == LIGHT_GLOWING_HULL and not flat_shape(scene, lights.prims[k]):
+                # In the cone of the ellipsoid around it, the light point the shape's first hit (wrt.glowing_hulls); a
+                # plane or disk is drawn below, as a rect or disk light.
+                prim = lights.prims[k]
+                h_c, h_m, h_a, h_g, h_down = hull_frame(lights, k)
+                wi, t, pdf = sample_hull(scene, prim, lights.instances[k], tri_double_sided[prim], h_c, h_m, h_a, h_g,
+                                         h_down, p, u1, u2)
+                if pdf > 0.0:
+                    out.wi = wi
+                    out.dist = t
+                    out.pdf = pdf
+                    out.value = glow / pdf
+                return out
+            if kind == LIGHT_ELLIPSOID:
+                ell_down, ell_up = light_scales(lights, k)
+                wi, t, pdf = sample_ellipsoid(lights.position[k] * ell_down, lights.shapes[k] * ell_down,
+                                              lights.shape_inverses[k] * ell_up, lights.params[k][0] * ell_down,
+                                              p * ell_down, u1, u2)
+                if pdf > 0.0:
+                    out.wi = wi
+                    out.dist = t * ell_up
+                    out.pdf = pdf
+                    out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
+                return out
 
-    # Area sampling (rect and disk lights and glowing planes and disks that look large: by solid angle), cylinder,
-    # triangle. Lengths and the area are taken times the light's power of two ``down`` (light_scales; triangles:
-    # scaled_cross), exact where nothing over- or underflows: in world units a scene 1e20 across squared its
-    # distances past float32.
-    pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
-    area_share = float(0.0)  # > 0: mixed with a draw by area (clipped_area_share), pdf_solid_angle that draw's part
-    q = wp.vec3(0.0)
-    ln = wp.vec3(0.0)
-    area = float(0.0)  # times down^2
-    down, up = light_scales(lights, k)
-    L = wp.vec3(0.0)
-    two_sided = int(0)
-    # Arvo's draw of a spherical triangle (wrt.spherical_triangle) at one call site (each call site compiled it
-    # again) for an emissive triangle and for the half of a parallelogram picked by its share of the solid angle
-    # (wrt.spherical_parallelogram): drawn where tri_omega > 0, towards the direction.
-    flat = kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_GLOWING_HULL
-    f = FlatLight()
-    sheared = SeenParallelogram()
-    by_parallelogram = bool(False)  # f is a parallelogram drawn by its triangles' solid angles
-    cosine_draw = bool(False)  # of those, a cosine-weighted direction
-    half_omega = float(0.0)  # the solid angle of the half picked
-    tri_a = wp.vec3(0.0)
-    tri_b = wp.vec3(0.0)
-    tri_c = wp.vec3(0.0)
-    tri_cr = wp.vec3(0.0)
-    tri_down = float(1.0)
-    tri_omega = float(0.0)
-    if flat:
-        f = flat_light(lights, scene, k)
-        if f.disk == 0 and f.right_angled == 0:
-            sheared = seen_parallelogram(p, n, f.centre, f.u, f.v)
-            if parallelogram_usable(sheared):
-                by_parallelogram = True
-                cosine_draw, u1 = by_cosine(sheared, u1)
-                if not cosine_draw:
-                    tri_a, tri_b, tri_c, half_omega, u1 = pick_triangle(sheared, u1)
-                    if triangle_by_solid_angle(half_omega):
-                        tri_omega = half_omega
-    elif kind == LIGHT_TRIANGLE:
-        tri_a, tri_b, tri_c, tri_cr, tri_down = emitter_triangle(scene, lights.prims[k], lights.instances[k])
-        tri_omega = seen_solid_angle(p, tri_a, tri_b, tri_c)
-    towards = wp.vec3(0.0)
-    if tri_omega > 0.0:
-        towards = sample_spherical_triangle(p, tri_a, tri_b, tri_c, tri_omega, u1, u2)
-    if flat:
-        # One draw for both: a glowing plane or disk drawn in its ellipsoid's cone was as noisy as by area where a
-        # point lies near it (a relative noise per draw of 41 at 0.01 over a unit square; by solid angle 0.03).
-        if kind == LIGHT_GLOWING_HULL:
-            L = glow
-            two_sided = tri_double_sided[lights.prims[k]]
-        else:
+        # Area sampling (rect and disk lights and glowing planes and disks that look large: by solid angle), cylinder,
+        # triangle. Lengths and the area are taken times the light's power of two ``down`` (light_scales; triangles:
+        # scaled_cross), exact where nothing over- or underflows: in world units a scene 1e20 across squared its
+        # distances past float32.
+        pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
+        area_share = float(0.0)  # > 0: mixed with a draw by area (clipped_area_share), pdf_solid_angle that draw's part
+        q = wp.vec3(0.0)
+        ln = wp.vec3(0.0)
+        area = float(0.0)  # times down^2
+        down, up = light_scales(lights, k)
+        L = wp.vec3(0.0)
+        two_sided = int(0)
+        # Arvo's draw of a spherical triangle (wrt.spherical_triangle) at one call site (each call site compiled it
+        # again) for an emissive triangle and for the half of a parallelogram picked by its share of the solid angle
+        # (wrt.spherical_parallelogram): drawn where tri_omega > 0, towards the direction.
+        flat = kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_GLOWING_HULL
+        # A constant False where shape lights are left out: the tube branch below is then not compiled (wp.static).
+        tube = wp.static(features.shape_lights)
+        if tube:
+            tube = kind == LIGHT_CYLINDER or kind == LIGHT_GLOWING_TUBE or kind == LIGHT_ELLIPTIC_TUBE
+        f = FlatLight()
+        sheared = SeenParallelogram()
+        by_parallelogram = bool(False)  # f is a parallelogram drawn by its triangles' solid angles
+        cosine_draw = bool(False)  # of those, a cosine-weighted direction
+        half_omega = float(0.0)  # the solid angle of the half picked
+        tri_a = wp.vec3(0.0)
+        tri_b = wp.vec3(0.0)
+        tri_c = wp.vec3(0.0)
+        tri_cr = wp.vec3(0.0)
+        tri_down = float(1.0)
+        tri_omega = float(0.0)
+        if flat:
+            if wp.static(features.shape_lights):
+                f = flat_light(lights, scene, k)
+            else:
+                f = rect_light(lights, k)
+            if f.disk == 0 and f.right_angled == 0:
+                sheared = seen_parallelogram(p, n, f.centre, f.u, f.v)
+                if parallelogram_usable(sheared):
+                    by_parallelogram = True
+                    cosine_draw, u1 = by_cosine(sheared, u1)
+                    if not cosine_draw:
+                        tri_a, tri_b, tri_c, half_omega, u1 = pick_triangle(sheared, u1)
+                        if triangle_by_solid_angle(half_omega):
+                            tri_omega = half_omega
+        elif kind == LIGHT_TRIANGLE:
+            tri_a, tri_b, tri_c, tri_cr, tri_down = emitter_triangle(scene, lights.prims[k], lights.instances[k])
+            tri_omega = seen_solid_angle(p, tri_a, tri_b, tri_c)
+        towards = wp.vec3(0.0)
+        if tri_omega > 0.0:
+            towards = sample_spherical_triangle(p, tri_a, tri_b, tri_c, tri_omega, u1, u2)
+        if flat:
+            # One draw for both: a glowing plane or disk drawn in its ellipsoid's cone was as noisy as by area where a
+            # point lies near it (a relative noise per draw of 41 at 0.01 over a unit square; by solid angle 0.03).
+            if kind == LIGHT_GLOWING_HULL:
+                L = glow
+                two_sided = tri_double_sided[lights.prims[k]]
+            else:
+                L = lights.radiance[k]
+            ln = f.normal
+            area = f.area
+            down = f.down
+            seen, by_solid_angle, rect_down, rect_up = seen_rect(f, p)
+            if by_solid_angle:
+                area_share = clipped_area_share(seen, n)
+            if by_parallelogram:  # (its pdf below: parallelogram_pdf)
+                if cosine_draw or tri_omega > 0.0:  # q where the direction meets the plane, its height from the centre
+                    w = towards
+                    if cosine_draw:
+                        w = to_world(sample_cosine_hemisphere(u1, u2), sheared.axis)
+                    facing = wp.dot(w, ln)
+                    if facing == 0.0:
+                        return out
+                    t = wp.dot(f.centre - p, ln) / facing
+                    if not (t > 0.0):
+                        return out
+                    q = p + t * w
+                    ab = plane_coords(f.u, f.v, q - f.centre)
+                    if wp.abs(ab[0]) > 0.5 or wp.abs(ab[1]) > 0.5:
+                        if cosine_draw:
+                            return out  # it misses the light
+                        # Arvo's point rounded off the edge is put back on it, where a ray along it finds the light.
+                        q = f.centre + wp.clamp(ab[0], -0.5, 0.5) * f.u + wp.clamp(ab[1], -0.5, 0.5) * f.v
+                else:  # a half that looks tiny: uniform by area within it
+                    if half_omega <= 0.0:
+                        return out
+                    su = wp.sqrt(u1)
+                    q = (1.0 - su) * tri_a + (su * (1.0 - u2)) * tri_b + (su * u2) * tri_c
+            elif by_solid_angle and u1 >= area_share:
+                u1 = (u1 - area_share) / (1.0 - area_share)
+                q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * rect_down
+                if not inside:
+                    return out
+                pdf_solid_angle = spherical_rect_pdf(seen, n, q_down)
+                q = q_down * rect_up
+                if f.disk == 1:  # a point of the square around the disk: keep it if it lies on the disk
+                    if wp.length_sq(plane_coords(f.u, f.v, q - f.centre)) > 1.0:
+                        return out
+            else:
+                if area_share > 0.0:  # by area over the whole light, mixed with the draw by solid angle
+                    u1 = u1 / area_share
+                if f.disk == 0:
+                    q = f.centre + (u1 - 0.5) * f.u + (u2 - 0.5) * f.v
+                else:
+                    dd = sample_concentric_disk(u1, u2)
+                    q = f.centre + dd[0] * f.u + dd[1] * f.v
+                if area_share > 0.0:
+                    pdf_solid_angle = spherical_rect_pdf(seen, n, q * rect_down)  # 0 where the reach cut it off
+            if kind != LIGHT_GLOWING_HULL:
+                L = wp.cw_mul(L, light_texture(lights, k, q))
+        elif tube:
+            # Tubes, drawn by one call of sample_tube (a large function: each call site compiled it again) with the
+            # tube's row, axis, taper, side and point of view:
+            # - a cylinder light, an open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p
+            #   and by the angles its side subtends, mixed; "area" is one over the mixture's density, in the tube's own
+            #   lengths (down);
+            # - a glowing tube, likewise over the part of it p can see the front of (the whole of a double-sided one);
+            #   points facing away are dropped below;
+            # - an elliptic tube, in its canonical frame as an open round tube, then mapped to the world
+            #   (wrt.affine_lights; "area" = 1 / its area pdf).
+            tube_row = UNIT_TUBE
+            tube_axis = UNIT_TUBE_AXIS
+            taper = float(1.0)
+            one_sided = int(1)
+            seen_from = p
+            ell_c = wp.vec3(0.0)
+            ell_m = wp.mat33(0.0)
+            ell_a = wp.mat33(0.0)
             L = lights.radiance[k]
-        ln = f.normal
-        area = f.area
-        down = f.down
-        seen, by_solid_angle, rect_down, rect_up = seen_rect(f, p)
-        if by_solid_angle:
-            area_share = clipped_area_share(seen, n)
-        if by_parallelogram:  # (its pdf below: parallelogram_pdf)
-            if cosine_draw or tri_omega > 0.0:  # q where the direction meets the plane, its height from the centre
-                w = towards
-                if cosine_draw:
-                    w = to_world(sample_cosine_hemisphere(u1, u2), sheared.axis)
-                facing = wp.dot(w, ln)
+            if kind == LIGHT_CYLINDER:
+                tube_row, tube_axis = cylinder_tube(lights, k)
+            elif kind == LIGHT_GLOWING_TUBE:
+                j = k - lights.first_glowing_sphere
+                prim = lights.prims[k]
+                two_sided = tri_double_sided[prim]
+                tube_row = lights.glowing_spheres[j]
+                tube_axis = lights.glowing_axes[j]
+                taper = lights.glowing_tapers[j]
+                one_sided = 1 - two_sided
+                L = glow
+            else:
+                ell_c = lights.position[k] * down
+                ell_m = lights.shapes[k] * down
+                ell_a = lights.shape_inverses[k] * up
+                seen_from = ell_a * (p * down - ell_c)
+            q, ln, area, tube_down = sample_tube(tube_row, tube_axis, taper, seen_from, one_sided, u1, u2)
+            if kind == LIGHT_ELLIPTIC_TUBE:
+                q_down, ln, area = elliptic_tube_point(ell_c, ell_m, ell_a, q, ln, area)
+                q = q_down * up
+            else:
+                down = tube_down
+        else:
+            prim = lights.prims[k]
+            a = tri_a
+            b = tri_b
+            c = tri_c
+            cr = tri_cr
+            down = tri_down
+            area = 0.5 * stable_length(cr)
+            if area <= 0.0:
+                return out
+            ln = cr / (2.0 * area)
+            bu = float(0.0)  # weight of b
+            bv = float(0.0)  # weight of c
+            omega = tri_omega
+            if omega > 0.0:  # by solid angle (wrt.spherical_triangle): q where the direction meets the plane
+                facing = wp.dot(towards, ln)
                 if facing == 0.0:
                     return out
-                t = wp.dot(f.centre - p, ln) / facing
-                if not (t > 0.0):
-                    return out
-                q = p + t * w
-                ab = plane_coords(f.u, f.v, q - f.centre)
-                if wp.abs(ab[0]) > 0.5 or wp.abs(ab[1]) > 0.5:
-                    if cosine_draw:
-                        return out  # it misses the light
-                    # Arvo's point rounded off the edge is put back on it, where a ray along it finds the light.
-                    q = f.centre + wp.clamp(ab[0], -0.5, 0.5) * f.u + wp.clamp(ab[1], -0.5, 0.5) * f.v
-            else:  # a half that looks tiny: uniform by area within it
-                if half_omega <= 0.0:
-                    return out
-                su = wp.sqrt(u1)
-                q = (1.0 - su) * tri_a + (su * (1.0 - u2)) * tri_b + (su * u2) * tri_c
-        elif by_solid_angle and u1 >= area_share:
-            u1 = (u1 - area_share) / (1.0 - area_share)
-            q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * rect_down
-            if not inside:
-                return out
-            pdf_solid_angle = spherical_rect_pdf(seen, n, q_down)
-            q = q_down * rect_up
-            if f.disk == 1:  # a point of the square around the disk: keep it if it lies on the disk
-                if wp.length_sq(plane_coords(f.u, f.v, q - f.centre)) > 1.0:
-                    return out
-        else:
-            if area_share > 0.0:  # by area over the whole light, mixed with the draw by solid angle
-                u1 = u1 / area_share
-            if f.disk == 0:
-                q = f.centre + (u1 - 0.5) * f.u + (u2 - 0.5) * f.v
+                q = p + (wp.dot(a - p, ln) / facing) * towards
+                weights = triangle_weights(a, b, c, q, down)
+                bu = weights[0]
+                bv = weights[1]
+                pdf_solid_angle = 1.0 / omega
             else:
-                dd = sample_concentric_disk(u1, u2)
-                q = f.centre + dd[0] * f.u + dd[1] * f.v
-            if area_share > 0.0:
-                pdf_solid_angle = spherical_rect_pdf(seen, n, q * rect_down)  # 0 where the reach cut it off
-        if kind != LIGHT_GLOWING_HULL:
-            L = wp.cw_mul(L, light_texture(lights, k, q))
-    elif kind == LIGHT_CYLINDER or kind == LIGHT_GLOWING_TUBE or kind == LIGHT_ELLIPTIC_TUBE:
-        # Tubes, drawn by one call of sample_tube (a large function: each call site compiled it again) with the
-        # tube's row, axis, taper, side and point of view:
-        # - a cylinder light, an open single-sided tube (wrt.glowing_tubes): uniform by area over the half facing p
-        #   and by the angles its side subtends, mixed; "area" is one over the mixture's density, in the tube's own
-        #   lengths (down);
-        # - a glowing tube, likewise over the part of it p can see the front of (the whole of a double-sided one);
-        #   points facing away are dropped below;
-        # - an elliptic tube, in its canonical frame as an open round tube, then mapped to the world
-        #   (wrt.affine_lights; "area" = 1 / its area pdf).
-        tube_row = UNIT_TUBE
-        tube_axis = UNIT_TUBE_AXIS
-        taper = float(1.0)
-        one_sided = int(1)
-        seen_from = p
-        ell_c = wp.vec3(0.0)
-        ell_m = wp.mat33(0.0)
-        ell_a = wp.mat33(0.0)
-        L = lights.radiance[k]
-        if kind == LIGHT_CYLINDER:
-            tube_row, tube_axis = cylinder_tube(lights, k)
-        elif kind == LIGHT_GLOWING_TUBE:
-            j = k - lights.first_glowing_sphere
-            prim = lights.prims[k]
+                su = wp.sqrt(u1)
+                bu = u2 * su
+                bv = 1.0 - su  # (any uniform barycentric split works)
+                q = (1.0 - bu - bv) * a + bu * b + bv * c
+            bw = 1.0 - bu - bv
+            st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
+            L = triangle_emission(lights, mats, k, tri_materials[prim], st)
+            if cut_out(mats, tri_materials[prim], st):
+                # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
+                L = wp.vec3(0.0)
             two_sided = tri_double_sided[prim]
-            tube_row = lights.glowing_spheres[j]
-            tube_axis = lights.glowing_axes[j]
-            taper = lights.glowing_tapers[j]
-            one_sided = 1 - two_sided
-            L = glow
-        else:
-            ell_c = lights.position[k] * down
-            ell_m = lights.shapes[k] * down
-            ell_a = lights.shape_inverses[k] * up
-            seen_from = ell_a * (p * down - ell_c)
-        q, ln, area, tube_down = sample_tube(tube_row, tube_axis, taper, seen_from, one_sided, u1, u2)
-        if kind == LIGHT_ELLIPTIC_TUBE:
-            q_down, ln, area = elliptic_tube_point(ell_c, ell_m, ell_a, q, ln, area)
-            q = q_down * up
-        else:
-            down = tube_down
-    else:
-        prim = lights.prims[k]
-        a = tri_a
-        b = tri_b
-        c = tri_c
-        cr = tri_cr
-        down = tri_down
-        area = 0.5 * stable_length(cr)
-        if area <= 0.0:
+        # The direction and distance from q - p scaled by its own power of two (near a light 1e25 wide, times the
+        # light's it underflowed), the area pdf's squared distance times the light's: both exact, the same bits.
+        to = q - p
+        to_down, to_up = unit_scales(to)
+        to = to * to_down
+        d2 = wp.length_sq(to)
+        if d2 <= 0.0 or area <= 0.0:
             return out
-        ln = cr / (2.0 * area)
-        bu = float(0.0)  # weight of b
-        bv = float(0.0)  # weight of c
-        omega = tri_omega
-        if omega > 0.0:  # by solid angle (wrt.spherical_triangle): q where the direction meets the plane
-            facing = wp.dot(towards, ln)
-            if facing == 0.0:
-                return out
-            q = p + (wp.dot(a - p, ln) / facing) * towards
-            weights = triangle_weights(a, b, c, q, down)
-            bu = weights[0]
-            bv = weights[1]
-            pdf_solid_angle = 1.0 / omega
+        dist = wp.sqrt(d2)
+        wi = to / dist
+        cos_l = -wp.dot(wi, ln)
+        if two_sided == 1:
+            cos_l = wp.abs(cos_l)
+        if cos_l <= 0.0:
+            return out
+        out.wi = wi
+        out.dist = dist * to_up
+        ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
+        if by_parallelogram:  # the expression flat_light_pdf reads back
+            out.pdf = parallelogram_pdf(sheared, q, wi, d2 * ratio * ratio / (cos_l * area))
+        elif area_share > 0.0:
+            out.pdf = (1.0 - area_share) * pdf_solid_angle + area_share * (d2 * ratio * ratio / (cos_l * area))
+        elif pdf_solid_angle > 0.0:
+            out.pdf = pdf_solid_angle
         else:
-            su = wp.sqrt(u1)
-            bu = u2 * su
-            bv = 1.0 - su  # (any uniform barycentric split works)
-            q = (1.0 - bu - bv) * a + bu * b + bv * c
-        bw = 1.0 - bu - bv
-        st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
-        L = triangle_emission(lights, mats, k, tri_materials[prim], st)
-        if cut_out(mats, tri_materials[prim], st):
-            # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
-            L = wp.vec3(0.0)
-        two_sided = tri_double_sided[prim]
-    # The direction and distance from q - p scaled by its own power of two (near a light 1e25 wide, times the
-    # light's it underflowed), the area pdf's squared distance times the light's: both exact, the same bits.
-    to = q - p
-    to_down, to_up = unit_scales(to)
-    to = to * to_down
-    d2 = wp.length_sq(to)
-    if d2 <= 0.0 or area <= 0.0:
+            out.pdf = d2 * ratio * ratio / (cos_l * area)
+        if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE and kind != LIGHT_GLOWING_HULL:  # (no shaping row)
+            L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
+        out.value = L / out.pdf
         return out
-    dist = wp.sqrt(d2)
-    wi = to / dist
-    cos_l = -wp.dot(wi, ln)
-    if two_sided == 1:
-        cos_l = wp.abs(cos_l)
-    if cos_l <= 0.0:
-        return out
-    out.wi = wi
-    out.dist = dist * to_up
-    ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
-    if by_parallelogram:  # the expression flat_light_pdf reads back
-        out.pdf = parallelogram_pdf(sheared, q, wi, d2 * ratio * ratio / (cos_l * area))
-    elif area_share > 0.0:
-        out.pdf = (1.0 - area_share) * pdf_solid_angle + area_share * (d2 * ratio * ratio / (cos_l * area))
-    elif pdf_solid_angle > 0.0:
-        out.pdf = pdf_solid_angle
-    else:
-        out.pdf = d2 * ratio * ratio / (cos_l * area)
-    if kind != LIGHT_TRIANGLE and kind != LIGHT_GLOWING_TUBE and kind != LIGHT_GLOWING_HULL:  # (no shaping row)
-        L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
-    out.value = L / out.pdf
-    return out
+
+    return sample_light
+
+
+sample_light = sample_light_for(ALL_FEATURES)
 
 
 @wp.func
@@ -1296,24 +1368,34 @@ def pick_in_group(lights: DeviceLights, first: int, count: int, u: float):
     return first + j, (lights.emitter_cdf[base + j + 1] - lights.emitter_cdf[base + j]) / whole
 
 
-@wp.func
-def sample_light_in_view(
-    lights: DeviceLights,
-    scene: DeviceScene,
-    mats: DeviceMaterials,
-    uvs: wp.array2d[wp.vec2],
-    tri_materials: wp.array[wp.int32],
-    tri_double_sided: wp.array[wp.int32],
-    k: int,
-    view: int,
-    p: wp.vec3,
-    n: wp.vec3,
-    u1: float,
-    u2: float,
-):
-    """:func:`sample_light` for a path of camera ``view``: the default headlight (a delta distant light) arrives
-    along that camera's viewing direction."""
-    ls = sample_light(lights, scene, mats, uvs, tri_materials, tri_double_sided, k, p, n, u1, u2)
-    if k == lights.headlight:
-        ls.wi = -lights.headlight_dirs[view]
-    return ls
+@functools.cache
+def sample_light_in_view_for(features: LightFeatures):
+    """:func:`sample_light_in_view` through :func:`sample_light_for` ``(features)``."""
+    sample_light = sample_light_for(features)
+
+    @wp.func
+    def sample_light_in_view(
+        lights: DeviceLights,
+        scene: DeviceScene,
+        mats: DeviceMaterials,
+        uvs: wp.array2d[wp.vec2],
+        tri_materials: wp.array[wp.int32],
+        tri_double_sided: wp.array[wp.int32],
+        k: int,
+        view: int,
+        p: wp.vec3,
+        n: wp.vec3,
+        u1: float,
+        u2: float,
+    ):
+        """:func:`sample_light` for a path of camera ``view``: the default headlight (a delta distant light) arrives
+        along that camera's viewing direction."""
+        ls = sample_light(lights, scene, mats, uvs, tri_materials, tri_double_sided, k, p, n, u1, u2)
+        if k == lights.headlight:
+            ls.wi = -lights.headlight_dirs[view]
+        return ls
+
+    return sample_light_in_view
+
+
+sample_light_in_view = sample_light_in_view_for(ALL_FEATURES)

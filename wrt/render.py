@@ -36,15 +36,16 @@ from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
-from .integrators.path import add_unoccluded_kernel, shade_path_kernel
+from .integrators.path import add_unoccluded_kernel, shade_path_kernel_for
 from .integrators.whitted import (
     ShadowRays,
     add_unoccluded_lights_kernel,
     continue_whitted_kernel,
     lights_per_batch,
-    shade_whitted_kernel,
-    whitted_lights_kernel,
+    shade_whitted_kernel_for,
+    whitted_lights_kernel_for,
 )
+from .light_features import light_features
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
@@ -1119,6 +1120,8 @@ class Renderer:
             self._warn_glows_giving_none(glows & ~cut & ~textured, sampled, named, geometry_materials)
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
         self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow, sampled)
+        # The shading kernels' variant for these lights (wrt.light_features): set with them, so it is never stale.
+        self._light_features = light_features(self.device_lights)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
@@ -1632,7 +1635,7 @@ class Renderer:
             self._intersect(w, aovs, camera_rays=bounce == 0)
             h = w.hits
             launch_per_path(
-                shade_path_kernel,
+                shade_path_kernel_for(self._light_features),
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.diffuse_share]
@@ -1651,7 +1654,7 @@ class Renderer:
             h = w.hits
             hit = [h.t, h.u, h.v, h.prim, h.instance]
             launch_per_path(
-                shade_whitted_kernel,
+                shade_whitted_kernel_for(self._light_features),
                 w.n,
                 [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.t_maxs, w.throughput,
                  w.link_groups],
@@ -1679,6 +1682,7 @@ class Renderer:
         threads = resolve_threads(None, self.device)
         common = [self.device_scene, self.surfaces, self.materials, self.device_lights, self._whitted_group_array]
         candidates = emitter_resampling.EMITTER_CANDIDATES  # read at each render, so a test can compare with 1
+        whitted_lights_kernel = whitted_lights_kernel_for(self._light_features)
         for start in range(0, groups, per):
             count = min(per, groups - start)
             batch = shadows.head(count * w.n)

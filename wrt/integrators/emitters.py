@@ -4,20 +4,23 @@ against BSDF sampling by MIS, and, for rays a surface scattered, by the lights' 
 multipliers on the lobes that scattered them (camera rays see lights unscaled), and left out where the light is not
 linked to that surface (``collection:lightLink``, :mod:`wrt.light_links`)."""
 
+import functools
+
 import warp as wp
 
 from ..floats import largest_magnitude
+from ..light_features import ALL_FEATURES, LightFeatures
 from ..light_links import lit_by
 from ..light_sampling import (
     LIGHT_DISTANT,
     LIGHT_DOME,
     DeviceLights,
-    area_light_pdf,
+    area_light_pdf_for,
     distant_in_cone,
     dome_pdf,
     dome_radiance,
-    emission_shaping,
-    intersect_light,
+    emission_shaping_for,
+    intersect_light_for,
     light_texture,
     lobe_factor,
     sampled_alone,
@@ -90,45 +93,57 @@ def reaches(lights: DeviceLights, k: int, camera: int, group: int):
     return lit_by(lights.links, group, k)
 
 
-@wp.func
-def lights_on_segment(
-    lights: DeviceLights,
-    o: wp.vec3,
-    d: wp.vec3,
-    t_min: float,
-    t_max: float,
-    pdf_bsdf: float,
-    n_prev: wp.vec3,
-    camera: int,
-    diffuse_share: wp.vec3,
-    group: int,
-):
-    """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
-    ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
-    ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
-    and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A light at ``t`` counts where geometry
-    at ``t_max`` would not block a shadow ray to it, which stops :func:`rounding_margin` short
-    (:func:`shadow_length`): ``t - margin < t_max``, for camera rays too, so that a light flush with a ceiling, which
-    next-event estimation reaches, is met by BSDF-sampled rays (their MIS share of it) and seen by cameras.
-    A camera ray of an orthographic camera whose near plane lies behind it has ``t_min < 0``: the lights are
-    intersected from its start, ``o + t_min d``, as :func:`intersect_light` finds only hits ahead of its origin (a
-    light between the near plane and the camera was not seen, where geometry there was); for ``t_min >= 0`` the
-    origin is ``o`` itself."""
-    total = wp.vec3(0.0)
-    behind = wp.min(t_min, 0.0)
-    start = o + behind * d
-    for j in range(lights.num_segment_lights):  # the area lights alone (light_table.rays_meet)
-        k = lights.segment_lights[j]
-        if reaches(lights, k, camera, group):
-            t, cos_l = intersect_light(lights, k, start, d)
-            t = t + behind
-            if t > t_min and t - rounding_margin(start, o + t * d, t - behind) < t_max:
-                pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
-                L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
-                L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
-                L = wp.cw_mul(L, scattered_by(lights, k, camera, diffuse_share))
-                total += L * mis_weight(lights, k, pdf_bsdf, pdf_l)
-    return total
+@functools.cache
+def lights_on_segment_for(features: LightFeatures):
+    """:func:`lights_on_segment` of the lights of ``features`` (:mod:`wrt.light_features`)."""
+    intersect_light = intersect_light_for(features)
+    area_light_pdf = area_light_pdf_for(features)
+    emission_shaping = emission_shaping_for(features)
+
+    @wp.func
+    def lights_on_segment(
+        lights: DeviceLights,
+        o: wp.vec3,
+        d: wp.vec3,
+        t_min: float,
+        t_max: float,
+        pdf_bsdf: float,
+        n_prev: wp.vec3,
+        camera: int,
+        diffuse_share: wp.vec3,
+        group: int,
+    ):
+        """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
+        ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
+        ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see
+        :func:`scattered_by`), and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A light at
+        ``t`` counts where geometry at ``t_max`` would not block a shadow ray to it, which stops :func:`rounding_margin`
+        short (:func:`shadow_length`): ``t - margin < t_max``, for camera rays too, so that a light flush with a
+        ceiling, which next-event estimation reaches, is met by BSDF-sampled rays (their MIS share of it) and seen by
+        cameras. A camera ray of an orthographic camera whose near plane lies behind it has ``t_min < 0``: the lights
+        are intersected from its start, ``o + t_min d``, as :func:`intersect_light` finds only hits ahead of its origin
+        (a light between the near plane and the camera was not seen, where geometry there was); for ``t_min >= 0`` the
+        origin is ``o`` itself."""
+        total = wp.vec3(0.0)
+        behind = wp.min(t_min, 0.0)
+        start = o + behind * d
+        for j in range(lights.num_segment_lights):  # the area lights alone (light_table.rays_meet)
+            k = lights.segment_lights[j]
+            if reaches(lights, k, camera, group):
+                t, cos_l = intersect_light(lights, k, start, d)
+                t = t + behind
+                if t > t_min and t - rounding_margin(start, o + t * d, t - behind) < t_max:
+                    pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
+                    L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
+                    L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
+                    L = wp.cw_mul(L, scattered_by(lights, k, camera, diffuse_share))
+                    total += L * mis_weight(lights, k, pdf_bsdf, pdf_l)
+        return total
+
+    return lights_on_segment
+
+
+lights_on_segment = lights_on_segment_for(ALL_FEATURES)
 
 
 @wp.func

@@ -19,16 +19,20 @@ MIS-weighted by their pdf from that point, as next-event estimation weights them
 (:func:`wrt.hidden_hits.occluded_through_holes`).
 """
 
+import functools
+
 import warp as wp
 
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin, stable_length
 from ..hidden_hits import any_hit_t_max
+from ..light_features import LightFeatures
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
     LIGHT_GLOWING_HULL,
     LIGHT_GLOWING_SPHERE,
     LIGHT_GLOWING_TUBE,
+    LIGHT_TRIANGLE,
     DeviceLights,
     LightSample,
     glowing_hull_pdf,
@@ -37,7 +41,7 @@ from ..light_sampling import (
     hit_emitter,
     light_kind,
     lit_bsdf,
-    sample_light_in_view,
+    sample_light_in_view_for,
     shadow_direction,
     shadow_fades,
     shadow_reach,
@@ -51,14 +55,16 @@ from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, HitPoint, shading_point
 from .emitters import (
     environment,
     light_sample_weight,
-    lights_on_segment,
+    lights_on_segment_for,
     mis_weight,
     shadow_length,
     surface_emission,
 )
 
 # device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
-wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
+# (and of the kernels made per light features, each in a module of its own)
+MODULE_OPTIONS = {"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS}
+wp.set_module_options(MODULE_OPTIONS)
 
 @wp.func
 def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.vec3, dist: float, u: float):
@@ -129,175 +135,188 @@ def aim_shadow_ray(
     any_hit_t_maxs[i] = any_hit_t_max(lights.num_analytic, k, 0.0, t_max)
 
 
-@wp.kernel
-def shade_path_kernel(
-    scene: DeviceScene,
-    surf: DeviceSurfaces,
-    mats: DeviceMaterials,
-    lights: DeviceLights,
-    bounce: int,
-    max_depth: int,
-    rr_depth: int,
-    hit_t: wp.array[float],
-    hit_u: wp.array[float],
-    hit_v: wp.array[float],
-    hit_prim: wp.array[wp.int32],
-    hit_instance: wp.array[wp.int32],
-    views: wp.array[wp.int32],
-    # outputs (paths are updated in place)
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    rng: wp.array[wp.uint32],
-    throughput: wp.array[wp.vec3],
-    radiance: wp.array[wp.vec3],
-    alive: wp.array[wp.int32],
-    pdf_prev: wp.array[float],
-    prev_normal: wp.array[wp.vec3],
-    diffuse_share: wp.array[wp.vec3],
-    link_groups: wp.array[wp.int32],
-    shadow_origins: wp.array[wp.vec3],
-    shadow_dirs: wp.array[wp.vec3],
-    shadow_t_maxs: wp.array[float],
-    shadow_lights: wp.array[wp.int32],
-    shadow_any_hit_t_maxs: wp.array[float],
-    nee: wp.array[wp.vec3],
-):
-    """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
-    the next ray."""
-    i = wp.tid()
-    # Every path gets a shadow ray, an empty one (t_max = 0) unless next-event estimation sets it below.
-    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights, shadow_any_hit_t_maxs)
-    nee[i] = wp.vec3(0.0)
-    if alive[i] == 0:
-        t_maxs[i] = 0.0
-        return
-    o = origins[i]
-    d = directions[i]
-    T = throughput[i]
-    L = radiance[i]
-    state = rng[i]
-    pdf_b = pdf_prev[i]
-    prim = hit_prim[i]
-    t_hit = hit_t[i]
+@functools.cache
+def shade_path_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """The path bounce kernel for scenes whose lights need ``features`` (:func:`wrt.light_features.light_features`;
+    ``ALL_FEATURES`` serves any scene), in a Warp module of its own: a first render compiles the draws of the lights
+    it has, not of every kind (``benchmarks/cuda_compile_time.py``)."""
+    lights_on_segment = lights_on_segment_for(features)
+    sample_light_in_view = sample_light_in_view_for(features)
 
-    # Add the analytic lights the segment passes through, then what an escaped ray sees (scaled by the lights'
-    # multipliers on the lobe that scattered the ray, and only lights linked to the surface that scattered it,
-    # unless it is a camera ray).
-    camera = wp.where(bounce == 0, 1, 0)
-    share = diffuse_share[i]
-    g_prev = link_groups[i]
-    # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or a
-    # clipping plane's cut hides the lights past it, as it hides geometry (bounce rays have t_max = inf).
-    end = wp.min(t_hit, t_maxs[i])
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, pdf_b, prev_normal[i], camera, share, g_prev))
-    if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share, g_prev))
+    @wp.kernel(name="shade_path_kernel", module="unique", module_options=MODULE_OPTIONS)
+    def shade_path_kernel(
+        scene: DeviceScene,
+        surf: DeviceSurfaces,
+        mats: DeviceMaterials,
+        lights: DeviceLights,
+        bounce: int,
+        max_depth: int,
+        rr_depth: int,
+        hit_t: wp.array[float],
+        hit_u: wp.array[float],
+        hit_v: wp.array[float],
+        hit_prim: wp.array[wp.int32],
+        hit_instance: wp.array[wp.int32],
+        views: wp.array[wp.int32],
+        # outputs (paths are updated in place)
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        rng: wp.array[wp.uint32],
+        throughput: wp.array[wp.vec3],
+        radiance: wp.array[wp.vec3],
+        alive: wp.array[wp.int32],
+        pdf_prev: wp.array[float],
+        prev_normal: wp.array[wp.vec3],
+        diffuse_share: wp.array[wp.vec3],
+        link_groups: wp.array[wp.int32],
+        shadow_origins: wp.array[wp.vec3],
+        shadow_dirs: wp.array[wp.vec3],
+        shadow_t_maxs: wp.array[float],
+        shadow_lights: wp.array[wp.int32],
+        shadow_any_hit_t_maxs: wp.array[float],
+        nee: wp.array[wp.vec3],
+    ):
+        """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
+        the next ray."""
+        i = wp.tid()
+        # Every path gets a shadow ray, an empty one (t_max = 0) unless next-event estimation sets it below.
+        clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights, shadow_any_hit_t_maxs)
+        nee[i] = wp.vec3(0.0)
+        if alive[i] == 0:
+            t_maxs[i] = 0.0
+            return
+        o = origins[i]
+        d = directions[i]
+        T = throughput[i]
+        L = radiance[i]
+        state = rng[i]
+        pdf_b = pdf_prev[i]
+        prim = hit_prim[i]
+        t_hit = hit_t[i]
+
+        # Add the analytic lights the segment passes through, then what an escaped ray sees (scaled by the lights'
+        # multipliers on the lobe that scattered the ray, and only lights linked to the surface that scattered it,
+        # unless it is a camera ray).
+        camera = wp.where(bounce == 0, 1, 0)
+        share = diffuse_share[i]
+        g_prev = link_groups[i]
+        # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or
+        # a clipping plane's cut hides the lights past it, as it hides geometry (bounce rays have t_max = inf).
+        end = wp.min(t_hit, t_maxs[i])
+        L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, pdf_b, prev_normal[i], camera, share, g_prev))
+        if prim < 0:
+            L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share, g_prev))
+            radiance[i] = L
+            alive[i] = 0
+            t_maxs[i] = 0.0
+            return
+
+        h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
+        s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
+        group = link_group(lights.links, prim, hit_instance[i])
+
+        # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.
+        if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
+            radiance[i] = L
+            alive[i] = 0
+            t_maxs[i] = 0.0
+            return
+
+        # Emission (a mesh light's as light sampling sees it, to rays a surface scattered), weighted against light
+        # sampling of this triangle.
+        if h.front == 1 or surf.double_sided[prim] == 1:
+            e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
+            emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, share, g_prev)
+            if luminance(emitted) > 0.0:
+                w = float(1.0)
+                if e >= 0 and pdf_b > 0.0:
+                    pdf_l = float(0.0)
+                    e_kind = light_kind(lights, e)
+                    if e_kind == LIGHT_TRIANGLE:
+                        pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim,
+                                                                   hit_instance[i], o, d, t_hit)
+                    elif wp.static(features.shape_lights):  # (else a glowing shape takes weight 1: it draws none)
+                        if e_kind == LIGHT_GLOWING_SPHERE:
+                            pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
+                        elif e_kind == LIGHT_GLOWING_TUBE:
+                            pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], o, d, t_hit,
+                                                                     h.ng)
+                        elif e_kind == LIGHT_GLOWING_HULL:
+                            pdf_l = lights.pmf[e] * glowing_hull_pdf(lights, scene, e, o, prev_normal[i], d, t_hit,
+                                                                     h.ng)
+                    w = mis_weight(lights, e, pdf_b, pdf_l)
+                L += wp.cw_mul(T, emitted) * w
+        if bounce >= max_depth:
+            radiance[i] = L
+            alive[i] = 0
+            t_maxs[i] = 0.0
+            return
+
+        wo = -d
+        lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))  # for both BSDF evaluations and the sample below
+        # Next-event estimation: one light, one point on it (nothing from a light not linked to this surface).
+        u_pick, state = rand01(state)
+        u1, state = rand01(state)
+        u2, state = rand01(state)
+        if lights.count > 0:
+            k = sample_cdf(lights.cdf, 0, lights.count, u_pick)
+            pmf = lights.pmf[k]
+            ls = sample_light_in_view(
+                lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
+            )
+            if pmf > 0.0 and max_component(ls.value) > 0.0 and lit_by(lights.links, group, k):
+                f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+                f = lit_bsdf(lights, k, f_d, f_s)
+                if max_component(f) > 0.0:
+                    w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
+                    # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
+                    cos_i = wp.abs(wp.dot(h.ns, ls.wi))
+                    nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
+                    # A number of its own for a fading shadow only, so that other renders draw the numbers they drew.
+                    u_reach = float(0.0)
+                    if shadow_fades(lights, k):
+                        u_reach, state = rand01(state)
+                    aim_shadow_ray(lights, k, h, ls, u_reach, i, shadow_origins, shadow_dirs, shadow_t_maxs,
+                                   shadow_lights, shadow_any_hit_t_maxs)
+
+        # Sample the BSDF for the next ray.
+        u0, state = rand01(state)
+        u3, state = rand01(state)
+        u4, state = rand01(state)
+        u5, state = rand01(state)
+        bs = sample_bsdf(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
+        T = wp.cw_mul(T, bs.weight)
+        keep = max_component(T) > 0.0
+        if keep and bounce + 1 >= rr_depth:
+            q = wp.max(0.05, 1.0 - wp.min(1.0, max_component(T)))
+            u_rr, state = rand01(state)
+            if u_rr < q:
+                keep = False
+            else:
+                T = T / (1.0 - q)
         radiance[i] = L
-        alive[i] = 0
-        t_maxs[i] = 0.0
-        return
-
-    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
-    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
-    group = link_group(lights.links, prim, hit_instance[i])
-
-    # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.
-    if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        radiance[i] = L
-        alive[i] = 0
-        t_maxs[i] = 0.0
-        return
-
-    # Emission (a mesh light's as light sampling sees it, to rays a surface scattered), weighted against light
-    # sampling of this triangle.
-    if h.front == 1 or surf.double_sided[prim] == 1:
-        e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
-        emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, share, g_prev)
-        if luminance(emitted) > 0.0:
-            w = float(1.0)
-            if e >= 0 and pdf_b > 0.0:
-                pdf_l = float(0.0)
-                e_kind = light_kind(lights, e)
-                if e_kind == LIGHT_GLOWING_SPHERE:
-                    pdf_l = lights.pmf[e] * glowing_sphere_pdf(lights, e, o)
-                elif e_kind == LIGHT_GLOWING_TUBE:
-                    pdf_l = lights.pmf[e] * glowing_tube_pdf(lights, e, surf.double_sided[prim], o, d, t_hit, h.ng)
-                elif e_kind == LIGHT_GLOWING_HULL:
-                    pdf_l = lights.pmf[e] * glowing_hull_pdf(lights, scene, e, o, prev_normal[i], d, t_hit, h.ng)
-                else:
-                    pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i],
-                                                               o, d, t_hit)
-                w = mis_weight(lights, e, pdf_b, pdf_l)
-            L += wp.cw_mul(T, emitted) * w
-    if bounce >= max_depth:
-        radiance[i] = L
-        alive[i] = 0
-        t_maxs[i] = 0.0
-        return
-
-    wo = -d
-    lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))  # for both BSDF evaluations and the sample below
-    # Next-event estimation: one light, one point on it (nothing from a light not linked to this surface).
-    u_pick, state = rand01(state)
-    u1, state = rand01(state)
-    u2, state = rand01(state)
-    if lights.count > 0:
-        k = sample_cdf(lights.cdf, 0, lights.count, u_pick)
-        pmf = lights.pmf[k]
-        ls = sample_light_in_view(
-            lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
-        )
-        if pmf > 0.0 and max_component(ls.value) > 0.0 and lit_by(lights.links, group, k):
-            f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
-            f = lit_bsdf(lights, k, f_d, f_s)
-            if max_component(f) > 0.0:
-                w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
-                # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
-                cos_i = wp.abs(wp.dot(h.ns, ls.wi))
-                nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                # A number of its own for a fading shadow only, so that other renders draw the numbers they drew.
-                u_reach = float(0.0)
-                if shadow_fades(lights, k):
-                    u_reach, state = rand01(state)
-                aim_shadow_ray(lights, k, h, ls, u_reach, i, shadow_origins, shadow_dirs, shadow_t_maxs,
-                               shadow_lights, shadow_any_hit_t_maxs)
-
-    # Sample the BSDF for the next ray.
-    u0, state = rand01(state)
-    u3, state = rand01(state)
-    u4, state = rand01(state)
-    u5, state = rand01(state)
-    bs = sample_bsdf(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
-    T = wp.cw_mul(T, bs.weight)
-    keep = max_component(T) > 0.0
-    if keep and bounce + 1 >= rr_depth:
-        q = wp.max(0.05, 1.0 - wp.min(1.0, max_component(T)))
-        u_rr, state = rand01(state)
-        if u_rr < q:
-            keep = False
+        rng[i] = state
+        if not keep:
+            alive[i] = 0
+            t_maxs[i] = 0.0
+            return
+        throughput[i] = T
+        if bs.transmitted == 1:
+            origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
+            prev_normal[i] = -h.ns
         else:
-            T = T / (1.0 - q)
-    radiance[i] = L
-    rng[i] = state
-    if not keep:
-        alive[i] = 0
-        t_maxs[i] = 0.0
-        return
-    throughput[i] = T
-    if bs.transmitted == 1:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
-        prev_normal[i] = -h.ns
-    else:
-        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
-        prev_normal[i] = h.ns
-    directions[i] = bs.wi
-    t_mins[i] = 0.0
-    t_maxs[i] = wp.inf
-    pdf_prev[i] = wp.where(bs.delta == 1, 0.0, bs.pdf)
-    diffuse_share[i] = bs.diffuse
-    link_groups[i] = group
+            origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
+            prev_normal[i] = h.ns
+        directions[i] = bs.wi
+        t_mins[i] = 0.0
+        t_maxs[i] = wp.inf
+        pdf_prev[i] = wp.where(bs.delta == 1, 0.0, bs.pdf)
+        diffuse_share[i] = bs.diffuse
+        link_groups[i] = group
+
+    return shade_path_kernel
 
 
 @wp.kernel
@@ -320,4 +339,4 @@ def add_unoccluded_kernel(
             radiance[i] = radiance[i] + wp.cw_mul(contribution[i], shadow_tint(lights, shadow_lights[i]))
 
 
-__all__ = ["add_unoccluded_kernel", "mis_weight", "shade_path_kernel"]
+__all__ = ["add_unoccluded_kernel", "mis_weight", "shade_path_kernel_for"]

@@ -17,6 +17,8 @@ mirror ray from it would add the same lights a second time. ``max_depth`` bounds
 bounces.
 """
 
+import functools
+
 import warp as wp
 
 from ..bsdf import (
@@ -39,6 +41,7 @@ from ..dome_irradiance import sh_irradiance
 from ..emitter_resampling import resample_emitter
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
+from ..light_features import LightFeatures
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
     DeviceLights,
@@ -47,7 +50,7 @@ from ..light_sampling import (
     hit_emitter,
     lit_bsdf,
     sample_dome,
-    sample_light_in_view,
+    sample_light_in_view_for,
     shadow_fades,
     shadow_tint,
 )
@@ -55,12 +58,13 @@ from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, power_heuristic, rand01
 from ..scene import DeviceScene
-from ..shade import SHADING_CPU_FLAGS, DeviceSurfaces, HitPoint, shading_point
-from .emitters import environment, lights_on_segment, surface_emission
-from .path import aim_shadow_ray, clear_shadow_ray
+from ..shade import DeviceSurfaces, HitPoint, shading_point
+from .emitters import environment, lights_on_segment_for, surface_emission
+from .path import MODULE_OPTIONS, aim_shadow_ray, clear_shadow_ray
 
 # device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
-wp.set_module_options({"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS})
+# (and of the kernels made per light features, each in a module of its own: path.MODULE_OPTIONS)
+wp.set_module_options(MODULE_OPTIONS)
 
 
 @wp.func
@@ -172,165 +176,183 @@ def glossy_dome(
     return total, state
 
 
-@wp.kernel
-def shade_whitted_kernel(
-    scene: DeviceScene,
-    surf: DeviceSurfaces,
-    mats: DeviceMaterials,
-    lights: DeviceLights,
-    bounce: int,
-    hit_t: wp.array[float],
-    hit_u: wp.array[float],
-    hit_v: wp.array[float],
-    hit_prim: wp.array[wp.int32],
-    hit_instance: wp.array[wp.int32],
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    throughput: wp.array[wp.vec3],
-    link_groups: wp.array[wp.int32],
-    # outputs
-    radiance: wp.array[wp.vec3],
-    alive: wp.array[wp.int32],
-    rng: wp.array[wp.uint32],
-):
-    """Emission, light passed through, the environment of escaped rays and the dome term; the paths left alive
-    (``alive = 1``) are those whose hit gets direct lighting and a continuation. Random numbers are drawn only for
-    the glossy lobes under a textured dome (:func:`glossy_dome`)."""
-    i = wp.tid()
-    if alive[i] == 0:
-        return
-    o = origins[i]
-    d = directions[i]
-    T = throughput[i]
-    L = radiance[i]
-    prim = hit_prim[i]
-    t_hit = hit_t[i]
-    # Rays after the first are mirror and refraction rays: the lights' specular multipliers scale what they see,
-    # and they see only the lights linked to the surface that sent them (link_groups, set by continue_whitted).
-    camera = wp.where(bounce == 0, 1, 0)
-    g_prev = link_groups[i]
-    # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or a
-    # clipping plane's cut hides the lights past it, as it hides geometry (mirror rays have t_max = inf).
-    end = wp.min(t_hit, t_maxs[i])
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0),
-                                        g_prev))
-    if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0), g_prev))
+@functools.cache
+def shade_whitted_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """Whitted's emission and dome kernel for scenes whose lights need ``features``, in a Warp module of its own (see
+    :func:`wrt.integrators.path.shade_path_kernel_for`)."""
+    lights_on_segment = lights_on_segment_for(features)
+
+    @wp.kernel(name="shade_whitted_kernel", module="unique", module_options=MODULE_OPTIONS)
+    def shade_whitted_kernel(
+        scene: DeviceScene,
+        surf: DeviceSurfaces,
+        mats: DeviceMaterials,
+        lights: DeviceLights,
+        bounce: int,
+        hit_t: wp.array[float],
+        hit_u: wp.array[float],
+        hit_v: wp.array[float],
+        hit_prim: wp.array[wp.int32],
+        hit_instance: wp.array[wp.int32],
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        throughput: wp.array[wp.vec3],
+        link_groups: wp.array[wp.int32],
+        # outputs
+        radiance: wp.array[wp.vec3],
+        alive: wp.array[wp.int32],
+        rng: wp.array[wp.uint32],
+    ):
+        """Emission, light passed through, the environment of escaped rays and the dome term; the paths left alive
+        (``alive = 1``) are those whose hit gets direct lighting and a continuation. Random numbers are drawn only for
+        the glossy lobes under a textured dome (:func:`glossy_dome`)."""
+        i = wp.tid()
+        if alive[i] == 0:
+            return
+        o = origins[i]
+        d = directions[i]
+        T = throughput[i]
+        L = radiance[i]
+        prim = hit_prim[i]
+        t_hit = hit_t[i]
+        # Rays after the first are mirror and refraction rays: the lights' specular multipliers scale what they see,
+        # and they see only the lights linked to the surface that sent them (link_groups, set by continue_whitted).
+        camera = wp.where(bounce == 0, 1, 0)
+        g_prev = link_groups[i]
+        # A ray that meets nothing passes the lights up to its t_max, not infinity: a camera ray's far clipping plane or
+        # a clipping plane's cut hides the lights past it, as it hides geometry (mirror rays have t_max = inf).
+        end = wp.min(t_hit, t_maxs[i])
+        L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], end, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0),
+                                            g_prev))
+        if prim < 0:
+            L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0), g_prev))
+            radiance[i] = L
+            alive[i] = 0
+            return
+        h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
+        s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
+        if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
+            # A hole the trace did not get past (more in a row than it passes: wrt.hidden_hits.intersect_visible) ends
+            # the path, as it blocks a shadow ray.
+            radiance[i] = L
+            alive[i] = 0
+            return
+        if h.front == 1 or surf.double_sided[prim] == 1:
+            e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
+            emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, wp.vec3(0.0), g_prev)
+            L += wp.cw_mul(T, emitted)
+        if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
+            lobes = lobe_albedos(s, mats.ggx_albedo, wp.max(wp.dot(h.ns, -d), 0.0))
+            diffuse, specular = dome_albedos(s, lobes)
+            scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
+            ambient = wp.cw_mul(diffuse * scale[0], dome_irradiance(lights, h.ns))
+            if lights.dome_textured == 1 and has_glossy_lobe(s) and opaque_fraction(s) > 0.0:
+                glossy, state = glossy_dome(lights, scene, surf, mats, s, lobes, h, -d, rng[i])
+                rng[i] = state
+                ambient += glossy * scale[1]
+            else:
+                # A constant dome: its irradiance about the mirror direction is its radiance, times the lobes' albedo.
+                ambient += wp.cw_mul(specular * scale[1], dome_irradiance(lights, reflect(-d, h.ns)))
+            L += wp.cw_mul(T, ambient) * opaque_fraction(s)
         radiance[i] = L
-        alive[i] = 0
-        return
-    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
-    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
-    if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        # A hole the trace did not get past (more in a row than it passes: wrt.hidden_hits.intersect_visible) ends the
-        # path, as it blocks a shadow ray.
-        radiance[i] = L
-        alive[i] = 0
-        return
-    if h.front == 1 or surf.double_sided[prim] == 1:
-        e = hit_emitter(lights, surf.emitters[prim], prim, hit_instance[i])
-        emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, wp.vec3(0.0), g_prev)
-        L += wp.cw_mul(T, emitted)
-    if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
-        lobes = lobe_albedos(s, mats.ggx_albedo, wp.max(wp.dot(h.ns, -d), 0.0))
-        diffuse, specular = dome_albedos(s, lobes)
-        scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
-        ambient = wp.cw_mul(diffuse * scale[0], dome_irradiance(lights, h.ns))
-        if lights.dome_textured == 1 and has_glossy_lobe(s) and opaque_fraction(s) > 0.0:
-            glossy, state = glossy_dome(lights, scene, surf, mats, s, lobes, h, -d, rng[i])
-            rng[i] = state
-            ambient += glossy * scale[1]
-        else:
-            # A constant dome: its irradiance about the mirror direction is its radiance, times the lobes' albedo.
-            ambient += wp.cw_mul(specular * scale[1], dome_irradiance(lights, reflect(-d, h.ns)))
-        L += wp.cw_mul(T, ambient) * opaque_fraction(s)
-    radiance[i] = L
+
+    return shade_whitted_kernel
 
 
-@wp.kernel
-def whitted_lights_kernel(
-    scene: DeviceScene,
-    surf: DeviceSurfaces,
-    mats: DeviceMaterials,
-    lights: DeviceLights,
-    groups: wp.array[wp.vec2i],
-    first_group: int,
-    num_groups: int,
-    emitter_candidates: int,
-    offset: int,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    hit_t: wp.array[float],
-    hit_u: wp.array[float],
-    hit_v: wp.array[float],
-    hit_prim: wp.array[wp.int32],
-    hit_instance: wp.array[wp.int32],
-    throughput: wp.array[wp.vec3],
-    alive: wp.array[wp.int32],
-    views: wp.array[wp.int32],
-    # outputs
-    rng: wp.array[wp.uint32],
-    shadow_origins: wp.array[wp.vec3],
-    shadow_dirs: wp.array[wp.vec3],
-    shadow_t_maxs: wp.array[float],
-    shadow_lights: wp.array[wp.int32],
-    shadow_any_hit_t_maxs: wp.array[float],
-    contribution: wp.array[wp.vec3],
-):
-    """Direct light of path ``offset + tid`` from light groups ``[first_group, first_group + num_groups)`` of
-    ``groups`` (each ``(first, count)``: lights ``[first, first + count)``; when ``count > 1`` the emissive
-    triangles, one of them kept of ``emitter_candidates`` drawn by power: :mod:`wrt.emitter_resampling`), in group
-    order: each one's contribution if unoccluded and the shadow ray that decides it, at ``j * n + i`` for the
-    ``j``-th group of path ``i`` (``n`` paths); none from a light not linked to the surface.
-    The random numbers are drawn group after group, as one launch per group drew them."""
-    i = wp.tid() + offset
-    n = origins.shape[0]
-    for j in range(num_groups):
-        # unless aimed below
-        clear_shadow_ray(j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights, shadow_any_hit_t_maxs)
-        contribution[j * n + i] = wp.vec3(0.0)
-    if alive[i] == 0:
-        return
-    o = origins[i]
-    d = directions[i]
-    prim = hit_prim[i]
-    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
-    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
-    group = link_group(lights.links, prim, hit_instance[i])
-    wo = -d
-    lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
-    state = rng[i]
-    for j in range(num_groups):
-        g = groups[first_group + j]
-        first = g[0]
-        count = g[1]
-        u_pick, state = rand01(state)
-        u1, state = rand01(state)
-        u2, state = rand01(state)
-        k = first
-        p_pick = float(1.0)
-        if count > 1:  # the emissive triangles: one kept of candidates drawn by power (wrt.emitter_resampling)
-            k, p_pick, state = resample_emitter(lights, scene, surf.double_sided, first, count, emitter_candidates,
-                                                group, h.p, h.ns, s, mats.ggx_albedo, lobes, h.ng, wo, state)
-        ls = sample_light_in_view(
-            lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
-        )
-        if max_component(ls.value) > 0.0 and p_pick > 0.0 and lit_by(lights.links, group, k):
-            f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
-            f = lit_bsdf(lights, k, f_d, f_s)
-            if max_component(f) > 0.0:
-                # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
-                cos_i = wp.abs(wp.dot(h.ns, ls.wi))
-                contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-                # u_pick (unused by a group of one light), or a number of its own for a fading shadow (shadow_fades).
-                u_reach = u_pick
-                if count > 1 and shadow_fades(lights, k):
-                    u_reach, state = rand01(state)
-                aim_shadow_ray(lights, k, h, ls, u_reach, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
-                               shadow_lights, shadow_any_hit_t_maxs)
-    rng[i] = state
+@functools.cache
+def whitted_lights_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """Whitted's direct-light kernel for scenes whose lights need ``features``, in a Warp module of its own (see
+    :func:`wrt.integrators.path.shade_path_kernel_for`)."""
+    sample_light_in_view = sample_light_in_view_for(features)
+
+    @wp.kernel(name="whitted_lights_kernel", module="unique", module_options=MODULE_OPTIONS)
+    def whitted_lights_kernel(
+        scene: DeviceScene,
+        surf: DeviceSurfaces,
+        mats: DeviceMaterials,
+        lights: DeviceLights,
+        groups: wp.array[wp.vec2i],
+        first_group: int,
+        num_groups: int,
+        emitter_candidates: int,
+        offset: int,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        hit_t: wp.array[float],
+        hit_u: wp.array[float],
+        hit_v: wp.array[float],
+        hit_prim: wp.array[wp.int32],
+        hit_instance: wp.array[wp.int32],
+        throughput: wp.array[wp.vec3],
+        alive: wp.array[wp.int32],
+        views: wp.array[wp.int32],
+        # outputs
+        rng: wp.array[wp.uint32],
+        shadow_origins: wp.array[wp.vec3],
+        shadow_dirs: wp.array[wp.vec3],
+        shadow_t_maxs: wp.array[float],
+        shadow_lights: wp.array[wp.int32],
+        shadow_any_hit_t_maxs: wp.array[float],
+        contribution: wp.array[wp.vec3],
+    ):
+        """Direct light of path ``offset + tid`` from light groups ``[first_group, first_group + num_groups)`` of
+        ``groups`` (each ``(first, count)``: lights ``[first, first + count)``; when ``count > 1`` the emissive
+        triangles, one of them kept of ``emitter_candidates`` drawn by power: :mod:`wrt.emitter_resampling`), in group
+        order: each one's contribution if unoccluded and the shadow ray that decides it, at ``j * n + i`` for the
+        ``j``-th group of path ``i`` (``n`` paths); none from a light not linked to the surface.
+        The random numbers are drawn group after group, as one launch per group drew them."""
+        i = wp.tid() + offset
+        n = origins.shape[0]
+        for j in range(num_groups):
+            # unless aimed below
+            clear_shadow_ray(j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights,
+                             shadow_any_hit_t_maxs)
+            contribution[j * n + i] = wp.vec3(0.0)
+        if alive[i] == 0:
+            return
+        o = origins[i]
+        d = directions[i]
+        prim = hit_prim[i]
+        h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
+        s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
+        group = link_group(lights.links, prim, hit_instance[i])
+        wo = -d
+        lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
+        state = rng[i]
+        for j in range(num_groups):
+            g = groups[first_group + j]
+            first = g[0]
+            count = g[1]
+            u_pick, state = rand01(state)
+            u1, state = rand01(state)
+            u2, state = rand01(state)
+            k = first
+            p_pick = float(1.0)
+            if count > 1:  # the emissive triangles: one kept of candidates drawn by power (wrt.emitter_resampling)
+                k, p_pick, state = resample_emitter(lights, scene, surf.double_sided, first, count, emitter_candidates,
+                                                    group, h.p, h.ns, s, mats.ggx_albedo, lobes, h.ng, wo, state)
+            ls = sample_light_in_view(
+                lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
+            )
+            if max_component(ls.value) > 0.0 and p_pick > 0.0 and lit_by(lights.links, group, k):
+                f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+                f = lit_bsdf(lights, k, f_d, f_s)
+                if max_component(f) > 0.0:
+                    # f is 0 below the shading or geometric horizon (eval_opaque), so |cos| is max(cos, 0) here.
+                    cos_i = wp.abs(wp.dot(h.ns, ls.wi))
+                    contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
+                    # u_pick (unused by a group of one light), or a number of its own for a fading shadow
+                    # (shadow_fades).
+                    u_reach = u_pick
+                    if count > 1 and shadow_fades(lights, k):
+                        u_reach, state = rand01(state)
+                    aim_shadow_ray(lights, k, h, ls, u_reach, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
+                                   shadow_lights, shadow_any_hit_t_maxs)
+        rng[i] = state
+
+    return whitted_lights_kernel
 
 
 @wp.kernel

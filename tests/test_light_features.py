@@ -1,0 +1,64 @@
+"""The shading kernels' variants per light features (wrt.light_features): which variant a scene's lights need, and
+that a kept Renderer whose scene gains a kind of light launches a variant that draws it. (That the variants leave
+out their features' code: ``test_inlined_copies.py``.)"""
+
+import warnings
+
+import numpy as np
+import pytest
+from test_glowing_spheres import PATCH, RES, closed_form, floor_mesh, materials, sphere_shape
+
+import wrt
+from wrt import light_sampling
+from wrt.light_features import ALL_FEATURES, NO_FEATURES, SHAPE_LIGHT_KINDS, LightFeatures
+from wrt.light_shaping import Shaping
+from wrt.lights import CylinderLight, RectLight, SphereLight
+
+
+def test_the_shape_light_kinds_are_the_device_codes():
+    codes = (light_sampling.LIGHT_CYLINDER, light_sampling.LIGHT_ELLIPSOID, light_sampling.LIGHT_ELLIPTIC_TUBE,
+             light_sampling.LIGHT_LINE)
+    assert SHAPE_LIGHT_KINDS == tuple(int(c) for c in codes)
+
+
+WHITE = np.ones(3, np.float32)
+ABOVE = np.array([0.0, 0.0, 2.0])
+UP = np.eye(4)  # (a rect light and a cylinder light at the origin: where they are does not matter here)
+SPOT = SphereLight(ABOVE, 0.1, WHITE, path="/Spot", shaping=Shaping(cone_angle=30.0))
+
+
+def features_of(lights=(), shapes=()) -> LightFeatures:
+    """The features a Renderer picks for a floor lit by ``lights`` and glowing ``shapes`` (none: the default
+    lights)."""
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=list(shapes), lights=list(lights), materials=materials())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return wrt.Renderer(scene, width=4, height=4, integrator="whitted")._light_features
+
+
+@pytest.mark.parametrize("lights, shapes, expected", [
+    ((), (), NO_FEATURES),  # the default lights
+    ((RectLight(UP, 1.0, 1.0, WHITE, path="/Rect"),), (), NO_FEATURES),
+    ((SphereLight(ABOVE, 0.1, WHITE, path="/Ball"),), (), NO_FEATURES),
+    ((CylinderLight(UP, 1.0, 0.1, WHITE, path="/Tube"),), (), LightFeatures(shape_lights=True, shaping=False)),
+    ((), (sphere_shape((0, 0, 1), 0.2),), LightFeatures(shape_lights=True, shaping=False)),
+    ((SPOT,), (), LightFeatures(shape_lights=False, shaping=True)),
+    ((SPOT,), (sphere_shape((0, 0, 1), 0.2),), ALL_FEATURES),
+], ids=["default", "rect", "sphere", "cylinder", "glowing-sphere", "shaped", "both"])
+def test_a_renderer_picks_the_features_its_lights_need(lights, shapes, expected):
+    assert features_of(lights, shapes) == expected
+
+
+def test_a_kept_renderer_draws_a_glowing_sphere_added_after_its_first_render():
+    """The scene is first lit by the default lights (no feature), then a glowing sphere is added: whitted lights the
+    floor by sampling it, which a variant without shape lights would not (the floor stayed black), so the floor
+    matches the closed form of a uniform spherical emitter."""
+    scene = wrt.Scene(meshes=[floor_mesh()], materials=materials())
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.05), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
+    renderer = wrt.Renderer(scene, camera=cam, width=RES, height=RES, integrator="whitted")
+    renderer.render(spp=1, seed=3)
+    centre, r = (0.2, -0.1, 1.0), 0.2
+    scene.shapes.append(sphere_shape(centre, r))
+    rendered = renderer.render(spp=256, seed=3).rgb.mean(axis=-1)
+    expected = closed_form([(centre, r)])
+    assert np.abs(rendered / expected - 1).max() < 0.06, rendered / expected
