@@ -67,15 +67,45 @@ def render_all(cases: dict, device) -> dict:
     return {name: wrt.render(scene, device=device, integrator="path", **kw) for name, (scene, kw) in cases.items()}
 
 
-def contract_like_nvcc(modules) -> list:
-    """Compiles ``modules`` (those with ``fuse_fp`` on) for the CPU with contraction across statements."""
+def variant_modules() -> list:
+    """The Warp modules of every variant of the shading kernels built per light features (wrt.light_features), each
+    a module of its own that no module name reaches."""
+    from itertools import product
+
+    from wrt.integrators.path import shade_path_kernel_for
+    from wrt.integrators.whitted import shade_whitted_kernel_for, whitted_lights_kernel_for
+    from wrt.light_features import LightFeatures
+
+    return [factory(LightFeatures(shape_lights=shapes, shaping=shaping)).module
+            for shapes, shaping in product((False, True), repeat=2)
+            for factory in (shade_path_kernel_for, shade_whitted_kernel_for, whitted_lights_kernel_for)]
+
+
+def modules_of(names) -> list:
+    """The Warp modules named ``names``, with the shading kernels' variants where an integrator's module is named."""
+    modules = []
+    for name in names:
+        importlib.import_module(name)
+        modules.append(wp.get_module(name))
+    if any(name.startswith("wrt.integrators.") for name in names):
+        modules += variant_modules()
+    return modules
+
+
+def set_options(module, options: dict) -> None:
+    """``wp.set_module_options`` for a module object (a variant's has no name to pass)."""
+    module.options.update(options)
+    module.mark_modified()
+
+
+def contract_like_nvcc(names) -> list:
+    """Compiles the modules of ``names`` (those with ``fuse_fp`` on) for the CPU with contraction across statements."""
     flags = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
     changed = []
-    for name in modules:
-        importlib.import_module(name)
-        if wp.get_module_options(name)["fuse_fp"]:
-            wp.set_module_options({"cpu_compiler_flags": flags}, module=name)
-            changed.append(name)
+    for module in modules_of(names):
+        if module.options["fuse_fp"]:
+            set_options(module, {"cpu_compiler_flags": flags})
+            changed.append(module.name)
     return changed
 
 
@@ -103,9 +133,8 @@ def main():
     wp.config.quiet = True
     cases = scenes()
     if args.fused:
-        for name in TRACE_MODULES + SHADE_MODULES:
-            importlib.import_module(name)
-            wp.set_module_options({"fuse_fp": True}, module=name)
+        for module in modules_of(TRACE_MODULES + SHADE_MODULES):
+            set_options(module, {"fuse_fp": True})
     start = time.perf_counter()
     ref = render_all(cases, "cpu")
     if args.emulate:
