@@ -17,7 +17,8 @@ builder's parallel splitter, which the ``sah`` build launches on CUDA only.
         [--set optimization_level=2] [--keep DIR] [--trace N]
 
 The integrators' shading kernels are built per :class:`wrt.light_features.LightFeatures` (the kinds of light a scene
-has), each in a module of its own; ``--features`` names the variants to compile: ``all`` (every feature: any scene),
+has), an integrator's kernels for one set of features in a module of their own (``wrt.integrators.path.no_features``,
+...); ``--features`` names the variants to compile: ``all`` (every feature: any scene),
 ``none`` (the default room's: a sun and a dome) or features joined by ``+`` (``shape_lights+shaping``); ``""``
 compiles none.
 
@@ -55,11 +56,15 @@ MODULES = (
     "wrt.integrators.whitted",
 )
 
-# The factories of the kernels built per light features (wrt.light_features), as "module:factory".
+# The factories of the kernels built per light features (wrt.light_features), as "module:factory": each integrator's
+# kernels for one set of features share a module (wrt.integrators.path.features_module).
 VARIANT_FACTORIES = (
     "wrt.integrators.path:shade_path_kernel_for",
+    "wrt.integrators.path:add_unoccluded_kernel_for",
     "wrt.integrators.whitted:shade_whitted_kernel_for",
     "wrt.integrators.whitted:whitted_lights_kernel_for",
+    "wrt.integrators.whitted:continue_whitted_kernel_for",
+    "wrt.integrators.whitted:add_unoccluded_lights_kernel_for",
 )
 
 
@@ -73,15 +78,16 @@ def parse_features(spec: str):
 
 
 def variant_modules(specs: str) -> list:
-    """``(label, module)`` of the variant kernels' modules for each comma-separated spec of ``specs``."""
-    out = []
+    """``(name, module)`` of the modules of the kernels built per light features, for each comma-separated spec of
+    ``specs``, every kernel of a module made before it is compiled."""
+    out = {}
     for spec in filter(None, specs.split(",")):
         features = parse_features(spec)
         for entry in VARIANT_FACTORIES:
             module_name, factory = entry.split(":")
-            kernel = getattr(importlib.import_module(module_name), factory)(features)
-            out.append((f"{kernel.key}[{spec}]", kernel.module))
-    return out
+            module = getattr(importlib.import_module(module_name), factory)(features).module
+            out[module.name] = module
+    return list(out.items())
 
 
 @wp.kernel

@@ -5,8 +5,9 @@ NVRTC inlines every device function into the kernel that calls it, so the path k
 kind of light whether a scene had one or not (87 s on an H100 host, ``benchmarks/GPU_NOTES.md`` row 90). The light
 functions whose size sets that time are built per :class:`LightFeatures` (``..._for(features)`` in
 :mod:`wrt.light_sampling`, :mod:`wrt.integrators.emitters`, ``path`` and ``whitted``), their branches for a feature
-left out dropped by ``wp.static``, each variant's kernels in a Warp module of their own; the Renderer launches the
-variant of :func:`light_features` of the lights it uploaded. A variant meets lights of a kind it lacks only if its key
+left out dropped by ``wp.static``, an integrator's kernels for one set of features in a Warp module of their own
+(:func:`wrt.integrators.path.features_module`); the Renderer launches the variant of :func:`light_features` of the
+lights it uploaded. A variant meets lights of a kind it lacks only if its key
 was stale: it then draws nothing from them (no wrong memory reads), as a light it does not have.
 """
 

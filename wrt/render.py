@@ -36,14 +36,11 @@ from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
-from .integrators.path import add_unoccluded_kernel, shade_path_kernel_for
+from .integrators.path import path_kernels
 from .integrators.whitted import (
     ShadowRays,
-    add_unoccluded_lights_kernel,
-    continue_whitted_kernel,
     lights_per_batch,
-    shade_whitted_kernel_for,
-    whitted_lights_kernel_for,
+    whitted_kernels,
 )
 from .light_features import light_features
 from .light_sampling import LIGHT_DOME
@@ -1618,7 +1615,7 @@ class Renderer:
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)
-        launch_per_path(add_unoccluded_kernel, w.n,
+        launch_per_path(path_kernels(self._light_features).add_unoccluded, w.n,
                         [self.device_lights, w.nee, w.shadow_t_maxs, w.blocked, w.shadow_lights], [w.radiance],
                         self.device)
 
@@ -1635,7 +1632,7 @@ class Renderer:
             self._intersect(w, aovs, camera_rays=bounce == 0)
             h = w.hits
             launch_per_path(
-                shade_path_kernel_for(self._light_features),
+                path_kernels(self._light_features).shade,
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.diffuse_share]
@@ -1654,7 +1651,7 @@ class Renderer:
             h = w.hits
             hit = [h.t, h.u, h.v, h.prim, h.instance]
             launch_per_path(
-                shade_whitted_kernel_for(self._light_features),
+                whitted_kernels(self._light_features).shade,
                 w.n,
                 [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.t_maxs, w.throughput,
                  w.link_groups],
@@ -1663,7 +1660,7 @@ class Renderer:
             )
             self._light_whitted(w, hit)
             launch_per_path(
-                continue_whitted_kernel,
+                whitted_kernels(self._light_features).continue_paths,
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, *hit],
                 [*w.rays, w.rng, w.throughput, w.alive, w.link_groups],
@@ -1682,7 +1679,8 @@ class Renderer:
         threads = resolve_threads(None, self.device)
         common = [self.device_scene, self.surfaces, self.materials, self.device_lights, self._whitted_group_array]
         candidates = emitter_resampling.EMITTER_CANDIDATES  # read at each render, so a test can compare with 1
-        whitted_lights_kernel = whitted_lights_kernel_for(self._light_features)
+        whitted_lights_kernel = whitted_kernels(self._light_features).lights
+        add_unoccluded_lights_kernel = whitted_kernels(self._light_features).add_unoccluded
         for start in range(0, groups, per):
             count = min(per, groups - start)
             batch = shadows.head(count * w.n)

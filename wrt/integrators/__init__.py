@@ -7,7 +7,8 @@
 
 :mod:`.emitters` holds the radiance that rays pick up from lights, shared by the path and whitted integrators.
 The path and whitted kernels that draw lights are made per :class:`wrt.light_features.LightFeatures` (the kinds of
-light a scene has), each in a Warp module of its own, so that a first render compiles only the draws it needs.
+light a scene has), an integrator's kernels for one set of features in a Warp module of their own, so that a first
+render compiles only the draws it needs.
 """
 
 INTEGRATORS = ("whitted", "path", "ao", "normals", "depth", "albedo")  # names accepted by integrator=

@@ -19,7 +19,9 @@ MIS-weighted by their pdf from that point, as next-event estimation weights them
 (:func:`wrt.hidden_hits.occluded_through_holes`).
 """
 
+import dataclasses
 import functools
+from typing import NamedTuple
 
 import warp as wp
 
@@ -62,7 +64,7 @@ from .emitters import (
 )
 
 # device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
-# (and of the kernels made per light features, each in a module of its own)
+# (and of the modules of the kernels made per light features: features_module)
 MODULE_OPTIONS = {"fuse_fp": False, "enable_backward": False, "cpu_compiler_flags": SHADING_CPU_FLAGS}
 wp.set_module_options(MODULE_OPTIONS)
 
@@ -136,14 +138,26 @@ def aim_shadow_ray(
 
 
 @functools.cache
+def features_module(integrator: str, features: LightFeatures):
+    """The Warp module of integrator module ``integrator``'s kernels for scenes whose lights need ``features``
+    (``wrt.integrators.path.shape_lights``, ...): a first render compiles the draws of the lights it has, not of every
+    kind (``benchmarks/cuda_compile_time.py``). One module per integrator and features, all the integrator's kernels
+    in it, so a render loads as many modules as before the variants: a module per kernel cost a cold CPU render
+    about 1.5 s of compile per module, more than the CPU saved on the draws left out."""
+    flags = [name for name, on in dataclasses.asdict(features).items() if on]
+    module = wp.get_module(f"{integrator}.{'_'.join(flags) or 'no_features'}")
+    module.options.update(MODULE_OPTIONS)
+    return module
+
+
+@functools.cache
 def shade_path_kernel_for(features: LightFeatures) -> wp.Kernel:
     """The path bounce kernel for scenes whose lights need ``features`` (:func:`wrt.light_features.light_features`;
-    ``ALL_FEATURES`` serves any scene), in a Warp module of its own: a first render compiles the draws of the lights
-    it has, not of every kind (``benchmarks/cuda_compile_time.py``)."""
+    ``ALL_FEATURES`` serves any scene), in :func:`features_module`."""
     lights_on_segment = lights_on_segment_for(features)
     sample_light_in_view = sample_light_in_view_for(features)
 
-    @wp.kernel(name="shade_path_kernel", module="unique", module_options=MODULE_OPTIONS)
+    @wp.kernel(name="shade_path_kernel", module=features_module(__name__, features))
     def shade_path_kernel(
         scene: DeviceScene,
         surf: DeviceSurfaces,
@@ -339,4 +353,26 @@ def add_unoccluded_kernel(
             radiance[i] = radiance[i] + wp.cw_mul(contribution[i], shadow_tint(lights, shadow_lights[i]))
 
 
-__all__ = ["add_unoccluded_kernel", "mis_weight", "shade_path_kernel_for"]
+@functools.cache
+def add_unoccluded_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """:func:`add_unoccluded_kernel` in the module of :func:`shade_path_kernel_for` ``(features)``, so that a path
+    render loads that one module (the kernel itself reads no light draw)."""
+    return wp.kernel(add_unoccluded_kernel.func, module=features_module(__name__, features))
+
+
+class PathKernels(NamedTuple):
+    """The kernels of a path render for one set of light features (:func:`path_kernels`)."""
+
+    shade: wp.Kernel  # shade_path_kernel_for(features)
+    add_unoccluded: wp.Kernel  # add_unoccluded_kernel_for(features)
+
+
+@functools.cache
+def path_kernels(features: LightFeatures) -> PathKernels:
+    """Every kernel of a path render for ``features``, made together before any is launched: a kernel added to a
+    module after it was loaded makes Warp build the module again (made one at a time, whitted's module was compiled
+    three times in a cold render)."""
+    return PathKernels(shade_path_kernel_for(features), add_unoccluded_kernel_for(features))
+
+
+__all__ = ["PathKernels", "add_unoccluded_kernel_for", "mis_weight", "path_kernels", "shade_path_kernel_for"]

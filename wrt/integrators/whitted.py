@@ -18,6 +18,7 @@ bounces.
 """
 
 import functools
+from typing import NamedTuple
 
 import warp as wp
 
@@ -60,10 +61,10 @@ from ..sampling import luminance, max_component, power_heuristic, rand01
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment_for, surface_emission
-from .path import MODULE_OPTIONS, aim_shadow_ray, clear_shadow_ray
+from .path import MODULE_OPTIONS, aim_shadow_ray, clear_shadow_ray, features_module
 
 # device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
-# (and of the kernels made per light features, each in a module of its own: path.MODULE_OPTIONS)
+# (and of the modules of the kernels made per light features: path.features_module)
 wp.set_module_options(MODULE_OPTIONS)
 
 
@@ -178,11 +179,11 @@ def glossy_dome(
 
 @functools.cache
 def shade_whitted_kernel_for(features: LightFeatures) -> wp.Kernel:
-    """Whitted's emission and dome kernel for scenes whose lights need ``features``, in a Warp module of its own (see
-    :func:`wrt.integrators.path.shade_path_kernel_for`)."""
+    """Whitted's emission and dome kernel for scenes whose lights need ``features``, in the module of whitted's
+    kernels for them (:func:`wrt.integrators.path.features_module`)."""
     lights_on_segment = lights_on_segment_for(features)
 
-    @wp.kernel(name="shade_whitted_kernel", module="unique", module_options=MODULE_OPTIONS)
+    @wp.kernel(name="shade_whitted_kernel", module=features_module(__name__, features))
     def shade_whitted_kernel(
         scene: DeviceScene,
         surf: DeviceSurfaces,
@@ -263,11 +264,11 @@ def shade_whitted_kernel_for(features: LightFeatures) -> wp.Kernel:
 
 @functools.cache
 def whitted_lights_kernel_for(features: LightFeatures) -> wp.Kernel:
-    """Whitted's direct-light kernel for scenes whose lights need ``features``, in a Warp module of its own (see
-    :func:`wrt.integrators.path.shade_path_kernel_for`)."""
+    """Whitted's direct-light kernel for scenes whose lights need ``features``, in the module of whitted's kernels
+    for them (:func:`wrt.integrators.path.features_module`)."""
     sample_light_in_view = sample_light_in_view_for(features)
 
-    @wp.kernel(name="whitted_lights_kernel", module="unique", module_options=MODULE_OPTIONS)
+    @wp.kernel(name="whitted_lights_kernel", module=features_module(__name__, features))
     def whitted_lights_kernel(
         scene: DeviceScene,
         surf: DeviceSurfaces,
@@ -520,3 +521,34 @@ class ShadowRays:
         """Where the kernel that aims the rays writes the end of each one's any-hit query
         (:func:`wrt.hidden_hits.any_hit_t_max`): the scratch's ``t_maxs``, free until the rays are traced."""
         return self.scratch.t_maxs
+
+
+@functools.cache
+def continue_whitted_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """:func:`continue_whitted_kernel` in the module of whitted's kernels for ``features``, so that a whitted render
+    loads that one module (the kernel itself reads no light draw)."""
+    return wp.kernel(continue_whitted_kernel.func, module=features_module(__name__, features))
+
+
+@functools.cache
+def add_unoccluded_lights_kernel_for(features: LightFeatures) -> wp.Kernel:
+    """:func:`add_unoccluded_lights_kernel` in the module of whitted's kernels for ``features`` (as
+    :func:`continue_whitted_kernel_for`)."""
+    return wp.kernel(add_unoccluded_lights_kernel.func, module=features_module(__name__, features))
+
+
+class WhittedKernels(NamedTuple):
+    """The kernels of a whitted render for one set of light features (:func:`whitted_kernels`)."""
+
+    shade: wp.Kernel  # shade_whitted_kernel_for(features)
+    lights: wp.Kernel  # whitted_lights_kernel_for(features)
+    continue_paths: wp.Kernel  # continue_whitted_kernel_for(features)
+    add_unoccluded: wp.Kernel  # add_unoccluded_lights_kernel_for(features)
+
+
+@functools.cache
+def whitted_kernels(features: LightFeatures) -> WhittedKernels:
+    """Every kernel of a whitted render for ``features``, made together before any is launched (see
+    :func:`wrt.integrators.path.path_kernels`)."""
+    return WhittedKernels(shade_whitted_kernel_for(features), whitted_lights_kernel_for(features),
+                          continue_whitted_kernel_for(features), add_unoccluded_lights_kernel_for(features))
