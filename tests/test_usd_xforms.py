@@ -673,3 +673,58 @@ def test_a_transform_whose_last_column_is_a_weight_places_prims_as_usd_transform
     (light,) = scene.lights
     light_world = cache.GetLocalToWorldTransform(stage.GetPrimAtPath("/H/L"))
     np.testing.assert_allclose(light.position, light_world.Transform(Gf.Vec3d(0, 0, 0)))
+
+
+CLIP_MANIFEST = """#usda 1.0
+over "Rig"
+{
+    over "Arm"
+    {
+        double3 xformOp:translate
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("manifest", [False, True])
+@pytest.mark.parametrize("where", ["clips on the animated prim's parent", "clips on a referenced asset's root"])
+def test_ops_given_only_by_value_clips_are_read_at_their_first_sample_with_the_default_time(tmp_path, manifest, where):
+    """With ``time=None`` an op whose only values are the time samples of value clips is read at its first sample
+    (USD's ``EarliestTime``), as an op with samples of its own is, fresh and through a kept stage alike. With a clip
+    manifest (``manifestAssetPath``), USD opens no clip before a value is read, so no layer the stage used held a time
+    sample: the 'still stage' shortcut took every op at its default, the identity, and the arm sat at the origin; a
+    stage whose clips USD had opened for a generated manifest read (0, 3, 0)."""
+    from wrt.usd_frames import StageFrames
+
+    (tmp_path / "clip.usda").write_text('#usda 1.0\nover "Rig"\n{\n    over "Arm"\n    {\n        double3 '
+                                        'xformOp:translate.timeSamples = { 0: (0, 3, 0), 10: (0, 5, 0) }\n    }\n}\n')
+    (tmp_path / "manifest.usda").write_text(CLIP_MANIFEST)
+    clips = ('    clips = { dictionary default = { asset[] assetPaths = [@./clip.usda@]\n'
+             '        double2[] active = [(0, 0)]\n        double2[] times = [(0, 0), (10, 10)]\n'
+             + ('        asset manifestAssetPath = @./manifest.usda@\n' if manifest else '')
+             + '        string primPath = "/Rig" } }\n')
+    rig = ('def Xform "Rig" (\n' + clips + ')\n{\n    def Xform "Arm"\n    {\n        double3 xformOp:translate\n'
+           '        uniform token[] xformOpOrder = ["xformOp:translate"]\n        def Mesh "Tri"\n        {\n'
+           '            int[] faceVertexCounts = [3]\n            int[] faceVertexIndices = [0, 1, 2]\n'
+           '            point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0)]\n        }\n    }\n}\n')
+    if where == "clips on the animated prim's parent":
+        (tmp_path / "stage.usda").write_text("#usda 1.0\n" + rig)
+        mesh_path = "/Rig/Arm/Tri"
+    else:  # the asset's root authors the clips, which reach the stage through the reference
+        (tmp_path / "asset.usda").write_text('#usda 1.0\n(\n    defaultPrim = "Rig"\n)\n' + rig)
+        (tmp_path / "stage.usda").write_text('#usda 1.0\ndef Xform "Shot"\n{\n    def "Rig" (\n        references = '
+                                             '@./asset.usda@\n    )\n    {\n    }\n}\n')
+        mesh_path = "/Shot/Rig/Arm/Tri"
+    path = str(tmp_path / "stage.usda")
+    stage = Usd.Stage.Open(path)
+    expected = np.array(UsdGeom.XformCache(Usd.TimeCode.EarliestTime()).GetLocalToWorldTransform(
+        stage.GetPrimAtPath(mesh_path)))
+    assert expected[3, 1] == 3.0  # the clip's first sample places it
+    points = np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0)], np.float64) @ expected[:3, :3] + expected[3, :3]
+    del stage
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scenes = [wrt.load_usd(path), StageFrames(path).load(None)]
+    for scene in scenes:
+        drawn, indices = scene.triangles()
+        np.testing.assert_allclose(drawn[indices[0]], points, atol=1e-6)

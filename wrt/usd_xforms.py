@@ -127,10 +127,13 @@ class Xforms:
         # No layer of the stage holds a time sample (a still robot fleet): every op reads its default, asked once for
         # the stage (in C++, and without the stage time queries that hang usd-core at timeCodesPerSecond = 0) rather
         # than op by op for each prim, but for the scalar ops that hold a spline (ListAllTimeSamples lists no knots).
-        # At other times than the default the cache reads every op as wrt does.
+        # At other times than the default the cache reads every op as wrt does. Value clips are no used layer until
+        # USD reads a value of theirs (with a manifest, it opens none before): below a prim that authors clips the ops
+        # are asked all the same (_under_clips), or an op whose only samples are the clips' read as the identity.
         self._still = not time.IsDefault() or (
             stage is not None and not any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers()))
         self._by_op = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor is read op by op
+        self._clipped = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor authors value clips
         self._world = {}  # prim path -> row-vector local-to-world Gf.Matrix4d, for prims where _by_op is True
 
     def _op_time(self, attr: Usd.Attribute) -> Usd.TimeCode:
@@ -237,12 +240,27 @@ class Xforms:
                 return True
             if op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(attr)):
                 return True
-            if not at_default or (self._still and not (HAS_SPLINES and op.GetOpType() in SCALAR_OPS
-                                                       and attr.HasSpline())):
+            if not at_default or (self._still and not self._under_clips(prim) and
+                                  not (HAS_SPLINES and op.GetOpType() in SCALAR_OPS and attr.HasSpline())):
                 continue
             if not read_time(attr, DEFAULT).IsDefault():
                 return True
         return False
+
+    def _under_clips(self, prim: Usd.Prim) -> bool:
+        """Whether ``prim`` or an ancestor authors value clips (memoised, walked without recursion), whose time
+        samples are in no layer of ``GetUsedLayers`` until USD opens the clips to read a value."""
+        chain = []
+        p = prim
+        found = self._clipped.get(p.GetPath())
+        while found is None:
+            chain.append(p)
+            p = p.GetParent()
+            found = self._clipped.get(p.GetPath())
+        for q in reversed(chain):
+            found = found or q.HasAuthoredMetadata("clips")
+            self._clipped[q.GetPath()] = found
+        return found
 
     def _resolved_by_op(self, prim: Usd.Prim) -> bool:
         """Whether ``prim`` or an ancestor is resolved op by op (memoised, walked without recursion: hierarchies can be
