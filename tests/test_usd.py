@@ -1834,3 +1834,34 @@ def Mesh "M"
         else:
             np.testing.assert_array_equal(mesh.colors[0], np.tile(np.array(color, np.float32), (3, 1)))
             np.testing.assert_array_equal(mesh.opacities[0], np.full(3, opacity[0], np.float32))
+
+
+@pytest.mark.parametrize("time", [None, 1.5])
+def test_a_shutter_interval_on_a_stage_moved_by_value_clips_is_warned_of_as_no_motion_blur(tmp_path, time):
+    """A stage whose motion comes from value clips with a ``manifestAssetPath`` moves as one with time samples of its
+    own (USD's ``Get`` reads the clip's samples), so a camera with a shutter interval is named as for it. USD opens no
+    such clip before a value of its is read, so where the camera was read before the moving prim, no layer the stage
+    used held a time sample yet, and the interval was passed over without a word."""
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "clip.usda").write_text('#usda 1.0\nover "Moving"\n{\n    double3 xformOp:translate.timeSamples = '
+                                        '{ 1: (0, 0, 0), 2: (1, 0, 0) }\n}\n')
+    (tmp_path / "manifest.usda").write_text('#usda 1.0\nover "Moving"\n{\n    double3 xformOp:translate\n}\n')
+    path = write_usda(tmp_path, 'def Camera "Cam"\n{\n    double shutter:open = 0\n    double shutter:close = 0.5\n}\n'
+                      'def Xform "Moving" (\n    clips = { dictionary default = {\n'
+                      '        asset[] assetPaths = [@./clip.usda@]\n        double2[] active = [(1, 0)]\n'
+                      '        double2[] times = [(1, 1), (2, 2)]\n'
+                      '        asset manifestAssetPath = @./manifest.usda@\n        string primPath = "/Moving" } }\n'
+                      ')\n{\n    double3 xformOp:translate\n'
+                      '    uniform token[] xformOpOrder = ["xformOp:translate"]\n' + mesh_usda().replace("\n", "\n    ")
+                      + '\n}\n')
+    stage = Usd.Stage.Open(path)
+    moved = UsdGeom.XformCache(2.0).GetLocalToWorldTransform(stage.GetPrimAtPath("/Moving")).ExtractTranslation()
+    assert tuple(moved) == (1, 0, 0)  # the clip moves the prim, as USD reads it
+    del stage
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path, time=time)
+    said = [str(w.message) for w in caught if "motion blur" in str(w.message)]
+    assert "/Cam" in scene.cameras and scene.meshes
+    assert len(said) == 1 and "/Cam" in said[0] and "shutter" in said[0]

@@ -193,13 +193,17 @@ class CameraReading:
 
 
 def _layers_hold_motion(stage: Usd.Stage) -> bool:
-    """The layers ``stage`` uses hold time samples at two times or more."""
+    """The layers ``stage`` uses hold time samples at two times or more, or it has value clips: USD opens a clip
+    with a ``manifestAssetPath`` only when it reads a value of its, so its samples are in no used layer before (where
+    the camera was read before the prims the clips move, they were not seen)."""
+    from .usd_clips import clip_roots
+
     times = set()
     for layer in stage.GetUsedLayers():
         times.update(layer.ListAllTimeSamples())
         if len(times) > 1:
             return True
-    return False
+    return bool(clip_roots(stage))
 
 
 def _elements(attr: Usd.Attribute, found) -> list:
