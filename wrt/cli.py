@@ -290,10 +290,17 @@ def _non_empty(text: str) -> str:
     return text
 
 
+def _path(text: str) -> str:
+    """An argparse type: a file or folder name, not empty, with a leading ``~`` (``~user``) read as the home folder, as
+    a shell reads it where it expands one: ``--log=~/a.jsonl``, a quoted ``'~/a.png'`` or a name from a script wrote
+    into a folder named ``~`` in the current one."""
+    return os.path.expanduser(_non_empty(text))
+
+
 def _log_file(text: str) -> str:
     """An argparse type for ``--log``: a file name. One ending in a path separator names a folder (as ``-o out/``
     does), which ``Path()`` turned into a file of that name: ``--log logs/`` wrote the rows into a file ``logs``."""
-    text = _non_empty(text)
+    text = _path(text)
     if _names_a_folder(text):
         raise argparse.ArgumentTypeError(f"{text} names a folder; give the log a file name, e.g. "
                                          f"{text}render-log.jsonl")
@@ -412,14 +419,14 @@ def _add_render(sub) -> None:
     p.add_argument(
         "scene",
         nargs="*",
-        type=_non_empty,
+        type=_path,
         help="USD files (.usd, .usda, .usdc, .usdz); default: the bundled room. With several, each is rendered in "
         "turn, a failing one is recorded in the log and the others go on",
     )
     p.add_argument(
         "-o",
         "--output",
-        type=_non_empty,
+        type=_path,
         help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png (frame_####.png "
         "with --frames); {stem} stands for "
         "the scene file name without extension; a name ending in / is a folder for {stem}.png ({stem}_####.png with "
@@ -470,12 +477,12 @@ def _add_render(sub) -> None:
                    "default: one per GPU, else per CPU core")
     p.add_argument("--aov-dir", help=f"also write every AOV ({', '.join(AOV_NAMES)}) as NAME.npy into this folder, "
                    "with several scenes into its subfolder STEM/, with --frames as NAME_####.npy, numbered as the "
-                   "images", type=_non_empty)
+                   "images", type=_path)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
                    "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir, --frames, --resume, --log, "
-                   "--max-memory or several scenes", type=_non_empty)
+                   "--max-memory or several scenes", type=_path)
     from .integrators import INTEGRATORS
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
@@ -1278,9 +1285,9 @@ def _add_preview(sub) -> None:
         "off-screen to a PNG instead (preview.png without -o). Needs pyvista: pip install 'wrt[preview]'.",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("scene", nargs="?", type=_non_empty,
+    p.add_argument("scene", nargs="?", type=_path,
                    help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
-    p.add_argument("-o", "--output", type=_non_empty,
+    p.add_argument("-o", "--output", type=_path,
                    help="write the view to this PNG instead of a window (no display, or PYVISTA_OFF_SCREEN=true: "
                    "preview.png)")
     p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
@@ -1467,7 +1474,7 @@ def _scene_list(text: str) -> list[str]:
         # Files only: a folder 'a' beside 'a,b.usda' split it. A join of many pieces past 255 bytes (thirty
         # 'sphere:N') made pathlib raise 'File name too long' out of argparse, a traceback.
         try:
-            return Path(name).is_file()
+            return Path(os.path.expanduser(name)).is_file()
         except OSError:
             return False
 
@@ -1477,7 +1484,8 @@ def _scene_list(text: str) -> list[str]:
         alone = first and is_file(first)  # then no join is tried: a list of files costs a look per file
         take = 1 if alone else next((k for k in range(len(pieces), 1, -1) if is_file(",".join(pieces[:k]).strip())),
                                     1)
-        names.append(",".join(pieces[:take]).strip())
+        # '~' after a comma is no shell's to expand: '~/b.usda' was a folder named '~' in the current one.
+        names.append(os.path.expanduser(",".join(pieces[:take]).strip()))
         del pieces[:take]
     if not any(names):
         raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
@@ -1493,7 +1501,7 @@ def _add_bench(sub) -> None:
         "or the name of one in wrt/suites (quick, cpu, gpu). Options given here override the suite.",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("suite", nargs="?", default="quick", type=_non_empty, help="suite file or name")
+    p.add_argument("suite", nargs="?", default="quick", type=_path, help="suite file or name")
     p.add_argument("--quick", action="store_true",
                    help="run the small 'quick' suite (under a minute on a CPU, once the kernels are compiled)")
     suites = "; default: the suite's"  # each of these replaces one field of the suite
@@ -1511,7 +1519,7 @@ def _add_bench(sub) -> None:
                    help="timed launches per row (median reported), at most 10,000" + suites)
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core); rows also record "
                    "threads_effective, the threads that ran at once (at most the usable cores)" + suites)
-    p.add_argument("-o", "--out", default="bench-out", help="output folder")
+    p.add_argument("-o", "--out", default="bench-out", type=_path, help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
                    "rows of changed triangles or rays, hardware, wrt source or Warp version are measured again, as "
@@ -1651,7 +1659,7 @@ def _add_bvh_stats(sub) -> None:
         "own trees are read from wp.Mesh with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("scene", type=_non_empty, help="USD file (.usd, .usda, .usdc, .usdz)")
+    p.add_argument("scene", type=_path, help="USD file (.usd, .usda, .usdc, .usdz)")
     p.add_argument(
         "--builder",
         action="append",
