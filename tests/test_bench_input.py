@@ -1012,7 +1012,9 @@ def test_a_scene_file_whose_name_holds_a_comma_is_one_scene(tmp_path, monkeypatc
     assert parse("a,b.usda") == ["a,b.usda"]
     assert parse("c.usda, a,b.usda,sphere:100") == ["c.usda", "a,b.usda", "sphere:100"]
     assert parse(f"{tmp_path / 'a,b.usda'},c.usda") == [str(tmp_path / "a,b.usda"), "c.usda"]
-    assert parse("x.usda,y.usda,") == ["x.usda", "y.usda"]  # no such files: the list as written
+    assert parse("x.usda,y.usda") == ["x.usda", "y.usda"]  # no such files: the list as written
+    with pytest.raises(SystemExit):  # a comma too many: refused (tests/test_cli_lists.py), not dropped
+        parse("x.usda,y.usda,")
     Path("a").mkdir()  # a folder 'a' is no scene: it split the name, into 'a' and 'b.usda'
     assert parse("a,b.usda") == ["a,b.usda"]
     many = [f"sphere:{1000 + k}" for k in range(30)]  # joined, a name past 255 bytes: 'File name too long' raised

@@ -294,7 +294,12 @@ def _path(text: str) -> str:
     """An argparse type: a file or folder name, not empty, with a leading ``~`` (``~user``) read as the home folder, as
     a shell reads it where it expands one: ``--log=~/a.jsonl``, a quoted ``'~/a.png'`` or a name from a script wrote
     into a folder named ``~`` in the current one."""
-    return os.path.expanduser(_non_empty(text))
+    return _home(_non_empty(text))
+
+
+def _home(text: str) -> str:
+    """An argparse type: :func:`_path`'s ``~`` alone, for a value whose emptiness its command names itself."""
+    return os.path.expanduser(text)
 
 
 def _log_file(text: str) -> str:
@@ -469,7 +474,7 @@ def _add_render(sub) -> None:
                    "default) says were finished with the same options, whose images are still as written; render "
                    "the others. --frames without --log: skip frames whose image exists")
     p.add_argument("--devices", help="with --frames: spread the frames over these Warp devices, comma-separated, "
-                   "e.g. cuda:0,cuda:1, one worker process each (default: --device)", type=_non_empty)
+                   "e.g. cuda:0,cuda:1, one worker process each (default: --device)", type=_csv_text)
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
                    "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
@@ -1458,11 +1463,26 @@ def _run_preview(args) -> int:
 
 def _csv(text: str) -> list[str]:
     """An argparse type: a comma-separated list of at least one name (``--scenes ''`` is refused, as an unset shell
-    variable gives it: an empty ``--threads`` measured no CPU row and exited 0)."""
-    items = [item.strip() for item in text.split(",") if item.strip()]
-    if not items:
-        raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
+    variable gives it: an empty ``--threads`` measured no CPU row and exited 0), none of them empty."""
+    items = [item.strip() for item in text.split(",")]
+    _refuse_empty_entries(text, items)
     return items
+
+
+def _refuse_empty_entries(text: str, items: list[str]) -> None:
+    """Raises ArgumentTypeError for a list that names nothing, or one with an empty entry: a comma too many
+    (``wrt:sah,``, ``a,,b``) was dropped without a word, where a name may have been left out."""
+    if not any(items):
+        raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
+    if "" in items:
+        raise argparse.ArgumentTypeError(f"entry {items.index('') + 1} of {len(items)} is empty (a comma too many?), "
+                                         f"got {text!r}")
+
+
+def _csv_text(text: str) -> str:
+    """An argparse type: :func:`_csv`'s checks for a list kept as the text given (``wrt render --devices``)."""
+    _csv(text)
+    return text
 
 
 def _scene_list(text: str) -> list[str]:
@@ -1487,9 +1507,8 @@ def _scene_list(text: str) -> list[str]:
         # '~' after a comma is no shell's to expand: '~/b.usda' was a folder named '~' in the current one.
         names.append(os.path.expanduser(",".join(pieces[:take]).strip()))
         del pieces[:take]
-    if not any(names):
-        raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
-    return [name for name in names if name]
+    _refuse_empty_entries(text, names)
+    return names
 
 
 def _add_bench(sub) -> None:
@@ -1519,7 +1538,7 @@ def _add_bench(sub) -> None:
                    help="timed launches per row (median reported), at most 10,000" + suites)
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core); rows also record "
                    "threads_effective, the threads that ran at once (at most the usable cores)" + suites)
-    p.add_argument("-o", "--out", default="bench-out", type=_path, help="output folder")
+    p.add_argument("-o", "--out", default="bench-out", type=_home, help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
                    "rows of changed triangles or rays, hardware, wrt source or Warp version are measured again, as "
@@ -1630,6 +1649,7 @@ def _run_bench(args) -> int:
 def _builders(text: str) -> str:
     """An argparse type: one ``--builder`` value of ``wrt bvh-stats``, comma-separated names
     :func:`wrt.options.parse_builders` reads."""
+    _csv(text)
     try:
         parse_builders(text)
     except ValueError as e:
