@@ -1356,3 +1356,37 @@ def test_a_suite_and_an_asset_manifest_starting_with_a_byte_order_mark_are_read(
     (tmp_path / "latin.json").write_bytes(latin)
     with pytest.raises(ValueError, match=rf"latin.json: not UTF-8 JSON text \(byte {latin.index(0xE9)} is no UTF-8\)"):
         Grid.from_suite(str(tmp_path / "latin.json"))
+
+
+@pytest.mark.parametrize("written", ["1e3", "1000.0", "1000", "1E3"])
+def test_a_suite_count_written_as_a_whole_float_is_taken_as_n_rays_1e3_is(tmp_path, written):
+    """'"n_rays": 1e3' in a suite was refused ('got 1000.0': JSON reads it as a float) where '--n-rays 1e3' was taken;
+    both are the int the text writes, decimal.Decimal(written) being the oracle."""
+    from decimal import Decimal
+
+    from wrt.cli import build_parser
+
+    suite = tmp_path / "suite.json"
+    suite.write_text(f'{{"scenes": ["sphere:200"], "accels": ["wrt:sah"], "n_rays": {written}, "repeats": {written},'
+                     f' "scaling": {{"sizes": [100], "accels": ["wrt:sah"], "n_rays": {written}}}}}')
+    grid = Grid.from_suite(str(suite))
+    expected = int(Decimal(written))
+    for value in (grid.n_rays, grid.repeats, grid.scaling["n_rays"]):
+        assert type(value) is int and value == expected, grid
+    assert build_parser().parse_args(["bench", "--n-rays", "1e3"]).n_rays == 1000
+
+
+@pytest.mark.parametrize("key", ["n_rays", "repeats", "scaling.n_rays"])
+def test_a_suite_count_with_a_fraction_is_still_refused_as_n_rays_1000_5_is(tmp_path, capsys, key):
+    fields = {"scenes": ["sphere:200"], "accels": ["wrt:sah"], "scaling": {"sizes": [100], "accels": ["wrt:sah"]}}
+    if key == "scaling.n_rays":
+        fields["scaling"]["n_rays"] = 1000.5
+    else:
+        fields[key] = 1000.5
+    suite = tmp_path / "suite.json"
+    suite.write_text(json.dumps(fields))
+    with pytest.raises(ValueError, match=rf"suite\.json: {re.escape(key)}: .*must be a positive integer, got 1000\.5"):
+        Grid.from_suite(str(suite))
+    with pytest.raises(SystemExit):
+        main(["bench", "--n-rays", "1000.5"])
+    assert "argument --n-rays: '1000.5' is not an integer" in capsys.readouterr().err

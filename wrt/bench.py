@@ -131,6 +131,7 @@ class Grid:
                              f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
                     if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        data = _whole_counts(data)
         if "scenes" in data and "scenes" not in overrides:  # --scenes are the command line's, read from the current
             data = dict(data, scenes=_suite_scene_paths(data["scenes"], path))  # folder; none: named missing below
         # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
@@ -317,6 +318,23 @@ def _drop_unbuilt(data: dict, suite: str, accels: bool = True) -> dict:
         data = dict(data, accels=kept(data.get("accels"), "accelerator"))
     if isinstance(data.get("scaling"), dict) and "accels" in data["scaling"]:
         data["scaling"] = dict(data["scaling"], accels=kept(data["scaling"]["accels"], "scaling accelerator"))
+    return data
+
+
+def _whole_count(value):
+    """A count a suite writes as a whole number in float form (``1e6``, ``1000.0``: JSON reads both as floats) as the
+    int it is, as ``--n-rays 1e6`` reads; anything else as it is, for the checks to refuse (``1000.5`` included)."""
+    if isinstance(value, float) and math.isfinite(value) and value == int(value):
+        return int(value)
+    return value
+
+
+def _whole_counts(data: dict) -> dict:
+    """A suite's ``n_rays``, ``repeats`` and ``scaling.n_rays`` through :func:`_whole_count` (its scaling sizes take a
+    whole float already): ``"n_rays": 1e3`` was refused, 'got 1000.0', where ``--n-rays 1e3`` was taken."""
+    data = {**data, **{key: _whole_count(data[key]) for key in ("n_rays", "repeats") if key in data}}
+    if isinstance(data.get("scaling"), dict) and "n_rays" in data["scaling"]:
+        data["scaling"] = {**data["scaling"], "n_rays": _whole_count(data["scaling"]["n_rays"])}
     return data
 
 
