@@ -573,7 +573,10 @@ def _check_output_location(directory: Path) -> None:
                 with tempfile.TemporaryFile(dir=ancestor):
                     pass
             except OSError as e:
-                raise OSError(f"cannot write into {directory}: {ancestor} takes no new files ({e.strerror})") from None
+                # ENOENT for a folder that is there: its file system makes no files (/proc); 'No such file or
+                # directory' named no reason.
+                why = "its file system makes no files" if e.errno == errno.ENOENT else e.strerror
+                raise OSError(f"cannot write into {directory}: {ancestor} takes no new files ({why})") from None
             return
 
 
