@@ -5,16 +5,39 @@ interleaved launches, and the share of rays whose prim (or blocked flag) agrees.
 
     BASELINE=.gpu/base55 WRT_ASSETS=... python benchmarks/gpu_tlas_ab.py   # NRAYS: rays per kind (1M)
 """
+import argparse
 import importlib
 import json
 import os
 import statistics
 import sys
 
-import numpy as np
-import warp as wp
 
-sys.path.insert(0, os.environ["BASELINE"])
+def baseline_folder() -> str:
+    """``$BASELINE``, checked (with ``$WRT_ASSETS`` and ``$NRAYS``) before Warp loads: unset, the script stopped with
+    a traceback, ``KeyError: 'BASELINE'``."""
+    parser = argparse.ArgumentParser(
+        description="Two-level trace A/B on CUDA: this tree's wrt against wrt_old, a copy of the package before a TLAS "
+        "change.", allow_abbrev=False,
+        epilog="environment: BASELINE (required) the folder holding wrt_old; WRT_ASSETS the shared assets' folder; "
+        "NRAYS rays per kind (default 1048576)")
+    parser.parse_args()
+    folder = os.environ.get("BASELINE", "")
+    if not os.path.isdir(os.path.join(folder, "wrt_old")):
+        parser.error(f"BASELINE={folder!r} names no folder holding wrt_old (the package before the change); e.g. "
+                     "BASELINE=.gpu/base55")
+    assets = os.environ.get("WRT_ASSETS", "")
+    if not os.path.isfile(os.path.join(assets, "manifest.json")):  # each scene was 'skipped: 'WRT_ASSETS''
+        parser.error(f"WRT_ASSETS={assets!r} names no folder holding the shared assets' manifest.json")
+    if not os.environ.get("NRAYS", "1").isdigit() or int(os.environ.get("NRAYS", "1")) < 1:
+        parser.error(f"NRAYS={os.environ['NRAYS']!r} is not a positive integer")
+    return folder
+
+
+sys.path.insert(0, baseline_folder())
+import numpy as np  # noqa: E402
+import warp as wp  # noqa: E402
+
 import wrt  # noqa: E402
 from wrt.rays import ray_set  # noqa: E402
 

@@ -13,8 +13,8 @@ Usage: python benchmarks/kept_frame_cases.py FOLDER {dome,looks,textured,clipped
 
 from __future__ import annotations
 
+import argparse
 import statistics
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -148,10 +148,18 @@ def clipped_stage(folder: Path) -> Path:
 
 
 def main() -> None:
-    warnings.simplefilter("ignore")
-    folder, case = Path(sys.argv[1]), sys.argv[2]
-    folder.mkdir(parents=True, exist_ok=True)
     cases = {"dome": dome_stage, "looks": looks_stage, "textured": textured_stage, "clipped": clipped_stage}
+    # Without arguments it stopped with a traceback (IndexError), and a misspelt case was loaded as a stage file.
+    parser = argparse.ArgumentParser(description="Kept-stage frame loads of a stage where one thing varies.",
+                                     allow_abbrev=False)
+    parser.add_argument("folder", type=Path, help="folder the case's stage (and its files) is written into")
+    parser.add_argument("case", help=f"{', '.join(cases)}, or a stage file to load")
+    args = parser.parse_args()
+    folder, case = args.folder, args.case
+    if case not in cases and not Path(case).is_file():
+        parser.error(f"case {case!r} is none of {', '.join(cases)}, and no stage file")
+    warnings.simplefilter("ignore")
+    folder.mkdir(parents=True, exist_ok=True)
     frames = StageFrames(cases[case](folder) if case in cases else Path(case))
     seconds = []
     for t in range(1, 9):

@@ -937,6 +937,21 @@ def test_benchmark_scripts_refuse_bad_arguments_in_one_line(script, args, messag
     assert message in done.stderr and "Traceback" not in done.stderr
 
 
+@pytest.mark.parametrize("script, error", [
+    ("gpu_tlas_ab.py", "gpu_tlas_ab.py: error: BASELINE='' names no folder holding wrt_old"),
+    ("kept_frame_cases.py", "kept_frame_cases.py: error: the following arguments are required: folder, case"),
+])
+def test_benchmark_scripts_given_nothing_print_their_usage_and_exit_with_status_2(script, error):
+    """Without BASELINE gpu_tlas_ab.py stopped with a traceback, 'KeyError: 'BASELINE'', and kept_frame_cases.py
+    without arguments with 'IndexError: list index out of range'. Both are argparse's usage and error lines now."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / script
+    env = {k: v for k, v in os.environ.items() if k != "BASELINE"}
+    done = subprocess.run([sys.executable, str(path)], capture_output=True, text=True, timeout=60, env=env)
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.splitlines()
+    assert lines[0].startswith(f"usage: {script} ") and lines[1].startswith(error), lines
+
+
 def test_shadow_rays_aim_at_the_first_distant_light_whatever_comes_before_it():
     scene = wrt.Scene.from_triangles(*displaced_sphere(5000))
     sun = np.array([0.0, 0.6, -0.8])  # the direction the light travels
