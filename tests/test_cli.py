@@ -88,6 +88,10 @@ def test_help_says_what_the_default_time_and_each_commands_options_are(capsys):
     assert "RenderSettings prim whose includedPurposes choose the prims whose triangles are built over" in \
         helps["bvh-stats"] and "products" not in helps["bvh-stats"]
     assert "--presplit K" in helps["bvh-stats"] and "(default: 8)" in helps["bvh-stats"]
+    # preview's listed the products too, which it never writes (render's --products does)
+    assert "RenderSettings prim to follow (camera, resolution, aspect ratio conform, data window, included and " \
+        "material binding purposes); default:" in helps["preview"] and "products" not in helps["preview"]
+    assert "material binding purposes, products); default:" in helps["render"]
     said = "BVH builder of the boxes drawn (--bvh-depth, --bvh-leaves), the --rays and the --image"
     assert "".join(said.split()) in "".join(helps["preview"].split())  # argparse breaks lines after a hyphen
 

@@ -379,8 +379,9 @@ CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, el
 # attribute that has only time samples there (value_at: its first).
 TIME_HELP = "USD time code to read the stage at; default: USD's default time (each value authored without a time, " \
     "else its first time sample)"
-SETTINGS_HELP = ("RenderSettings prim to follow (camera, resolution, aspect ratio conform, data window, included and "
-                 "material binding purposes, products)")
+VIEW_SETTINGS = "camera, resolution, aspect ratio conform, data window, included and material binding purposes"
+SETTINGS_HELP = f"RenderSettings prim to follow ({VIEW_SETTINGS}, products)"
+PREVIEW_SETTINGS_HELP = f"RenderSettings prim to follow ({VIEW_SETTINGS})"  # preview writes no products
 
 
 def _variant(text: str) -> str:
@@ -1299,7 +1300,7 @@ def _add_preview(sub) -> None:
                    help="write the view to this PNG instead of a window (no display, or PYVISTA_OFF_SCREEN=true: "
                    "preview.png)")
     p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
-    add_stage_options(p)
+    add_stage_options(p, PREVIEW_SETTINGS_HELP)
     bvh = p.add_mutually_exclusive_group()
     bvh.add_argument(
         "--bvh-depth",
