@@ -1485,7 +1485,7 @@ def _refuse_empty_entries(text: str, items: list[str]) -> None:
 
 def _csv_text(text: str) -> str:
     """An argparse type: :func:`_csv`'s checks for a list kept as the text given (``wrt render --devices``)."""
-    _csv(text)
+    _csv(_non_empty(text))
     return text
 
 
