@@ -607,6 +607,70 @@ def test_a_normalmap_s_tangent_frame_is_the_mesh_s_whatever_places_its_image(tmp
                                atol=1e-3)
 
 
+def quad_frame_normal(texel_normal) -> np.ndarray:
+    """Oracle (float64): the mapped normal of the quad of :func:`test_materials.add_quad` in its ``st`` frame
+    (dp/ds = +X, dp/dt = +Y from its corners: x and y over 2, s and t over 1), the texel decoded ``in * 2 - 1``."""
+    corners = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0]])  # (x, y); st = (x, y) / 2 + 0.5
+    st = corners / 2.0 + 0.5
+    dp = np.linalg.solve(st[1:] - st[0], corners[1:] - corners[0])  # rows: dp/ds, dp/dt in (x, y)
+    tangent, bitangent = np.append(dp[0], 0.0), np.append(dp[1], 0.0)
+    tangent, bitangent = tangent / np.linalg.norm(tangent), bitangent / np.linalg.norm(bitangent)
+    n = texel_normal[0] * tangent + texel_normal[1] * bitangent + texel_normal[2] * np.array([0.0, 0.0, 1.0])
+    return n / np.linalg.norm(n)
+
+
+@pytest.mark.parametrize("texcoord", ["uv2", "constant", "preview_uv2"])
+def test_a_normalmap_not_read_through_st_names_its_frame(tmp_path, texcoord):
+    """MaterialX's normalmap frame is ``Tworld``, the tangent of texture-coordinate set 0: the mesh's ``st``. A mesh
+    holds one set of coordinates, those its images read, so an image read through primvar ``uv2`` (here ``st``
+    turned 90 degrees) draws the tilt in uv2's frame, and one read at a constant texcoord draws no tilt; each is
+    named in the material's warning. Oracle (float64): in st's frame the texel is the normal (0.381, 0.318, 0.868);
+    drawn (0.318, -0.382, 0.868) and (0, 0, 1), without a word."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    if texcoord == "preview_uv2":  # MaterialX's UsdPreviewSurface graph: a normalmap node too (Tworld)
+        stage, path = new_stage(tmp_path, "preview_uv2.usda")
+        material, shader = mtlx_material(stage, "/Looks/Bumpy", "ND_UsdPreviewSurface_surfaceshader")
+        reader = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Reader")
+        reader.CreateIdAttr("ND_UsdPrimvarReader_vector2")
+        reader.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+        tex = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Map")
+        tex.CreateIdAttr("ND_UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
+        tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+        tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        shader.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(add_quad(stage, "/Quad"), material)
+    else:
+        path = normal_mapped_mtlx_stage(tmp_path, png)
+        stage = Usd.Stage.Open(path)
+    quad = UsdGeom.PrimvarsAPI(UsdGeom.Mesh.Get(stage, "/Quad"))
+    uv2 = [Gf.Vec2f(1.0 - t, s) for s, t in quad.GetPrimvar("st").Get()]
+    quad.CreatePrimvar("uv2", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(uv2)
+    if texcoord == "preview_uv2":
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("uv2")
+    elif texcoord == "uv2":
+        reader = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Graph/Reader")
+        reader.CreateIdAttr("ND_geompropvalue_vector2")
+        reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("uv2")
+        reader.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+        image = UsdShade.Shader.Get(stage, "/Looks/Bumpy/Graph/Image")
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
+    else:
+        image = UsdShade.Shader.Get(stage, "/Looks/Bumpy/Graph/Image")
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.3, 0.3))
+    stage.Save()
+    scene, messages = load(path)
+    drawn = shading_normals(scene).reshape(-1, 3)
+    in_st_frame = quad_frame_normal(stored_normal(MAP_NORMAL))
+    assert np.max(np.abs(drawn - in_st_frame)) > 0.1  # what a mesh of one coordinate set cannot draw
+    why = "reads primvar 'uv2'" if texcoord != "constant" else "is read at a constant texcoord"
+    assert any(f"its normal map {why}" in m and "Tworld" in m for m in messages), messages
+
+
 @pytest.mark.parametrize("surface", ["UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader"])
 def test_a_preview_normal_map_turned_by_its_transform2d_takes_the_frame_its_surface_gives(tmp_path, surface):
     """A normal map (scale 2, bias -1) read through a UsdTransform2d turning st by 90 degrees: UsdPreviewSurface's

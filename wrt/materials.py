@@ -528,6 +528,21 @@ def no_response_material() -> Material:
     return Material(path="<no material response>", diffuse_color=0.0, ior=1.0, specular_edge=0.0)
 
 
+def mesh_frame_note(texture: TextureInput) -> str | None:
+    """Why MaterialX normal map ``texture`` (``mesh_frame``) is not drawn in its ``Tworld`` frame, or None: that
+    frame is the mesh's ``st`` (the ``tangent`` of texture-coordinate set 0, which is USD's ``st``), but a mesh holds
+    one set of coordinates, those its images read, and the frame is taken from them. An image read through another
+    primvar (``uv2`` turned 90 degrees from ``st``) turned the tilt with it, and one read at a constant ``st`` kept
+    the surface's normal, each without a word."""
+    if not texture.mesh_frame or texture.uv_set == "st":
+        return None
+    if texture.uv_set is None:
+        return ("its normal map is read at a constant texcoord: the mesh's st is not read, so the map has no tangent "
+                "frame (MaterialX's Tworld) and the surface's normal is used")
+    return (f"its normal map reads primvar {texture.uv_set!r}: its tangent frame is taken from it, not from the "
+            "mesh's st (MaterialX's Tworld), as a mesh holds one set of texture coordinates")
+
+
 def upload_materials(materials: list[Material], textures: list[np.ndarray], device) -> DeviceMaterials:
     """Packs ``[default_material()] + materials + [no_response_material()]`` and ``textures`` into a
     :class:`DeviceMaterials` on ``device``."""
@@ -1536,6 +1551,9 @@ class MaterialReader:
             # MaterialX's UsdPreviewSurface graph feeds normal * 0.5 + 0.5 to a normalmap node, whose tangent is the
             # geometry's (Tworld, of the mesh's st), not that of the texture's coordinates after its UsdTransform2d.
             tex.mesh_frame = (shader.GetShaderId() or "") != "UsdPreviewSurface"
+            note = mesh_frame_note(tex)
+            if note is not None:
+                self.skip(f"material {mat.path}: {note}", source.GetPrim())
             mat.textures["normal"] = tex
 
     def _set_constant(self, mat: Material, name: str, field: str, is_color: bool, value, prim):

@@ -110,6 +110,7 @@ from .materials import (
     constant_numbers,
     constant_st_transform,
     four_components,
+    mesh_frame_note,
     refused_constant,
     two_finite_numbers,
 )
@@ -497,6 +498,9 @@ class _Graph:
             if found_frame is not None:  # a frame wrt does not follow: it was dropped without a word
                 self.notes.append(f"{node.GetPath()}: its {frame_input} ({_describe(found_frame)}) is not read; "
                                   "the mesh's is used")
+        frame_note = mesh_frame_note(texture)
+        if frame_note is not None:
+            self.notes.append(f"{node.GetPath()}: {frame_note}")
         # A missing UDIM tile reads the image's default (0.5, 0.5, 1) decoded as every texel: the flat normal.
         return texture
 
