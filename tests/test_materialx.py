@@ -671,6 +671,19 @@ def test_a_normalmap_not_read_through_st_names_its_frame(tmp_path, texcoord):
     assert any(f"its normal map {why}" in m and "Tworld" in m for m in messages), messages
 
 
+@pytest.mark.parametrize("scale", [None, 0.5])
+def test_a_normalmap_s_black_texels_are_the_flat_normal(tmp_path, scale):
+    """MaterialX's ``mx_normalmap`` decodes an input of exactly 0 as (0, 0, 1), not ``0 * 2 - 1`` (its GLSL:
+    ``value == 0 ? (0, 0, 1) : value * 2 - 1``), as 1ba0348c made of the image's default outside [0, 1]: a black
+    texel (the padding of a baked map) is the flat normal, whatever the node's ``scale``. Oracle: the closed form,
+    (0, 0, 1) on the +Z quad. It was drawn as (-1, -1, -1) normalised and bent above the surface."""
+    png = tmp_path / "black.png"
+    PilImage.fromarray(np.zeros((4, 4, 3), np.uint8)).save(png)
+    scene, messages = load(normal_mapped_mtlx_stage(tmp_path, str(png), scale=scale))
+    assert not messages, messages
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile([0.0, 0.0, 1.0], (4, 1)), atol=1e-6)
+
+
 @pytest.mark.parametrize("surface", ["UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader"])
 def test_a_preview_normal_map_turned_by_its_transform2d_takes_the_frame_its_surface_gives(tmp_path, surface):
     """A normal map (scale 2, bias -1) read through a UsdTransform2d turning st by 90 degrees: UsdPreviewSurface's

@@ -377,8 +377,14 @@ def unmapped_normal(h: HitPoint, d: wp.vec3):
 @wp.func
 def tilted_normal(mats: DeviceMaterials, binding: int, h: HitPoint, t: wp.vec3, bt: wp.vec3, d: wp.vec3):
     """``normalize(x t + y bt + z h.ns)`` for the value ``(x, y, z)`` of normal map ``binding`` at ``h.st``, kept on
-    the viewer's side (:func:`keep_reflection_above`); :func:`unmapped_normal` where it has no direction."""
+    the viewer's side (:func:`keep_reflection_above`); :func:`unmapped_normal` where it has no direction. A MaterialX
+    normal map (``tex_mesh_frame``) whose input is 0 there is the flat normal, as ``mx_normalmap`` decodes it."""
     c = lookup_binding(mats, binding, h.st)
+    bias = mats.tex_bias[binding]
+    if mats.tex_mesh_frame[binding] != 0 and c[0] == bias[0] and c[1] == bias[1] and c[2] == bias[2]:
+        # MaterialX's normalmap reads an input of 0 (texel * scale + bias == bias: a black texel) as the flat normal,
+        # not 0 * 2 - 1: the black padding of a baked map was drawn bent into the surface.
+        c = wp.vec4(0.0, 0.0, 1.0, c[3])
     m = c[0] * t + c[1] * bt + c[2] * h.ns
     m_length = wp.length(m)
     if not (m_length > 0.0 and wp.isfinite(m_length)):
