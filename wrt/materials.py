@@ -533,12 +533,13 @@ def mesh_frame_note(texture: TextureInput) -> str | None:
     frame is the mesh's ``st`` (the ``tangent`` of texture-coordinate set 0, which is USD's ``st``), but a mesh holds
     one set of coordinates, those its images read, and the frame is taken from them. An image read through another
     primvar (``uv2`` turned 90 degrees from ``st``) turned the tilt with it, and one read at a constant ``st`` kept
-    the surface's normal, each without a word."""
+    the surface's normal unless another texture had the mesh's ``st`` read, each without a word."""
     if not texture.mesh_frame or texture.uv_set == "st":
         return None
     if texture.uv_set is None:
-        return ("its normal map is read at a constant texcoord: the mesh's st is not read, so the map has no tangent "
-                "frame (MaterialX's Tworld) and the surface's normal is used")
+        return ("its normal map is read at a constant texcoord: the mesh's st (MaterialX's Tworld) is read only where "
+                "another of its textures reads st; elsewhere the map has no tangent frame and the surface's normal is "
+                "used")
     return (f"its normal map reads primvar {texture.uv_set!r}: its tangent frame is taken from it, not from the "
             "mesh's st (MaterialX's Tworld), as a mesh holds one set of texture coordinates")
 
