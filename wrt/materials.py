@@ -157,7 +157,9 @@ class TextureInput(CountsAssignments):
             ``st``: MaterialX's ``filtertype`` ``closest``).
         mesh_frame: for a normal map, whether its tangent frame comes from the mesh's own ``uv_set`` coordinates
             (MaterialX's ``normalmap``, whose ``tangent`` is the geometry's ``Tworld`` whatever places the image)
-            rather than from them after ``transform`` (UsdPreviewSurface's, the map's own ``st``).
+            rather than from them after ``transform`` (UsdPreviewSurface's, the map's own ``st``); also, as
+            MaterialX's ``normalmap`` decodes an input of 0, a value equal to ``bias`` (a black texel) is the flat
+            normal.
     """
 
     image: int
