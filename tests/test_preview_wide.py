@@ -164,3 +164,23 @@ def test_cli_refuses_a_wide_layout_of_analytic_shapes_naming_the_flag(tmp_path, 
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(errors) == 1 and "--bvh-layout wide: " in errors[0] and "use --bvh-layout binary" in errors[0]
     assert not out.exists()
+
+
+def test_compact_layout_of_instances_or_shapes_is_refused_as_wide_is(soup, tmp_path, capsys):
+    """``compact`` is the binary tree of the flattened triangles where the trace takes it for a scene with instances
+    (a BvhAccelerator over the 2 x 120 triangles, not the two-level BVH the preview draws); the preview drew the
+    TLAS's boxes for it without a word, where the help says 'only binary' for such a scene."""
+    mesh = soup.meshes[0]
+    scene = wrt.Scene(prototypes=[Prototype("/P", [mesh])],
+                      instances=Instances.from_transforms(np.zeros(2, int), np.tile(np.eye(4), (2, 1, 1))))
+    traced = get_accelerator(scene, "wrt", BUILDER, "cpu", "compact")
+    assert traced.bvh.num_prims == 2 * len(mesh.indices)  # flattened: not the TLAS over 2 instances
+    with pytest.raises(ValueError, match=r"bvh_layout='compact': .*instances or analytic shapes.*bvh_layout='binary'"):
+        wrt.preview(scene, bvh_depth=1, bvh_layout="compact")
+    usda = tmp_path / "ball.usda"
+    usda.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
+    out = tmp_path / "ball.png"
+    assert main(["preview", str(usda), "--bvh-depth", "1", "--bvh-layout", "compact", "-o", str(out), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "--bvh-layout compact: " in errors[0] and "use --bvh-layout binary" in errors[0]
+    assert not out.exists()

@@ -68,7 +68,7 @@ from .options import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 from .preview_blas import instance_blas, instance_row
 from .preview_lights import light_glyphs
 from .preview_subsets import even_rows, rows_within, spread_rows
-from .preview_wide import WideBoxes, check_wide_layout, wide_boxes
+from .preview_wide import WideBoxes, check_drawn_layout, wide_boxes
 from .render import Renderer, check_asked_pixels, check_lights, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
@@ -798,13 +798,14 @@ def preview(
         bvh_layout: the layout whose boxes ``bvh_depth`` and ``bvh_leaves`` draw, as :func:`wrt.trace` names them:
             ``binary`` or ``compact`` (the same binary tree), ``wide`` (BVH4) or ``wide8`` (BVH8), collapsed from
             the binary tree as the trace collapses it (:mod:`wrt.preview_wide`). Only ``binary`` for a scene with
-            instances or analytic shapes, whose two-level BVH has no wide form.
+            instances or analytic shapes: its two-level BVH is traced by no other layout (``compact`` and the wide
+            ones trace its instances flattened and refuse its shapes).
 
     Raises:
         PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
             a window where there is no display.
         ValueError: bad arguments (unknown camera, builder, layout or colouring, both ``bvh_depth`` and
-            ``bvh_leaves``, a wide ``bvh_layout`` of a scene with instances or analytic shapes).
+            ``bvh_leaves``, a ``bvh_layout`` but binary of a scene with instances or analytic shapes).
     """
     pv = import_pyvista()
     # By their truth, image="false" rendered the scene, show_text="false" wrote the summary and off_screen="false"
@@ -843,7 +844,7 @@ def preview(
     check_layout(bvh_layout)
     device = resolve_device(device)
     scene = _as_scene(scene)
-    check_wide_layout(scene, bvh_layout)  # before any work
+    check_drawn_layout(scene, bvh_layout)  # before any work
     instance = None if bvh_instance is None else instance_row(scene, bvh_instance)  # refused before any work
     if show_lights:  # as a render checks them: a NaN assigned to a light's position or transform was drawn as NaN
         check_lights(scene.lights)  # points without a word, where a render refuses it naming the light

@@ -13,14 +13,15 @@ import dataclasses
 
 import numpy as np
 
-from .bvh.wide import WIDE_WIDTHS, WideBvh
+from .bvh.wide import WideBvh
 
 
-def check_wide_layout(scene, layout: str, choice: str = "bvh_layout={!r}", binary: str = "bvh_layout='binary'"):
-    """Refuses a wide ``layout`` for a scene with instances or analytic shapes: it is traced through a two-level BVH,
-    which has no wide form (:func:`wrt.trace` traces it flattened in a wide layout, a tree of other boxes). ``choice``
-    and ``binary`` name the option as the caller takes it (``--bvh-layout {}`` on the command line)."""
-    if layout in WIDE_WIDTHS and (len(scene.instances) or scene.shapes):
+def check_drawn_layout(scene, layout: str, choice: str = "bvh_layout={!r}", binary: str = "bvh_layout='binary'"):
+    """Refuses a ``layout`` other than binary for a scene with instances or analytic shapes: the preview draws its
+    two-level BVH, which only the binary layout traces; :func:`wrt.trace` traces such a scene in another layout
+    flattened (a tree of other boxes, ``compact`` too) or not at all (shapes). ``choice`` and ``binary`` name the
+    option as the caller takes it (``--bvh-layout {}`` on the command line)."""
+    if layout != "binary" and (len(scene.instances) or scene.shapes):
         raise ValueError(f"{choice.format(layout)}: {scene.source or 'the scene'} has instances or analytic shapes, "
                          f"traced through a two-level BVH that only the binary layout draws; use {binary}")
 
