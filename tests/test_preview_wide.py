@@ -2,6 +2,8 @@
 those of the wide tree that ``wrt.trace`` traces, checked against the node boxes recomputed in float64 numpy from
 the triangles below each wide node, found by walking the layout's child links."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -184,3 +186,73 @@ def test_compact_layout_of_instances_or_shapes_is_refused_as_wide_is(soup, tmp_p
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(errors) == 1 and "--bvh-layout compact: " in errors[0] and "use --bvh-layout binary" in errors[0]
     assert not out.exists()
+
+
+def traced_rows(scene, builder: str, layout: str) -> list[tuple]:
+    """``(depth, lower, upper, references below, is leaf)`` of each wide node and leaf slot of the tree the trace
+    traces on the CPU, read from its device arrays (six runs of ``width`` floats per node, ``(ref, count)`` links)
+    and walked from the root in float64: a wide node's box the union of its used slots'."""
+    bvh = get_accelerator(scene, "wrt", builder, "cpu", layout).device_bvh
+    width, boxes, links = bvh.width, bvh.boxes.numpy().astype(np.float64), bvh.links.numpy()
+    rows = []
+
+    def walk(node: int, depth: int) -> int:
+        lower, upper, total = np.full(3, np.inf), np.full(3, -np.inf), 0
+        for j in range(width):
+            ref, count = (int(v) for v in links[node * width + j])
+            if count < 0:
+                continue
+            base = node * 6 * width + j
+            lo, hi = boxes[base + np.arange(3) * width], boxes[base + np.arange(3, 6) * width]
+            lower, upper = np.minimum(lower, lo), np.maximum(upper, hi)
+            if count > 0:
+                rows.append((depth + 1, lo, hi, count, True))
+            total += count if count > 0 else walk(ref, depth + 1)
+        rows.append((depth, lower, upper, total, False))
+        return total
+
+    walk(0, 0)
+    return rows
+
+
+@pytest.mark.parametrize("builder", ["sah", "sweep_sah", "median", "middle", "lbvh", "ploc"])
+def test_small_and_degenerate_meshes_draw_the_traced_wide_tree(builder):
+    """For 1 triangle (a root leaf) and for 3 triangles and a point and a segment (degenerate), at depth 0, past
+    the deepest leaf and for the leaves, the boxes drawn are those the trace's wide tree holds for each builder
+    (sah pre-splits), and their SAH shares A N / sum A N sum to 1."""
+    tri = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    point, segment = [[5, 5, 5]] * 3, [[0, 3, 0], [1, 3, 0], [2, 3, 0]]
+    degenerate = tri + [[2, 0, 1], [3, 0, 1], [2, 2, 1]] + point + segment
+    for corners in (tri, degenerate):
+        points = np.array(corners, np.float32)
+        n = len(points) // 3
+        scene = wrt.Scene(meshes=[wrt.Mesh("/M", points, np.arange(3 * n).reshape(n, 3), np.arange(n))])
+        for layout in WIDTHS:
+            rows = traced_rows(scene, builder, layout)
+            deepest = max(r[0] for r in rows)
+            for depth in (0, deepest + 2, None):
+                if depth is None:
+                    options, cut = {"bvh_leaves": True}, [r for r in rows if r[4]]
+                else:
+                    options, cut = {"bvh_depth": depth}, [r for r in rows if r[0] == depth or (r[4] and r[0] < depth)]
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")  # past the deepest leaf: said, and checked in test_preview
+                    plotter = wrt.preview(scene, builder=builder, bvh_layout=layout, bvh_color="sah",
+                                          window_size=(32, 24), show_text=False, **options)
+                try:
+                    data = plotter.actors["bvh"].mapper.dataset
+                    drawn = np.asarray(data.points, np.float64).reshape(-1, 8, 3)
+                    shares = np.asarray(data.cell_data["sah_share"])[::12]
+                finally:
+                    plotter.close()
+                drawn = np.stack([drawn.min(axis=1), drawn.max(axis=1)], axis=1)
+                expected = np.array([[r[1], r[2]] for r in cut])
+                e = expected[:, 1] - expected[:, 0]
+                cost = (e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]) * [r[3] for r in cut]
+                key = (builder, layout, n, depth)
+                assert len(drawn) == len(expected), key
+                order = np.lexsort(drawn.reshape(len(drawn), -1).T[::-1])
+                oracle = np.lexsort(expected.reshape(len(expected), -1).T[::-1])
+                np.testing.assert_array_equal(drawn[order], expected[oracle], err_msg=str(key))
+                np.testing.assert_allclose(shares[order], (cost / cost.sum())[oracle], rtol=1e-6, err_msg=str(key))
+                assert abs(shares.sum() - 1.0) < 1e-9, key
