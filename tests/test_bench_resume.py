@@ -310,3 +310,20 @@ def test_a_resume_without_settings_json_measures_rows_of_other_repeats_again(tmp
     assert summary[0].startswith("wrt: 1 row measured, 0 resumed, 0 failed"), summary
     assert [row["repeats"] for row in first] == [3] and [row["repeats"] for row in read_rows(tmp_path)] == [1]
     assert json.loads((tmp_path / "settings.json").read_text())["repeats"] == 1
+
+
+def test_rows_written_before_repeats_were_recorded_resume_by_their_settings_json(tmp_path, capsys):
+    """Rows of a run before rows recorded their repeats have none; their settings.json says the repeats of every row
+    in the file. A --resume with those repeats measured each row again ('repeats None -> 3', 1 measured, 0 resumed).
+    The oracle: the repeats settings.json was written with, the same as this run's."""
+    argv = ["bench", "--scenes", "sphere:100", "--accels", "wrt:sah", "--devices", "cpu", "--rays", "primary",
+            "--n-rays", "100", "--repeats", "3", "-q", "-o", str(tmp_path)]
+    assert main(argv) == 0
+    old = [{k: v for k, v in row.items() if k not in ("repeats", "cwd")} for row in read_rows(tmp_path)]
+    (tmp_path / "rows.jsonl").write_text("".join(json.dumps(row) + "\n" for row in old))
+    assert json.loads((tmp_path / "settings.json").read_text())["repeats"] == 3
+    capsys.readouterr()
+    assert main([*argv, "--resume"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    summary = [line for line in err if "results in" in line]
+    assert summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), err

@@ -1285,6 +1285,8 @@ def run_grid(
             rows = _resumed_rows(jsonl)
             earlier_settings = _check_resumed_settings(out / SETTINGS_FILE, grid,
                                                        sweep_rows=any(r.get("sweep") for r in rows))
+            if "repeats" in earlier_settings:  # rows of runs before rows recorded theirs: the file's, as it says
+                rows = [r if "repeats" in r else dict(r, repeats=earlier_settings["repeats"]) for r in rows]
             resumed = {row_key(r): r for r in rows}
         elif resume:  # said: a misspelt output folder measured every row again without a word
             import warnings
