@@ -154,6 +154,7 @@ def test_frames_run_past_a_full_disk_logs_the_frame_and_goes_on(tmp_path, monkey
     assert sorted(rows) == [1.0, 2.0, 3.0], rows
     assert rows[2.0]["status"] == "error", rows
     assert rows[2.0]["error"] == f"OSError: {out / 'f_2.npy'}: no space left on device"
+    assert rows[2.0]["device"] == "cpu", rows  # the device that drew it, as the README says an error row names it
     assert rows[1.0]["status"] == rows[3.0]["status"] == "ok", rows
     assert files_in(out) == ["f_1.npy", "f_3.npy"]
 

@@ -703,12 +703,15 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                                                                 aov_pattern is not None)):
                            (frame, file) for frame, file in jobs}
             for future in concurrent.futures.as_completed(futures):
+                result = {}  # the frame sent back: its row names the worker's device, which an OSError does not
                 try:
-                    write(future.result(), futures[future][1])
+                    result = future.result()
+                    write(result, futures[future][1])
                 except SceneError as e:
                     rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
                 except OSError as e:  # its write failed (a full disk): as in a serial run, the others go on
-                    rows.append(frame_write_error_row(*futures[future], e, getattr(e, "device", None)))
+                    device = getattr(e, "device", None) or result.get("row", {}).get("device")
+                    rows.append(frame_write_error_row(*futures[future], e, device))
                 except Exception as e:
                     _log_stopping_frame(rows, *futures[future], e)
                     raise
