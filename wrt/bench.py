@@ -649,9 +649,13 @@ def _scene_key(name: str, cwd: str | None = None) -> str:
 
 def _row_scene_key(row: dict) -> str:
     """:func:`_scene_key` of a row's scene, read from the folder its run started in (``cwd``; rows of runs before
-    that field: the current folder), as a render log's rows are: a ``--resume`` from another folder measured every
-    scene of a relative path again (a suite's ``bench/a.usda`` is ``a.usda`` from ``bench/``)."""
-    return _scene_key(row["scene"], row.get("cwd"))
+    that field, or whose folder is gone: the current folder), as a render log's rows are: a ``--resume`` from another
+    folder measured every scene of a relative path again (a suite's ``bench/a.usda`` is ``a.usda`` from ``bench/``).
+    A row's triangles and rays (``inputs``) tell whether the file read from the current folder is the one measured."""
+    cwd = row.get("cwd")
+    if isinstance(cwd, str) and not os.path.isdir(cwd):  # gone (the project moved): read as rows before the field
+        cwd = None
+    return _scene_key(row["scene"], cwd)
 
 
 def sphere_triangles(name: str) -> int:
@@ -1181,6 +1185,10 @@ def _as_grid_scenes(rows: list[dict], scenes: list[str]) -> list[dict]:
                 key = None
             if key in spelling:  # named as this run names it, from the folder it runs in
                 row = dict(row, scene=spelling[key], cwd=os.getcwd())
+            elif key is not None and row["scene"] in spelling.values() and isinstance(row.get("cwd"), str):
+                # Spelt as a scene of this grid but another file from its run's folder (a copy of the project): named
+                # by that path, or it stood for this grid's scene as an earlier run's row outside it, measured by none.
+                row = dict(row, scene=str(Path(row["cwd"]) / row["scene"]))
         kept.pop(row_key(row), None)  # the later row of a key, in its place in the file
         kept[row_key(row)] = row
     return list(kept.values())
