@@ -195,3 +195,26 @@ def test_ctrl_c_while_a_frame_is_written_still_logs_the_image_it_wrote(tmp_path,
         write({"row": {"frame": 3.0, "status": "ok"}, "data": b"image"}, tmp_path / "f_3.npy")
     assert (tmp_path / "f_3.npy").is_file()
     assert [(row["frame"], row["status"], row["output"]) for row in rows] == [(3.0, "ok", str(tmp_path / "f_3.npy"))]
+
+
+def test_a_frame_whose_error_stops_a_dask_run_has_its_error_row(tmp_path, monkeypatch):
+    """A frame whose task raised what is no bad input at its time (no memory left on its worker) is raised once the
+    other frames finish, as run_tasks' contract says (wrt.distributed.run_tasks, played here, the tasks run in this
+    process), but the log said nothing of it, only that frame 1 had finished; over devices such a frame has its error
+    row (_log_stopping_frame). The oracle: the frame and its file as given, and the error raised."""
+    import wrt.distributed
+    from wrt import animation
+
+    def run_tasks(task, tasks, *, on_result, on_error, **kwargs):
+        on_result(tasks[0], task(tasks[0]))
+        on_error(tasks[1], MemoryError("no memory left for frame 2"))
+
+    monkeypatch.setattr(wrt.distributed, "run_tasks", run_tasks)
+    monkeypatch.setattr(animation, "_WORKER_RENDERERS", {})
+    path = blind_at_frames_2_and_3(tmp_path)
+    jobs = [(1.0, tmp_path / "f_1.npy"), (2.0, tmp_path / "f_2.npy")]
+    with pytest.raises(MemoryError, match="frame 2"):
+        animation.render_frames_on_dask(path, jobs, log=tmp_path / "log.jsonl", **SIZE)
+    rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    assert [(row["frame"], row["output"], row.get("error")) for row in rows] == [
+        (1.0, str(jobs[0][1]), None), (2.0, str(jobs[1][1]), "MemoryError: no memory left for frame 2")], rows

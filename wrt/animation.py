@@ -1000,7 +1000,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     died is rerun elsewhere. Returns the log rows, with ``output``, in arrival order (each also appended to ``log`` as
     it arrives, when given, and handed to ``on_row``); a frame whose stage is bad at its time has an error row, as in
     :func:`render_frames`, and any other error (a frame whose workers kept dying too) is raised once every frame has
-    finished."""
+    finished, its frame's error row logged as it comes back."""
     from .distributed import run_tasks
     from .image import check_exposure
 
@@ -1019,7 +1019,8 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     def failed(job, error):
         if isinstance(error, SceneError):
             rows.append(frame_error_row(job["frame"], job["file"], error, getattr(error, "device", None)))
-        else:
+        else:  # raised once the others finish; its row now, as over devices: the log said nothing of the frame
+            _log_stopping_frame(rows, job["frame"], job["file"], error, getattr(error, "device", None))
             others.append(error)
 
     def arrived(job, result):
