@@ -1390,3 +1390,19 @@ def test_a_suite_count_with_a_fraction_is_still_refused_as_n_rays_1000_5_is(tmp_
     with pytest.raises(SystemExit):
         main(["bench", "--n-rays", "1000.5"])
     assert "argument --n-rays: '1000.5' is not an integer" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("written", ["3e0", "3.0", "3"])
+def test_a_suite_thread_count_written_as_a_whole_float_is_taken_as_the_other_counts_are(tmp_path, written):
+    """README takes a suite's count written '1e6' or '1000.0'; '"threads": [3.0]' was refused ('must be positive
+    integers or 'all', got 3.0') where n_rays and repeats written so were taken. decimal.Decimal is the oracle; 2.5 is
+    still refused, naming its entry."""
+    from decimal import Decimal
+
+    suite = tmp_path / "suite.json"
+    suite.write_text(f'{{"scenes": ["sphere:200"], "accels": ["wrt:sah"], "threads": [1, {written}]}}')
+    threads = Grid.from_suite(str(suite)).validated().threads
+    assert threads == [1, int(Decimal(written))] and all(type(t) is int for t in threads)
+    suite.write_text('{"scenes": ["sphere:200"], "accels": ["wrt:sah"], "threads": [1, 2.5]}')
+    with pytest.raises(ValueError, match=r"suite\.json: threads\[1\]: .*got 2\.5"):
+        Grid.from_suite(str(suite)).validated()

@@ -330,9 +330,12 @@ def _whole_count(value):
 
 
 def _whole_counts(data: dict) -> dict:
-    """A suite's ``n_rays``, ``repeats`` and ``scaling.n_rays`` through :func:`_whole_count` (its scaling sizes take a
-    whole float already): ``"n_rays": 1e3`` was refused, 'got 1000.0', where ``--n-rays 1e3`` was taken."""
+    """A suite's ``n_rays``, ``repeats``, each ``threads`` entry and ``scaling.n_rays`` through :func:`_whole_count`
+    (its scaling sizes take a whole float already): ``"n_rays": 1e3`` was refused, 'got 1000.0', where ``--n-rays 1e3``
+    was taken, and ``"threads": [2.0]`` 'must be positive integers', though README takes a count written so."""
     data = {**data, **{key: _whole_count(data[key]) for key in ("n_rays", "repeats") if key in data}}
+    if isinstance(data.get("threads"), list):
+        data["threads"] = [_whole_count(t) for t in data["threads"]]
     if isinstance(data.get("scaling"), dict) and "n_rays" in data["scaling"]:
         data["scaling"] = {**data["scaling"], "n_rays": _whole_count(data["scaling"]["n_rays"])}
     return data
