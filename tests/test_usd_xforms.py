@@ -728,3 +728,101 @@ def test_ops_given_only_by_value_clips_are_read_at_their_first_sample_with_the_d
     for scene in scenes:
         drawn, indices = scene.triangles()
         np.testing.assert_allclose(drawn[indices[0]], points, atol=1e-6)
+
+
+def _clip_set(name: str, clip: str, manifest: str, prim_path: str) -> str:
+    return (f'        dictionary {name} = {{ asset[] assetPaths = [@./{clip}@]\n        double2[] active = [(0, 0)]\n'
+            f'        double2[] times = [(0, 0), (10, 10)]\n        asset manifestAssetPath = @./{manifest}@\n'
+            f'        string primPath = "{prim_path}" }}\n')
+
+
+def _over(path: str, body: str) -> str:
+    """A usda layer of ``over`` prims down ``path`` (/A/B), ``body`` in the last."""
+    names = path.strip("/").split("/")
+    return "#usda 1.0\n" + "".join(f'over "{n}"\n{{\n' for n in names) + body + "}\n" * len(names)
+
+
+def _xform(name: str, ops: list, inside: str = "", meta: str = "") -> str:
+    declared = "".join(f"    {kind} xformOp:{op}\n" for kind, op in ops)
+    order = ", ".join(f'"xformOp:{op}"' for _, op in ops)
+    return (f'def Xform "{name}"{meta}\n{{\n{declared}    uniform token[] xformOpOrder = [{order}]\n'
+            f'{inside}}}\n')
+
+
+@pytest.mark.parametrize("layout", ["prototype", "partial manifest", "nested", "clip sets"])
+def test_default_time_transforms_under_value_clips_match_usd_earliest_time(tmp_path, layout):
+    """Ops given only by value clips with a manifest (289ce705) in the layouts clips take: clips inside a native
+    instance's prototype (read through the proxies and the prototype alike; clips on the instance's asset root reach
+    no prototype prim, and USD reads none), a manifest listing one of two animated ops (the other reads its
+    default), clips on a prim and on its child, two named sets in ``clipSets``. Every op has samples only, so
+    USD's ``XformCache(EarliestTime)`` is the oracle for wrt's default time."""
+    def clips(*sets, order=None):
+        listed = f'\n    clipSets = [{", ".join(chr(34) + s[0] + chr(34) for s in order)}]' if order else ""
+        return " (\n    clips = {\n" + "".join(_clip_set(*s) for s in sets) + "    }" + listed + "\n)"
+
+    rotate = ("float", "rotateX")
+    move = _over("/Rig/Arm", "    double3 xformOp:translate.timeSamples = { 0: (0, 3, 0), 10: (0, 5, 0) }\n"
+                 "    float xformOp:rotateX.timeSamples = { 0: 90, 10: 0 }\n")
+    (tmp_path / "clip.usda").write_text(move)
+    (tmp_path / "manifest.usda").write_text(_over("/Rig/Arm", "    double3 xformOp:translate\n"))
+    default = ("default", "clip.usda", "manifest.usda", "/Rig")
+    arm = [("double3", "translate")]  # no valueless op: that alone had the ops read one by one
+    if layout == "prototype":
+        (tmp_path / "asset.usda").write_text('#usda 1.0\n(\n    defaultPrim = "Top"\n)\n'
+                                             + _xform("Top", [], _xform("Rig", [], _xform("Arm", arm), clips(default))))
+        stage_text = "".join(f'def Xform "{n}" (\n    instanceable = true\n    references = @./asset.usda@\n)\n{{\n}}\n'
+                             for n in ("A", "B"))
+    elif layout == "partial manifest":
+        # rotateX's default is USD's value: the manifest lists no rotateX, so the clip's samples of it are none
+        stage_text = _xform("Rig", [], _xform("Arm", [*arm, rotate]), clips(default)).replace(
+            "float xformOp:rotateX\n", "float xformOp:rotateX = 30\n")
+    elif layout == "nested":
+        (tmp_path / "hand.usda").write_text(_over("/Hand", "    double3 xformOp:translate.timeSamples = "
+                                                  "{ 0: (7, 0, 0), 10: (8, 0, 0) }\n"))
+        (tmp_path / "hand_manifest.usda").write_text(_over("/Hand", "    double3 xformOp:translate\n"))
+        hand = _xform("Hand", [("double3", "translate")], meta=clips(("default", "hand.usda", "hand_manifest.usda",
+                                                                      "/Hand")))
+        stage_text = _xform("Rig", [], _xform("Arm", arm, hand), clips(default))
+    else:
+        (tmp_path / "scale.usda").write_text(_over("/Rig/Arm", "    double3 xformOp:scale.timeSamples = "
+                                                   "{ 0: (2, 2, 2), 10: (1, 1, 1) }\n"))
+        (tmp_path / "scale_manifest.usda").write_text(_over("/Rig/Arm", "    double3 xformOp:scale\n"))
+        second = ("second", "scale.usda", "scale_manifest.usda", "/Rig")
+        stage_text = _xform("Rig", [], _xform("Arm", [*arm, ("double3", "scale")]),
+                            clips(default, second, order=(second, default)))
+    (tmp_path / "stage.usda").write_text("#usda 1.0\n" + stage_text)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    prims = [p for top in (stage.GetPseudoRoot(), *stage.GetPrototypes())
+             for p in Usd.PrimRange(top, Usd.TraverseInstanceProxies()) if p.IsA(UsdGeom.Xformable)]
+    xforms = DefaultTimeXforms(stage)
+    drawn = [np.array(xforms.GetLocalToWorldTransform(prim)) for prim in prims]  # before USD opens a clip to read
+    cache, moved = UsdGeom.XformCache(Usd.TimeCode.EarliestTime()), 0
+    for prim, got in zip(prims, drawn):
+        expected = np.array(cache.GetLocalToWorldTransform(prim))
+        moved += not np.allclose(expected, np.eye(4))
+        np.testing.assert_allclose(got, expected, atol=1e-9, err_msg=str(prim.GetPath()))
+    assert moved, [str(p.GetPath()) for p in prims]  # the clips do move the arm (a layout USD reads)
+
+
+def test_still_prims_beside_value_clips_ask_no_op(tmp_path, monkeypatch):
+    """Clips under /Rig make its ops asked one by one (289ce705), not those of a still prim beside it: the stage-wide
+    shortcut of a stage without time samples still holds for every prim that no clip set reaches."""
+    (tmp_path / "clip.usda").write_text(_over("/Rig/Arm", "    double3 xformOp:translate.timeSamples = "
+                                              "{ 0: (0, 3, 0), 10: (0, 5, 0) }\n"))
+    (tmp_path / "manifest.usda").write_text(_over("/Rig/Arm", "    double3 xformOp:translate\n"))
+    meta = " (\n    clips = {\n" + _clip_set("default", "clip.usda", "manifest.usda", "/Rig") + "    }\n)"
+    move = [("double3", "translate")]
+    still = _xform("Still", move, _xform("Arm", move)).replace("translate\n", "translate = (1, 2, 3)\n")
+    (tmp_path / "stage.usda").write_text("#usda 1.0\n" + _xform("Rig", [], _xform("Arm", move), meta) + still)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    asked = []
+    original = wrt.usd_xforms.read_time
+    monkeypatch.setattr(wrt.usd_xforms, "read_time", lambda attr, time: asked.append(str(attr.GetPrimPath())) or
+                        original(attr, time))
+    xforms = DefaultTimeXforms(stage)
+    drawn = {str(p.GetPath()): np.array(xforms.GetLocalToWorldTransform(p)) for p in stage.Traverse()}
+    assert asked and set(asked) == {"/Rig/Arm"}, asked
+    cache = UsdGeom.XformCache(Usd.TimeCode.EarliestTime())
+    for path, got in drawn.items():
+        np.testing.assert_allclose(got, np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(path))), atol=0)
+    assert drawn["/Still/Arm"][3, :3].tolist() == [2, 4, 6] and drawn["/Rig/Arm"][3, 1] == 3
