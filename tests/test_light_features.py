@@ -2,6 +2,7 @@
 that a kept Renderer whose scene gains a kind of light launches a variant that draws it. (That the variants leave
 out their features' code: ``test_inlined_copies.py``.)"""
 
+import threading
 import warnings
 
 import numpy as np
@@ -10,6 +11,7 @@ from test_glowing_spheres import PATCH, RES, closed_form, floor_mesh, materials,
 
 import wrt
 from wrt import light_sampling
+from wrt.integrators import path
 from wrt.light_features import ALL_FEATURES, NO_FEATURES, SHAPE_LIGHT_KINDS, LightFeatures
 from wrt.light_shaping import Shaping
 from wrt.lights import CylinderLight, RectLight, SphereLight
@@ -62,3 +64,33 @@ def test_a_kept_renderer_draws_a_glowing_sphere_added_after_its_first_render():
     rendered = renderer.render(spp=256, seed=3).rgb.mean(axis=-1)
     expected = closed_form([(centre, r)])
     assert np.abs(rendered / expected - 1).max() < 0.06, rendered / expected
+
+
+def test_threads_asking_for_a_new_variant_at_once_all_render_it():
+    """Four threads render a scene whose variant no render has made yet (the factories' caches cleared, as in a
+    fresh process), at once: each made the variant's kernels itself, and a kernel registered while another thread
+    loaded the module missed its hash, so that Warp's launch raised AttributeError (tid_extent_limit_candidate) in
+    4 trials of 5, and in every later render of that variant. Each thread's image is the one drawn alone."""
+    scene = wrt.Scene(meshes=[floor_mesh()], shapes=[sphere_shape((0, 0, 1), 0.2)], materials=materials())
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.05), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
+    renderers = [wrt.Renderer(scene, camera=cam, width=RES, height=RES, integrator="path") for _ in range(4)]
+    alone = renderers[0].render(spp=2, seed=3).rgb
+    for _ in range(3):
+        for factory in (path._made_path_kernels, path.shade_path_kernel_for, path.add_unoccluded_kernel_for):
+            factory.cache_clear()
+        images, errors = [None] * len(renderers), []
+
+        def draw(i):
+            try:
+                images[i] = renderers[i].render(spp=2, seed=3).rgb
+            except Exception as e:  # (raised in the thread: kept for the assert)
+                errors.append(repr(e))
+
+        threads = [threading.Thread(target=draw, args=(i,)) for i in range(len(renderers))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        assert errors == []
+        for image in images:
+            np.testing.assert_array_equal(image, alone)

@@ -21,6 +21,7 @@ MIS-weighted by their pdf from that point, as next-event estimation weights them
 
 import dataclasses
 import functools
+import threading
 from typing import NamedTuple
 
 import warp as wp
@@ -148,6 +149,13 @@ def features_module(integrator: str, features: LightFeatures):
     module = wp.get_module(f"{integrator}.{'_'.join(flags) or 'no_features'}")
     module.options.update(MODULE_OPTIONS)
     return module
+
+
+# Held while the kernels of a variant are made (path_kernels, whitted_kernels): functools.cache lets threads that ask
+# for a new variant at once each make its kernels, and a kernel registered into a module another thread was loading
+# missed that load's hash (Warp's launch then raised AttributeError: no tid_extent_limit_candidate, for every render
+# of that variant in the process).
+MAKING_KERNELS = threading.Lock()
 
 
 @functools.cache
@@ -367,11 +375,16 @@ class PathKernels(NamedTuple):
     add_unoccluded: wp.Kernel  # add_unoccluded_kernel_for(features)
 
 
-@functools.cache
 def path_kernels(features: LightFeatures) -> PathKernels:
     """Every kernel of a path render for ``features``, made together before any is launched: a kernel added to a
     module after it was loaded makes Warp build the module again (made one at a time, whitted's module was compiled
-    three times in a cold render)."""
+    three times in a cold render). Made once, by one thread (:data:`MAKING_KERNELS`)."""
+    with MAKING_KERNELS:
+        return _made_path_kernels(features)
+
+
+@functools.cache
+def _made_path_kernels(features: LightFeatures) -> PathKernels:
     return PathKernels(shade_path_kernel_for(features), add_unoccluded_kernel_for(features))
 
 

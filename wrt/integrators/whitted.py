@@ -61,7 +61,7 @@ from ..sampling import luminance, max_component, power_heuristic, rand01
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment_for, surface_emission
-from .path import MODULE_OPTIONS, aim_shadow_ray, clear_shadow_ray, features_module
+from .path import MAKING_KERNELS, MODULE_OPTIONS, aim_shadow_ray, clear_shadow_ray, features_module
 
 # device-independent rounding, and a moderate inlining on the CPU: see wrt/shade.py
 # (and of the modules of the kernels made per light features: path.features_module)
@@ -546,9 +546,14 @@ class WhittedKernels(NamedTuple):
     add_unoccluded: wp.Kernel  # add_unoccluded_lights_kernel_for(features)
 
 
-@functools.cache
 def whitted_kernels(features: LightFeatures) -> WhittedKernels:
-    """Every kernel of a whitted render for ``features``, made together before any is launched (see
-    :func:`wrt.integrators.path.path_kernels`)."""
+    """Every kernel of a whitted render for ``features``, made together before any is launched, once, by one thread
+    (see :func:`wrt.integrators.path.path_kernels`)."""
+    with MAKING_KERNELS:
+        return _made_whitted_kernels(features)
+
+
+@functools.cache
+def _made_whitted_kernels(features: LightFeatures) -> WhittedKernels:
     return WhittedKernels(shade_whitted_kernel_for(features), whitted_lights_kernel_for(features),
                           continue_whitted_kernel_for(features), add_unoccluded_lights_kernel_for(features))
