@@ -77,3 +77,25 @@ def test_png_pixel_aspect_of_a_numpy_float32_ratio(tmp_path):
 
     write_srgb_png(tmp_path / "x.png", np.zeros((3, 2, 3), np.uint8), np.float32(0.4))
     assert pixel_aspect_ratio(read_chunks(str(tmp_path / "x.png"))) == pytest.approx(0.4, rel=1e-5)
+
+
+@pytest.mark.parametrize("name", ["depth.exr", "depth.png", "depth.EXR", "depth"])
+def test_save_aov_writes_only_npy_names(tmp_path, name):
+    """``save_aov`` writes NumPy bytes; under ``depth.exr`` (or ``.png``) that was a file OpenEXR (Pillow) cannot
+    open, written without a word. Now it is refused naming the file, and nothing is written; ``.npy`` in any case
+    holds the very array."""
+    depth = image_of(3, 2)[..., 0]
+    image = wrt.Image(rgb=image_of(3, 2), aovs={"depth": depth})
+    with pytest.raises(ValueError, match=rf"save_aov: cannot write .*{name}: .*\.npy"):
+        image.save_aov("depth", tmp_path / name)
+    assert not list(tmp_path.iterdir())
+    saved = np.load(image.save_aov("depth", tmp_path / "depth.NPY"))
+    assert saved.dtype == np.float32 and saved.tobytes() == depth.tobytes()
+
+
+def test_save_aov_npy_bytes_are_no_exr(tmp_path):
+    """The oracle behind the test above: the NumPy bytes ``save_aov`` wrote under an EXR name are no EXR file."""
+    np.save(tmp_path / "depth.npy", image_of(3, 2)[..., 0])
+    (tmp_path / "depth.npy").rename(tmp_path / "depth.exr")
+    with pytest.raises(Exception):
+        OpenEXR.File(str(tmp_path / "depth.exr"))

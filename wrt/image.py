@@ -567,10 +567,16 @@ class Image:
         return paths
 
     def save_aov(self, name: str, path) -> Path:
-        """Writes AOV ``name`` as the ``.npy`` array ``path`` (whole or not at all); returns the path."""
+        """Writes AOV ``name`` as the ``.npy`` array ``path`` (whole or not at all); returns the path. ``path`` must end
+        in ``.npy`` (a ``ValueError`` otherwise: ``depth.exr`` got NumPy bytes under an EXR name, which no EXR reader
+        opens; a preview: :meth:`save_aov_png`)."""
         self._check_aov(name)
-
-        path = Path(path)
+        if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
+            raise TypeError(f"save_aov: path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
+        path = check_not_extension_alone(path)
+        if path.suffix.lower() != ".npy":
+            raise ValueError(f"save_aov: cannot write {path}: the AOV's values are a NumPy array, so name it .npy (a "
+                             f"picture of them: save_aov_png, as .png)")
         write_atomically(path, lambda target: write_npy(target, self.aovs[name]))
         return path
 
