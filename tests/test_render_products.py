@@ -1062,3 +1062,21 @@ def test_a_product_name_ending_in_a_dot_or_an_extension_alone_names_a_sensible_f
     else:
         assert any(f"/Render/P productName {product_name!r}" in m and said in m and name in m for m in messages), \
             messages
+
+
+@pytest.mark.parametrize("largest, rounded", [(2**24, 0), (2**24 + 1, 1), (2**31 - 1, 1)])
+def test_id_channels_warn_only_where_an_id_is_rounded(largest, rounded):
+    """Every integer up to 2^24 is exact in float32 (numpy's own round trip, the oracle); 2^24 itself was said to be
+    rounded. Now the warning comes where an id changes, counting them."""
+    from wrt.render_products import _Output, output_channels
+
+    ids = np.array([[-1, 0, 2**24 - 1, largest]], np.int32)
+    image = wrt.Image(rgb=np.zeros((1, 4, 3), np.float32), aovs={"prim": ids})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        camera = type("Camera", (), {"to_world": np.eye(4)})  # the prim layer reads no view
+        channels, _ = output_channels(image, camera, None, [_Output("prim", "prim")])
+    said = [str(w.message) for w in caught]
+    assert len(said) == rounded and all(f"{rounded} ids past 16777216" in s for s in said)
+    exact = ids.astype(np.float32).astype(np.int64) == ids
+    np.testing.assert_array_equal(channels["prim"][exact], ids[exact])

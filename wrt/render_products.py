@@ -11,7 +11,7 @@ that begins with a dot, such as ``.png`` or ``.beauty.png``, which would hide th
 caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the
 beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage``
 AOV, the colour unpremultiplied by it); every other product is an OpenEXR file of float32 channels (ids too: exact
-below 2^24), the name's extension replaced with a warning where it is another image format's (:data:`IMAGE_EXTENSIONS`;
+up to 2^24), the name's extension replaced with a warning where it is another image format's (:data:`IMAGE_EXTENSIONS`;
 ``shot.beauty`` is ``shot.beauty.exr``), and a name past 255 bytes shortened.
 The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after their
 ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X, N.Y,
@@ -78,7 +78,7 @@ CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", 
             "geometric_normal": ("X", "Y", "Z"), "P": ("X", "Y", "Z"), "Peye": ("X", "Y", "Z"),
             "cost": ("nodes", "triangles")}
 NAMED_IDS = ("primId", "instance")  # ids whose prim paths the EXR header names (attribute "<layer>/paths")
-EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
+EXACT_FLOAT_INTS = 1 << 24  # ids up to this are exact in a float32 channel
 NUMBER_BYTES = 8  # room left in a long file name for the "_k" that tells products of one name apart
 # Extensions of image formats a productName may end in: PNG and EXR, which wrt writes, those of OpenImageIO (the image
 # library of USD's renderers), replaced by the one wrt writes (".tif" by ".png"), and wrt's own .npy. Any other dotted
@@ -277,9 +277,12 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
     channels, attributes = {}, {}
     for out in outputs:
         value = _values(out.kind, image, camera, scene)
-        if value.dtype.kind in "iu" and value.size and np.abs(value).max() >= EXACT_FLOAT_INTS:
-            warnings.warn(f"{out.layer or out.kind}: ids of {EXACT_FLOAT_INTS} and above are rounded in the "
-                          "float32 channels of EXR", stacklevel=3)
+        # Warned where some id changes in a float32 channel: every integer up to 2^24 is exact there, 2^24 itself
+        # too (it warned from 2^24 on, saying that 2^24 was rounded).
+        rounded = value.dtype.kind in "iu" and value.astype(np.float32).astype(np.int64) != value
+        if np.any(rounded):
+            warnings.warn(f"{out.layer or out.kind}: {np.count_nonzero(rounded)} ids past {EXACT_FLOAT_INTS} (the "
+                          f"largest {np.abs(value).max()}) are rounded in the float32 channels of EXR", stacklevel=3)
         if out.kind in NAMED_IDS:
             attributes[f"{out.layer}/paths"] = _paths(out.kind, value, scene)
         names = channel_names(out)
