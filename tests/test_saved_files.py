@@ -99,3 +99,18 @@ def test_save_aov_npy_bytes_are_no_exr(tmp_path):
     (tmp_path / "depth.npy").rename(tmp_path / "depth.exr")
     with pytest.raises(Exception):
         OpenEXR.File(str(tmp_path / "depth.exr"))
+
+
+@pytest.mark.parametrize("shape", [(2, 3, 4), (2, 3), (2, 3, 1)])
+@pytest.mark.parametrize("name", ["x.png", "x.exr", "x.npy"])
+def test_rgb_replaced_by_an_array_of_another_shape_is_refused_at_save(tmp_path, shape, name):
+    """``wrt.Image`` refuses an rgb other than ``(H, W, 3)``; one set afterwards was written: ``(2, 3, 4)`` as an RGBA
+    PNG whose alpha was sRGB-encoded (0.5 read back by Pillow as 188, not 128) and an RGBA .npy, ``(2, 3)`` failed
+    in PIL's or OpenEXR's words. Now save refuses it as the constructor does, writing nothing."""
+    image = wrt.Image(rgb=image_of(3, 2))
+    image.rgb = np.full(shape, 0.5)
+    with pytest.raises(ValueError, match=r"rgb must be a non-empty \(H, W, 3\) array"):
+        image.save(tmp_path / name)
+    assert not list(tmp_path.iterdir())
+    with pytest.raises(ValueError, match=r"rgb must be a non-empty \(H, W, 3\) array"):
+        image._repr_png_()

@@ -508,6 +508,7 @@ class Image:
         import io
 
         buffer = io.BytesIO()
+        self.rgb = checked_rgb(self.rgb)  # replaced after the image was made, as save checks it
         self._write_png(buffer, 0.0)
         return buffer.getvalue()
 
@@ -530,6 +531,9 @@ class Image:
         path = check_image_path(path)  # a directory too: else the error would name the temporary file beside it
         exposure = check_exposure(exposure)
         self._check_settings()  # set after the image was made, too
+        # So is rgb: an (H, W, 4) array replaced it in a PNG of RGBA, its alpha sRGB-encoded (0.5 as 188), and an
+        # (H, W) one failed in PIL's words ('Invalid mode for data type').
+        self.rgb = checked_rgb(self.rgb)
         suffix = path.suffix.lower()
         if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
             warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
