@@ -114,3 +114,28 @@ def test_rgb_replaced_by_an_array_of_another_shape_is_refused_at_save(tmp_path, 
     assert not list(tmp_path.iterdir())
     with pytest.raises(ValueError, match=r"rgb must be a non-empty \(H, W, 3\) array"):
         image._repr_png_()
+
+
+@pytest.mark.parametrize("ratio, written", [(1e6, True), (1.0000001e6, False), (1e39, False), (1e-6, True),
+                                            (9.9e-7, False), (1e-50, False)])
+def test_exr_pixel_aspect_ratios_the_header_cannot_state_are_refused_naming_the_file(tmp_path, ratio, written):
+    """OpenEXR's header takes pixel aspect ratios in [1e-6, 1e6] (as float32; the oracle: OpenEXR itself, writing a
+    file of that header). Past them the save failed in OpenEXR's words, naming the temporary file. Now a ValueError
+    names the file asked for; the PNG of the same image is written (its pHYs takes the ratio)."""
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, "pixelAspectRatio": ratio}
+    try:
+        with OpenEXR.File(header, {"R": np.zeros((2, 3), np.float32)}) as f:
+            f.write(str(tmp_path / "oracle.exr"))
+        takes = True
+    except Exception:
+        takes = False
+    assert takes == written
+    image = wrt.Image(rgb=image_of(3, 2), pixel_aspect_ratio=ratio)
+    if written:
+        with OpenEXR.File(str(image.save(tmp_path / "x.exr"))) as f:
+            assert f.header()["pixelAspectRatio"] == np.float32(ratio)
+    else:
+        with pytest.raises(ValueError, match=rf"cannot write {tmp_path / 'x.exr'}: pixels .* OpenEXR header takes"):
+            image.save(tmp_path / "x.exr")
+        assert not (tmp_path / "x.exr").exists()
+    image.save(tmp_path / "x.png")

@@ -318,6 +318,22 @@ def exr_windows(window: tuple[int, int, int, int] | None, width: int, height: in
             "dataWindow": (np.array([x0, y0], np.int32), np.array([x0 + width - 1, y0 + height - 1], np.int32))}
 
 
+# The pixel aspect ratios an OpenEXR header may state (its sanity check, on the ratio as a 32-bit float): past them the
+# write failed as 'Invalid pixel aspect ratio in image header', naming the temporary file.
+EXR_PIXEL_ASPECTS = (np.float32(1e-6), np.float32(1e6))
+
+
+def check_exr_pixel_aspect(ratio: float, path) -> None:
+    """ValueError naming ``path`` when an EXR header cannot state the pixel aspect ``ratio`` (:data:`EXR_PIXEL_ASPECTS`;
+    a PNG's pHYs chunk can)."""
+    low, high = EXR_PIXEL_ASPECTS
+    with np.errstate(over="ignore"):  # 1e39 is inf as a float32: refused, as it is
+        stated = np.float32(ratio)
+    if not low <= stated <= high:
+        raise ValueError(f"cannot write {path}: pixels {float(ratio):g} times as wide as tall are outside the pixel "
+                         f"aspect ratios an OpenEXR header takes, [{low:g}, {high:g}]; write a .png or .npy")
+
+
 def write_exr(path: Path, channels: dict[str, np.ndarray], attributes: dict | None = None) -> None:
     """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file, with the header
     ``attributes`` (as the OpenEXR package takes them: ``{"dataWindow": (min, max), "id/paths": "..."}``)."""
@@ -535,6 +551,8 @@ class Image:
         # (H, W) one failed in PIL's words ('Invalid mode for data type').
         self.rgb = checked_rgb(self.rgb)
         suffix = path.suffix.lower()
+        if suffix == ".exr":
+            check_exr_pixel_aspect(self.pixel_aspect_ratio, path)
         if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
             warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
 
