@@ -1080,3 +1080,21 @@ def test_id_channels_warn_only_where_an_id_is_rounded(largest, rounded):
     assert len(said) == rounded and all(f"{rounded} ids past 16777216" in s for s in said)
     exact = ids.astype(np.float32).astype(np.int64) == ids
     np.testing.assert_array_equal(channels["prim"][exact], ids[exact])
+
+
+def test_an_exr_product_of_pixels_an_exr_header_cannot_state_fails_before_any_render(tmp_path, monkeypatch):
+    """Pixels 2e6 times as wide as tall: OpenEXR's header takes pixel aspect ratios up to 1e6 (its own write of that
+    header fails, the oracle); the product was rendered and then failed naming the temporary file. Now the call
+    fails naming the product and the file before any render, no file written."""
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, "pixelAspectRatio": 2e6}
+    with pytest.raises(Exception):
+        with OpenEXR.File(header, {"R": np.zeros((2, 2), np.float32)}) as f:
+            f.write(str(tmp_path / "oracle.exr"))
+    products = product("A", ["color"], "a.png") + product("B", ["depth"], "b.exr")
+    settings = "uniform float pixelAspectRatio = 2000000\n"
+    scene = load(write_stage(tmp_path, products, ["A", "B"], settings=settings))
+    products_module = importlib.import_module("wrt.render_products")  # wrt.render_products is the function
+    monkeypatch.setattr(products_module, "render_views", lambda *args, **kwargs: pytest.fail("rendered"))
+    with pytest.raises(ValueError, match=r"shot.usda: /Render/B: cannot write .*b\.exr: pixels 2e\+06 times as wide"):
+        wrt.render_products(scene, tmp_path / "out", device="cpu")
+    assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())

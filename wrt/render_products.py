@@ -39,6 +39,7 @@ from .animation import MAX_NAME_BYTES
 from .image import (
     DATA_EXPOSURE_WARNING,
     check_exposure,
+    check_exr_pixel_aspect,
     check_folder_path,
     data_to_8bit,
     to_srgb8,
@@ -435,6 +436,11 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                 raise ValueError(f"{where}: {product.product}: {error}") from None
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         plan.append((product, view, outputs, product_file_name(product, png, where, taken)))
+        if not plan[-1][3].lower().endswith(".png"):  # else refused after the render, naming the temporary file
+            try:
+                check_exr_pixel_aspect(views[view][0].pixel_aspect_ratio, directory / plan[-1][3])
+            except ValueError as error:
+                raise ValueError(f"{where}: {product.product}: {error}") from None
         if (directory / plan[-1][3]).is_dir():  # refused only after the render, naming the temporary file
             raise IsADirectoryError(f"{where}: {product.product}: cannot write {directory / plan[-1][3]}: it is a "
                                     "directory")
