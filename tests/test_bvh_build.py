@@ -555,3 +555,19 @@ def test_morton_builders_order_a_cluster_whose_codes_are_all_equal(builder, mort
     origins = (targets + rng.normal(0.0, 5e-4, targets.shape)).astype(np.float32)
     hits, ref = trace_through(points, indices, origins, targets - origins, builder)
     np.testing.assert_array_equal(hits.prim, ref.prim)
+
+
+@pytest.mark.parametrize("exponent", [70, -70])
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_a_scene_scaled_by_a_power_of_two_gets_the_same_tree_scaled(builder, exponent, np_rng):
+    # Scaling by 2**exponent is exact, so the oracle is the unit-sized tree scaled: float32 areas of 2**70-sized boxes
+    # overflowed to inf (2**-70: underflowed to 0) and the SAH decisions went blind (sah: SAH cost 95.0, not 66.8).
+    points, indices = soup(np_rng, 300, size=0.3)
+    unit = build_bvh(points, indices, builder, device="cpu")
+    scaled = build_bvh(points * np.float32(2.0**exponent), indices, builder, device="cpu")
+    scaled.validate()
+    np.testing.assert_array_equal(scaled.left_first, unit.left_first)
+    np.testing.assert_array_equal(scaled.prim_count, unit.prim_count)
+    np.testing.assert_array_equal(scaled.prim_ids, unit.prim_ids)
+    np.testing.assert_array_equal(scaled.lowers.astype(np.float64), unit.lowers * 2.0**exponent)
+    np.testing.assert_array_equal(scaled.uppers.astype(np.float64), unit.uppers * 2.0**exponent)

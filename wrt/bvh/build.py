@@ -29,6 +29,7 @@ from ..options import DEFAULT_BINS, DEFAULT_LEAF_SIZE, MAX_BINS, MAX_LEAF_SIZE, 
 from .common import MAX_DEPTH, BuildInput, resolve_device, stage
 from .layout import DeviceFlatBvh, FlatBvh
 from .presplit import MAX_SPLIT_LEVELS, References, map_slots_kernel, split_plan, write_references
+from .unit_scale import scale_boxes_back, scale_input, unit_exponent
 
 
 def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
@@ -215,8 +216,13 @@ def build_bvh_device(
             data.prim_lowers, data.prim_uppers, data.centroids, ref_prims = write_references(
                 data.points, data.indices, *plan)
             data.num_prims = len(ref_prims)
+    exponent = unit_exponent(data)  # float32 areas of a scene past 1e19 (or under 1e-19) are inf (or 0)
+    if exponent:
+        scale_input(data, exponent)
     tree = _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timers,
                   traversal_cost, intersection_cost)
+    if exponent:
+        scale_boxes_back(tree, exponent)
     if ref_prims is not None:
         if plan[2] > len(plan[0]):  # some triangle was cut: a refit must cut it again (refit.py)
             tree.references = References(plan[0], plan[1], wp.clone(tree.prim_ids), plan[2])
