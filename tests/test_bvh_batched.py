@@ -307,3 +307,21 @@ def test_update_rebuilds_its_trees_together_as_each_is_built_alone(monkeypatch):
         corners = p[i].reshape(-1, 3)
         np.testing.assert_array_equal(acc.blas[b].lowers[0], corners.min(axis=0))
         np.testing.assert_array_equal(acc._device_blas[b].uppers.numpy()[0], corners.max(axis=0))
+
+
+@pytest.mark.parametrize("exponent", [70, -70])
+@pytest.mark.parametrize("builder", ["sah", "middle"])
+def test_meshes_scaled_by_a_power_of_two_get_the_unit_trees_scaled(builder, exponent):
+    # Scaling by 2**exponent is exact, so the oracle is the unit-sized tree scaled: batched, the float32 areas of
+    # 2**70-sized boxes overflowed and the sah trees cost 4x (SAH 124.5 against 31.4).
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(-1, 1, (200, 1, 3))
+    points = (centres + rng.normal(scale=0.3, size=(200, 3, 3))).reshape(-1, 3).astype(np.float32)
+    meshes = [(points, np.arange(600, dtype=np.int32).reshape(-1, 3)), (points[:90], np.arange(90).reshape(-1, 3))]
+    unit = build_bvhs(meshes, builder, device="cpu")
+    scaled = build_bvhs([(p * np.float32(2.0**exponent), i) for p, i in meshes], builder, device="cpu")
+    for a, b in zip(unit, scaled):
+        for field in ("left_first", "prim_count", "prim_ids"):
+            np.testing.assert_array_equal(getattr(b, field), getattr(a, field))
+        np.testing.assert_array_equal(b.lowers.astype(np.float64), a.lowers * 2.0**exponent)
+        np.testing.assert_array_equal(b.uppers.astype(np.float64), a.uppers * 2.0**exponent)

@@ -31,6 +31,7 @@ from .binned import (
 )
 from .common import MAX_DEPTH, BuildInput
 from .layout import FlatBvh
+from .unit_scale import size_exponent
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
@@ -70,8 +71,10 @@ def batchable(points, indices) -> bool:
     if points.ndim != 2 or points.shape[1] != 3 or indices.ndim != 2 or indices.shape[1] != 3:
         return False
     n = len(indices)
+    # A mesh past 2**32 (or under 2**-32) is built alone, at unit size (unit_scale.py): the batch's float32 areas
+    # overflowed there and its SAH trees cost 4x those of the same mesh at unit size.
     return (indices.dtype.kind in "iu" and 0 < n <= BATCH_MAX_TRIANGLES and int(indices.min()) >= 0
-            and int(indices.max()) < len(points))
+            and int(indices.max()) < len(points) and not size_exponent(float(np.abs(points).max())))
 
 
 def batch_groups(counts: list[int], limit: int = BATCH_PASS_TRIANGLES) -> list[list[int]]:

@@ -20,8 +20,11 @@ SAFE_EXPONENT = 32
 def unit_exponent(data) -> int:
     """``e`` with the triangles' largest coordinate in ``[2**(e-1), 2**e)``, or 0 where it lies within
     ``2**SAFE_EXPONENT`` of 1 (no scaling needed)."""
-    bounds = data.root_bounds().numpy()[:2]
-    largest = float(np.abs(bounds).max())
+    return size_exponent(float(np.abs(data.root_bounds().numpy()[:2]).max()))
+
+
+def size_exponent(largest: float) -> int:
+    """:func:`unit_exponent` of a largest coordinate ``largest``."""
     if largest == 0.0 or not math.isfinite(largest):
         return 0
     exponent = math.frexp(largest)[1]
