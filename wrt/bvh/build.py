@@ -216,7 +216,7 @@ def build_bvh_device(
             data.prim_lowers, data.prim_uppers, data.centroids, ref_prims = write_references(
                 data.points, data.indices, *plan)
             data.num_prims = len(ref_prims)
-    exponent = unit_exponent(data, points, indices)  # float32 areas past 1e19 are inf (under 1e-19: 0)
+    exponent = unit_exponent(data)  # float32 areas past 1e19 are inf (under 1e-19: 0)
     if exponent:
         scale_input(data, exponent)
     tree = _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timers,
