@@ -355,7 +355,7 @@ def test_stats_refuse_cost_constants_that_build_bvh_refuses(costs):
         ("--time", "inf", "must be a finite number, got inf"),
         ("--builder", "foo", "unknown BVH builder 'foo'"),
         ("--builder", "warp:foo", "unknown Warp builder 'warp:foo'"),
-        ("--builder", ",", "no builder given"),
+        ("--builder", ",", "names nothing, got ','"),
     ],
 )
 def test_cli_bad_values_are_named_by_their_option_before_the_scene_loads(tmp_path, capsys, option, value, words):

@@ -46,7 +46,8 @@ README = ROOT / "README.md"
 NO_TEST = re.compile(r"<!--\s*no-test:\s*(?P<reason>.*?)\s*-->")
 # Options of the repository's own scripts that the README's prose names in backticks (the scripts' bash lines are
 # checked against their sources directly).
-SCRIPT_OPTIONS = {"--trees": "scenes/forest.py", "--tree-triangles": "scenes/forest.py"}
+SCRIPT_OPTIONS = {"--trees": "scenes/forest.py", "--tree-triangles": "scenes/forest.py",
+                  "--features": "benchmarks/cuda_compile_time.py"}
 
 
 class Block(NamedTuple):
