@@ -1077,9 +1077,26 @@ def test_id_channels_warn_only_where_an_id_is_rounded(largest, rounded):
         camera = type("Camera", (), {"to_world": np.eye(4)})  # the prim layer reads no view
         channels, _ = output_channels(image, camera, None, [_Output("prim", "prim")])
     said = [str(w.message) for w in caught]
-    assert len(said) == rounded and all(f"{rounded} ids past 16777216" in s for s in said)
+    assert len(said) == rounded and all("ids past 16777216" in s and f"{rounded} of them" in s for s in said)
     exact = ids.astype(np.float32).astype(np.int64) == ids
     np.testing.assert_array_equal(channels["prim"][exact], ids[exact])
+
+
+def test_the_id_rounding_warning_counts_ids_not_pixels():
+    """One prim of id 2^24 + 1 over three pixels and one of 2^24 + 3 over one: two ids rounded (the oracle: the set of
+    ids that numpy's float32 round trip changes), in four pixels; it said '4 ids'. A miss (-1) is exact."""
+    from wrt.render_products import _Output, output_channels
+
+    ids = np.array([[2**24 + 1, -1, 2**24 + 1, 2**24 + 3, 2**24 + 1]], np.int32)
+    changed = {int(i) for i in ids.ravel() if int(np.float32(i)) != int(i)}
+    image = wrt.Image(rgb=np.zeros((1, 5, 3), np.float32), aovs={"prim": ids})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        camera = type("Camera", (), {"to_world": np.eye(4)})  # the prim layer reads no view
+        output_channels(image, camera, None, [_Output("prim", "prim")])
+    said = [str(w.message) for w in caught]
+    assert len(said) == 1, said
+    assert f"{len(changed)} of them (the largest {max(changed)}), in 4 pixels" in said[0], said
 
 
 def test_an_exr_product_of_pixels_an_exr_header_cannot_state_fails_before_any_render(tmp_path, monkeypatch):
@@ -1098,3 +1115,4 @@ def test_an_exr_product_of_pixels_an_exr_header_cannot_state_fails_before_any_re
     with pytest.raises(ValueError, match=r"shot.usda: /Render/B: cannot write .*b\.exr: pixels 2e\+06 times as wide"):
         wrt.render_products(scene, tmp_path / "out", device="cpu")
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
+

@@ -282,8 +282,12 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
         # too (it warned from 2^24 on, saying that 2^24 was rounded).
         rounded = value.dtype.kind in "iu" and value.astype(np.float32).astype(np.int64) != value
         if np.any(rounded):
-            warnings.warn(f"{out.layer or out.kind}: {np.count_nonzero(rounded)} ids past {EXACT_FLOAT_INTS} (the "
-                          f"largest {np.abs(value).max()}) are rounded in the float32 channels of EXR", stacklevel=3)
+            # Ids counted once each: the count of pixels said '10000 ids' of one prim covering a 100x100 image.
+            ids = np.unique(value[rounded])
+            largest = ids[np.argmax(np.abs(ids.astype(np.float64)))]
+            warnings.warn(f"{out.layer or out.kind}: ids past {EXACT_FLOAT_INTS} are rounded in the float32 channels "
+                          f"of EXR: {ids.size} of them (the largest {largest}), in {np.count_nonzero(rounded)} "
+                          "pixels", stacklevel=3)
         if out.kind in NAMED_IDS:
             attributes[f"{out.layer}/paths"] = _paths(out.kind, value, scene)
         names = channel_names(out)
