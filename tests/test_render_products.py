@@ -1116,3 +1116,16 @@ def test_an_exr_product_of_pixels_an_exr_header_cannot_state_fails_before_any_re
         wrt.render_products(scene, tmp_path / "out", device="cpu")
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
 
+
+def test_wrt_render_of_an_exr_of_pixels_an_exr_header_cannot_state_fails_before_the_render(tmp_path, monkeypatch,
+                                                                                           capsys):
+    """``wrt render shot.usda -o shot.exr`` of settings with pixels 2e6 times as wide as tall (past the 1e6 OpenEXR's
+    header takes: its own write fails, the test above) rendered the whole image, then failed at the save. Now it
+    fails before the renderer is made, naming the file, nothing written."""
+    path = write_stage(tmp_path, product("A", ["color"], "a.png"), ["A"],
+                       settings="uniform float pixelAspectRatio = 2000000\n")
+    monkeypatch.setattr(wrt, "Renderer", lambda *args, **kwargs: pytest.fail("rendered"))
+    out = tmp_path / "shot.exr"
+    assert main(["render", str(path), "-o", str(out), "--device", "cpu", "-q"]) != 0
+    assert re.search(r"cannot write .*shot\.exr: pixels 2e\+06 times as wide", capsys.readouterr().err)
+    assert not out.exists()

@@ -831,6 +831,10 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     if settings is not None:  # without it a --camera render took the first product's size without a word
         progress(f"view: {view_summary(settings, camera, width, height, args.camera, args.width, args.height)}")
     _check_view_pixels(args, width, height, settings)  # the limit is the clearer error where both apply
+    if Path(output).suffix.lower() == ".exr":  # else refused by Image.save only after the whole render
+        from .image import check_exr_pixel_aspect
+
+        check_exr_pixel_aspect(camera.rendered_pixel_aspect(width, height), output)
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp, device_texture_bytes(scene))
     check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
