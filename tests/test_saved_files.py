@@ -116,6 +116,22 @@ def test_rgb_replaced_by_an_array_of_another_shape_is_refused_at_save(tmp_path, 
         image._repr_png_()
 
 
+@pytest.mark.parametrize("field, bad, error", [("data", "no", TypeError), ("pixel_aspect_ratio", 0, ValueError),
+                                               ("pixel_aspect_ratio", float("nan"), ValueError)])
+def test_repr_png_refuses_settings_replaced_as_save_does(tmp_path, field, bad, error):
+    """A notebook's picture (``_repr_png_``) of settings set after the image was made: ``data = "no"`` showed linear
+    0.5 as 128 where its sRGB is 188 (1.055 * 0.5^(1/2.4) - 0.055, the oracle: the colour :meth:`save` writes for
+    data=False), as if data were True; a ratio of 0 failed as 'float division by zero'. Now it refuses them with
+    save's error, naming the field."""
+    image = wrt.Image(rgb=np.full((2, 3, 3), 0.5, np.float32))
+    setattr(image, field, bad)
+    with pytest.raises(error, match=field):
+        image.save(tmp_path / "x.png")
+    setattr(image, field, bad)
+    with pytest.raises(error, match=field):
+        image._repr_png_()
+
+
 @pytest.mark.parametrize("ratio, written", [(1e6, True), (1.0000001e6, False), (1e39, False), (1e-6, True),
                                             (9.9e-7, False), (1e-50, False)])
 def test_exr_pixel_aspect_ratios_the_header_cannot_state_are_refused_naming_the_file(tmp_path, ratio, written):

@@ -525,6 +525,7 @@ class Image:
 
         buffer = io.BytesIO()
         self.rgb = checked_rgb(self.rgb)  # replaced after the image was made, as save checks it
+        self._check_settings()  # so are these: data="no" was shown as data by its truth, a ratio of 0 divided by 0
         self._write_png(buffer, 0.0)
         return buffer.getvalue()
 
