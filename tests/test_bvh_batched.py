@@ -325,3 +325,19 @@ def test_meshes_scaled_by_a_power_of_two_get_the_unit_trees_scaled(builder, expo
             np.testing.assert_array_equal(getattr(b, field), getattr(a, field))
         np.testing.assert_array_equal(b.lowers.astype(np.float64), a.lowers * 2.0**exponent)
         np.testing.assert_array_equal(b.uppers.astype(np.float64), a.uppers * 2.0**exponent)
+
+
+@pytest.mark.parametrize("unused", [np.inf, np.nan])
+def test_an_unused_non_finite_point_does_not_take_a_huge_mesh_into_the_batch(unused):
+    # The batch check read the largest of all points: an unused inf or NaN one (which the build allows) hid the
+    # 2**70 size, the mesh joined the batch and its tree was built at world size (SAH cost 124.5 against 31.4).
+    # Oracle: the unit-sized tree scaled by 2**70 (exact).
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(-1, 1, (200, 1, 3))
+    points = (centres + rng.normal(scale=0.3, size=(200, 3, 3))).reshape(-1, 3).astype(np.float32)
+    indices = np.arange(600, dtype=np.int32).reshape(-1, 3)
+    unit = build_bvh(points, indices, "sah", device="cpu")
+    far = np.concatenate([points * np.float32(2.0**70), np.full((1, 3), unused, np.float32)])
+    trees = build_bvhs([(far, indices), (points[:90], np.arange(90).reshape(-1, 3))], "sah", device="cpu")
+    np.testing.assert_array_equal(trees[0].prim_ids, unit.prim_ids)
+    np.testing.assert_array_equal(trees[0].lowers.astype(np.float64), unit.lowers * 2.0**70)
