@@ -571,3 +571,17 @@ def test_a_scene_scaled_by_a_power_of_two_gets_the_same_tree_scaled(builder, exp
     np.testing.assert_array_equal(scaled.prim_ids, unit.prim_ids)
     np.testing.assert_array_equal(scaled.lowers.astype(np.float64), unit.lowers * 2.0**exponent)
     np.testing.assert_array_equal(scaled.uppers.astype(np.float64), unit.uppers * 2.0**exponent)
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_a_scene_past_half_of_float32s_range_gets_the_unit_tree_scaled(builder):
+    # Triangles past 2**127 (1.7e38): their box centres, the float32 0.5 * (lower + upper), overflowed to inf and
+    # stayed inf at unit size, so the builders split blind (sweep_sah: SAH cost 51.5, not 41.0; lbvh 53.4, not 44.0).
+    # Oracle: the unit-sized tree scaled by 2**128 (exact).
+    points = np.random.default_rng(2).uniform(0.5, 0.99, (180, 3)).astype(np.float32)
+    indices = np.arange(180, dtype=np.int32).reshape(-1, 3)
+    unit = build_bvh(points, indices, builder, device="cpu")
+    scaled = build_bvh((points.astype(np.float64) * 2.0**128).astype(np.float32), indices, builder, device="cpu")
+    np.testing.assert_array_equal(scaled.left_first, unit.left_first)
+    np.testing.assert_array_equal(scaled.prim_ids, unit.prim_ids)
+    np.testing.assert_array_equal(scaled.uppers.astype(np.float64), unit.uppers.astype(np.float64) * 2.0**128)

@@ -38,22 +38,27 @@ def size_exponent(largest: float) -> int:
     return exponent if abs(exponent) > SAFE_EXPONENT else 0
 
 
-def _scaled(array: wp.array, exponent: int, rounding: float) -> wp.array:
-    """``array * 2**-exponent`` in float32, rounded towards ``rounding`` (-inf, +inf or 0: nearest) where the
-    scaled value is not exact (subnormal): boxes stay conservative."""
-    exact = array.numpy().astype(np.float64) * 2.0 ** -exponent
+def _scaled(exact: np.ndarray, exponent: int, rounding: float, device) -> wp.array:
+    """Float64 ``exact * 2**-exponent`` as a float32 vec3 array on ``device``, rounded towards ``rounding`` (-inf,
+    +inf or 0: nearest) where the scaled value is not exact (subnormal): boxes stay conservative."""
+    exact = exact * 2.0 ** -exponent
     value = exact.astype(np.float32)
     if rounding:
         off = value > exact if rounding < 0 else value < exact
         value[off] = np.nextafter(value[off], np.float32(rounding))
-    return wp.array(value, dtype=wp.vec3, device=array.device)
+    return wp.array(value, dtype=wp.vec3, device=device)
 
 
 def scale_input(data, exponent: int) -> None:
-    """Scales ``data``'s triangle boxes and centroids by ``2**-exponent`` in place (the builders read no more)."""
-    data.prim_lowers = _scaled(data.prim_lowers, exponent, -np.inf)
-    data.prim_uppers = _scaled(data.prim_uppers, exponent, np.inf)
-    data.centroids = _scaled(data.centroids, exponent, 0.0)
+    """Scales ``data``'s triangle boxes and centroids by ``2**-exponent`` in place (the builders read no more). The
+    centroids are the scaled boxes' centres, from float64: past 2**127 (1.7e38) the float32 centres the build made,
+    ``0.5 * (lower + upper)``, had overflowed to inf, and every split was chosen blind."""
+    lowers = data.prim_lowers.numpy().astype(np.float64)
+    uppers = data.prim_uppers.numpy().astype(np.float64)
+    device = data.prim_lowers.device
+    data.prim_lowers = _scaled(lowers, exponent, -np.inf, device)
+    data.prim_uppers = _scaled(uppers, exponent, np.inf, device)
+    data.centroids = _scaled(0.5 * (lowers + uppers), exponent, 0.0, device)
 
 
 def scale_boxes_back(tree, exponent: int) -> None:
