@@ -359,3 +359,24 @@ def test_slivers_scaled_by_a_power_of_two_are_split_as_unscaled(exponent):
         levels.append(split_plan(wp.array(points, dtype=wp.vec3), indices)[0].numpy())
     assert (levels[0] > 0).sum() > 50  # many are cut
     np.testing.assert_array_equal(levels[1], levels[0])
+
+
+def test_slivers_past_half_of_float32s_range_are_cut_as_at_unit_size():
+    # Past 2**127 (1.7e38) the halving plane 0.5 * (lower + upper) overflowed to inf: each cut's upper half was an
+    # empty box at inf and its lower half the whole triangle, so the references were no tighter than the triangle
+    # (a 30-triangle soup with one sliver, presplit=4: sah SAH cost 30.3 against 22.0). Oracle: the reference boxes
+    # at unit size scaled by 2**128 (exact).
+    from wrt.bvh.presplit import split_plan, write_references
+
+    rng = np.random.default_rng(4)
+    unit = rng.uniform(0.5, 0.99, (30, 3)).astype(np.float32)
+    unit[:3] = [(0.5, 0.5, 0.5), (0.99, 0.99, 0.99), (0.99, 0.97, 0.99)]  # a long diagonal sliver
+    indices = wp.array(np.arange(30, dtype=np.int32).reshape(-1, 3), dtype=wp.int32, device="cpu")
+    boxes = []
+    for e in (0, 128):
+        points = wp.array(np.ldexp(unit.astype(np.float64), e).astype(np.float32), dtype=wp.vec3, device="cpu")
+        lowers, uppers, _, _ = write_references(points, indices, *split_plan(points, indices, 4))
+        boxes.append([np.ldexp(b.numpy().astype(np.float64), -e) for b in (lowers, uppers)])
+    assert len(boxes[0][0]) > 12  # the sliver is cut
+    np.testing.assert_array_equal(boxes[1][0], boxes[0][0])
+    np.testing.assert_array_equal(boxes[1][1], boxes[0][1])

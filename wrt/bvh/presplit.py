@@ -185,7 +185,7 @@ def write_references_kernel(
                 axis = 1
             if e[2] > e[axis]:
                 axis = 2
-            mid = 0.5 * (lo[axis] + hi[axis])
+            mid = 0.5 * lo[axis] + 0.5 * hi[axis]  # the sum overflowed to inf past 2**127 (1.7e38)
             half_lo = lo
             half_hi = hi
             if (j >> level) & 1:
