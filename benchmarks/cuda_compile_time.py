@@ -74,7 +74,12 @@ def parse_features(spec: str):
 
     if spec in ("all", "none"):
         return ALL_FEATURES if spec == "all" else NO_FEATURES
-    return LightFeatures(**{name: name in spec.split("+") for name in LightFeatures.__dataclass_fields__})
+    names, known = spec.split("+"), list(LightFeatures.__dataclass_fields__)
+    unknown = [name for name in names if name not in known]
+    if unknown:  # a misspelt name set no field: the variant without any feature was timed, as if "none" were asked
+        raise ValueError(f"--features {spec!r}: unknown feature {unknown[0]!r}; features: {', '.join(known)} (or all, "
+                         f"none)")
+    return LightFeatures(**{name: name in names for name in known})
 
 
 def variant_modules(specs: str) -> list:
@@ -177,6 +182,11 @@ def main() -> None:
     parser.add_argument("--path", help="folder to put first on sys.path (another checkout's wrt)")
     args = parser.parse_args()
     sys.path.insert(0, str(Path(args.path).resolve()) if args.path else str(Path(__file__).resolve().parents[1]))
+    try:  # before the warm-up compile, which takes a while
+        for spec in filter(None, args.features.split(",")):
+            parse_features(spec)
+    except ValueError as e:
+        parser.error(str(e))
     overrides = {}
     for item in args.set:
         key, _, value = item.partition("=")

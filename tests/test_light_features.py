@@ -104,3 +104,19 @@ def test_threads_asking_for_a_new_variant_at_once_all_render_it(integrator):
         assert errors == []
         for image in images:
             np.testing.assert_array_equal(image, alone)
+
+
+def test_cuda_compile_time_refuses_a_feature_name_it_does_not_know():
+    """benchmarks/cuda_compile_time.py --features names variants by LightFeatures' fields: a misspelt one
+    (``shape_light``) set no field and timed the variant without any feature, as if ``none`` had been asked for."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "cuda_compile_time", Path(__file__).resolve().parents[1] / "benchmarks" / "cuda_compile_time.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.parse_features("shape_lights+shaping") == ALL_FEATURES
+    assert script.parse_features("shaping") == LightFeatures(shape_lights=False, shaping=True)
+    with pytest.raises(ValueError, match="shape_light'.*shape_lights, shaping"):
+        script.parse_features("shape_light")
