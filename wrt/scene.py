@@ -129,6 +129,12 @@ def per_vertex_to_corners(path: str, name: str, values: np.ndarray, indices: np.
     return corners
 
 
+def _writes_stoppable(array: np.ndarray) -> bool:
+    """Whether :meth:`Scene.freeze` making ``array`` read-only stops every write to its elements: it owns its memory,
+    or no write can reach it already (:func:`read_only_throughout`)."""
+    return array.base is None or read_only_throughout(array)
+
+
 def _on_host(name: str, value):
     """``value`` as numpy reads it: a ``wp.array`` on a GPU (a simulation's state) or a GPU tensor (``torch`` on CUDA)
     is copied to the host (:func:`wrt.ray_batch.host_array`), as :func:`wrt.trace` takes rays; numpy refused both
@@ -257,10 +263,14 @@ class Mesh(CountsAssignments):
             self.tessellated_gprim = flag(self.tessellated_gprim, f"{self.path}: tessellated_gprim")
 
         def assign(name: str, array: np.ndarray) -> None:
+            # Held only where freeze() can stop every write: a view of the caller's writeable array (``big[:, :3]``,
+            # a float32 (T, 3, 3) normals reshaped) was frozen alone, the caller's edits of the array it views went
+            # on reaching it, and traces drew the cached old geometry without a word. Such a view is copied.
             value = getattr(self, name)
-            if not (keep and isinstance(value, np.ndarray) and value.dtype == array.dtype
-                    and value.shape == array.shape):
-                setattr(self, name, array)
+            if (keep and isinstance(value, np.ndarray) and value.dtype == array.dtype and value.shape == array.shape
+                    and _writes_stoppable(value)):
+                return
+            setattr(self, name, array if _writes_stoppable(array) else array.copy())
 
         # Checked, not reshaped: (V, 4) points were read as other vertices, float indices truncated and an index
         # of 2**32 wrapped round to vertex 0, each drawing other triangles without a word.
