@@ -112,6 +112,19 @@ class Prototype(CountsAssignments):
 _INDEX_SUFFIX = re.compile(r"\[(?:0|[1-9][0-9]*)\]")  # a PointInstancer index as Instances.path writes it
 
 
+def _check_real_numbers(name: str, array: np.ndarray) -> None:
+    """Raises ``ValueError`` naming the field unless ``array`` (an :class:`Instances` transform, colour or opacity
+    array) holds real numbers, as a mesh's arrays and a shape's must: text (``"1.0"``) and bools were converted to
+    floats, complex values lost their imaginary part with only numpy's warning, each without a word naming the
+    field. An object array may hold numbers (a list of numpy scalars), not None, text or bools."""
+    if array.dtype.kind in "iuf":
+        return
+    if array.dtype.kind == "O" and all(isinstance(x, (int, float, np.integer, np.floating))
+                                       and not isinstance(x, (bool, np.bool_)) for x in array.reshape(-1)):
+        return
+    raise ValueError(f"Instances {name} must be real numbers, got dtype {array.dtype}")
+
+
 @dataclasses.dataclass
 class Instances(CountsAssignments):
     """Placements of prototypes in the world.
@@ -182,6 +195,8 @@ class Instances(CountsAssignments):
                 value = np.asarray(host_array(f"Instances {name}", value))
                 if dtype == np.int32 and (problem := int32_problem(value)):
                     raise ValueError(f"Instances {name} {problem}")
+                if dtype == np.float64:
+                    _check_real_numbers("to_world", value)
                 try:
                     setattr(self, name, np.ascontiguousarray(value, dtype=dtype).reshape(shape))
                 except (TypeError, ValueError) as e:
@@ -237,6 +252,8 @@ class Instances(CountsAssignments):
         from .errors import eight_bit_colors
 
         colors = self.colors if self.colors is None else host_array("Instances colors", self.colors)
+        if colors is not None:
+            _check_real_numbers("colors", np.asarray(colors))
         if problem := eight_bit_colors(colors):
             raise ValueError(f"Instances {problem}")
         if colors is None or np.size(colors) == 0:  # None, as from_transforms takes it: no colours
@@ -256,6 +273,8 @@ class Instances(CountsAssignments):
         in [0, 1] or NaN (none); stores it as float32 (on the host, as the colours). Run before each trace and render
         too, as :meth:`check_colors`."""
         opacities = self.opacities if self.opacities is None else host_array("Instances opacities", self.opacities)
+        if opacities is not None:
+            _check_real_numbers("opacities", np.asarray(opacities))
         if opacities is None or np.size(opacities) == 0:
             opacities = np.zeros(0, np.float32) if np.shape(opacities) != (0,) else opacities
         opacities = np.ascontiguousarray(opacities, dtype=np.float32)
