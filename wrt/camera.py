@@ -155,6 +155,8 @@ def _normalized(v) -> np.ndarray:
 def _finite(v) -> bool:
     """True for a finite real number; False for NaN, inf, an int past float64's range and anything that is not a
     number (math.isfinite's OverflowError for 10**400 escaped check(), naming no camera)."""
+    if isinstance(v, (bool, np.bool_)):  # True was a focal length (or field of view) of 1, without a word
+        return False
     try:
         return math.isfinite(v)
     except (TypeError, OverflowError):
@@ -236,7 +238,12 @@ class Camera:
         if path is not self.path:
             self.path = path
         try:
-            self.to_world = np.asarray(self.to_world, dtype=np.float64)
+            # Its own dtype first: an array of text ("1.0"), bools or complex values converted to float64 without a
+            # word (the imaginary part dropped with only numpy's warning).
+            to_world = np.asarray(self.to_world)
+            if to_world.dtype.kind not in "iufO":
+                raise TypeError
+            self.to_world = np.asarray(to_world, dtype=np.float64)
         except (TypeError, ValueError):  # numpy's "could not convert string to float" named no camera
             raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix of numbers, got {self.to_world!r}")
         if self.to_world.size != 16:  # numpy's reshape error named no argument
