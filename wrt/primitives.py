@@ -585,9 +585,15 @@ class Shape(CountsAssignments):
         """
         value = self.to_world
         if type(value) is np.ndarray and value.shape == (4, 4) and value.dtype == np.float64:
-            return value  # the loader's, kept as it is (the same object: an assignment counts as an edit)
+            # The loader's, kept as it is (the same object: an assignment counts as an edit); a view of another array
+            # (poses[k] of the caller's (N, 4, 4) stack) is copied: Scene.freeze made the view alone read-only, and
+            # the caller's edit of the stack moved the shape under the cached trees without a word.
+            return value if value.base is None else value.copy()
         try:
-            matrix = np.asarray(host_array(f"shape {self.path} to_world", value), np.float64)
+            matrix = np.asarray(host_array(f"shape {self.path} to_world", value))
+            if matrix.dtype.kind not in "iufO":  # text ("1.0"), bools and complex values converted without a word
+                raise TypeError
+            matrix = np.array(matrix, np.float64)  # a copy: a (16,) one was reshaped into a view
         except (TypeError, ValueError):  # text, a ragged list, an object numpy and DLPack cannot read
             matrix = None
         if matrix is not None:
