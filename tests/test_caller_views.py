@@ -34,3 +34,17 @@ def test_per_triangle_arrays_given_as_their_dtype_are_copied():
     material_ids[0] = 7  # no material 7: read past scene.materials at the next render
     np.testing.assert_array_equal(mesh.normals, np.float32([[[0, 0, 1]] * 3]))
     np.testing.assert_array_equal(mesh.material_ids, [0])
+
+
+def test_instance_transforms_given_as_a_view_are_copied():
+    from wrt.instancing import Instances, Prototype
+
+    poses = np.stack([np.eye(4)] * 2)  # a simulation's stack; the scene is given its first row
+    instances = Instances(np.zeros(1, np.int32), poses[:1], np.zeros(1, np.int32), np.full(1, -1, np.int32),
+                          sources=["/I"])
+    scene = wrt.Scene(prototypes=[Prototype("/P", [wrt.Mesh("/P/m", TRIANGLE, INDICES)])], instances=instances)
+    assert wrt.trace(scene, ORIGIN, DIRECTION).t[0] == 5.0
+    poses[0, 2, 3] = 2.0  # the caller's edit of their stack: wrt's TLAS kept t = 5, accel="warp" drew t = 3
+    np.testing.assert_array_equal(instances.to_world, np.eye(4)[None])
+    assert wrt.trace(scene, ORIGIN, DIRECTION).t[0] == 5.0
+    assert wrt.trace(scene, ORIGIN, DIRECTION, accel="warp").t[0] == 5.0

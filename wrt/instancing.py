@@ -112,6 +112,14 @@ class Prototype(CountsAssignments):
 _INDEX_SUFFIX = re.compile(r"\[(?:0|[1-9][0-9]*)\]")  # a PointInstancer index as Instances.path writes it
 
 
+def _writes_stoppable(array: np.ndarray) -> bool:
+    """Whether ``Scene.freeze`` making ``array`` read-only stops every write to it (:func:`wrt.scene.
+    read_only_throughout`): it owns its memory, or every array it views is read-only already (the loader's)."""
+    from .scene import read_only_throughout
+
+    return array.base is None or read_only_throughout(array)
+
+
 def _check_real_numbers(name: str, array: np.ndarray) -> None:
     """Raises ``ValueError`` naming the field unless ``array`` (an :class:`Instances` transform, colour or opacity
     array) holds real numbers, as a mesh's arrays and a shape's must: text (``"1.0"``) and bools were converted to
@@ -190,15 +198,19 @@ class Instances(CountsAssignments):
                                    ("source", np.int32, (-1,)), ("index", np.int32, (-1,)), ("root", np.int32, (-1,)),
                                    ("elements", np.int32, (-1,))):
             value = getattr(self, name)
+            # A view of the caller's writeable array (poses[:n] of a simulation's stack) is copied: Scene.freeze made
+            # the view alone read-only, and the caller's edit of the stack moved the instances under the cached TLAS
+            # while accel="warp", flattening them anew, drew them moved.
             if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == len(shape)
-                    and value.shape[1:] == shape[1:] and value.flags.c_contiguous):
+                    and value.shape[1:] == shape[1:] and value.flags.c_contiguous and _writes_stoppable(value)):
                 value = np.asarray(host_array(f"Instances {name}", value))
                 if dtype == np.int32 and (problem := int32_problem(value)):
                     raise ValueError(f"Instances {name} {problem}")
                 if dtype == np.float64:
                     _check_real_numbers("to_world", value)
                 try:
-                    setattr(self, name, np.ascontiguousarray(value, dtype=dtype).reshape(shape))
+                    converted = np.ascontiguousarray(value, dtype=dtype).reshape(shape)
+                    setattr(self, name, converted if _writes_stoppable(converted) else converted.copy())
                 except (TypeError, ValueError) as e:
                     raise ValueError(f"Instances {name} must be {'(N, 4, 4)' if name == 'to_world' else '(N,)'} "
                                      f"numbers: {e}") from None
