@@ -48,3 +48,21 @@ def test_instance_transforms_given_as_a_view_are_copied():
     np.testing.assert_array_equal(instances.to_world, np.eye(4)[None])
     assert wrt.trace(scene, ORIGIN, DIRECTION).t[0] == 5.0
     assert wrt.trace(scene, ORIGIN, DIRECTION, accel="warp").t[0] == 5.0
+
+
+def test_texture_given_as_a_view_is_copied():
+    atlas = np.full((2, 2, 2, 4), 0.5, np.float32)  # the caller's atlas; the scene is given its first image
+    material = wrt.Material(path="/T", textures={"diffuseColor": wrt.TextureInput(image=0)})
+    mesh = wrt.Mesh("/m", TRIANGLE * 2, INDICES, material_ids=np.zeros(1, np.int32),
+                    uvs=np.full((1, 3, 2), 0.5, np.float32), double_sided=True)
+    scene = wrt.Scene(meshes=[mesh], materials=[material], textures=[atlas[0]])
+    camera = wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov_y_deg=40)
+
+    def albedo():
+        return wrt.render(scene, camera=camera, width=8, height=6, device="cpu").aovs["albedo"][3, 4]
+
+    np.testing.assert_allclose(albedo(), 0.5)
+    atlas[0] = 1.0  # the caller's edit: the packed texture kept 0.5 while scene.textures[0] held 1.0
+    np.testing.assert_array_equal(scene.textures[0], 0.5)
+    scene.invalidate()  # the scene's own image, drawn as given
+    np.testing.assert_allclose(albedo(), 0.5)

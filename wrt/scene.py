@@ -810,6 +810,11 @@ class Scene:
         for k, mesh in enumerate(self.meshes):
             if not isinstance(mesh, Mesh):
                 raise TypeError(f"scene.meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
+        # An image that is a view of the caller's writeable array (atlas[k]) becomes a copy: freeze() made the view
+        # alone read-only, and an edit of the atlas went unseen by the packed textures until invalidate().
+        for k, texture in enumerate(self.textures):
+            if isinstance(texture, np.ndarray) and not _writes_stoppable(texture):
+                self.textures[k] = texture.copy()
         self._check_members()
 
     def _check_members(self) -> None:
