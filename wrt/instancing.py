@@ -112,14 +112,6 @@ class Prototype(CountsAssignments):
 _INDEX_SUFFIX = re.compile(r"\[(?:0|[1-9][0-9]*)\]")  # a PointInstancer index as Instances.path writes it
 
 
-def _writes_stoppable(array: np.ndarray) -> bool:
-    """Whether ``Scene.freeze`` making ``array`` read-only stops every write to it (:func:`wrt.scene.
-    read_only_throughout`): it owns its memory, or every array it views is read-only already (the loader's)."""
-    from .scene import read_only_throughout
-
-    return array.base is None or read_only_throughout(array)
-
-
 def _check_real_numbers(name: str, array: np.ndarray) -> None:
     """Raises ``ValueError`` naming the field unless ``array`` (an :class:`Instances` transform, colour or opacity
     array) holds real numbers, as a mesh's arrays and a shape's must: text (``"1.0"``) and bools were converted to
@@ -186,11 +178,14 @@ class Instances(CountsAssignments):
         other; the constructor calls it, and the scene again before its next trace or render once a field was
         assigned (``instances.to_world = ...``: one of another length raised a bare ``IndexError`` from deep inside
         the build) or after ``Scene.invalidate()``. An array that already has its dtype and shape is kept (the same
-        object: the caches compare objects).
+        object: the caches compare objects), but for a view of a caller's writeable array, which is copied
+        (:func:`wrt.scene.writes_stoppable`).
 
         Raises:
             ValueError: naming the field, or an attribute that is none (``instances.transforms = ...``).
         """
+        from .scene import writes_stoppable  # (wrt.scene imports this module)
+
         stray = stray_field(self)  # instances.transforms = poses: kept and read by nothing, the old poses drawn
         if stray:
             raise ValueError(f"Instances {stray}")
@@ -202,7 +197,7 @@ class Instances(CountsAssignments):
             # the view alone read-only, and the caller's edit of the stack moved the instances under the cached TLAS
             # while accel="warp", flattening them anew, drew them moved.
             if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == len(shape)
-                    and value.shape[1:] == shape[1:] and value.flags.c_contiguous and _writes_stoppable(value)):
+                    and value.shape[1:] == shape[1:] and value.flags.c_contiguous and writes_stoppable(value)):
                 value = np.asarray(host_array(f"Instances {name}", value))
                 if dtype == np.int32 and (problem := int32_problem(value)):
                     raise ValueError(f"Instances {name} {problem}")
@@ -210,7 +205,7 @@ class Instances(CountsAssignments):
                     _check_real_numbers("to_world", value)
                 try:
                     converted = np.ascontiguousarray(value, dtype=dtype).reshape(shape)
-                    setattr(self, name, converted if _writes_stoppable(converted) else converted.copy())
+                    setattr(self, name, converted if writes_stoppable(converted) else converted.copy())
                 except (TypeError, ValueError) as e:
                     raise ValueError(f"Instances {name} must be {'(N, 4, 4)' if name == 'to_world' else '(N,)'} "
                                      f"numbers: {e}") from None

@@ -129,12 +129,6 @@ def per_vertex_to_corners(path: str, name: str, values: np.ndarray, indices: np.
     return corners
 
 
-def _writes_stoppable(array: np.ndarray) -> bool:
-    """Whether :meth:`Scene.freeze` making ``array`` read-only stops every write to its elements: it owns its memory,
-    or no write can reach it already (:func:`read_only_throughout`)."""
-    return array.base is None or read_only_throughout(array)
-
-
 def _on_host(name: str, value):
     """``value`` as numpy reads it: a ``wp.array`` on a GPU (a simulation's state) or a GPU tensor (``torch`` on CUDA)
     is copied to the host (:func:`wrt.ray_batch.host_array`), as :func:`wrt.trace` takes rays; numpy refused both
@@ -268,9 +262,9 @@ class Mesh(CountsAssignments):
             # on reaching it, and traces drew the cached old geometry without a word. Such a view is copied.
             value = getattr(self, name)
             if (keep and isinstance(value, np.ndarray) and value.dtype == array.dtype and value.shape == array.shape
-                    and _writes_stoppable(value)):
+                    and writes_stoppable(value)):
                 return
-            setattr(self, name, array if _writes_stoppable(array) else array.copy())
+            setattr(self, name, array if writes_stoppable(array) else array.copy())
 
         # Checked, not reshaped: (V, 4) points were read as other vertices, float indices truncated and an index
         # of 2**32 wrapped round to vertex 0, each drawing other triangles without a word.
@@ -650,6 +644,13 @@ class IdRows(NamedTuple):
         return out.astype(np.int64 if total > ROW_DTYPE_LIMIT else np.int32)
 
 
+def writes_stoppable(array: np.ndarray) -> bool:
+    """Whether :meth:`Scene.freeze` making ``array`` read-only stops every write to its elements: it owns its memory,
+    or no write can reach it already (:func:`read_only_throughout`: the loader's views). A view of a caller's
+    writeable array is copied where this is False (meshes, instances, textures)."""
+    return array.base is None or read_only_throughout(array)
+
+
 def read_only_throughout(array) -> bool:
     """Whether no write can reach the elements of numpy array ``array``: it and every array it views are read-only,
     down to the one owning the memory. A frozen view of a writeable array (``base[:n]``), or of another buffer, may
@@ -813,7 +814,7 @@ class Scene:
         # An image that is a view of the caller's writeable array (atlas[k]) becomes a copy: freeze() made the view
         # alone read-only, and an edit of the atlas went unseen by the packed textures until invalidate().
         for k, texture in enumerate(self.textures):
-            if isinstance(texture, np.ndarray) and not _writes_stoppable(texture):
+            if isinstance(texture, np.ndarray) and not writes_stoppable(texture):
                 self.textures[k] = texture.copy()
         self._check_members()
 
