@@ -72,9 +72,9 @@ def batchable(points, indices) -> bool:
         return False
     n = len(indices)
     # A mesh past 2**32 (or under 2**-32) is built alone, at unit size (unit_scale.py): the batch's float32 areas
-    # overflowed there and its SAH trees cost 4x those of the same mesh at unit size. Its triangles' points, as
-    # build_bvh's unit_exponent reads them: an unused inf or NaN point (the build allows it) hid a 2**70 mesh's size
-    # and it joined the batch (SAH cost 104.7 against 25.6 alone).
+    # overflowed there and its SAH trees cost 4x those of the same mesh at unit size. Read from the coordinates its
+    # triangles use, as build_bvh's unit_exponent reads them (from their boxes): an unused inf or NaN point (the
+    # build allows it) hid a 2**70 mesh's size and it joined the batch (SAH cost 104.7 against 25.6 alone).
     return (indices.dtype.kind in "iu" and 0 < n <= BATCH_MAX_TRIANGLES and int(indices.min()) >= 0
             and int(indices.max()) < len(points) and not size_exponent(float(np.abs(points[indices]).max())))
 
