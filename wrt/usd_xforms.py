@@ -28,6 +28,7 @@ import math
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
+from .usd_clips import clip_roots, under_clips
 from .usd_values import HAS_SPLINES, read_time, schema_typed_value
 
 DEFAULT = Usd.TimeCode.Default()
@@ -133,7 +134,7 @@ class Xforms:
         self._still = not time.IsDefault() or (
             stage is not None and not any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers()))
         self._by_op = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor is read op by op
-        self._clipped = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor authors value clips
+        self._clip_roots = None  # wrt.usd_clips.clip_roots of the stage, found when first asked (_under_clips)
         self._world = {}  # prim path -> row-vector local-to-world Gf.Matrix4d, for prims where _by_op is True
 
     def _op_time(self, attr: Usd.Attribute) -> Usd.TimeCode:
@@ -248,19 +249,11 @@ class Xforms:
         return False
 
     def _under_clips(self, prim: Usd.Prim) -> bool:
-        """Whether ``prim`` or an ancestor authors value clips (memoised, walked without recursion), whose time
-        samples are in no layer of ``GetUsedLayers`` until USD opens the clips to read a value."""
-        chain = []
-        p = prim
-        found = self._clipped.get(p.GetPath())
-        while found is None:
-            chain.append(p)
-            p = p.GetParent()
-            found = self._clipped.get(p.GetPath())
-        for q in reversed(chain):
-            found = found or q.HasAuthoredMetadata("clips")
-            self._clipped[q.GetPath()] = found
-        return found
+        """Whether clips may give ``prim`` values (:func:`wrt.usd_clips.under_clips`), whose time samples are in no
+        layer of ``GetUsedLayers`` until USD opens the clips to read a value."""
+        if self._clip_roots is None:
+            self._clip_roots = clip_roots(prim.GetStage())
+        return under_clips(prim, self._clip_roots)
 
     def _resolved_by_op(self, prim: Usd.Prim) -> bool:
         """Whether ``prim`` or an ancestor is resolved op by op (memoised, walked without recursion: hierarchies can be
