@@ -106,23 +106,32 @@ def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path,
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
-def test_a_12_bit_grey_tiff_reads_over_4095(tmp_path):
-    """Pillow opens a 12-bit grey TIFF as 16-bit grey and keeps its samples as they are (raw mode ``I;12``): they
-    were read over 65535, white (4095) as 0.06. Now over 4095, as OpenImageIO scales them to full range. The file is
-    written here, each row's samples packed 12 bits at a time, most significant bit first (TIFF 6.0)."""
-    grey = np.array([[0, 4095, 7], [2048, 1000, 4094]])
+TWELVE_BIT_GREY = np.array([[0, 4095, 7], [2048, 1000, 4094]])
+
+
+def twelve_bit_grey_tiff(path, grey: np.ndarray, photometric: int):
+    """Writes ``grey`` as a one-strip 12-bit grey TIFF of PhotometricInterpretation ``photometric`` (1: BlackIsZero,
+    0: WhiteIsZero), each row's samples packed 12 bits at a time, most significant bit first (TIFF 6.0); returns
+    ``path``."""
     rows = b""
     for row in grey:
         bits = "".join(f"{v:012b}" for v in row)
         bits += "0" * (-len(bits) % 8)  # each row starts on a byte
         rows += int(bits, 2).to_bytes(len(bits) // 8, "big")
-    tags = [(256, 4, 3), (257, 4, 2), (258, 3, 12), (259, 3, 1), (262, 3, 1), (273, 4, 8 + 2 + 12 * 9 + 4),
-            (277, 3, 1), (278, 4, 2), (279, 4, len(rows))]
+    tags = [(256, 4, grey.shape[1]), (257, 4, grey.shape[0]), (258, 3, 12), (259, 3, 1), (262, 3, photometric),
+            (273, 4, 8 + 2 + 12 * 9 + 4), (277, 3, 1), (278, 4, grey.shape[0]), (279, 4, len(rows))]
     entries = b"".join(struct.pack("<HHI", tag, kind, 1) + struct.pack("<I" if kind == 4 else "<Hxx", value)
                        for tag, kind, value in tags)
-    path = tmp_path / "grey12.tif"
     path.write_bytes(b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4) + rows)
-    np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], grey / 4095.0, rtol=1e-6)
+    return path
+
+
+def test_a_12_bit_grey_tiff_reads_over_4095(tmp_path):
+    """Pillow opens a 12-bit grey TIFF as 16-bit grey and keeps its samples as they are (raw mode ``I;12``): they
+    were read over 65535, white (4095) as 0.06. Now over 4095, as OpenImageIO scales them to full range. The file is
+    written here, each row's samples packed 12 bits at a time, most significant bit first (TIFF 6.0)."""
+    path = twelve_bit_grey_tiff(tmp_path / "grey12.tif", TWELVE_BIT_GREY, photometric=1)
+    np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], TWELVE_BIT_GREY / 4095.0, rtol=1e-6)
 
 
 def test_an_image_of_more_texels_than_textures_hold_is_refused_before_it_is_decoded(tmp_path, monkeypatch):
@@ -409,19 +418,8 @@ def test_a_12_bit_white_is_zero_grey_tiff_reads_inverted_over_4095(tmp_path):
     """A 12-bit grey TIFF of WhiteIsZero: Pillow opens none (it reads 12-bit BlackIsZero grey as 16-bit), named as
     samples it does not decode; now its grey reads ``1 - sample / 4095`` (float64 of the samples written here, each
     row packed 12 bits at a time, most significant bit first)."""
-    grey = np.array([[0, 4095, 7], [2048, 1000, 4094]])
-    rows = b""
-    for row in grey:
-        bits = "".join(f"{v:012b}" for v in row)
-        bits += "0" * (-len(bits) % 8)  # each row starts on a byte
-        rows += int(bits, 2).to_bytes(len(bits) // 8, "big")
-    tags = [(256, 4, 3), (257, 4, 2), (258, 3, 12), (259, 3, 1), (262, 3, 0), (273, 4, 8 + 2 + 12 * 9 + 4),
-            (277, 3, 1), (278, 4, 2), (279, 4, len(rows))]
-    entries = b"".join(struct.pack("<HHI", tag, kind, 1) + struct.pack("<I" if kind == 4 else "<Hxx", value)
-                       for tag, kind, value in tags)
-    path = tmp_path / "white12.tif"
-    path.write_bytes(b"II*\0" + struct.pack("<IH", 8, len(tags)) + entries + bytes(4) + rows)
-    np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], 1.0 - grey / 4095.0, atol=1e-7)
+    path = twelve_bit_grey_tiff(tmp_path / "white12.tif", TWELVE_BIT_GREY, photometric=0)
+    np.testing.assert_allclose(load_image(str(path), "raw")[..., 0], 1.0 - TWELVE_BIT_GREY / 4095.0, atol=1e-7)
 
 
 def test_a_white_is_zero_grey_and_alpha_tiff_stored_plane_by_plane_reads_inverted_grey(tmp_path):
