@@ -11,10 +11,13 @@ from test_glowing_spheres import PATCH, RES, closed_form, floor_mesh, materials,
 
 import wrt
 from wrt import light_sampling
+from wrt.ies import IesProfile
 from wrt.integrators import path, whitted
 from wrt.light_features import ALL_FEATURES, NO_FEATURES, SHAPE_LIGHT_KINDS, LightFeatures
 from wrt.light_shaping import Shaping
-from wrt.lights import CylinderLight, RectLight, SphereLight
+from wrt.light_table import build_lights
+from wrt.lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
+from wrt.materials import emission_estimates
 
 
 def test_the_shape_light_kinds_are_the_device_codes():
@@ -50,6 +53,93 @@ def features_of(lights=(), shapes=()) -> LightFeatures:
 def test_a_renderer_picks_the_features_its_lights_need(lights, shapes, expected):
     assert features_of(lights, shapes) == expected
 
+
+
+def moved(x, y, z, linear=np.eye(3)):
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = linear, (x, y, z)
+    return m
+
+
+def lamp_shape(kind, centre):
+    """A glowing (material 1) analytic shape of ``kind`` 0.2 across at ``centre``."""
+    return wrt.Shape(f"/Glow_{kind}", kind, moved(*centre, np.diag([0.2, 0.2, 0.2])), material_id=1)
+
+
+LAMP = wrt.Mesh("/Lamp", np.array([(0, 0, 1), (0.3, 0, 1), (0, 0.3, 1)], np.float32), np.array([[0, 2, 1]]),
+                np.array([0]), material_ids=np.zeros(1, np.int32))  # white: it glows only as a MeshLight
+PROFILE = IesProfile([0.0, 45.0, 90.0], [0.0], [[10.0, 6.0, 1.0]])
+CONE = Shaping(cone_angle=30.0)
+# Each kind of light (and of shaping) a scene can list, with the features its kind says it needs: cylinder, line,
+# ellipsoid and elliptic tube lights and glowing shapes are drawn through the shapes' code, a cone, focus or IES
+# profile that changes what a light emits is shaping (a rect light's 90-degree cone cuts nothing off: none).
+EVERY_KIND = {
+    "point": ([SphereLight(ABOVE, 0.1, WHITE, path="/P", treat_as_point=True)], [], NO_FEATURES),
+    "sphere": ([SphereLight(ABOVE, 0.1, WHITE, path="/S")], [], NO_FEATURES),
+    "ellipsoid": ([SphereLight(ABOVE, 0.1, WHITE, path="/E", frame=np.diag([1.0, 2.0, 0.5]))], [],
+                  LightFeatures(shape_lights=True, shaping=False)),
+    "rect": ([RectLight(moved(0, 0, 2), 1.0, 1.0, WHITE, path="/R")], [], NO_FEATURES),
+    "disk": ([DiskLight(moved(0, 0, 2), 0.3, WHITE, path="/D")], [], NO_FEATURES),
+    "cylinder": ([CylinderLight(moved(0, 0, 2), 1.0, 0.1, WHITE, path="/C")], [],
+                 LightFeatures(shape_lights=True, shaping=False)),
+    "elliptic-tube": ([CylinderLight(moved(0, 0, 2, np.diag([1.0, 2.0, 0.5])), 1.0, 0.1, WHITE, path="/T")], [],
+                      LightFeatures(shape_lights=True, shaping=False)),
+    "line": ([CylinderLight(moved(0, 0, 2), 1.0, 0.1, WHITE, path="/L", treat_as_line=True)], [],
+             LightFeatures(shape_lights=True, shaping=False)),
+    "distant": ([wrt.DistantLight(np.array([0.0, 0.0, -1.0]), WHITE, path="/Sun")], [], NO_FEATURES),
+    "sun-disc": ([wrt.DistantLight(np.array([0.0, 0.0, -1.0]), WHITE, path="/Sun", angle=5.0)], [], NO_FEATURES),
+    "dome": ([DomeLight(WHITE, path="/Dome")], [], NO_FEATURES),
+    "mesh-light": ([MeshLight("/Lamp", WHITE)], [], NO_FEATURES),
+    "glowing-sphere": ([], [lamp_shape("sphere", (0, 0, 1))], LightFeatures(shape_lights=True, shaping=False)),
+    "glowing-cylinder": ([], [lamp_shape("cylinder", (0, 0, 1))], LightFeatures(shape_lights=True, shaping=False)),
+    "glowing-box": ([], [lamp_shape("box", (0, 0, 1))], LightFeatures(shape_lights=True, shaping=False)),
+    "cone": ([SPOT], [], LightFeatures(shape_lights=False, shaping=True)),
+    "focus": ([DiskLight(moved(0, 0, 2), 0.3, WHITE, path="/D", shaping=Shaping(focus=3.0))], [],
+              LightFeatures(shape_lights=False, shaping=True)),
+    "ies": ([RectLight(moved(0, 0, 2), 1.0, 1.0, WHITE, path="/R", shaping=Shaping(ies=PROFILE))], [],
+            LightFeatures(shape_lights=False, shaping=True)),
+    "cone-cutting-nothing": ([RectLight(moved(0, 0, 2), 1.0, 1.0, WHITE, path="/R", shaping=Shaping())], [],
+                             NO_FEATURES),
+    "shaped-cylinder": ([CylinderLight(moved(0, 0, 2), 1.0, 0.1, WHITE, path="/C", shaping=CONE)], [], ALL_FEATURES),
+    "shaped-line": ([CylinderLight(moved(0, 0, 2), 1.0, 0.1, WHITE, path="/L", treat_as_line=True, shaping=CONE)],
+                    [], ALL_FEATURES),
+    "sphere-after-glow": ([SphereLight(ABOVE, 0.1, WHITE, path="/S")], [lamp_shape("sphere", (0, 0, 1))],
+                          LightFeatures(shape_lights=True, shaping=False)),
+}
+
+
+def read_back_features(lights) -> LightFeatures:
+    """The features of the uploaded ``lights`` (``DeviceLights``) read back from the arrays the kernels read, as the
+    Renderer took them before the upload's host rows gave them: the analytic lights' kinds and shaping rows, and
+    whether glowing shape entries follow the triangles."""
+    n = lights.num_analytic
+    drawn_as_shapes = [int(light_sampling.LIGHT_CYLINDER), int(light_sampling.LIGHT_ELLIPSOID),
+                       int(light_sampling.LIGHT_ELLIPTIC_TUBE), int(light_sampling.LIGHT_LINE)]
+    shape_lights = lights.first_glowing_sphere < lights.count or np.isin(lights.kinds.numpy()[:n],
+                                                                         drawn_as_shapes).any()
+    return LightFeatures(shape_lights=bool(shape_lights), shaping=bool((lights.shaping.numpy()[:n, 3] != 0.0).any()))
+
+
+@pytest.mark.parametrize("kind", sorted(EVERY_KIND))
+def test_the_features_taken_from_the_host_rows_are_those_the_uploaded_lights_need(kind):
+    """build_lights gives the features from the rows it uploads (no read back from the device): for every kind of
+    light and shaping, the same as read back from the uploaded arrays, and as the scene's list of lights says."""
+    lights, shapes, expected = EVERY_KIND[kind]
+    scene = wrt.Scene(meshes=[floor_mesh(), LAMP], shapes=shapes, lights=lights, materials=materials())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = build_lights(list(lights), scene, emission_estimates(scene.materials, []), "cpu")
+    assert table.features == read_back_features(table.device) == expected
+
+
+def test_the_features_of_every_kind_at_once_are_all_of_them():
+    lights = [light for kind_lights, _, _ in EVERY_KIND.values() for light in kind_lights]
+    shapes = [shape for _, kind_shapes, _ in EVERY_KIND.values() for shape in kind_shapes]
+    scene = wrt.Scene(meshes=[floor_mesh(), LAMP], shapes=shapes, lights=lights, materials=materials())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = build_lights(lights, scene, emission_estimates(scene.materials, []), "cpu")
+    assert table.features == read_back_features(table.device) == ALL_FEATURES
 
 def test_a_kept_renderer_draws_a_glowing_sphere_added_after_its_first_render():
     """The scene is first lit by the default lights (no feature), then a glowing sphere is added: whitted lights the

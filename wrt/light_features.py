@@ -6,9 +6,10 @@ kind of light whether a scene had one or not (87 s on an H100 host, ``benchmarks
 functions whose size sets that time are built per :class:`LightFeatures` (``..._for(features)`` in
 :mod:`wrt.light_sampling`, :mod:`wrt.integrators.emitters`, ``path`` and ``whitted``), their branches for a feature
 left out dropped by ``wp.static``, an integrator's kernels for one set of features in a Warp module of their own
-(:func:`wrt.integrators.path.features_module`); the Renderer launches the variant of :func:`light_features` of the
-lights it uploaded. A variant meets lights of a kind it lacks only if its key
-was stale: it then draws nothing from them (no wrong memory reads), as a light it does not have.
+(:func:`wrt.integrators.path.features_module`); the Renderer launches the variant of the lights it uploaded
+(:func:`light_features` of the host rows the upload is made of: ``wrt.light_table.LightTable.features``). A variant
+meets lights of a kind it lacks only if its key was stale: it then draws nothing from them (no wrong memory reads), as
+a light it does not have.
 """
 
 from __future__ import annotations
@@ -35,11 +36,11 @@ NO_FEATURES = LightFeatures(shape_lights=False, shaping=False)
 SHAPE_LIGHT_KINDS = (4, 8, 9, 10)
 
 
-def light_features(lights) -> LightFeatures:
-    """The features ``lights`` (a :class:`wrt.light_sampling.DeviceLights`, as uploaded) needs: read from the arrays
-    the kernels read (``kinds`` and ``shaping`` of the analytic lights, and whether glowing shapes follow them)."""
-    n = lights.num_analytic
-    kinds = lights.kinds.numpy()[:n]
-    glowing = lights.first_glowing_sphere < lights.count
-    shaping = bool((lights.shaping.numpy()[:n, 3] != 0.0).any())
-    return LightFeatures(shape_lights=bool(glowing or np.isin(kinds, SHAPE_LIGHT_KINDS).any()), shaping=shaping)
+def light_features(kinds, shaped, glowing: bool) -> LightFeatures:
+    """The features a light table needs whose analytic lights have the LIGHT_* ``kinds`` (those of
+    ``DeviceLights.kinds``) and ``shaped`` (per light, whether its cone, focus or IES profile is on:
+    ``DeviceLights.shaping[k][3] != 0``), and whose entries hold glowing shapes where ``glowing``. Taken from the
+    host rows :func:`wrt.light_table.build_lights` uploads: read back from the device arrays, each upload waited on
+    two copies to the host."""
+    shape_lights = glowing or bool(np.isin(np.asarray(kinds, np.int32), SHAPE_LIGHT_KINDS).any())
+    return LightFeatures(shape_lights=bool(shape_lights), shaping=bool(np.any(shaped)))

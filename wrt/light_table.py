@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import warp as wp
@@ -17,6 +17,7 @@ from .dome_irradiance import device_coefficients, irradiance_coefficients
 from .errors import SceneError, user_stacklevel
 from .floats import FLOAT32_MAX
 from .glowing_spheres import GlowingSpheres, ellipse_axes, glowing_spheres
+from .light_features import LightFeatures, light_features
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -432,10 +433,19 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
+class LightTable(NamedTuple):
+    """What :func:`build_lights` made of a scene's lights."""
+
+    device: DeviceLights  # the lights on the device
+    unsampled: UnsampledEmitters  # the instanced emitters left out past MAX_INSTANCED_EMITTERS
+    features: LightFeatures  # the shading kernels' variant they need (wrt.light_features), from the host rows
+
+
 def build_lights(lights: list, scene, material_emission: list, device, glow: np.ndarray | None = None,
-                 sampled: SampledEmission | None = None) -> tuple[DeviceLights, UnsampledEmitters]:
+                 sampled: SampledEmission | None = None) -> LightTable:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
-    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`. Radiance is held times
+    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS` and which features of the
+    shading kernels the lights need (:class:`LightTable`). Radiance is held times
     ``radiance_scale`` (:func:`wrt.radiance_scale.radiance_scale` of the brightest light or glow): the materials'
     emission must be scaled by it too (:func:`wrt.radiance_scale.scaled_materials`), and the image divided by it.
 
@@ -707,7 +717,8 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     segment, sky = rays_meet(np.asarray(h.kinds, np.int32), d.params.numpy()[:num_analytic])
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
-    return d, tris.unsampled
+    features = light_features(h.kinds, [row[3] != 0.0 for row in h.shaping], first_sphere < n)
+    return LightTable(d, tris.unsampled, features)
 
 
 def _scaled_radiance(h: HostLights, textured: dict, tris: EmitterTriangles, glow: np.ndarray,

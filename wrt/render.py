@@ -42,7 +42,6 @@ from .integrators.whitted import (
     lights_per_batch,
     whitted_kernels,
 )
-from .light_features import light_features
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
@@ -1116,9 +1115,9 @@ class Renderer:
                 named[geometry_materials[read.ids[(read.values > 0.0).any(axis=1)]]] = True
             self._warn_glows_giving_none(glows & ~cut & ~textured, sampled, named, geometry_materials)
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
-        self.device_lights, unsampled = build_lights(list(self.lights), scene, lit, dev, glow, sampled)
         # The shading kernels' variant for these lights (wrt.light_features): set with them, so it is never stale.
-        self._light_features = light_features(self.device_lights)
+        self.device_lights, unsampled, self._light_features = build_lights(list(self.lights), scene, lit, dev, glow,
+                                                                           sampled)
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
