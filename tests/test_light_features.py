@@ -10,7 +10,7 @@ import pytest
 from test_glowing_spheres import PATCH, RES, closed_form, floor_mesh, materials, sphere_shape
 
 import wrt
-from wrt import light_sampling
+from wrt import light_sampling, light_table
 from wrt.ies import IesProfile
 from wrt.integrators import path, whitted
 from wrt.light_features import ALL_FEATURES, NO_FEATURES, SHAPE_LIGHT_KINDS, LightFeatures
@@ -98,6 +98,8 @@ EVERY_KIND = {
               LightFeatures(shape_lights=False, shaping=True)),
     "ies": ([RectLight(moved(0, 0, 2), 1.0, 1.0, WHITE, path="/R", shaping=Shaping(ies=PROFILE))], [],
             LightFeatures(shape_lights=False, shaping=True)),
+    "ies-point": ([SphereLight(ABOVE, 0.1, WHITE, path="/P", treat_as_point=True, shaping=Shaping(ies=PROFILE))], [],
+                  LightFeatures(shape_lights=False, shaping=True)),
     "cone-cutting-nothing": ([RectLight(moved(0, 0, 2), 1.0, 1.0, WHITE, path="/R", shaping=Shaping())], [],
                              NO_FEATURES),
     "shaped-cylinder": ([CylinderLight(moved(0, 0, 2), 1.0, 0.1, WHITE, path="/C", shaping=CONE)], [], ALL_FEATURES),
@@ -140,6 +142,30 @@ def test_the_features_of_every_kind_at_once_are_all_of_them():
         warnings.simplefilter("ignore")
         table = build_lights(lights, scene, emission_estimates(scene.materials, []), "cpu")
     assert table.features == read_back_features(table.device) == ALL_FEATURES
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+@pytest.mark.parametrize("kind", sorted(EVERY_KIND))
+def test_the_variant_of_a_scene_draws_what_the_kernels_of_every_feature_draw(kind, integrator, monkeypatch):
+    """The kernels of the features a scene's lights need (a variant that leaves the other draws out) give the image
+    of the kernels of every feature, forced through light_table.light_features (ALL_FEATURES serves any scene): the
+    same draws of the same numbers, bit for bit, so no draw of the scene's lights was left out or changed."""
+    lights, shapes, expected = EVERY_KIND[kind]
+    cam = wrt.Camera.look_at(eye=(0, -4, 3), target=(0, 0, 0.7), up=(0, 0, 1), fov_y_deg=50)
+
+    def draw():
+        scene = wrt.Scene(meshes=[floor_mesh(), LAMP], shapes=shapes, lights=lights, materials=materials())
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            renderer = wrt.Renderer(scene, camera=cam, width=6, height=6, integrator=integrator)
+            return renderer.render(spp=2, seed=11).rgb, renderer._light_features
+
+    image, features = draw()
+    monkeypatch.setattr(light_table, "light_features", lambda *_: ALL_FEATURES)
+    every, forced = draw()
+    assert (features, forced) == (expected, ALL_FEATURES)
+    assert image.max() > 0.0
+    np.testing.assert_array_equal(image, every)
 
 def test_a_kept_renderer_draws_a_glowing_sphere_added_after_its_first_render():
     """The scene is first lit by the default lights (no feature), then a glowing sphere is added: whitted lights the
