@@ -714,7 +714,8 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     d.shadow_api = wp.array(rows[:, :4], dtype=wp.vec4, device=device)
     d.shadow_fade = wp.array(rows[:, 4:], dtype=wp.vec2, device=device)
     d.shadow_api_on = 1 if tinted or len(triangles_tinted) else 0
-    segment, sky = rays_meet(np.asarray(h.kinds, np.int32), d.params.numpy()[:num_analytic])
+    # (from the host rows d.params was made of: read back from the device, each upload waited on a copy)
+    segment, sky = rays_meet(np.asarray(h.kinds, np.int32), np.asarray(h.params, np.float32).reshape(-1, 4))
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
     features = light_features(h.kinds, [row[3] != 0.0 for row in h.shaping], first_sphere < n)
