@@ -487,7 +487,7 @@ def test_light_selection_weighs_a_profile_at_its_angle_scale_and_the_lights_cosi
     reference = SphereLight(position=(3, 0, 1), radius=0.2, color=np.ones(3))
     reference_power = math.pi * 4 * math.pi * 0.04
     scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")])
-    device_lights = light_table.build_lights([shaped, reference], scene, [np.zeros(3)], "cpu").device
+    device_lights = light_table.build_lights([shaped, reference], scene, [np.zeros(3)], "cpu").device_lights
     pmf = device_lights.pmf.numpy()[:2].astype(np.float64)
     expected = bare_power * ANGLE_SCALED[kind, scale] / (bare_power * ANGLE_SCALED[kind, scale] + reference_power)
     np.testing.assert_allclose(2.0 * pmf[0] - 0.5, expected, rtol=2e-3, atol=1e-6)

@@ -162,7 +162,7 @@ def light_table_bytes(instances):
     transforms = [trs((0.01 * i, 0.0, 1.0), (180, 0, 0)) for i in range(instances)]
     scene, _, _ = lamp_scene(transforms)
     scene.lights = [wrt.RectLight(trs((0.0, 0.0, 2.0)), 0.5, 0.4, np.full(3, 3.0))]
-    lights = light_table.build_lights(scene.lights, scene, [np.zeros(3), np.full(3, RADIANCE)], "cpu").device
+    lights = light_table.build_lights(scene.lights, scene, [np.zeros(3), np.full(3, RADIANCE)], "cpu").device_lights
 
     def size(struct):
         fields = [getattr(struct, name) for name in struct._cls.vars]

@@ -131,7 +131,7 @@ def test_the_features_taken_from_the_host_rows_are_those_the_uploaded_lights_nee
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         table = build_lights(list(lights), scene, emission_estimates(scene.materials, []), "cpu")
-    assert table.features == read_back_features(table.device) == expected
+    assert table.features == read_back_features(table.device_lights) == expected
 
 
 def test_the_features_of_every_kind_at_once_are_all_of_them():
@@ -141,7 +141,7 @@ def test_the_features_of_every_kind_at_once_are_all_of_them():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         table = build_lights(lights, scene, emission_estimates(scene.materials, []), "cpu")
-    assert table.features == read_back_features(table.device) == ALL_FEATURES
+    assert table.features == read_back_features(table.device_lights) == ALL_FEATURES
 
 
 @pytest.mark.parametrize("integrator", ["path", "whitted"])

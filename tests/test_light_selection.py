@@ -27,7 +27,7 @@ def glowing_triangles(n, rng, lights=()):
     mesh = wrt.Mesh("/glow", corners.reshape(-1, 3), np.arange(3 * n).reshape(n, 3), np.arange(n),
                     material_ids=np.zeros(n, np.int32))
     scene = wrt.Scene(meshes=[mesh], materials=[Material(emissive_color=(1.0, 1.0, 1.0))])
-    return build_lights(list(lights), scene, emission_estimates(scene.materials, []), "cpu").device
+    return build_lights(list(lights), scene, emission_estimates(scene.materials, []), "cpu").device_lights
 
 
 def test_each_lights_pmf_is_the_probability_it_is_drawn_with(np_rng):

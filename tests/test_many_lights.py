@@ -505,7 +505,7 @@ def test_bsdf_rays_look_for_the_lights_they_can_meet_alone():
               CylinderLight(to_world=to_world, length=1.0, radius=0.1, color=np.ones(3)),
               wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3))]
     scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], lights=lights)
-    d = build_lights(lights, scene, [np.zeros(3)], "cpu").device
+    d = build_lights(lights, scene, [np.zeros(3)], "cpu").device_lights
     area = [k for k, light in enumerate(lights) if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight))
             and not getattr(light, "treat_as_point", False) and not getattr(light, "treat_as_line", False)]
     sky = [k for k, light in enumerate(lights) if isinstance(light, DomeLight)

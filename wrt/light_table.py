@@ -436,7 +436,7 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
 class LightTable(NamedTuple):
     """What :func:`build_lights` made of a scene's lights."""
 
-    device: DeviceLights  # the lights on the device
+    device_lights: DeviceLights  # the lights on the device
     unsampled: UnsampledEmitters  # the instanced emitters left out past MAX_INSTANCED_EMITTERS
     features: LightFeatures  # the shading kernels' variant they need (wrt.light_features), from the host rows
 
