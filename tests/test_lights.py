@@ -1717,3 +1717,17 @@ def test_a_light_placed_past_float32_is_named_for_its_position_not_its_size(tmp_
     x = UsdGeom.Xformable(stage.GetPrimAtPath("/Far")).ComputeLocalToWorldTransform(0.0).ExtractTranslation()[0]
     width = UsdLux.RectLight(stage.GetPrimAtPath("/Long")).GetWidthAttr().Get()
     assert f"position {x:.3g}: 1" in message and f"size {width:.3g}: 1" in message, message
+
+
+def test_several_domes_are_named_by_their_place_where_they_have_no_path():
+    """Of several dome lights only the first is used: the warning names it and those left out, by path or, for lights
+    built in Python without one, by their place in ``scene.lights`` (it said "only the first () is used")."""
+    lights = [wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.ones(3, np.float32)),
+              DomeLight(color=np.full(3, 0.3, np.float32)), DomeLight(color=np.full(3, 0.5, np.float32)),
+              DomeLight(color=np.full(3, 0.5, np.float32), path="/Sky")]
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (2, 0, 0), (0, 2, 0))], lights=lights)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.render(scene, camera=top_down_camera(), width=2, height=2, device="cpu")
+    said = [str(w.message) for w in caught if "dome lights" in str(w.message)]
+    assert said == ["3 dome lights: only the first (scene.lights[1]) is used; scene.lights[2] and /Sky light nothing"]

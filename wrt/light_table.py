@@ -459,6 +459,8 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
         sampled: the emission estimates that replace their material's on the triangles and shapes it holds
             (:func:`wrt.sampled_emission.sampled_emission`), or None.
     """
+    if sum(isinstance(light, DomeLight) for light in lights) > 1:
+        warnings.warn(_several_domes(lights), stacklevel=user_stacklevel())
     lights = [light for light in lights if not _too_small(light)]
     lower, upper = scene.bounds()
     # The scene's own radius however small (1e-6 for a point): the distant and dome lights' selection weights are
@@ -468,9 +470,6 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     h = HostLights(*([] for _ in dataclasses.fields(HostLights)))
     zero = np.zeros(3)
     domes = [light for light in lights if isinstance(light, DomeLight)]
-    if len(domes) > 1:
-        warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used",
-                      stacklevel=user_stacklevel())
     dome_index, dome = -1, None
     mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
     emitted = {}  # id of a light's texture -> (it, its texels, their mean): see _shared_texels
@@ -1070,6 +1069,16 @@ def _warn_unbounded(lights: list, triangles: int) -> None:
     warnings.warn(f"{names}{' and more' if len(lights) > 5 else ''}: normalized, too small for its radiance "
                   f"(intensity / area) to fit in float32: its {triangles} triangle(s) light nothing",
                   stacklevel=user_stacklevel())
+
+
+def _several_domes(lights: list) -> str:
+    """The warning for ``lights`` holding several dome lights, of which only the first is used: it names that one and
+    those left out, each by its path or, built in Python without one, by its place in the list (``scene.lights[k]``):
+    a dome without a path was named ``()``."""
+    names = [light.path or f"scene.lights[{k}]" for k, light in enumerate(lights) if isinstance(light, DomeLight)]
+    left_out = ", ".join(names[1:-1]) + (" and " if len(names) > 2 else "") + names[-1]
+    verb = "lights" if len(names) == 2 else "light"
+    return f"{len(names)} dome lights: only the first ({names[0]}) is used; {left_out} {verb} nothing"
 
 
 def _too_small(light) -> bool:
