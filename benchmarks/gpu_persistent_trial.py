@@ -36,6 +36,7 @@ from wrt.bvh.traverse import order_children, reachable  # noqa: E402
 from wrt.geometry import (  # noqa: E402
     ShearedRay,
     box_origins,
+    box_reach,
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
@@ -140,7 +141,7 @@ def trace_persistent_kernel(
                 if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, best_t):
                     ray = make_sheared_ray(origin, direction)
                     inv_dir = safe_inverse(direction)
-                    origin_lower, origin_upper = box_origins(origin, direction)
+                    origin_lower, origin_upper = box_origins(origin, direction, box_reach(bvh.lowers[0], bvh.uppers[0]))
                     root = intersect_ray_box(
                         origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t
                     )

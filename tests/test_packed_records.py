@@ -50,7 +50,7 @@ def empty_slot_kernel(
     origins: wp.array[wp.vec3], directions: wp.array[wp.vec3], t_max: float, entries: wp.array[float]
 ):
     i = wp.tid()
-    origin_lower, origin_upper = box_origins(origins[i], directions[i])
+    origin_lower, origin_upper = box_origins(origins[i], directions[i], 0.0)
     entries[i] = intersect_ray_box(
         origin_lower, origin_upper, safe_inverse(directions[i]), wp.vec3(wp.inf), wp.vec3(wp.inf), 0.0, t_max
     )

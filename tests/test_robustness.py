@@ -11,7 +11,7 @@ import warp as wp
 from conftest import warp_assets
 
 import wrt
-from wrt.geometry import box_origins, intersect_ray_box, offset_ray_origin, safe_inverse
+from wrt.geometry import box_origins, box_reach, intersect_ray_box, offset_ray_origin, safe_inverse
 from wrt.sampling import sin_cos
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
@@ -682,7 +682,7 @@ def _slab_kernel(
 ):
     i = wp.tid()
     inv = safe_inverse(directions[i])
-    origin_lower, origin_upper = box_origins(origins[i], directions[i])
+    origin_lower, origin_upper = box_origins(origins[i], directions[i], box_reach(lowers[i], uppers[i]))
     out[i] = intersect_ray_box(origin_lower, origin_upper, inv, lowers[i], uppers[i], 0.0, t_max)
 
 

@@ -506,11 +506,7 @@ def closed_triangles_containing(points, indices, yz) -> np.ndarray:
 
 
 @pytest.mark.parametrize("layout", ["binary", "wide8"])
-@pytest.mark.parametrize("size", [1e10, pytest.param(4e20, marks=pytest.mark.xfail(
-    strict=True, reason="inside the box test (geometry.box_origins / flat_slab_slack, used by every traversal; not "
-    "changed here): for a ray in a box's face plane at coordinate 0 the slab of a zero direction component is "
-    "widened by 1e-18 (CPU; 1e20 of t on CUDA) and its inverse is 1e38, so that slab ends at t = 1e20 and boxes "
-    "entered beyond it are culled"))])
+@pytest.mark.parametrize("size", [1e10, 4e20])
 def test_ties_on_an_edge_in_a_box_face_plane_go_to_the_smaller_id_at_any_scale(size, layout):
     """A wall at x = 2 size, tall in z, with ten strips of two triangles below z = 0 (smaller ids) and ten above;
     rays along +x in the plane z = 0 hit the shared edges, where a lower and an upper triangle tie at exactly the
@@ -532,6 +528,45 @@ def test_ties_on_an_edge_in_a_box_face_plane_go_to_the_smaller_id_at_any_scale(s
     assert all(e < 20 for e in expected)  # the lower strips' triangles: the oracle sees the tie
     assert hits.prim.tolist() == expected
     np.testing.assert_allclose(hits.t, 2 * np.float32(size), rtol=1e-6)
+
+
+@pytest.mark.parametrize("placed", ["scaled", "far origin", "instance"])
+def test_a_ray_along_an_outer_edge_in_a_box_face_plane_hits_at_any_distance(placed):
+    """A wall triangle at x = 2 whose edge lies in the plane z = 0 (its box's upper face, or its lower one), and rays
+    along +x in that plane, with a z component of +0 or -0: the closed triangle holds every point where they meet it
+    (the watertight test's rule), so each ray hits at t = 2 s, whatever the wall's scale s, the origin's distance and
+    the layout; through an instance scaled by s too. The slab of a zero direction component ended near t = 1e20
+    (inverse 1e38, and the CPU's margin 1e-18, CUDA's slack 1e20 of t): beyond it the box whose face the ray runs in
+    was culled and the ray missed, at a scale of 2^66 (t = 1.5e20) where it hit at 2^60. Oracle: float64 edge
+    functions of the corners (:func:`closed_triangles_containing`)."""
+    for below in (True, False):
+        tri = np.array([[2, 0, 0], [2, 1, 0], [2, 0.5, -1 if below else 1]], np.float64)
+        for exponent in (0, 66, 100):
+            s = 2.0**exponent
+            ys = np.array([0.13, 0.5, 0.77])
+            origins = np.stack([np.zeros(3), ys, np.zeros(3)], 1)
+            if placed == "instance":
+                scene = wrt.Scene(prototypes=[Prototype("/P", [Mesh("/P/wall", tri.astype(np.float32),
+                                                                    np.array([[0, 1, 2]]), np.zeros(1, np.int32))])],
+                                  instances=Instances.from_transforms([0], np.diag([s, s, s, 1.0])[None]))
+                origins, points, layouts = origins * s, tri * s, ["binary"]
+            elif placed == "far origin":  # a unit wall seen from s away
+                scene = wrt.Scene.from_triangles(tri.astype(np.float32), [[0, 1, 2]])
+                origins[:, 0], points, layouts = -s, tri, ["binary", "compact", "wide", "wide8"]
+            else:
+                scene = wrt.Scene.from_triangles((tri * s).astype(np.float32), [[0, 1, 2]])
+                origins, points, layouts = origins * s, tri * s, ["binary", "compact", "wide", "wide8"]
+            assert all(closed_triangles_containing(points, [[0, 1, 2]], (y, 0.0)).tolist() == [0]
+                       for y in origins[:, 1])
+            want = points[0, 0] - origins[:, 0]
+            for z in (0.0, -0.0):
+                directions = np.array([1.0, 0.0, z], np.float32)
+                for layout in layouts:
+                    label = f"{'below' if below else 'above'} z = 0, 2^{exponent}, direction z {z}, {layout}"
+                    hits = wrt.trace(scene, origins, directions, layout=layout)
+                    assert hits.prim.tolist() == [0, 0, 0], label
+                    np.testing.assert_allclose(hits.t, want, rtol=1e-6, err_msg=label)
+                    assert wrt.occluded(scene, origins, directions, layout=layout).all(), label
 
 
 def test_empty_scene_misses_everything():
@@ -1194,18 +1229,19 @@ def test_rays_past_float32s_t_behind_them_or_across_a_scene_past_half_its_range_
                 (t_min, [str(w.message) for w in said])
 
 
-@pytest.mark.xfail(strict=True, reason="inside the box test (geometry.safe_inverse's FLAT_INVERSE of 1e38, used by "
-                   "every traversal; not changed here): the slab of a zero direction component ends at 1e38 times the "
-                   "origin's distance from the box's faces, 0.5 here, so the box is culled from t = 5e37")
-def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle():
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle(layout):
     """Straight down from ``(0.5, -0.5, z)`` onto a unit triangle at z = 0: the float64 oracle hits it at ``t = z`` for
-    every ``z`` up to 3e38 (float32's t holds them all); wrt misses from 5.1e37 (README, **Triangles**)."""
+    every ``z`` up to 3e38 (float32's t holds them all). The slab of a zero direction component ended at 1e38
+    (FLAT_INVERSE) times the origin's distance from the box's faces, 0.5 here, so wrt missed from 5.1e37; its margin
+    now follows the origin's distance (``geometry.flat_margin``; on CUDA such a slab holding the ray is infinite)."""
     scene = one_triangle_scene(False)
     origins = np.array([[0.5, -0.5, z] for z in (1e37, 4.9e37, 5.1e37, 1e38, 3e38)], np.float32)
     directions = np.tile(np.array([[0, 0, -1]], np.float32), (len(origins), 1))
     t, prim, clear = float64_closest_hits(*scene.triangles(), origins, directions, np.zeros(5), np.full(5, np.inf))
     assert prim.tolist() == [0] * 5 and clear.all()
-    np.testing.assert_allclose(wrt.trace(scene, origins, directions).t, t, rtol=1e-6)
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions, layout=layout).t, t, rtol=1e-6)
+    assert wrt.occluded(scene, origins, directions, layout=layout).all()
 
 
 def test_limits_at_float32s_largest_value_are_taken_without_a_numpy_warning():

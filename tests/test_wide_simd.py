@@ -27,7 +27,7 @@ def step_kernel(
 ):
     i = wp.tid()
     stack = WideStack()
-    origin_lower, origin_upper = box_origins(origins[i], directions[i])
+    origin_lower, origin_upper = box_origins(origins[i], directions[i], 0.0)  # the least margin, as before
     inv_dir = safe_inverse(directions[i])
     step = wp.wrt_wide_enter(boxes, links, 0, width, origin_lower, origin_upper, inv_dir, 0.0, t_max, stack, 0, sort)
     next_ref[i] = step[0]
@@ -46,7 +46,7 @@ def scalar_kernel(
     entries: wp.array2d[float],
 ):
     i, j = wp.tid()
-    origin_lower, origin_upper = box_origins(origins[i], directions[i])
+    origin_lower, origin_upper = box_origins(origins[i], directions[i], 0.0)  # the least margin, as before
     inv_dir = safe_inverse(directions[i])
     entries[i, j] = intersect_ray_box(origin_lower, origin_upper, inv_dir, lowers[j], uppers[j], 0.0, t_max)
 

@@ -292,50 +292,94 @@ def finite_max(a: float, b: float) -> float:
 
 # Rays in a box face plane. A zero direction component (safe_inverse's FLAT_INVERSE) keeps the ray in a plane of
 # constant coordinate; in a box's face plane, bound - origin is exactly 0, so that slab shrank to t = 0 and the box
-# was culled: holes at seams between tiles or instances under axis-aligned rays. Such slabs are widened, so boxes
-# within a hair of the ray's plane count as touched (never a new miss), in the way that is free on each device:
-# - on the CPU, the origin is moved per plane once per ray (``box_origins``): nothing is added per box test;
-# - on CUDA, where two more origins would cost registers, the slab bounds get a slack of 1e20 per box test (measured
-#   0-3% on an H200), and ``box_origins`` returns the origin itself.
-# The other slabs are exactly as before: both snippets give the constant 0 there, which the compilers fold away.
+# was culled: holes at seams between tiles or instances under axis-aligned rays. Such slabs are widened, in the way
+# that is free on each device:
+# - on the CPU, the origin is moved per plane once per ray (``box_origins``), so boxes within a hair of the ray's
+#   plane count as touched (never a new miss): nothing is added per box test. The slab then ends at the margin times
+#   FLAT_INVERSE, so the margin is at least 2^-124 of the distances the tree's points and the origin lie at, over
+#   the direction's length (``flat_margin``): 4.7 times any t at which the ray can meet the tree. A fixed 1e-18
+#   ended the slab at t = 1e20: rays along an edge in a box face plane missed beyond it (a wall at 1e20, or a unit
+#   one seen from 1e20 away, or through an instance scaled by 2^66, whose local direction is 2^-66 long);
+# - on CUDA, where two more origins would cost registers, a flat slab that holds the ray's plane (its two distances
+#   of opposite signs, or 0: the signs of bound - origin are exact) is made infinite per box test, where a slack of
+#   1e20 of t was added to it, which ended it at t = 1e20 as the CPU's margin did. ``box_origins`` returns the
+#   origin itself.
+# The other slabs are exactly as before: the snippets give their values back unchanged.
 _ORIGIN_SHIFT = """
 #if defined(__CUDA_ARCH__)
     return 0.0f;
 #else
     float a = o < 0.0f ? -o : o;
     float margin = a * 2.384185791015625e-07f;  // 2^-22: at least two ulps of o
-    margin = margin > 1.0e-18f ? margin : 1.0e-18f;
+    margin = margin > least ? margin : least;
     return (d < 1.0e-38f && d > -1.0e-38f) ? sign * margin : 0.0f;
 #endif
 """
-_FLAT_SLAB_SLACK = """
+_FLAT_SLAB_ENTRY = """
 #if defined(__CUDA_ARCH__)
-    return fabsf(inv) >= 1.0e38f ? sign * 1.0e20f : 0.0f;
+    return (fabsf(inv) >= 1.0e38f && t <= 0.0f) ? -INFINITY : t;
 #else
-    return 0.0f;
+    return t;
 #endif
 """
+_FLAT_SLAB_EXIT = """
+#if defined(__CUDA_ARCH__)
+    return (fabsf(inv) >= 1.0e38f && t >= 0.0f) ? INFINITY : t;
+#else
+    return t;
+#endif
+"""
+FLAT_MARGIN_SCALE = wp.constant(2.0**-124)  # times FLAT_INVERSE (1e38): 4.7, over twice sqrt(3) (see flat_margin)
+FLAT_MARGIN_LEAST = wp.constant(1.0e-18)
+FLAT_MARGIN_MOST = wp.constant(2.0**100)  # far beyond any t float32 holds; keeps o + margin finite
 
 
 @wp.func_native(_ORIGIN_SHIFT)
-def origin_shift(o: float, d: float, sign: float) -> float:
-    """CPU: ``sign`` times a margin (two ulps of ``o``, at least 1e-18) where the direction component ``d`` is zero
-    (as ``safe_inverse`` sees it), else 0; CUDA: 0 (see the comment above)."""
+def origin_shift(o: float, d: float, least: float, sign: float) -> float:
+    """CPU: ``sign`` times a margin (two ulps of ``o``, at least ``least``) where the direction component ``d`` is
+    zero (as ``safe_inverse`` sees it), else 0; CUDA: 0 (see the comment above)."""
 
 
-@wp.func_native(_FLAT_SLAB_SLACK)
-def flat_slab_slack(inv: float, sign: float) -> float:
-    """CUDA: ``sign * 1e20`` where ``inv`` is ``FLAT_INVERSE``, else 0; CPU: 0 (see the comment above)."""
+@wp.func_native(_FLAT_SLAB_ENTRY)
+def flat_slab_entry(t: float, inv: float) -> float:
+    """CUDA: ``-inf`` for the entry ``t`` of a flat slab (``inv`` is ``FLAT_INVERSE``) that holds the ray's plane,
+    else ``t``; CPU: ``t`` (see the comment above)."""
+
+
+@wp.func_native(_FLAT_SLAB_EXIT)
+def flat_slab_exit(t: float, inv: float) -> float:
+    """CUDA: ``+inf`` for the exit ``t`` of a flat slab that holds the ray's plane, else ``t``; CPU: ``t``."""
 
 
 @wp.func
-def box_origins(origin: wp.vec3, direction: wp.vec3):
+def box_reach(lower: wp.vec3, upper: wp.vec3):
+    """The largest ``|coordinate|`` of a box: how far from the origin the points inside it reach."""
+    return wp.max(largest_magnitude(lower), largest_magnitude(upper))
+
+
+@wp.func
+def flat_margin(origin: wp.vec3, direction: wp.vec3, reach: float):
+    """The least margin ``box_origins`` moves a ray off its flat planes by on the CPU: ``FLAT_MARGIN_SCALE`` of
+    ``max(|origin|, reach) / |direction|`` (largest components; ``reach``: of the tree's root box, ``box_reach``),
+    at least ``FLAT_MARGIN_LEAST``. A point ``p`` of the tree meets the ray at ``|t| <= sqrt(3) (|p| + |origin|) /
+    |direction|``, at most twice ``sqrt(3)`` of that ratio, and the flat slab ends at the margin times FLAT_INVERSE,
+    4.7 of it. Of the tree's size, the margin is 2^-124 where the direction is near unit length (the flat traversals
+    scale it so), more only in an instance's space, where it may be as short as 2^-100."""
+    m = wp.max(largest_magnitude(origin), reach) * FLAT_MARGIN_SCALE
+    return wp.min(wp.max(m / largest_magnitude(direction), FLAT_MARGIN_LEAST), FLAT_MARGIN_MOST)
+
+
+@wp.func
+def box_origins(origin: wp.vec3, direction: wp.vec3, reach: float):
     """The origins that ``intersect_ray_box`` measures a box's lower and upper planes from: ``origin`` moved up and
-    down by a margin along the axes that ``direction`` does not move along (on the CPU; see the comment above)."""
-    up = wp.vec3(origin_shift(origin[0], direction[0], -1.0), origin_shift(origin[1], direction[1], -1.0),
-                 origin_shift(origin[2], direction[2], -1.0))
-    down = wp.vec3(origin_shift(origin[0], direction[0], 1.0), origin_shift(origin[1], direction[1], 1.0),
-                   origin_shift(origin[2], direction[2], 1.0))
+    down by a margin along the axes that ``direction`` does not move along (on the CPU; see the comment above), for a
+    tree whose root box reaches ``reach`` (``box_reach``) from the origin. Only for rays that can hit
+    (``ray_can_hit``: a finite origin, a direction not zero)."""
+    least = flat_margin(origin, direction, reach)
+    up = wp.vec3(origin_shift(origin[0], direction[0], least, -1.0), origin_shift(origin[1], direction[1], least, -1.0),
+                 origin_shift(origin[2], direction[2], least, -1.0))
+    down = wp.vec3(origin_shift(origin[0], direction[0], least, 1.0), origin_shift(origin[1], direction[1], least, 1.0),
+                   origin_shift(origin[2], direction[2], least, 1.0))
     return origin - up, origin - down
 
 
@@ -357,12 +401,12 @@ def intersect_ray_box(
     """
     t0 = wp.cw_mul(lower - origin_lower, inv_dir)
     t1 = wp.cw_mul(upper - origin_upper, inv_dir)
-    lo_x = finite_min(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], 1.0)
-    lo_y = finite_min(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], 1.0)
-    lo_z = finite_min(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], 1.0)
-    hi_x = finite_max(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], -1.0)
-    hi_y = finite_max(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], -1.0)
-    hi_z = finite_max(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], -1.0)
+    lo_x = flat_slab_entry(finite_min(t0[0], t1[0]), inv_dir[0])
+    lo_y = flat_slab_entry(finite_min(t0[1], t1[1]), inv_dir[1])
+    lo_z = flat_slab_entry(finite_min(t0[2], t1[2]), inv_dir[2])
+    hi_x = flat_slab_exit(finite_max(t0[0], t1[0]), inv_dir[0])
+    hi_y = flat_slab_exit(finite_max(t0[1], t1[1]), inv_dir[1])
+    hi_z = flat_slab_exit(finite_max(t0[2], t1[2]), inv_dir[2])
     near = finite_max(finite_max(lo_x, lo_y), finite_max(lo_z, t_min))
     far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf

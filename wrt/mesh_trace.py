@@ -7,7 +7,7 @@ any of its kernels is launched: a render with ``accel="wrt"`` (the default) then
 
 import warp as wp
 
-from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
+from .geometry import box_origins, box_reach, intersect_ray_box, ray_can_hit, safe_inverse
 
 # The rounding of wrt.trace (see the note there): no FMA contraction; no backward pass (nothing differentiates a trace,
 # and it doubles the code Warp compiles).
@@ -26,7 +26,7 @@ def mesh_query_start(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: f
     triangles' size, and ``-inf`` made it NaN: every ray missed."""
     start = t_min
     if t_min < 0.0:
-        origin_lower, origin_upper = box_origins(origin, direction)
+        origin_lower, origin_upper = box_origins(origin, direction, box_reach(lower, upper))
         # +inf when the ray misses the box; rounded down by a few ulps, so a hit on the box's face stays ahead.
         entry = intersect_ray_box(origin_lower, origin_upper, safe_inverse(direction), lower, upper, t_min, t_max)
         start = wp.max(t_min, wp.min(entry, 0.0))

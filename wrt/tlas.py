@@ -64,7 +64,7 @@ from .bvh.traverse import (
 )
 from .bvh.turns import waits
 from .floats import FLOAT32_MAX, largest_magnitude, next_up, unit_scales
-from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
+from .geometry import box_origins, box_reach, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, thicken_flat_transforms, world_boxes
 from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_boxes, shape_uv
 from .scene import Scene
@@ -252,7 +252,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
     tests = int(0)
     if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        origin_lower, origin_upper = box_origins(origin, direction, box_reach(tlas.lowers[0], tlas.uppers[0]))
         stack = NodeStack()
         top = int(0)
         node = int(-1)
@@ -343,7 +343,7 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
     found = bool(False)
     if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        origin_lower, origin_upper = box_origins(origin, direction, box_reach(tlas.lowers[0], tlas.uppers[0]))
         stack = NodeStack()
         top = int(0)
         node = int(-1)

@@ -35,6 +35,7 @@ from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
+from .wide_cpu import on_cpu
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -211,6 +212,20 @@ def device_compact_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array)
 
 
 @wp.func
+def root_reach(bvh: DeviceCompactBvh):
+    """``geometry.box_reach`` of the tree's root box, the union of inner node 0's two child boxes (a root leaf's empty
+    second child holds zeros), for ``box_origins``; 0 on CUDA, whose ``box_origins`` does not use it."""
+    reach = float(0.0)
+    if on_cpu():
+        a = bvh.xy0[0]
+        b = bvh.xy1[0]
+        z = bvh.zz[0]
+        for k in range(4):
+            reach = wp.max(reach, wp.max(wp.max(wp.abs(a[k]), wp.abs(b[k])), wp.abs(z[k])))
+    return reach
+
+
+@wp.func
 def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Closest hit with ``t_min <= t < t_max``.
 
@@ -225,7 +240,7 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
     ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        origin_lower, origin_upper = box_origins(origin, direction, root_reach(bvh))
         stack = NodeStack()
         top = int(0)
         ref = int(0)  # current node or leaf; the root is inner node 0
@@ -298,7 +313,7 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        origin_lower, origin_upper = box_origins(origin, direction, root_reach(bvh))
         stack = NodeStack()
         top = int(0)
         ref = int(0)

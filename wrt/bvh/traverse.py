@@ -17,6 +17,7 @@ from ..floats import FLOAT32_MAX, unit_scales
 from ..geometry import (
     ShearedRay,
     box_origins,
+    box_reach,
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
@@ -53,11 +54,12 @@ def unit_ray(direction: wp.vec3, t_min: float, t_max: float):
     """``(direction * down, t_min / down, t_max / down, down)`` for the power of two ``down`` that brings the
     direction's largest component into ``[1, 2)``; a hit of that ray at ``t`` is one of the given ray at
     ``t * down``. Every trace and any-hit kernel starts from it (exact: ``wrt.floats``), because the slab test's
-    constants assume such lengths: a zero component's inverse is 1e38 and, on the CPU, a ray in a box face plane is
-    moved off it by at least 1e-18 (``geometry.box_origins``), so with a direction of length 1e-30 a triangle 1e-9
-    away (t = 1e21) lay beyond a flat slab's exit and was culled. ``t_max`` is first capped at float32's largest
-    value: a hit past it (a direction of length 1e-37 and a triangle 100 away: t = 1e39) has no float32 ``t``, so it
-    is a miss, to every kernel alike; uncapped, the scaled ray hit it and reported ``t * down = inf``."""
+    constants assume such lengths: a zero component's inverse is 1e38 and, on the CPU, a ray in a box face plane was
+    moved off it by 1e-18 (``geometry.box_origins``), so with a direction of length 1e-30 a triangle 1e-9 away
+    (t = 1e21) lay beyond a flat slab's exit and was culled (the margin now follows the direction's length too).
+    ``t_max`` is first capped at float32's largest value: a hit past it (a direction of length 1e-37 and a triangle
+    100 away: t = 1e39) has no float32 ``t``, so it is a miss, to every kernel alike; uncapped, the scaled ray hit it
+    and reported ``t * down = inf``."""
     down, up = unit_scales(direction)
     return direction * down, t_min * up, wp.min(t_max, FLOAT32_MAX) * up, down
 
@@ -247,11 +249,11 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
     ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        root_lower, root_upper = node_box(bvh, 0)
+        origin_lower, origin_upper = box_origins(origin, direction, box_reach(root_lower, root_upper))
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        root_lower, root_upper = node_box(bvh, 0)
         root = intersect_ray_box(origin_lower, origin_upper, inv_dir, root_lower, root_upper, t_min, best_t)
         if reachable(root, best_t):
             node = 0
@@ -297,11 +299,11 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
+        root_lower, root_upper = node_box(bvh, 0)
+        origin_lower, origin_upper = box_origins(origin, direction, box_reach(root_lower, root_upper))
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        root_lower, root_upper = node_box(bvh, 0)
         if intersect_ray_box(origin_lower, origin_upper, inv_dir, root_lower, root_upper, t_min, t_max) < wp.inf:
             node = 0
         while node >= 0 and not found:

@@ -44,7 +44,7 @@ from .packed import load_child, load_link, pack_child
 from .stack import WIDE_STACK, WideStack
 from .traverse import TRACE_MAX_REGISTERS, any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
-from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
+from .wide_cpu import BOX_PLANES, WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -194,6 +194,20 @@ def _store_children(bvh: DeviceWideBvh, lowers: wp.array, uppers: wp.array, link
         wp.launch(_pack_children, len(lowers), inputs=[lowers, uppers, links], outputs=[bvh.children], device=device)
 
 
+@wp.func
+def root_reach(bvh: DeviceWideBvh):
+    """``geometry.box_reach`` of the tree's root box, the union of wide node 0's child boxes (the empty slots' are
+    infinite and left out), for ``box_origins``; on the CPU, from its box runs (``wide_cpu``). 0 on CUDA, whose
+    ``box_origins`` does not use it."""
+    reach = float(0.0)
+    if on_cpu():
+        for k in range(BOX_PLANES * bvh.width):
+            x = wp.abs(bvh.boxes[k])
+            if x < wp.inf:
+                reach = wp.max(reach, x)
+    return reach
+
+
 @wp.kernel
 def _pack_children(
     lowers: wp.array[wp.vec3], uppers: wp.array[wp.vec3], links: wp.array[wp.vec2i], children: wp.array[wp.vec4]
@@ -242,7 +256,7 @@ def _traversal_kernels(width: int) -> tuple:
         ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
         if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
             inv_dir = safe_inverse(direction)
-            origin_lower, origin_upper = box_origins(origin, direction)
+            origin_lower, origin_upper = box_origins(origin, direction, root_reach(bvh))
             stack = WideStack()
             top = int(0)
             ref = int(0)  # current wide node or leaf; the root is wide node 0
@@ -341,7 +355,7 @@ def _traversal_kernels(width: int) -> tuple:
         if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
             ray = make_sheared_ray(origin, direction)
             inv_dir = safe_inverse(direction)
-            origin_lower, origin_upper = box_origins(origin, direction)
+            origin_lower, origin_upper = box_origins(origin, direction, root_reach(bvh))
             stack = WideStack()
             top = int(0)
             ref = int(0)
