@@ -26,6 +26,7 @@ SHARED_SCENES = (
     "stage_upaxis_z",
 )
 MAX_TIE_FRACTION = 1e-4  # disagreements allowed on rays through edges/vertices (documented exact ties)
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])  # the box test differs per device (geometry.py)
 
 
 def agreement_rays(scene):
@@ -506,8 +507,9 @@ def closed_triangles_containing(points, indices, yz) -> np.ndarray:
 
 
 @pytest.mark.parametrize("layout", ["binary", "wide8"])
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("size", [1e10, 4e20])
-def test_ties_on_an_edge_in_a_box_face_plane_go_to_the_smaller_id_at_any_scale(size, layout):
+def test_ties_on_an_edge_in_a_box_face_plane_go_to_the_smaller_id_at_any_scale(size, layout, device):
     """A wall at x = 2 size, tall in z, with ten strips of two triangles below z = 0 (smaller ids) and ten above;
     rays along +x in the plane z = 0 hit the shared edges, where a lower and an upper triangle tie at exactly the
     same t (the wall lies across the ray's major axis): the smaller id, the lower one, must win. Beyond t = 1e20 the
@@ -523,15 +525,16 @@ def test_ties_on_an_edge_in_a_box_face_plane_go_to_the_smaller_id_at_any_scale(s
     scene = wrt.Scene.from_triangles(points, tris)
     ys = np.array([0.13, 0.25, 0.5, 0.77], np.float32) * np.float32(size)
     origins = np.stack([np.zeros(4), ys, np.zeros(4)], 1).astype(np.float32)
-    hits = wrt.trace(scene, origins, np.array([1, 0, 0], np.float32), layout=layout)
+    hits = wrt.trace(scene, origins, np.array([1, 0, 0], np.float32), layout=layout, device=device)
     expected = [closed_triangles_containing(points, tris, (y, 0.0)).min() for y in ys]
     assert all(e < 20 for e in expected)  # the lower strips' triangles: the oracle sees the tie
     assert hits.prim.tolist() == expected
     np.testing.assert_allclose(hits.t, 2 * np.float32(size), rtol=1e-6)
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("placed", ["scaled", "far origin", "instance"])
-def test_a_ray_along_an_outer_edge_in_a_box_face_plane_hits_at_any_distance(placed):
+def test_a_ray_along_an_outer_edge_in_a_box_face_plane_hits_at_any_distance(placed, device):
     """A wall triangle at x = 2 whose edge lies in the plane z = 0 (its box's upper face, or its lower one), and rays
     along +x in that plane, with a z component of +0 or -0: the closed triangle holds every point where they meet it
     (the watertight test's rule), so each ray hits at t = 2 s, whatever the wall's scale s, the origin's distance and
@@ -563,10 +566,10 @@ def test_a_ray_along_an_outer_edge_in_a_box_face_plane_hits_at_any_distance(plac
                 directions = np.array([1.0, 0.0, z], np.float32)
                 for layout in layouts:
                     label = f"{'below' if below else 'above'} z = 0, 2^{exponent}, direction z {z}, {layout}"
-                    hits = wrt.trace(scene, origins, directions, layout=layout)
+                    hits = wrt.trace(scene, origins, directions, layout=layout, device=device)
                     assert hits.prim.tolist() == [0, 0, 0], label
                     np.testing.assert_allclose(hits.t, want, rtol=1e-6, err_msg=label)
-                    assert wrt.occluded(scene, origins, directions, layout=layout).all(), label
+                    assert wrt.occluded(scene, origins, directions, layout=layout, device=device).all(), label
 
 
 def test_empty_scene_misses_everything():
@@ -1229,8 +1232,9 @@ def test_rays_past_float32s_t_behind_them_or_across_a_scene_past_half_its_range_
                 (t_min, [str(w.message) for w in said])
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
-def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle(layout):
+def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle(layout, device):
     """Straight down from ``(0.5, -0.5, z)`` onto a unit triangle at z = 0: the float64 oracle hits it at ``t = z`` for
     every ``z`` up to 3e38 (float32's t holds them all). The slab of a zero direction component ended at 1e38
     (FLAT_INVERSE) times the origin's distance from the box's faces, 0.5 here, so wrt missed from 5.1e37; its margin
@@ -1240,8 +1244,8 @@ def test_a_ray_with_zero_components_from_beyond_1e37_hits_a_unit_triangle(layout
     directions = np.tile(np.array([[0, 0, -1]], np.float32), (len(origins), 1))
     t, prim, clear = float64_closest_hits(*scene.triangles(), origins, directions, np.zeros(5), np.full(5, np.inf))
     assert prim.tolist() == [0] * 5 and clear.all()
-    np.testing.assert_allclose(wrt.trace(scene, origins, directions, layout=layout).t, t, rtol=1e-6)
-    assert wrt.occluded(scene, origins, directions, layout=layout).all()
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions, layout=layout, device=device).t, t, rtol=1e-6)
+    assert wrt.occluded(scene, origins, directions, layout=layout, device=device).all()
 
 
 def test_limits_at_float32s_largest_value_are_taken_without_a_numpy_warning():
