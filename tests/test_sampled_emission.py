@@ -576,3 +576,28 @@ def test_a_cut_out_glow_whose_tiny_opacity_texels_read_opaque_on_the_device_keep
         return wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[opacity], materials=[glow])
 
     np.testing.assert_allclose(triangle_pmf(card(True)), triangle_pmf(card(False)), rtol=1e-6)
+
+
+def test_a_cut_out_glow_whose_black_wrap_reads_opaque_outside_its_image_keeps_its_light_picks():
+    """A glowing card cut out by an inverted opacity image (scale -1, bias 1, threshold 0.5) of texels 1, wrap
+    ``black``: inside [0, 1] it reads 1 * -1 + 1 = 0, holes; outside, ``black`` gives the texel 0 (UsdUVTexture's
+    wrap mode, before scale and bias), read 0 * -1 + 1 = 1, opaque. The first square's ``s`` over [-1, 0] lies
+    outside: its triangles glow, and take the picks of the same square of the glow not cut out (the oracle; the
+    second square, over [0.25, 0.75], all holes, of a material without glow there). The texels alone, all holes,
+    gave them none."""
+    opacity = np.ones((4, 4, 4), np.float32)
+    texture = TextureInput(image=0, channel="r", wrap=("black", "black"), scale=np.float32([-1, 1, 1, 1]),
+                           bias=np.float32([1, 0, 0, 0]))
+
+    def card(threshold: float) -> Material:
+        return Material(path="/Card", diffuse_color=0.0, emissive_color=np.full(3, RADIANCE, np.float32),
+                        opacity_threshold=threshold, textures={"opacity": texture})
+
+    assert 0.0 * -1.0 + 1.0 >= 0.5  # the black texel, scaled and biased: opaque
+    ranges = [(-1.0, 0.0), (0.25, 0.75)]
+    cut = wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[opacity], materials=[card(0.5)])
+    plain = wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 1, 1])], textures=[opacity],
+                      materials=[card(0.0), Material(path="/Dark", diffuse_color=0.0)])
+    pmf = triangle_pmf(cut)
+    assert (pmf[:2] > 0.0).all(), pmf
+    np.testing.assert_allclose(pmf, triangle_pmf(plain), rtol=1e-6, atol=1e-12)

@@ -29,8 +29,17 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .materials import CHANNELS, SLOT_EMISSIVE, SLOT_OPACITY, DeviceMaterials, eval_emission
-from .textures import UDIM_COLUMNS, UDIM_ROWS, UDIM_TILES, WRAP_FALLBACK, WRAP_MIRROR, WRAP_REPEAT, image_scale
+from .materials import CHANNELS, SLOT_EMISSIVE, SLOT_OPACITY, DeviceMaterials, eval_emission, select_channel
+from .textures import (
+    UDIM_COLUMNS,
+    UDIM_ROWS,
+    UDIM_TILES,
+    WRAP_BLACK,
+    WRAP_FALLBACK,
+    WRAP_MIRROR,
+    WRAP_REPEAT,
+    image_scale,
+)
 
 # The same rounding on every device, as the light table it feeds (see wrt/shade.py); no adjoint code to compile.
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})
@@ -64,6 +73,17 @@ def tile_span(lo: wp.vec2, hi: wp.vec2):
 
 
 @wp.func
+def leaves_unit_square(mats: DeviceMaterials, b: int, lo: wp.vec2, hi: wp.vec2, mode: int):
+    """Whether the box ``lo, hi`` of binding ``b``'s (transformed) texture coordinates leaves [0, 1] along an axis
+    whose wrap mode is ``mode`` (``fallback``: its lookup returns the fallback there, ``black``: the texel 0); the
+    unit interval holds a triangle where it holds its corners."""
+    wrap = mats.tex_wrap[b]
+    s_out = wrap[0] == mode and (lo[0] < 0.0 or hi[0] > 1.0)
+    t_out = wrap[1] == mode and (lo[1] < 0.0 or hi[1] > 1.0)
+    return s_out or t_out
+
+
+@wp.func
 def may_read_fallback(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2, st2: wp.vec2):
     """Whether texture binding ``b`` can return its fallback somewhere on the triangle of texture coordinates
     ``st0, st1, st2``, where :func:`wrt.materials.lookup_binding` returns it: a corner not finite (nor then is any
@@ -77,10 +97,7 @@ def may_read_fallback(mats: DeviceMaterials, b: int, st0: wp.vec2, st1: wp.vec2,
         return True
     table = mats.tex_tiles[b]
     if table < 0:
-        wrap = mats.tex_wrap[b]
-        s_out = wrap[0] == WRAP_FALLBACK and (lo[0] < 0.0 or hi[0] > 1.0)
-        t_out = wrap[1] == WRAP_FALLBACK and (lo[1] < 0.0 or hi[1] > 1.0)
-        return mats.tex_image[b] < 0 or s_out or t_out
+        return mats.tex_image[b] < 0 or leaves_unit_square(mats, b, lo, hi, WRAP_FALLBACK)
     if lo[0] < 0.0 or lo[1] < 0.0 or hi[0] > float(UDIM_COLUMNS) or hi[1] > float(UDIM_ROWS):
         return True
     span = tile_span(lo, hi)
@@ -170,7 +187,8 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
     triangle reads glow nowhere (:func:`reads_no_glow`; ``glow_rows[m]``: material ``m``'s first row of
     ``glow_counts`` and its block size, -1 for none), so that the material's mean is not its estimate; and with
     ``emission[i]`` 0 where every texel of its opacity texture read on the triangle cuts a hole (``hole_rows``,
-    ``hole_counts``: :func:`opaque_blocks`), and the texture returns no fallback there: it emits nothing."""
+    ``hole_counts``: :func:`opaque_blocks`), and the texture returns no fallback there, nor the texel 0 of a
+    ``black`` wrap mode that reads opaque: it emits nothing."""
     i = wp.tid()
     t = ids[i]
     m = materials[i]
@@ -206,7 +224,13 @@ def sample_emission_kernel(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], ids:
     hole_row = hole_rows[m]
     if hole_row[0] >= 0:
         o = mats.slots[m, SLOT_OPACITY]
-        if not may_read_fallback(mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2]) and reads_no_glow(
+        # Outside [0, 1] a ``black`` wrap reads the texel 0, scaled and biased: the bias, which an inverted opacity
+        # (scale -1, bias 1) reads opaque; a triangle reaching there shows its glow whatever the texels under it.
+        black = select_channel(mats.tex_bias[o], mats.tex_channel[o])[0]
+        black_hole = wp.clamp(black, 0.0, 1.0) < mats.params[m, 3]  # as wrt.materials.cut_out compares
+        lo, hi, finite = st_box(mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2])
+        opaque_border = not black_hole and leaves_unit_square(mats, o, lo, hi, WRAP_BLACK)
+        if not may_read_fallback(mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2]) and not opaque_border and reads_no_glow(
                 mats, o, uvs[t, 0], uvs[t, 1], uvs[t, 2], hole_counts, hole_row[0], hole_row[1]):
             emission[i] = wp.vec3(0.0)
             dark[i] = 1
