@@ -601,3 +601,48 @@ def test_a_cut_out_glow_whose_black_wrap_reads_opaque_outside_its_image_keeps_it
     pmf = triangle_pmf(cut)
     assert (pmf[:2] > 0.0).all(), pmf
     np.testing.assert_allclose(pmf, triangle_pmf(plain), rtol=1e-6, atol=1e-12)
+
+
+def shared_image_scene(images: list[np.ndarray]) -> wrt.Scene:
+    """A lamp of two squares (two triangles each, ``s`` over [0, 0.25] and [0.75, 1]) per material: two glows of
+    image ``images[0]`` (:data:`HALF_LIT`, scales 1 and 2, clamped: the same texels glow) and two constant glows cut
+    out by image ``images[-1]`` (threshold 0.5, clamped); a scene of four copies of the image gives each its own."""
+    clamp = ("clamp", "clamp")
+    scales = [np.float32([1, 1, 1, 1]), np.float32([2, 2, 2, 1])]
+    glows = [Material(path=f"/Glow{k}", diffuse_color=0.0,
+                      textures={"emissiveColor": TextureInput(image=k % len(images), wrap=clamp, scale=scales[k])})
+             for k in range(2)]
+    cuts = [Material(path=f"/Card{k}", diffuse_color=0.0, emissive_color=np.full(3, RADIANCE, np.float32),
+                     opacity_threshold=0.5,
+                     textures={"opacity": TextureInput(image=(k + 2) % len(images), channel="r", wrap=clamp)})
+            for k in range(2)]
+    lamps = [half_lit_lamp([(0.0, 0.25), (0.75, 1.0)], [m] * 4) for m in range(4)]
+    for k, lamp in enumerate(lamps):
+        lamp.path = f"/lamp{k}"
+        lamp.points = lamp.points + np.float64([0, 2 * k, 0])
+    return wrt.Scene(meshes=lamps, materials=glows + cuts, textures=images)
+
+
+def test_materials_sharing_an_image_share_its_block_table(monkeypatch):
+    """Two glows of one emission image (scales 1 and 2: the same texels glow) and two cut-outs of one opacity image
+    (the same threshold, channel, scale and bias) make one table each (block_counts called twice, not four times),
+    shared; the light picks are those of the same scene whose materials each read their own copy of the image
+    (four tables, the oracle). Each of a 4k image took 0.59 s, per material."""
+    from wrt import sampled_emission as se
+
+    calls = []
+
+    def counted(marked):
+        calls.append(marked.shape)
+        return block_counts(marked)
+
+    block_counts = se.block_counts
+    monkeypatch.setattr(se, "block_counts", counted)
+    pmf_shared = triangle_pmf(shared_image_scene([HALF_LIT]))
+    assert len(calls) == 2
+    del calls[:]
+    pmf_own = triangle_pmf(shared_image_scene([HALF_LIT, HALF_LIT.copy(), HALF_LIT.copy(), HALF_LIT.copy()]))
+    assert len(calls) == 4
+    np.testing.assert_array_equal(pmf_shared, pmf_own)
+    assert (pmf_shared.reshape(4, 4)[:, :2] == 0.0).all() and (pmf_shared.reshape(4, 4)[:, 2:] > 0.0).all()
+

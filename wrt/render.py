@@ -57,7 +57,7 @@ from .options import DATA_INTEGRATORS, DEFAULT_MAX_DEPTH, MAX_DEPTH, MAX_SPP, QU
 from .radiance_scale import glow_bounds, scaled_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .sampled_emission import glow_blocks, opaque_blocks, sampled_emission
+from .sampled_emission import block_maps, sampled_emission
 from .scene import IdRows, Scene, dataclass_field_names, dataclass_parts, has_area, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
@@ -1087,8 +1087,7 @@ class Renderer:
             images = scene_images(scene.textures) if textured.any() else []
             tiles = [None] + [tile_emission_estimates(m, images) if t else None for m, t in zip(scene.materials,
                                                                                              textured[1:])]
-            maps = [None] + [glow_blocks(m, images) if t else None for m, t in zip(scene.materials, textured[1:])]
-            holes = [None] + [opaque_blocks(m, images) if h else None for m, h in zip(scene.materials, holed[1:])]
+            maps, holes = block_maps(scene.materials, images, textured, holed)
             scene._cache[key] = sampled_emission(mats, uvs, geometry_materials, emission, textured, dev, tiles, maps,
                                                  holes)
         read = scene._cache[key]
