@@ -646,3 +646,34 @@ def test_materials_sharing_an_image_share_its_block_table(monkeypatch):
     np.testing.assert_array_equal(pmf_shared, pmf_own)
     assert (pmf_shared.reshape(4, 4)[:, :2] == 0.0).all() and (pmf_shared.reshape(4, 4)[:, 2:] > 0.0).all()
 
+
+class FakeTable:
+    """A summed-area table said to hold ``size`` entries, holding one (a real one's size, without the gigabytes)."""
+
+    def __init__(self, size: int):
+        self.size = size
+
+    def ravel(self) -> np.ndarray:
+        return np.zeros(1, np.int32)
+
+
+def test_block_tables_past_int32_offsets_are_left_out_with_a_warning():
+    """Tables of the largest size, (256 + 1)^2 = 66,049 entries: 32,513 fit in the 2^31 - 1 entries an int32 offset
+    (and a Warp array) reaches, offsets k * 66,049 (Python integers, the oracle); the 32,514th ends past it and the
+    32,520th begins past it (its int32 offset wrapped to -2,147,119,865 before). Those past are left out (row -1:
+    their materials drawn by their estimate) with a warning naming the count; a table shared by two materials is
+    packed once, at one offset."""
+    from wrt.sampled_emission import _packed_maps
+
+    size, fit, count = 257 * 257, (2**31 - 1) // (257 * 257), 32520
+    assert fit == 32513
+    maps = [None] + [(FakeTable(size), 2) for _ in range(count)]
+    with pytest.warns(UserWarning, match=f"{count} block tables .* {count - fit} left out"):
+        counts, rows = _packed_maps(maps, len(maps))
+    assert rows.dtype == np.int32 and rows.shape == (count + 1, 2)
+    np.testing.assert_array_equal(rows[1 : fit + 1, 0], np.arange(fit, dtype=np.int64) * size)
+    assert (rows[fit + 1 :, 0] == -1).all() and rows[0, 0] == -1
+    shared = (np.arange(6, dtype=np.int32).reshape(2, 3), 4)
+    counts, rows = _packed_maps([None, shared, None, shared], 4)
+    np.testing.assert_array_equal(counts, np.arange(6))
+    np.testing.assert_array_equal(rows, [[-1, 1], [0, 4], [-1, 1], [0, 4]])

@@ -25,10 +25,12 @@ under the threshold, :func:`opaque_blocks`) emits nothing, and took draws that f
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import warp as wp
 
+from .errors import user_stacklevel
 from .materials import CHANNELS, SLOT_EMISSIVE, SLOT_OPACITY, DeviceMaterials, eval_emission, select_channel
 from .textures import (
     UDIM_COLUMNS,
@@ -278,8 +280,8 @@ def block_maps(materials: list, images: list[np.ndarray], textured: np.ndarray,
                holed: np.ndarray) -> tuple[list, list]:
     """``(glow_maps, hole_maps)`` for :func:`sampled_emission`: per device material (``[default] + materials``)
     :func:`glow_blocks` of one marked in ``textured`` (``(M,)`` bool), :func:`opaque_blocks` of one marked in
-    ``holed``, else None. A table is made once per image and what it is made of, and shared (one object):
-    materials of one image each made their own (0.59 s per 4k image, per material)."""
+    ``holed``, else None. A table is made once per image and what it is made of, and shared (one object, packed
+    once): materials of one image each made their own (0.59 s per 4k image, per material)."""
     memo = {}
     glow = [None] + [glow_blocks(m, images, memo) if t else None for m, t in zip(materials, textured[1:])]
     holes = [None] + [opaque_blocks(m, images, memo) if h else None for m, h in zip(materials, holed[1:])]
@@ -406,8 +408,8 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
     tiled = np.array([t is not None for t in tiles])
     tile_rows = np.where(tiled, np.cumsum(tiled) - 1, -1) * UDIM_TILES
     tile_glow = np.concatenate([t for t in tiles if t is not None] or [np.zeros((1, 3))]).astype(np.float32)
-    glow_counts, glow_rows = _packed_maps(glow_maps, len(sampled))
-    hole_counts, hole_rows = _packed_maps(hole_maps, len(sampled))
+    glow_counts, glow_rows = _packed_maps(glow_maps, len(sampled), "emission")
+    hole_counts, hole_rows = _packed_maps(hole_maps, len(sampled), "opacity")
     read = wp.empty(len(ids), dtype=wp.vec3, device=device)
     dark = wp.zeros(len(ids), dtype=wp.int32, device=device)
     wp.launch(sample_emission_kernel, dim=len(ids), device=device,
@@ -428,11 +430,35 @@ def sampled_emission(mats: DeviceMaterials, uvs: wp.array2d[wp.vec2], tri_materi
     return SampledEmission(ids.astype(np.int64), np.maximum(least, mean))
 
 
-def _packed_maps(maps: list | None, count: int) -> tuple[np.ndarray, np.ndarray]:
+# Entries, at most, of the tables packed into one array (_packed_maps): the device indexes them in int32, and a Warp
+# array holds no more. A table holds at most (GLOW_BLOCKS + 1)^2 = 66,049: 32,513 images of 256 texels a side or
+# more (or one image under as many opacity thresholds), 8.6 GB of tables.
+MAX_PACKED_ENTRIES = 2**31 - 1
+
+
+def _packed_maps(maps: list | None, count: int, what: str = "block") -> tuple[np.ndarray, np.ndarray]:
     """``(counts, rows)``: the tables of ``maps`` (per device material None or ``(counts, block)``; None: none of
-    ``count``) one after another (int32), and per material ``(first row, block)`` (int32, -1 for none)."""
+    ``count``) one after another (int32), each table once however many materials share it (:func:`block_maps`), and
+    per material ``(first row, block)`` (int32, -1 for none). Tables past :data:`MAX_PACKED_ENTRIES` are left out,
+    with a warning naming how many (``what``: their kind): their materials' rows are -1, drawn by the material's
+    estimate as without a table (unbiased, noisier); their int32 offsets wrapped, negative (no table) or onto
+    another's."""
     maps = [None] * count if maps is None else list(maps)
-    sizes = np.array([0 if g is None else g[0].size for g in maps], np.int64)
-    rows = np.stack([np.where(sizes > 0, np.cumsum(sizes) - sizes, -1), [1 if g is None else g[1] for g in maps]],
-                    axis=1).astype(np.int32)
-    return np.concatenate([g[0].ravel() for g in maps if g is not None] or [np.zeros(1, np.int32)]), rows
+    first, tables, end, dropped = {}, [], 0, set()
+    for g in maps:
+        if g is None or id(g[0]) in first or id(g[0]) in dropped:
+            continue
+        if end + g[0].size > MAX_PACKED_ENTRIES:
+            dropped.add(id(g[0]))
+            continue
+        first[id(g[0])] = end
+        tables.append(g[0])
+        end += g[0].size
+    if dropped:
+        warnings.warn(f"{len(first) + len(dropped)} {what} tables of textured glows hold more than "
+                      f"{MAX_PACKED_ENTRIES} entries, the most one array holds: {len(dropped)} left out (their "
+                      "materials' triangles are drawn by the material's estimate: unbiased, noisier)",
+                      stacklevel=user_stacklevel())
+    rows = np.array([(first.get(id(g[0]), -1), g[1]) if g is not None else (-1, 1) for g in maps], np.int64)
+    rows = rows.reshape(-1, 2).astype(np.int32)
+    return np.concatenate([t.ravel() for t in tables] or [np.zeros(1, np.int32)]), rows
