@@ -106,6 +106,19 @@ def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path,
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
+def test_signed_8_bit_grey_of_a_sample_of_no_stated_meaning_reads_signed(tmp_path):
+    """Signed 8-bit grey with a second sample of no stated meaning (ExtraSamples 0), stored plane by plane and
+    deflated: Pillow opens it as its first plane alone, 8-bit grey of unsigned bytes, and it read -1 as 1.0 and -100
+    as 0.61 (156 / 255), without a word; it reads over 127 as one sample of signed grey does (the samples written,
+    float64). (Uncompressed, Pillow opens no such file: it is named.)"""
+    grey = np.array([[0, 100, 127], [-1, -100, -128]], np.int8)
+    samples = np.stack([grey, np.full_like(grey, 5)], axis=2)
+    path = write_tiff(tmp_path / "signed.tif", samples, sample_format=2, deflate=True, planar=True, extra_sample=0)
+    image = load_image(path, "raw")
+    np.testing.assert_allclose(image[..., :3], np.repeat(grey[..., None] / 127.0, 3, axis=2), rtol=1e-6)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
+
+
 TWELVE_BIT_GREY = np.array([[0, 4095, 7], [2048, 1000, 4094]])
 
 

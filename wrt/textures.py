@@ -570,8 +570,10 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as 8-bit
         # RGBa colour (above) and 16-bit colour (_colour_rgba) are
         return *_grey_alpha_rgba(np.asarray(img, dtype=np.float32), True, 255.0), False, tagged
-    if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
-        # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's
+    if mode == "L" and (tiff_samples(data) or (0,))[1:] == (8, SIGNED):
+        # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's; of
+        # the first sample alone where more follow (grey and one of no stated meaning, stored plane by plane and
+        # compressed: the one other layout of signed bytes Pillow opens, as its first plane)
         grey = np.asarray(img).view(np.int8).astype(np.float32)
         return *_grey_rgba(grey / 127.0, None), False, tagged
     transparent, depth = img.info.get("transparency"), png_bit_depth(data)
