@@ -106,16 +106,23 @@ def test_integer_grey_tiffs_read_over_their_sample_types_largest_value(tmp_path,
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
-def test_signed_8_bit_grey_of_a_sample_of_no_stated_meaning_reads_signed(tmp_path):
-    """Signed 8-bit grey with a second sample of no stated meaning (ExtraSamples 0), stored plane by plane and
-    deflated: Pillow opens it as its first plane alone, 8-bit grey of unsigned bytes, and it read -1 as 1.0 and -100
-    as 0.61 (156 / 255), without a word; it reads over 127 as one sample of signed grey does (the samples written,
-    float64). (Uncompressed, Pillow opens no such file: it is named.)"""
-    grey = np.array([[0, 100, 127], [-1, -100, -128]], np.int8)
-    samples = np.stack([grey, np.full_like(grey, 5)], axis=2)
-    path = write_tiff(tmp_path / "signed.tif", samples, sample_format=2, deflate=True, planar=True, extra_sample=0)
+@pytest.mark.parametrize("dtype, sample_format, full", [(np.int8, 2, 127.0), (np.int16, 2, 32767.0),
+                                                        (np.int32, 2, 2**31 - 1), (np.float32, 3, 1.0)])
+@pytest.mark.parametrize("deflate", [False, True])
+def test_grey_of_a_sample_of_no_stated_meaning_stored_plane_by_plane_reads_its_grey(tmp_path, dtype, sample_format,
+                                                                                    full, deflate):
+    """Signed 8-, 16- or 32-bit or float grey with a second sample of no stated meaning (ExtraSamples 0), stored
+    plane by plane: its grey is its first plane, read as a TIFF of its own, as one sample of such grey reads (over its
+    type's largest value; the samples written, float64). Uncompressed, Pillow knew no raw mode for 16 and 32 bits:
+    the texture failed with its bare words ('unknown raw mode for given image mode'); deflated, Pillow read the first
+    plane, of signed bytes as unsigned ones (-1 read 1.0, -100 0.61: 156 / 255), without a word."""
+    rng = np.random.default_rng(3)
+    grey = (rng.random((3, 4)) * 2 - 1) * (1 if dtype == np.float32 else full)
+    samples = np.stack([grey, np.full_like(grey, 9)], axis=2).astype(dtype)
+    path = write_tiff(tmp_path / "g.tif", samples, rows_per_strip=2, sample_format=sample_format, deflate=deflate,
+                      planar=True, extra_sample=0)
     image = load_image(path, "raw")
-    np.testing.assert_allclose(image[..., :3], np.repeat(grey[..., None] / 127.0, 3, axis=2), rtol=1e-6)
+    np.testing.assert_allclose(image[..., :3], np.repeat(samples[..., :1] / full, 3, axis=2), rtol=1e-6, atol=1e-9)
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 

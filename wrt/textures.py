@@ -496,6 +496,9 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             planar = _planar_layout(data)
             if planar is not None:  # (read before Pillow opens it, which it does not for some; TIFFs are not PNGs)
                 return *_read_planes(data, name, *planar), planar[:2] == (8, 3), None
+            grey_plane = _grey_plane_alone(data)
+            if grey_plane is not None:  # (its grey: one sample, read as such below)
+                return _read_pillow_samples(grey_plane, name, auto)
             white = _white_is_zero_bits(data)
             if white is not None:  # (read as BlackIsZero, which Pillow opens, and inverted here)
                 rgba, channels, colour, tagged = _read_pillow_samples(
@@ -570,10 +573,8 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
         # here: the load of a whole stage failed ('conversion from La to L not supported'). Made straight as 8-bit
         # RGBa colour (above) and 16-bit colour (_colour_rgba) are
         return *_grey_alpha_rgba(np.asarray(img, dtype=np.float32), True, 255.0), False, tagged
-    if mode == "L" and (tiff_samples(data) or (0,))[1:] == (8, SIGNED):
-        # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's; of
-        # the first sample alone where more follow (grey and one of no stated meaning, stored plane by plane and
-        # compressed: the one other layout of signed bytes Pillow opens, as its first plane)
+    if mode == "L" and tiff_samples(data) == (1, 8, SIGNED):
+        # Pillow hands a TIFF's signed bytes over unsigned (-1 read 1.0): they read over 127, as _integer_grey's
         grey = np.asarray(img).view(np.int8).astype(np.float32)
         return *_grey_rgba(grey / 127.0, None), False, tagged
     transparent, depth = img.info.get("transparency"), png_bit_depth(data)
@@ -819,6 +820,24 @@ def _planar_layout(data: bytes) -> tuple[int, int, int, bool] | None:
     # (no ExtraSamples: the sample past the colour is alpha, as Pillow opens RGB of four samples pixel by pixel RGBA)
     extra = tags.get(EXTRA_SAMPLES, UNASSOCIATED_ALPHA) if samples > colour else 0
     return bits, colour, extra if extra in (ASSOCIATED_ALPHA, UNASSOCIATED_ALPHA) else 0, photometric == WHITE_IS_ZERO
+
+
+def _grey_plane_alone(data: bytes) -> bytes | None:
+    """The first plane of file ``data`` as a TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`) where it is a TIFF
+    of BlackIsZero grey stored plane by plane whose samples past the grey are all of no stated meaning
+    (``ExtraSamples`` 0) that :func:`_planar_layout` leaves (signed, float or 32-bit samples): the grey, which reads
+    as one sample of such grey does. Uncompressed, Pillow knew no raw mode for it ('unknown raw mode for given image
+    mode', the whole reason given); compressed, it read the first plane. None for any other file."""
+    directory = tiff_directory(data)
+    if directory is None:
+        return None
+    try:
+        extras = directory.values(EXTRA_SAMPLES)  # (missing: alpha, as _planar_layout takes it)
+        grey = (directory.first(PLANAR_CONFIGURATION, 1) == 2 and directory.first(PHOTOMETRIC, -1) == BLACK_IS_ZERO
+                and directory.first(SAMPLES_PER_PIXEL, 1) > 1 and extras and not any(extras))
+    except struct.error:  # (values past the end: refused before, _refuse_damaged_tiff)
+        return None
+    return tiff_plane(data, 0) if grey else None
 
 
 def _read_planes(data: bytes, name: str, bits: int, colour: int, extra: int, white_is_zero: bool
