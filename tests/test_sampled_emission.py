@@ -677,3 +677,21 @@ def test_block_tables_past_int32_offsets_are_left_out_with_a_warning():
     counts, rows = _packed_maps([None, shared, None, shared], 4)
     np.testing.assert_array_equal(counts, np.arange(6))
     np.testing.assert_array_equal(rows, [[-1, 1], [0, 4], [-1, 1], [0, 4]])
+
+
+@pytest.mark.parametrize("fallback_wrap", [False, True])
+def test_an_emission_texture_read_as_rgba_glows_as_read_as_rgb(fallback_wrap):
+    """An emission texture of channel ``rgba`` (a UsdUVTexture output TextureInput.check accepts, read as ``rgb`` by
+    the device: CHANNELS) gives the light picks it gives as ``rgb`` (the oracle), its texels glowing or, outside [0, 1]
+    of a ``fallback`` wrap, its fallback. The estimate and the fallback's glow indexed the fourth-plus-one channel: the
+    render failed with IndexError ('index 4 is out of bounds')."""
+    wrap = ("fallback", "fallback") if fallback_wrap else ("clamp", "clamp")
+    ranges = [(0.0, 0.25), (1.5, 2.0)] if fallback_wrap else [(0.0, 0.25), (0.75, 1.0)]
+    pmfs = []
+    for channel in ("rgb", "rgba"):
+        texture = TextureInput(image=0, channel=channel, wrap=wrap, fallback=FALLBACK)
+        glow = Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": texture})
+        pmfs.append(triangle_pmf(wrt.Scene(meshes=[half_lit_lamp(ranges, [0, 0, 0, 0])], textures=[HALF_LIT],
+                                           materials=[glow])))
+    assert pmfs[0].sum() > 0.0
+    np.testing.assert_array_equal(pmfs[1], pmfs[0])

@@ -1598,7 +1598,7 @@ class MaterialReader:
                                                        ("bias", (0.0, 0.0, 0.0, 0.0))))
         with np.errstate(over="ignore", invalid="ignore"):  # a value past float32 is refused by _set_constant
             value = fallback * scale + bias
-        fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
+        fallback_value = channel_value(value.astype(np.float32), channel)
 
         # MaterialX's textures are raw where nothing says otherwise, as Storm hands them over (its default working
         # colour space is none); an 8-bit colour file was decoded as sRGB (UsdUVTexture's auto).
@@ -2215,8 +2215,16 @@ def _texture_glow(tex: TextureInput, images: list[int], textures: list[np.ndarra
         # are stored otherwise (NaN as 0, inf as the largest stored: a NaN or infinite mean made the emitter no light,
         # or the only one sampled), or are past 65504 (stored scaled, summed in float64)
         mean = np.mean([_glow_mean(textures[k], scale, bias) for k in images], axis=0)
-    value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
-    return np.maximum(value.astype(np.float32), 0.0)
+    return np.maximum(channel_value(mean, tex.channel).astype(np.float32), 0.0)
+
+
+def channel_value(value: np.ndarray, channel: str) -> np.ndarray:
+    """``(3,)``: what an input of colour reads of a texture's ``(4,)`` ``value`` through output ``channel``
+    (:data:`CHANNELS`): its first three for ``rgb`` and ``rgba``, else the one channel broadcast, as the device's
+    ``select_channel``. ``rgba`` indexed a fifth channel (IndexError: the render of such an emission texture
+    failed)."""
+    k = CHANNELS[channel]
+    return value[:3] if k == 4 else np.full(3, value[k], value.dtype)
 
 
 def can_emit(mat: Material, textures: list[np.ndarray]) -> bool:
@@ -2237,7 +2245,7 @@ def fallback_glows(mat: Material) -> bool:
     if tex is None or (tex.tiles is None and "fallback" not in tex.wrap):
         return False
     value = np.asarray(tex.fallback, np.float64) * np.asarray(tex.scale, np.float64) + np.asarray(tex.bias, np.float64)
-    return bool(np.max(value[:3] if tex.channel == "rgb" else value[CHANNELS[tex.channel]]) > 0.0)
+    return bool(np.max(channel_value(value, tex.channel)) > 0.0)
 
 
 def _stored_as_is(image: np.ndarray) -> bool:
