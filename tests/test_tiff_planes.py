@@ -293,3 +293,29 @@ def test_an_uncompressed_tiff_without_byte_counts_cut_short_is_named(tmp_path, p
     with pytest.raises(TextureError, match=rf"strip {last} \(bytes .*\) lies past the file's end \({len(data) - 5} "
                                            r"bytes\): the file is cut short"):
         read(tmp_path, data[:-5])
+
+
+def big_tiff(entries, directory_at=16):
+    """A little-endian BigTIFF (16-byte header: II, 43, 8, 0, the first directory's 8-byte offset) written byte by
+    byte: its directory of ``entries`` (tag, type, count, 8-byte value field) at 16, pointed at by ``directory_at``,
+    then 8 bytes of samples."""
+    directory = struct.pack("<Q", len(entries)) + b"".join(struct.pack("<HHQ8s", *e) for e in entries) + bytes(8)
+    return b"II+\0" + struct.pack("<HHQ", 8, 0, directory_at) + directory + bytes(8)
+
+
+def test_a_bigtiff_whose_directory_offset_is_past_2_63_is_named(tmp_path):
+    """A BigTIFF whose 8-byte offset of its first directory is 2^63 or more (damaged bytes): Python's struct took it
+    for no memory address (OverflowError: 'Python int too large to convert to C ssize_t'), which escaped the texture
+    reader as itself. It lies past the file's end, as an offset of 2^40 does: the file is named as damaged (Pillow's
+    words were 'Unable to seek to frame', of 2^40 that no reader knew its format)."""
+    entries = [(256, 3, 1, struct.pack("<H6x", 2)), (257, 3, 1, struct.pack("<H6x", 1)),
+               (258, 3, 1, struct.pack("<H6x", 8)), (259, 3, 1, struct.pack("<H6x", 1)),
+               (262, 3, 1, struct.pack("<H6x", 1)), (273, 16, 1, struct.pack("<Q", 16 + 8 + 20 * 8 + 8)),
+               (277, 3, 1, struct.pack("<H6x", 1)), (279, 16, 1, struct.pack("<Q", 2))]
+    path = tmp_path / "big.tif"
+    path.write_bytes(big_tiff(entries))
+    np.testing.assert_array_equal(load_image(str(path), "raw")[0, :, 3], 1.0)  # (the file, its offset whole, reads)
+    for far in (2**40, 2**63 + 16, 2**64 - 1):
+        path.write_bytes(big_tiff(entries, far))
+        with pytest.raises(TextureError, match="big.tif: its TIFF image file directory lies past the file's end"):
+            load_image(str(path), "raw")

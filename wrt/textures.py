@@ -62,6 +62,7 @@ from .tiff_checks import (
     SAMPLE_FORMAT,
     SAMPLES_PER_PIXEL,
     SIGNED,
+    TIFF_MAGIC,
     UNASSOCIATED_ALPHA,
     UNSIGNED,
     WHITE_IS_ZERO,
@@ -621,13 +622,18 @@ def _inverted_grey(rgba: np.ndarray, bits: int) -> np.ndarray:
 
 
 def _refuse_damaged_tiff(data: bytes, name: str) -> None:
-    """Refuses a TIFF (file ``data``, named ``name``) with a tag of :data:`wrt.tiff_checks.PIXEL_TAGS` whose values
-    lie past its end (a damaged or cut file), or a strip or tile of no data or, uncompressed, of fewer bytes than its
-    rows fill (:func:`wrt.tiff_checks.piece_problem`), before Pillow, which skipped some such tags with a warning and
-    read the samples by the tag's default (SampleFormat: as unsigned integers), refused others in words of samples it
-    does not decode, and read an uncompressed file's header, or the next strip's bytes, as samples."""
+    """Refuses a TIFF (file ``data``, named ``name``) whose image file directory lies past its end or is cut short
+    (a BigTIFF's offset of 2^63 or more escaped as struct's OverflowError), with a tag of
+    :data:`wrt.tiff_checks.PIXEL_TAGS` whose values lie past its end (a damaged or cut file), or a strip or tile of
+    no data or, uncompressed, of fewer bytes than its rows fill (:func:`wrt.tiff_checks.piece_problem`), before
+    Pillow, which skipped some such tags with a warning and read the samples by the tag's default (SampleFormat: as
+    unsigned integers), refused others in words of samples it does not decode, and read an uncompressed file's header,
+    or the next strip's bytes, as samples."""
     directory = tiff_directory(data)
     if directory is None:
+        if data[:4] in TIFF_MAGIC:  # (Pillow's words: 'Unable to seek to frame', or none it knows the format)
+            raise TextureError(f"cannot read image {name}: its TIFF image file directory lies past the file's end or "
+                               "is cut short: the file is damaged or cut short")
         return
     damaged = [tag for tag in tags_past_end(directory) if tag in PIXEL_TAGS]
     if damaged:

@@ -118,6 +118,8 @@ def tiff_directory(data: bytes) -> TiffDirectory | None:
     entries, places = {}, {}
     try:
         (at,) = struct.unpack_from(order + offset, data, 4 if offset == "I" else 8)
+        if at >= len(data):  # cut short (a BigTIFF's offset past 2^63: struct's OverflowError, not its error)
+            return None
         (count,) = struct.unpack_from(order + counter, data, at)
         first = at + struct.calcsize(order + counter)
         for k in range(count):
