@@ -319,3 +319,53 @@ def test_a_bigtiff_whose_directory_offset_is_past_2_63_is_named(tmp_path):
         path.write_bytes(big_tiff(entries, far))
         with pytest.raises(TextureError, match="big.tif: its TIFF image file directory lies past the file's end"):
             load_image(str(path), "raw")
+
+
+def grey_strips_tiff(kept: int, compression: int = 1, extra: bool = False, tiled: bool = False) -> tuple:
+    """``(grey, data)``: 4 x 3 8-bit grey (rows 5, 25, 45, ...) as a TIFF written byte by byte of one-row strips (or
+    16 x 16 tiles, two down), the first ``kept`` of those its size makes (one more, of zeros, with ``extra``), deflated
+    for ``compression`` 8."""
+    grey = (np.arange(12).reshape(4, 3) * 20 + 5).astype(np.uint8)
+    tags = {256: (SHORT, [3]), 257: (SHORT, [4 if not tiled else 20]), 258: (SHORT, [8]), 259: (SHORT, [compression]),
+            262: (SHORT, [1]), 277: (SHORT, [1])}
+    if tiled:
+        grey = np.resize(grey, (20, 3))
+        padded = np.zeros((32, 16), np.uint8)
+        padded[:20, :3] = grey
+        pieces = [padded[r : r + 16].tobytes() for r in (0, 16)]
+        tags.update({322: (SHORT, [16]), 323: (SHORT, [16])})
+    else:
+        pieces = [grey[r].tobytes() for r in range(4)]
+        tags[278] = (SHORT, [1])
+    pieces = (pieces + [bytes(len(pieces[0]))] if extra else pieces)[: kept + extra]
+    pieces = [zlib.compress(p) for p in pieces] if compression == 8 else pieces
+    return grey, tiff_file(tags, pieces, located=TILES if tiled else (273, 279))
+
+
+@pytest.mark.parametrize("kept, compression, tiled", [(2, 1, False), (3, 1, False), (2, 8, False), (1, 1, True)],
+                         ids=["two-strips", "three-strips", "two-deflated-strips", "one-tile"])
+def test_a_tiff_of_fewer_strips_than_its_size_makes_is_named(tmp_path, kept, compression, tiled):
+    """A TIFF of its pixels' samples together whose strips (tiles) are fewer than its size and RowsPerStrip (tile
+    size) make: uncompressed, Pillow read the rows past them as 0 without a word ([[5, 25, 45], [65, 85, 105], [0, 0,
+    0], [0, 0, 0]] of two strips of four); deflated, libtiff refused it ('Invalid strip byte count 0'), which was
+    told as a decoding failure. Named, as a plane's are; all of them read as written."""
+    grey, data = grey_strips_tiff(4 if not tiled else 2, compression, tiled=tiled)
+    np.testing.assert_allclose(read(tmp_path, data)[..., 0], grey / 255.0, atol=1e-7)
+    kind, made, size = ("tile", 2, "3 x 20 pixels in tiles of 16 x 16") if tiled else (
+        "strip", 4, "3 x 4 pixels in strips of 3 x 1")
+    with pytest.raises(TextureError, match=rf"p\.tif: it has {kept} {kind}s?, where {size} make {made}"):
+        read(tmp_path, grey_strips_tiff(kept, compression, tiled=tiled)[1])
+
+
+@pytest.mark.parametrize("compression", [1, 8])
+def test_a_tiff_of_more_strips_than_its_size_makes_reads_its_rows(tmp_path, compression):
+    """One strip more than the size makes (of zeros): libtiff reads the strips the size makes and leaves the others
+    (so it read deflated); Pillow, uncompressed, laid the extra one over the first row ([0, 0, 0] where [5, 25, 45])
+    without a word. Uncompressed it is named (deflated, it reads as written)."""
+    grey, data = grey_strips_tiff(4, compression, extra=True)
+    if compression == 8:
+        np.testing.assert_allclose(read(tmp_path, data)[..., 0], grey / 255.0, atol=1e-7)
+    else:
+        with pytest.raises(TextureError, match=r"p\.tif: it has 5 strips, where 3 x 4 pixels in strips of 3 x 1 "
+                                               r"make 4"):
+            read(tmp_path, data)

@@ -23,6 +23,8 @@ UNSIGNED_CODES = {SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
 TYPE_BYTES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
 BITS_PER_SAMPLE, SAMPLES_PER_PIXEL, SAMPLE_FORMAT = 258, 277, 339  # the tags read (each SHORT values)
 PLANAR_CONFIGURATION = 284  # 1: samples of a pixel together, 2: each channel's plane apart
+IMAGE_WIDTH, IMAGE_LENGTH, ROWS_PER_STRIP = 256, 257, 278  # the image's size, and the rows of each strip
+TILE_WIDTH, TILE_LENGTH = 322, 323  # each tile's size
 # Compression values of other writers than TIFF 6.0's, which Pillow has no decoder for, by name (GDAL's LERC, ...)
 COMPRESSION_NAMES = {34712: "JPEG 2000", 34887: "LERC", 34892: "lossy JPEG", 50002: "JPEG XL"}
 EXTRA_SAMPLES = 338  # what samples past the colour ones hold: 0 unspecified, 1 associated alpha, 2 unassociated
@@ -156,8 +158,9 @@ def piece_problem(directory: TiffDirectory) -> str | None:
     fill, uncompressed; its byte count, compressed) run past the file's end. libtiff refuses to read all three
     ("Invalid strip byte count 0", "Not enough data for scanline", "Read error on strip"); Pillow, which reads the
     bytes the rows fill from the offset whatever the count says, read the file's header or the next strip's bytes as
-    samples, and named a cut compressed file as a decoding failure. None where there is none; the rows are not
-    counted where the strips are not as many as the size makes, the planes differ in depth (both named where they are
+    samples, and named a cut compressed file as a decoding failure; or that its strips or tiles are not as many as
+    its size makes (:func:`count_problem`). None where there is none; the rows are not counted where the strips are
+    not as many as the size makes (more, compressed), the planes differ in depth (both named where they are
     read) or the colour is YCbCr (subsampled). Raises ``struct.error`` for values past the file's end."""
     located = TILE_TAGS if TILE_TAGS[0] in directory.entries else STRIP_TAGS
     kind = "tile" if located == TILE_TAGS else "strip"
@@ -167,7 +170,11 @@ def piece_problem(directory: TiffDirectory) -> str | None:
         if start == 0 or size == 0:
             return (f"{kind} {k} has no data (offset {start}{'' if size is None else f', byte count {size}'}: a "
                     "sparse file's missing strip or tile, which libtiff does not read either)")
-    needs = _bytes_filled(directory, kind, len(starts)) if directory.first(COMPRESSION, 1) == 1 else None
+    uncompressed = directory.first(COMPRESSION, 1) == 1
+    count = count_problem(directory, kind, len(starts), uncompressed)
+    if count is not None:
+        return count
+    needs = _bytes_filled(directory, kind, len(starts)) if uncompressed else None
     for k, start in enumerate(starts):
         size = sizes[k] if len(sizes) == len(starts) else None  # (none: inferred, uncompressed)
         if needs is not None and size is not None and size < needs[k]:
@@ -180,17 +187,49 @@ def piece_problem(directory: TiffDirectory) -> str | None:
     return None
 
 
+def piece_grid(directory: TiffDirectory, kind: str) -> tuple[int, int, int] | None:
+    """``(across, rows, per plane)``: the pixels across and the rows of each strip or tile (``kind``) of
+    ``directory``'s image, and how many of them its size makes a plane (TIFF 6.0: StripsPerImage, TilesPerImage);
+    None for an empty size."""
+    width, height = directory.first(IMAGE_WIDTH, 0), directory.first(IMAGE_LENGTH, 0)
+    # (RowsPerStrip's default is 2^32 - 1: the whole image)
+    across, rows = ((directory.first(TILE_WIDTH, 0), directory.first(TILE_LENGTH, 0)) if kind == "tile"
+                    else (width, min(directory.first(ROWS_PER_STRIP, 2**32 - 1), height)))
+    if min(across, rows) <= 0:
+        return None
+    return across, rows, -(-height // rows) * (-(-width // across) if kind == "tile" else 1)
+
+
+def count_problem(directory: TiffDirectory, kind: str, pieces: int, uncompressed: bool) -> str | None:
+    """Words for ``pieces`` strips or tiles (``kind``) of ``directory``'s image, its samples of a pixel together,
+    where its size makes more (libtiff refuses the file: 'Invalid strip byte count 0'; Pillow, uncompressed, read the
+    rows past them as 0) or, ``uncompressed``, fewer (Pillow laid the ones past them over the first rows; libtiff,
+    which decodes compressed ones, leaves them); None where they are as many, or its planes lie apart (each plane's
+    are counted as it is read, :func:`wrt.tiff_planes.tiff_plane`)."""
+    grid = piece_grid(directory, kind)
+    if grid is None or pieces == 0 or (directory.first(PLANAR_CONFIGURATION, 1) == 2
+                                       and directory.first(SAMPLES_PER_PIXEL, 1) > 1):
+        return None  # (none at all: an old-style JPEG's data lies where JPEGInterchangeFormat says)
+    across, rows, made = grid
+    if pieces == made or (pieces > made and not uncompressed):
+        return None
+    why = ("libtiff does not read such a file either" if pieces < made
+           else "Pillow lays the ones past them over its first rows")
+    width, height = directory.first(IMAGE_WIDTH, 0), directory.first(IMAGE_LENGTH, 0)
+    return (f"it has {pieces} {kind}{'' if pieces == 1 else 's'}, where {width} x {height} pixels in {kind}s of "
+            f"{across} x {rows} make {made}: the file is damaged ({why})")
+
+
 def _bytes_filled(directory: TiffDirectory, kind: str, pieces: int) -> list[int] | None:
     """The bytes each of the ``pieces`` uncompressed strips or tiles (``kind``) of ``directory``'s image fill, in the
     order its offsets list them; None where they are not counted (:func:`piece_problem`)."""
-    width, height = directory.first(256, 0), directory.first(257, 0)
-    across, rows = ((directory.first(322, 0), directory.first(323, 0)) if kind == "tile"
-                    else (width, min(directory.first(278, 2**32 - 1), height)))
+    height = directory.first(IMAGE_LENGTH, 0)
     samples, bits = directory.first(SAMPLES_PER_PIXEL, 1), directory.values(BITS_PER_SAMPLE) or [1]
     planar = directory.first(PLANAR_CONFIGURATION, 1) == 2
-    if min(across, rows) <= 0 or directory.first(PHOTOMETRIC, 1) == YCBCR or (planar and len(set(bits[:samples])) > 1):
+    grid = piece_grid(directory, kind)
+    if grid is None or directory.first(PHOTOMETRIC, 1) == YCBCR or (planar and len(set(bits[:samples])) > 1):
         return None
-    per_plane = -(-height // rows) * (-(-width // across) if kind == "tile" else 1)
+    across, rows, per_plane = grid
     if pieces != per_plane * (samples if planar else 1):
         return None
     pixel_bits = bits[0] if planar else bits[0] * samples if len(bits) == 1 else sum(bits[:samples])

@@ -18,6 +18,8 @@ from .tiff_checks import (
     BLACK_IS_ZERO,
     COMPRESSION,
     EXTRA_SAMPLES,
+    IMAGE_LENGTH,
+    IMAGE_WIDTH,
     LONG,
     LONG8,
     PHOTOMETRIC,
@@ -29,13 +31,12 @@ from .tiff_checks import (
     STRIP_TAGS,
     TILE_TAGS,
     TYPE_BYTES,
+    piece_grid,
     piece_problem,
     tags_past_end,
     tiff_directory,
 )
 
-IMAGE_WIDTH, IMAGE_LENGTH, ROWS_PER_STRIP = 256, 257, 278
-TILE_WIDTH, TILE_LENGTH = 322, 323
 NO_COMPRESSION, OLD_JPEG = 1, 6  # Compression values: none, and TIFF 6.0's old JPEG (whose tables lie at offsets)
 # Tags of several samples (MinSampleValue, MaxSampleValue, ExtraSamples, SMin/SMaxSampleValue) or of colour alone
 # (ColorMap, TransferFunction, YCbCr and ReferenceBlackWhite), left out of a grey plane's directory
@@ -79,9 +80,8 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         sample_formats = directory.values(SAMPLE_FORMAT) or [1]
         width, height = directory.first(IMAGE_WIDTH, 0), directory.first(IMAGE_LENGTH, 0)
         compression = directory.first(COMPRESSION, NO_COMPRESSION)
-        # (a tile's rows and row bytes, or a strip's: RowsPerStrip's default is 2^32 - 1, the whole image)
-        across, rows = ((directory.first(TILE_WIDTH, 0), directory.first(TILE_LENGTH, 0)) if located == TILE_TAGS
-                        else (width, min(directory.first(ROWS_PER_STRIP, 2**32 - 1), height)))
+        # (a tile's pixels across and rows, or a strip's, and how many the size makes a plane; 0 for an empty size)
+        across, rows, made = piece_grid(directory, "tile" if located == TILE_TAGS else "strip") or (0, 0, 0)
     except struct.error:
         return None
     if planar != 2 or not 0 <= plane < samples or len(sizes) not in (0, len(starts)) or len(starts) % samples:
@@ -101,7 +101,6 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
         raise PlaneError("its planes are of old-style JPEG compression (Compression 6), whose tables lie at offsets "
                          "wrt does not carry over to a plane")
     per_plane = len(starts) // samples
-    made = _pieces_per_plane(located, width, height, across, rows)
     if per_plane != made:
         kind = "tile" if located == TILE_TAGS else "strip"
         raise PlaneError(f"it has {len(starts)} {kind}s, where {samples} planes of {width} x {height} pixels in "
@@ -109,15 +108,6 @@ def tiff_plane(data: bytes, plane: int) -> bytes | None:
     part = slice(plane * per_plane, (plane + 1) * per_plane)
     extents = _extents(per_plane, sizes[part], compression, located == TILE_TAGS, height, across, rows, bits[0])
     return _plane_file(directory, located, bits[0], sample_formats[0], starts[part], extents)
-
-
-def _pieces_per_plane(located, width: int, height: int, across: int, rows: int) -> int:
-    """Strips or tiles (``located``) a plane of ``width`` x ``height`` pixels is stored in (TIFF 6.0:
-    ``StripsPerImage``, ``TilesPerImage``), of ``across`` x ``rows`` pixels each; 0 for an empty size."""
-    if min(across, rows) <= 0:
-        return 0
-    down = -(-height // rows)
-    return down * -(-width // across) if located == TILE_TAGS else down
 
 
 def _extents(pieces: int, sizes, compression: int, tiled: bool, height: int, across: int, rows: int,
