@@ -369,3 +369,24 @@ def test_a_tiff_of_more_strips_than_its_size_makes_reads_its_rows(tmp_path, comp
         with pytest.raises(TextureError, match=r"p\.tif: it has 5 strips, where 3 x 4 pixels in strips of 3 x 1 "
                                                r"make 4"):
             read(tmp_path, data)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("long_tags", [(284,), (258,), (262,)], ids=["planar", "bits", "photometric"])
+def test_a_tiff_whose_layout_tags_are_longs_reads_as_of_shorts(tmp_path, byte_order, long_tags):
+    """TIFF 6.0 gives PlanarConfiguration, BitsPerSample and PhotometricInterpretation SHORT values; libtiff (under
+    Storm's OpenImageIO) reads them of LONG ones too. wrt's header reader took only SHORT ones: 16-bit RGB stored
+    plane by plane, of a LONG PlanarConfiguration or BitsPerSample, went to Pillow as if of its samples together (off
+    by 0.84, without a word); 16-bit WhiteIsZero grey of a LONG PhotometricInterpretation read uninverted. They read
+    as the same file of SHORT values does (the samples written, float64; WhiteIsZero: 1 - sample / 65535)."""
+    samples = np.random.default_rng(71).integers(0, 65536, (2, 3, 3)).astype(np.uint16)
+    grey = 262 in long_tags
+    channels = 1 if grey else 3
+    tags = {256: (SHORT, [3]), 257: (SHORT, [2]), 258: (SHORT, [16] * channels), 259: (SHORT, [1]),
+            262: (SHORT, [0 if grey else 2]), 277: (SHORT, [channels]), 278: (SHORT, [2]), 284: (SHORT, [2])}
+    for tag in long_tags:
+        tags[tag] = (LONG, tags[tag][1])
+    planes = [samples[..., k].astype(byte_order + "u2").tobytes() for k in range(channels)]
+    image = read(tmp_path, tiff_file(tags, planes, byte_order=byte_order))
+    want = 1.0 - samples[..., :1] / 65535.0 if grey else samples / 65535.0
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to(want, (2, 3, 3)), atol=1e-7)

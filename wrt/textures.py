@@ -72,7 +72,7 @@ from .tiff_checks import (
     tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
-    with_short,
+    with_value,
     without_tags,
 )
 from .tiff_planes import tiff_plane
@@ -503,7 +503,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
             white = _white_is_zero_bits(data)
             if white is not None:  # (read as BlackIsZero, which Pillow opens, and inverted here)
                 rgba, channels, colour, tagged = _read_pillow_samples(
-                    with_short(tiff_directory(data), PHOTOMETRIC, BLACK_IS_ZERO), name, auto)
+                    with_value(tiff_directory(data), PHOTOMETRIC, BLACK_IS_ZERO), name, auto)
                 return _inverted_grey(rgba, white), channels, colour, tagged
             img = PilImage.open(io.BytesIO(data))
             _refuse_oversized(img, name)

@@ -59,7 +59,9 @@ def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
 
 def tiff_first_values(data: bytes, wanted: tuple[int, ...]) -> dict[int, int] | None:
     """The first value of each tag of ``wanted`` the TIFF (or BigTIFF) file ``data``'s first image directory holds
-    as SHORT values (tags missing, or of another type, are left out); None for data that is no TIFF or whose
+    as unsigned integers (SHORT, as TIFF 6.0 gives the layout tags, or LONG or LONG8, which libtiff reads for them
+    too: a LONG PlanarConfiguration of 16-bit planes was taken for its default, 1, and the planes read as samples
+    together, 0.84 off; tags missing, or of another type, are left out); None for data that is no TIFF or whose
     directory is cut short."""
     directory = tiff_directory(data)
     if directory is None:
@@ -67,9 +69,9 @@ def tiff_first_values(data: bytes, wanted: tuple[int, ...]) -> dict[int, int] | 
     tags = {}
     try:
         for tag in wanted:
-            kind, n, _ = directory.entries.get(tag, (None, 0, b""))
-            if kind == SHORT and n > 0:
-                tags[tag] = struct.unpack_from(directory.order + "H", *directory.where(tag))[0]
+            values = directory.values(tag)
+            if values:
+                tags[tag] = values[0]
     except struct.error:
         return None
     return tags
@@ -144,11 +146,13 @@ def tags_past_end(directory: TiffDirectory) -> list[int]:
     return past
 
 
-def with_short(directory: TiffDirectory, tag: int, value: int) -> bytes:
-    """``directory``'s file with the value of its entry ``tag`` (one SHORT, in the entry's field) set to ``value``."""
+def with_value(directory: TiffDirectory, tag: int, value: int) -> bytes:
+    """``directory``'s file with the first value of its entry ``tag`` (of an unsigned integer type, in the entry's
+    field) set to ``value``, of the entry's type (a SHORT written over a big-endian LONG's high half made 1 65536)."""
     field = directory.places[tag] + 4 + struct.calcsize(directory.order + directory.offset)  # past tag, type, count
+    packed = struct.pack(directory.order + UNSIGNED_CODES[directory.entries[tag][0]], value)
     data = memoryview(directory.data)  # (one copy of the file: the join's)
-    return b"".join((data[:field], struct.pack(directory.order + "H", value), data[field + 2 :]))
+    return b"".join((data[:field], packed, data[field + len(packed) :]))
 
 
 def piece_problem(directory: TiffDirectory) -> str | None:
