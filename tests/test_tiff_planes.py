@@ -14,7 +14,7 @@ import zlib
 import numpy as np
 import pytest
 from PIL import Image as PilImage
-from tiff_files import LONG, SHORT, TILES, UNDEFINED, tiff_file
+from tiff_files import BYTE, LONG, SHORT, TILES, UNDEFINED, tiff_file
 
 from wrt.textures import TextureError, load_image
 
@@ -372,20 +372,21 @@ def test_a_tiff_of_more_strips_than_its_size_makes_reads_its_rows(tmp_path, comp
 
 
 @pytest.mark.parametrize("byte_order", ["<", ">"])
-@pytest.mark.parametrize("long_tags", [(284,), (258,), (262,)], ids=["planar", "bits", "photometric"])
-def test_a_tiff_whose_layout_tags_are_longs_reads_as_of_shorts(tmp_path, byte_order, long_tags):
+@pytest.mark.parametrize("tag, kind", [(284, LONG), (258, LONG), (262, LONG), (284, BYTE)],
+                         ids=["planar", "bits", "photometric", "planar-byte"])
+def test_a_tiff_whose_layout_tags_are_longs_reads_as_of_shorts(tmp_path, byte_order, tag, kind):
     """TIFF 6.0 gives PlanarConfiguration, BitsPerSample and PhotometricInterpretation SHORT values; libtiff (under
-    Storm's OpenImageIO) reads them of LONG ones too. wrt's header reader took only SHORT ones: 16-bit RGB stored
-    plane by plane, of a LONG PlanarConfiguration or BitsPerSample, went to Pillow as if of its samples together (off
-    by 0.84, without a word); 16-bit WhiteIsZero grey of a LONG PhotometricInterpretation read uninverted. They read
-    as the same file of SHORT values does (the samples written, float64; WhiteIsZero: 1 - sample / 65535)."""
+    Storm's OpenImageIO) reads them of LONG or BYTE ones too. wrt's header reader took only SHORT ones: 16-bit RGB
+    stored plane by plane, of a LONG (or BYTE) PlanarConfiguration or a LONG BitsPerSample, went to Pillow as if of its
+    samples together (off by 0.84, without a word); 16-bit WhiteIsZero grey of a LONG PhotometricInterpretation read
+    uninverted. They read as the same file of SHORT values does (the samples written, float64; WhiteIsZero: 1 -
+    sample / 65535)."""
     samples = np.random.default_rng(71).integers(0, 65536, (2, 3, 3)).astype(np.uint16)
-    grey = 262 in long_tags
+    grey = tag == 262
     channels = 1 if grey else 3
     tags = {256: (SHORT, [3]), 257: (SHORT, [2]), 258: (SHORT, [16] * channels), 259: (SHORT, [1]),
             262: (SHORT, [0 if grey else 2]), 277: (SHORT, [channels]), 278: (SHORT, [2]), 284: (SHORT, [2])}
-    for tag in long_tags:
-        tags[tag] = (LONG, tags[tag][1])
+    tags[tag] = (kind, tags[tag][1])
     planes = [samples[..., k].astype(byte_order + "u2").tobytes() for k in range(channels)]
     image = read(tmp_path, tiff_file(tags, planes, byte_order=byte_order))
     want = 1.0 - samples[..., :1] / 65535.0 if grey else samples / 65535.0

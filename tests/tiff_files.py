@@ -5,8 +5,8 @@ a plane, tiles, missing or short byte counts, cut files, odd tags)."""
 
 import struct
 
-SHORT, LONG, ASCII, UNDEFINED = 3, 4, 2, 7  # TIFF field types written here
-CODES = {SHORT: "H", LONG: "I"}  # their struct codes (ASCII and UNDEFINED values are bytes)
+BYTE, SHORT, LONG, ASCII, UNDEFINED = 1, 3, 4, 2, 7  # TIFF field types written here
+CODES = {SHORT: "H", LONG: "I"}  # their struct codes (BYTE, ASCII and UNDEFINED values are bytes)
 STRIPS, TILES = (273, 279), (324, 325)  # the tags of strip (tile) offsets and byte counts
 
 

@@ -16,8 +16,8 @@ from typing import NamedTuple
 # entry count, and the bytes of a directory entry's value field (TIFF 6.0; BigTIFF: 8-byte offsets and counts)
 TIFF_MAGIC = {b"II*\0": ("<", "I", "H", 4), b"MM\0*": (">", "I", "H", 4),
               b"II+\0": ("<", "Q", "Q", 8), b"MM\0+": (">", "Q", "Q", 8)}
-SHORT, LONG, LONG8 = 3, 4, 16  # TIFF field types of unsigned 16-, 32- and 64-bit values (LONG8: BigTIFF)
-UNSIGNED_CODES = {SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
+BYTE, SHORT, LONG, LONG8 = 1, 3, 4, 16  # TIFF field types of unsigned 8-, 16-, 32- and 64-bit values (LONG8: BigTIFF)
+UNSIGNED_CODES = {BYTE: "B", SHORT: "H", LONG: "I", LONG8: "Q"}  # their struct codes
 # Bytes of one value of each field type: TIFF 6.0's BYTE, ASCII, SHORT, LONG, RATIONAL, SBYTE, UNDEFINED, SSHORT,
 # SLONG, SRATIONAL, FLOAT, DOUBLE, IFD (TIFF Technical Note 1) and BigTIFF's LONG8, SLONG8, IFD8
 TYPE_BYTES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
@@ -98,8 +98,8 @@ class TiffDirectory(NamedTuple):
         return self.data, struct.unpack(self.order + self.offset, field)[0]
 
     def values(self, tag: int) -> list[int]:
-        """The values of entry ``tag`` of unsigned integer type (SHORT, LONG or LONG8); none for a missing entry or
-        another type. Raises ``struct.error`` for values past the file's end."""
+        """The values of entry ``tag`` of unsigned integer type (BYTE, SHORT, LONG or LONG8); none for a missing entry
+        or another type. Raises ``struct.error`` for values past the file's end."""
         kind, n, _ = self.entries.get(tag, (None, 0, b""))
         if kind not in UNSIGNED_CODES:
             return []
