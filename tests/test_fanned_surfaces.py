@@ -2,10 +2,12 @@
 the same surfaces cut coarsely: rays leaving a sliver do not meet it again (shadow acne), and camera rays re-traced
 past culled back faces and cut-out holes of slivers see what a float64 ray caster sees.
 
-A sliver's watertight test rounds its edge functions at the scale of its long edges squared and divides them by twice
-its area, so the ``t`` it reports errs by about float32 epsilon times the triangle's aspect (longest edge squared
-over twice its area: 318 for a disc cut into 2000 triangles): a ray leaving the surface can meet its own triangle
-again at a small positive ``t``."""
+With plain float32 edge functions a sliver's watertight test rounded them at the scale of its long edges squared and
+divided them by twice its area, so the ``t`` it reported erred by about float32 epsilon times the triangle's aspect
+(longest edge squared over twice its area: 318 for a disc cut into 2000 triangles): a ray leaving the surface met its
+own triangle again at a small positive ``t``, and ray origins were lifted by a quarter of the aspect times more. The
+edge functions are now compensated (``geometry.difference_of_products``) and the lift is a well-shaped triangle's:
+slivers must neither shadow themselves nor lose the contact shadows of what stands on them."""
 
 import numpy as np
 import pytest
@@ -151,16 +153,74 @@ def test_camera_rays_past_culled_and_cut_out_slivers_see_what_a_float64_caster_s
     np.testing.assert_allclose(img.aovs["depth"].reshape(-1), t * np.linalg.norm(directions, axis=1), rtol=1e-5)
 
 
+def road_mesh(u, v, name="/road") -> wrt.Mesh:
+    """A 1000 x 1 quad of two triangles (a road; aspect about 900) about the origin, long along ``u``, across ``v``."""
+    corners = np.array([-500 * u - 0.5 * v, 500 * u - 0.5 * v, 500 * u + 0.5 * v, -500 * u + 0.5 * v])
+    return wrt.Mesh(name, corners, [[0, 1, 2], [0, 2, 3]], [0, 0], double_sided=True)
+
+
 def test_a_long_thin_quad_does_not_shadow_itself():
     """A 1000 x 1 strip of two triangles (a road; aspect about 900) under a low sun is lit evenly around its middle:
     there a tenth to a fifth of the pixels were black, shadow rays from 5e-4 off it meeting it again."""
     u, v = TILT @ [1, 0, 0], TILT @ [0, 1, 0]
     normal = np.cross(u, v)
-    corners = np.array([-500 * u - 0.5 * v, 500 * u - 0.5 * v, 500 * u + 0.5 * v, -500 * u + 0.5 * v])
-    road = wrt.Mesh("/road", corners, [[0, 1, 2], [0, 2, 3]], [0, 0], double_sided=True)
+    road = road_mesh(u, v)
     to_sun = np.cos(0.2) * (0.6 * u + 0.8 * v) + np.sin(0.2) * normal
     scene = wrt.Scene(meshes=[road], lights=[wrt.DistantLight(direction=-to_sun, color=np.ones(3))])
     camera = wrt.Camera.orthographic(eye=3 * normal, target=(0, 0, 0), up=v, height=0.9, clipping_range=(0.0, 10.0))
     img = wrt.render(scene, camera=camera, width=24, height=24, device="cpu", max_depth=1)
     assert (img.aovs["prim"] >= 0).all()
     np.testing.assert_allclose(img.rgb, ALBEDO * np.dot(normal, to_sun) / np.pi, rtol=1e-4)
+
+
+def box_hit(origins, to_sun, lower, upper):
+    """Float64 slab test in the frame of the box ``[lower, upper]``: whether each ray ``origins + t to_sun``, ``t > 0``,
+    meets the box."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lower - origins) / to_sun, (upper - origins) / to_sun
+    near = np.nanmax(np.minimum(t0, t1), axis=1)
+    far = np.nanmin(np.maximum(t0, t1), axis=1)
+    return (near <= far) & (far > 0)
+
+
+@pytest.mark.parametrize("instanced", [False, True], ids=["flat", "instanced"])
+def test_a_kerb_on_a_long_thin_quad_casts_its_contact_shadow(instanced):
+    """A kerb 0.3 x 0.3 and 0.05 high standing on the 1000 x 1 road under a sun 17 degrees up shadows the road behind
+    it (float64 oracle: the camera's pixel-centre rays met with the road's plane, shadow rays to the sun against the
+    kerb's box, pixels within 1e-3 of the shadow's edge or of a 2e-3 lift left out). Shadow rays left the road 0.1 off
+    it (its reach times a quarter of its aspect, sized for the triangle test before its edge functions were
+    compensated), above the kerb: the road was lit all round it. Drawn through an instance too (a road 1000 x 4 in
+    its prototype, squashed across)."""
+    u, v = TILT @ [1, 0, 0], TILT @ [0, 1, 0]
+    normal = np.cross(u, v)
+    half, height = 0.15, 0.05
+    frame = np.stack([u, v, normal])  # rows: the road's axes; kerb corners in that frame, then in the world
+    kerb_lower, kerb_upper = np.array([-half, -half, 0.0]), np.array([half, half, height])
+    box = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (0.0, height)]) @ frame
+    faces = [[0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5], [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3], [0, 2, 3],
+             [0, 3, 1], [4, 5, 7], [4, 7, 6]]
+    kerb = wrt.Mesh("/kerb", box, faces, np.zeros(12, int), double_sided=True)
+    to_sun = np.cos(0.3) * (0.9 * u + np.sqrt(0.19) * v) + np.sin(0.3) * normal
+    sun = [wrt.DistantLight(direction=-to_sun, color=np.ones(3))]
+    if instanced:
+        to_world = np.eye(4)
+        to_world[:3, :3] = np.eye(3) - 0.75 * np.outer(v, v)  # a road 4 wide in the prototype, 1 in the world
+        proto = wrt.Prototype("/Proto", [road_mesh(u, 4 * v, name="/Proto/road")])
+        instances = wrt.Instances(np.zeros(1, np.int32), to_world[None], np.zeros(1, np.int32), np.full(1, -1), ["/I"])
+        scene = wrt.Scene(meshes=[kerb], prototypes=[proto], instances=instances, lights=sun)
+    else:
+        scene = wrt.Scene(meshes=[road_mesh(u, v), kerb], lights=sun)
+    camera = wrt.Camera.orthographic(eye=3 * normal, target=(0, 0, 0), up=v, height=0.9, clipping_range=(0.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=24, height=24, device="cpu", max_depth=1)
+    origins, directions = wrt.rays.camera_rays(scene, camera, 24, 24)
+    origins, directions = origins.astype(np.float64) @ frame.T, directions.astype(np.float64) @ frame.T
+    on_road = origins - (origins[:, 2] / directions[:, 2])[:, None] * directions  # in the road's frame, z = 0
+    sun_in_frame = frame @ to_sun
+    margin = 1e-3
+    shadowed = box_hit(on_road + [0, 0, 2e-3], sun_in_frame, kerb_lower + margin, kerb_upper - margin)
+    lit = ~box_hit(on_road, sun_in_frame, kerb_lower - margin, kerb_upper + margin)
+    road = (img.aovs["prim"].reshape(-1) >= 0) & ((np.abs(on_road[:, :2]) > half).any(axis=1))  # not the kerb's top
+    shade = img.rgb.reshape(-1, 3)
+    assert (shadowed & road).sum() >= 15  # the shadow is about 0.16 long and 0.3 wide: 4 x 8 pixels of 0.0375
+    np.testing.assert_array_equal(shade[shadowed & road], 0.0)
+    np.testing.assert_allclose(shade[lit & road], ALBEDO * np.dot(normal, to_sun) / np.pi, rtol=1e-4)

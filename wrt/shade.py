@@ -89,14 +89,10 @@ MAX_SHADOW_HOLE_PASSES = 32
 # many holes in a row as a shadow ray. One still on a back face after them keeps it; one still in a hole ends its path
 # (as that shadow ray is blocked). Passes stop once no ray needs another, so the bound costs nothing on other scenes.
 MAX_CULL_PASSES = MAX_SHADOW_HOLE_PASSES - 1
-# The share of a triangle's aspect that scales HitPoint.reach (sliver_scale): offset_ray_origin's REACH_OFFSET (2^-20,
-# 8 float32 epsilons) times a quarter of the aspect is 2^-22 of the reach per unit of aspect, at least twice the
-# largest self-hit measured (at most 2^-23: 50,000 random rays leaving random points of slivers and strip halves of
-# aspect 16 to 9000; a few at 2^-24; a share of 1/16 left one AO ray of a 2000-slice disc in 2304 on it). At most
-# MAX_SLIVER_SCALE (aspect 65536, an offset of 2^-6 of the reach): a needle thinner than that keeps some self-shadowing
-# rather than lifting its rays' origins far off it (a degenerate triangle, of no area, would lift them to infinity).
-# Long thin quads get it too: a 1000 x 1 road of two triangles (aspect ~900) shadowed 10-20% of itself near its middle,
-# and its rays now start 0.1 off it (the float32 test cannot tell their side of it closer than that).
+# How much an instance thins a triangle (sliver_scale in the world over sliver_scale in its prototype) scales an
+# instanced hit's HitPoint.reach: a quarter of each aspect (SLIVER_SHARE), at most MAX_SLIVER_SCALE (aspect 65536; a
+# degenerate world triangle, of no area, would lift ray origins to infinity). A triangle's own thinness no longer
+# does (corner_reach): the triangle test is as exact on slivers as on well-shaped triangles.
 SLIVER_SHARE = wp.constant(0.25)
 MAX_SLIVER_SCALE = wp.constant(16384.0)
 
@@ -121,8 +117,8 @@ class HitPoint:
 
     p: wp.vec3  # world-space position
     ng: wp.vec3  # unit geometric normal facing the ray origin
-    reach: float  # largest distance along an axis from p to the surface's corners (a shape: its centre), times
-    # sliver_scale for a thin triangle: the scale of the intersection tests' rounding (offset_ray_origin)
+    reach: float  # largest distance along an axis from p to the surface's corners (a shape: its centre): the scale of
+    # the intersection tests' rounding (offset_ray_origin), thin triangles' too (corner_reach)
     err: wp.vec3  # per axis, the largest magnitude p's coordinate is summed from: its rounding scale (same use)
     inner: wp.vec3  # a point inside the surface that ray origins are pulled towards: the triangle's centroid (same use)
     ns: wp.vec3  # unit shading normal on the side of ng (normal map included after shading_point)
@@ -156,18 +152,26 @@ def point_in_triangle(a: wp.vec3, b: wp.vec3, c: wp.vec3, u: float, v: float):
 
 @wp.func
 def corner_reach(a: wp.vec3, b: wp.vec3, c: wp.vec3, p: wp.vec3):
-    """``HitPoint.reach`` of the point ``p`` on a triangle with world-space corners ``a``, ``b``, ``c``."""
+    """``HitPoint.reach`` of the point ``p`` on a triangle with world-space corners ``a``, ``b``, ``c``, however thin.
+
+    A sliver's reach is not scaled up by its aspect (longest edge squared over twice its area): the triangle test's
+    compensated edge functions (``geometry.difference_of_products``) put its plane within the same rounding of the
+    corners' distance as a well-shaped triangle's. Rays leaving random points of fan slices, strip halves and caps of
+    aspect 1 to 65536 with their coplanar neighbours (``benchmarks/sliver_self_hits.py``: 64,000 rays per shape and
+    aspect, grazing to normal; float64 oracle of the plane and of the origin's side of it) asked for at most 0.32 of
+    ``REACH_OFFSET`` times this reach at every aspect, as at aspect 1 (0.2; through ``wp.Mesh`` 0.62 and 0.35), and
+    0.15 of the offset ``offset_ray_origin`` gives (``wp.Mesh`` 0.23): no self-hits in 1.7 million rays. With plain
+    float32 edge functions the test's ``t`` erred by about the aspect's share (up to 0.054 times the aspect of that
+    offset), and the reach was multiplied by a quarter of the aspect (up to 16384): a 1000 x 1 road of two triangles
+    lifted its rays' origins 0.1 off it, and a kerb 0.05 high standing on it cast no shadow."""
     return wp.max(wp.max(largest_magnitude(a - p), largest_magnitude(b - p)), largest_magnitude(c - p))
 
 
 @wp.func
 def sliver_scale(a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """How many times its corner reach the intersection tests' rounding spans on triangle ``a, b, c``: a quarter of
-    its aspect (longest edge squared over twice its area, edges measured by their largest component), between 1 and
-    :data:`MAX_SLIVER_SCALE`. The watertight test rounds its edge functions at the scale of the edges squared and
-    divides them by twice the area, so on a sliver the ``t`` of a ray leaving it errs by about float32 epsilon times
-    the aspect times the reach: a disc cut into 2000 triangles about its centre (aspect up to 318) shadowed 2-7% of
-    itself, its shadow and AO rays meeting their own sliver at a small positive ``t``."""
+    """A quarter of the aspect of triangle ``a, b, c`` (longest edge squared over twice its area, edges measured by
+    their largest component), between 1 and :data:`MAX_SLIVER_SCALE`; its ratio between an instanced triangle's world
+    and prototype shapes measures how unevenly the instance stretches it (:func:`hit_point`)."""
     ab = b - a
     ac = c - a
     longest = wp.max(wp.max(largest_magnitude(ab), largest_magnitude(ac)), largest_magnitude(c - b))
@@ -256,8 +260,7 @@ def hit_point(
     c = scene.points[scene.indices[prim, 2]]
     w = 1.0 - u - v
     h.p = point_in_triangle(a, b, c, u, v)
-    sliver = sliver_scale(a, b, c)  # of the triangle the trace tests (an instance's: in prototype space)
-    h.reach = corner_reach(a, b, c, h.p) * sliver
+    h.reach = corner_reach(a, b, c, h.p)
     h.err = corner_err(a, b, c)
     h.inner = (a + b + c) / 3.0
     ng = face_normal(a, b, c)
@@ -280,10 +283,18 @@ def hit_point(
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
         h.err = inverse_transform_magnitude(m, h.err)
+        prototype_sliver = sliver_scale(a, b, c)
         a, b, c = corners_to_world(m, a, b, c)
         h.p = point_in_triangle(a, b, c, u, v)  # from the world corners, which the neighbours share
-        # A non-uniform scale changes a triangle's aspect: the larger of the two spaces' bounds the rounding.
-        h.reach = corner_reach(a, b, c, h.p) * wp.max(sliver, sliver_scale(a, b, c))
+        # An instance that stretches its prototype unevenly moves ray origins into prototype space (tlas.moved_ray)
+        # rounded at the scale of its largest stretch, and its world triangles rest on that rounding at the scale of
+        # its smallest: a triangle it thins (its world aspect over its prototype one) gets that ratio, 1 for an
+        # instance that keeps its shapes, never more than the larger aspect's quarter used before. Through instances
+        # scaling by 0.03 to 30 along random axes, rays leaving triangles of aspect 1 to 65536 asked for up to 7.5
+        # times REACH_OFFSET of the world corner reach, 0.27 of the offset with the ratio and HitPoint.err
+        # (benchmarks/sliver_self_hits.py --instanced); without the ratio, a triangle of aspect 1 thinned to 142
+        # (scales 20, 12 and 0.13) asked for 0.8 of its offset.
+        h.reach = corner_reach(a, b, c, h.p) * wp.max(sliver_scale(a, b, c) / prototype_sliver, 1.0)
         h.inner = (a + b + c) / 3.0
         ng = normal_to_world(m, ng)
         n0 = unit_or_zero(normal_to_world(m, n0))
