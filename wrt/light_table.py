@@ -424,13 +424,23 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
     )
 
 
-def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray:
-    """``(K,)`` int32 geometry ids of the triangles of ``noMaterialResponse`` mesh lights (those whose mesh has no
-    material count too): their surface is :func:`wrt.materials.no_response_material`, whatever their mesh's material,
-    in scenes read and built in Python alike. ``prims``: ``lights.prims`` already read back to the host."""
-    first, count = lights.num_analytic, lights.count
-    no_response = lights.params.numpy()[first:count, 1] > 0.0
-    return prims[first:count][no_response]
+def emitter_slots(tris: EmitterTriangles, num_analytic: int, num_triangles: int, sphere_first: np.ndarray,
+                  num_geometry: int) -> np.ndarray:
+    """``(max(G, 1),)`` int32 ``DeviceSurfaces.emitters`` of the ``G`` geometry ids (triangles, then glowing shapes:
+    ``Scene.triangle_materials``'s rows): a world triangle's (glowing shape's) light-table entry, a prototype one's
+    place among the entries of its instance (:func:`wrt.light_sampling.hit_emitter`, which adds the instance's first),
+    -1 where it emits none. ``tris``: the table's rows after its ``num_analytic`` analytic lights, their first
+    ``num_triangles`` triangles, then the glowing shapes, whose instances' first rows (among the shapes') are
+    ``sphere_first``. (Made from the device arrays read back, each upload waited on four copies.)"""
+    rows = np.arange(len(tris.ids))
+    slots = (num_analytic + rows).astype(np.int32)
+    drawn = tris.instances >= 0
+    triangle = rows < num_triangles
+    for mine, first in ((drawn & triangle, tris.instance_first), (drawn & ~triangle, sphere_first + num_triangles)):
+        slots[mine] = rows[mine] - first[tris.instances[mine]]
+    out = np.full(max(num_geometry, 1), -1, np.int32)
+    out[tris.ids] = slots  # (a prototype triangle's rows, one per instance, share one slot)
+    return out
 
 
 class LightTable(NamedTuple):
@@ -439,13 +449,19 @@ class LightTable(NamedTuple):
     device_lights: DeviceLights  # the lights on the device
     unsampled: UnsampledEmitters  # the instanced emitters left out past MAX_INSTANCED_EMITTERS
     features: LightFeatures  # the shading kernels' variant they need (wrt.light_features), from the host rows
+    emitter_slots: np.ndarray  # (max(G, 1),) int32 DeviceSurfaces.emitters of each geometry id (emitter_slots)
+    # (K,) int32 geometry ids of the triangles of noMaterialResponse mesh lights (those whose mesh has no material
+    # count too): their surface is wrt.materials.no_response_material, whatever their mesh's material, in scenes read
+    # and built in Python alike.
+    no_response: np.ndarray
 
 
 def build_lights(lights: list, scene, material_emission: list, device, glow: np.ndarray | None = None,
                  sampled: SampledEmission | None = None) -> LightTable:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
-    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS` and which features of the
-    shading kernels the lights need (:class:`LightTable`). Radiance is held times
+    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`, which features of the
+    shading kernels the lights need, each geometry id's emitter slot and which triangles respond to no light
+    (:class:`LightTable`, all from the host rows: the Renderer reads nothing back). Radiance is held times
     ``radiance_scale`` (:func:`wrt.radiance_scale.radiance_scale` of the brightest light or glow): the materials'
     emission must be scaled by it too (:func:`wrt.radiance_scale.scaled_materials`), and the image divided by it.
 
@@ -718,7 +734,9 @@ def build_lights(lights: list, scene, material_emission: list, device, glow: np.
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
     features = light_features(h.kinds, [row[3] != 0.0 for row in h.shaping], first_sphere < n)
-    return LightTable(d, tris.unsampled, features)
+    slots = emitter_slots(tris, num_analytic, first_sphere - num_analytic, spheres.instance_first,
+                          len(scene.triangle_materials()))
+    return LightTable(d, tris.unsampled, features, slots, tris.ids[tris.params[:, 1] > 0.0])
 
 
 def _scaled_radiance(h: HostLights, textured: dict, tris: EmitterTriangles, glow: np.ndarray,

@@ -526,7 +526,7 @@ def check_texture_input(tex: TextureInput, num_images: int, where: str):
 def no_response_material() -> Material:
     """The last device material: it reflects, transmits and emits nothing (black, index 1: no Fresnel reflection),
     the surface of a mesh light of ``materialSyncMode`` ``noMaterialResponse`` ("as if there is no Material bound at
-    all"), whatever material its mesh has (:func:`wrt.light_table.no_response_triangles`)."""
+    all"), whatever material its mesh has (:attr:`wrt.light_table.LightTable.no_response`)."""
     return Material(path="<no material response>", diffuse_color=0.0, ior=1.0, specular_edge=0.0)
 
 

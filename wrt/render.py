@@ -42,8 +42,7 @@ from .integrators.whitted import (
     lights_per_batch,
     whitted_kernels,
 )
-from .light_sampling import LIGHT_DOME
-from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
+from .light_table import build_lights, seen_by_camera, set_headlight_directions
 from .lights import check_folded_inputs, check_light_types, default_lights
 from .materials import (
     emission_estimates,
@@ -1115,39 +1114,24 @@ class Renderer:
             self._warn_glows_giving_none(glows & ~cut & ~textured, sampled, named, geometry_materials)
         self._lights = tuple(default_lights(self._forwards[0]) if default else scene.lights)
         # The shading kernels' variant for these lights (wrt.light_features): set with them, so it is never stale.
-        self.device_lights, unsampled, self._light_features = build_lights(list(self.lights), scene, lit, dev, glow,
-                                                                           sampled)
+        table = build_lights(list(self.lights), scene, lit, dev, glow, sampled)
+        self.device_lights, self._light_features = table.device_lights, table.features
         # Emission held times a power of two that keeps path estimates within float32 (wrt.radiance_scale), which
         # the image is divided by: 1 but for lights or glows past 2^64 or below 2^-64.
         self._radiance_scale = float(self.device_lights.radiance_scale)
         self.materials = scaled_materials(mats, self._radiance_scale, dev)
-        self._warn_unsampled(unsampled)
+        self._warn_unsampled(table.unsampled)
         self._headlight = 0 if default else -1
         self._point_headlight()
-        emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
-        kinds = self.device_lights.kinds.numpy()
-        prims = self.device_lights.prims.numpy()
-        first, count = self.device_lights.num_analytic, self.device_lights.count
-        spheres = self.device_lights.first_glowing_sphere
-        # A world triangle's (or glowing sphere's) entry, a prototype triangle's (sphere's) place among its
-        # prototype's emitters (spheres), which each sampled instance's entries follow (light_sampling.hit_emitter).
-        entries = np.arange(first, count, dtype=np.int32)
-        instances = self.device_lights.instances.numpy()[first:count]
-        drawn = instances >= 0
-        triangle = np.arange(first, count) < spheres
-        for rows, starts in ((drawn & triangle, self.device_lights.instance_emitters),
-                             (drawn & ~triangle, self.device_lights.instance_glowing_spheres)):
-            if rows.any():
-                entries[rows] -= starts.numpy()[instances[rows]]
-        emitters[prims[first:count]] = entries
-        no_response = no_response_triangles(self.device_lights, prims)
-        if len(no_response):  # they take the last device material (wrt.materials.no_response_material)
-            overridden = np.array(tri_materials.numpy())  # a copy: the cached array is the scene's own
-            overridden[no_response] = len(scene.materials) + 1
+        # The emitter slots and no-response triangles come from the host rows the lights were made of, and the
+        # materials from the host's: read back from the device, each upload waited on up to seven copies (a sync each).
+        if len(table.no_response):  # they take the last device material (wrt.materials.no_response_material)
+            overridden = np.array(geometry_materials, np.int32)  # a copy: the cached array is the scene's own
+            overridden[table.no_response] = len(scene.materials) + 1
             tri_materials = wp.array(overridden, dtype=wp.int32, device=dev)
         s = DeviceSurfaces()
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
-        s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
+        s.emitters = wp.array(table.emitter_slots, dtype=wp.int32, device=dev)
         partners = scene.triangle_partners()  # None unless a single-sided triangle has a coincident partner
         offsets, ranges = partners or (np.zeros(1, np.int32), np.zeros((1, 2), np.int32))
         s.num_partners = 0 if partners is None else len(offsets) - 1
@@ -1162,7 +1146,7 @@ class Renderer:
         self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and self.no_holes
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
         n_analytic = self.device_lights.num_analytic
-        self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
+        self._whitted_groups = [(k, 1) for k in range(n_analytic) if k != self.device_lights.dome]
         if self.device_lights.count > n_analytic:
             self._whitted_groups.append((n_analytic, self.device_lights.count - n_analytic))
         groups = np.array(self._whitted_groups or [(0, 0)], np.int32).reshape(-1, 2)
