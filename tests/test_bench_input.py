@@ -1360,8 +1360,9 @@ def test_a_suite_and_an_asset_manifest_starting_with_a_byte_order_mark_are_read(
 
 @pytest.mark.parametrize("written", ["1e3", "1000.0", "1000", "1E3"])
 def test_a_suite_count_written_as_a_whole_float_is_taken_as_n_rays_1e3_is(tmp_path, written):
-    """'"n_rays": 1e3' in a suite was refused ('got 1000.0': JSON reads it as a float) where '--n-rays 1e3' was taken;
-    both are the int the text writes, decimal.Decimal(written) being the oracle."""
+    """'"n_rays": 1e3' in a suite was refused ('got 1000.0': JSON reads it as a float) where '--n-rays 1e3' was taken,
+    and '--n-rays 1000.0' was refused where the suite's 1000.0 was taken; both are the int the text writes,
+    decimal.Decimal(written) being the oracle."""
     from decimal import Decimal
 
     from wrt.cli import build_parser
@@ -1373,7 +1374,7 @@ def test_a_suite_count_written_as_a_whole_float_is_taken_as_n_rays_1e3_is(tmp_pa
     expected = int(Decimal(written))
     for value in (grid.n_rays, grid.repeats, grid.scaling["n_rays"]):
         assert type(value) is int and value == expected, grid
-    assert build_parser().parse_args(["bench", "--n-rays", "1e3"]).n_rays == 1000
+    assert build_parser().parse_args(["bench", "--n-rays", written]).n_rays == expected  # '1000.0' was refused here
 
 
 @pytest.mark.parametrize("key", ["n_rays", "repeats", "scaling.n_rays"])

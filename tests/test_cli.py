@@ -1460,6 +1460,22 @@ def test_integer_options_take_whole_numbers_in_exponent_notation(text, value):
     assert build_parser().parse_args(["bench", "--n-rays", text]).n_rays == value
 
 
+@pytest.mark.parametrize("option", [["bench", "--n-rays"], ["render", "--spp"], ["render", "--seed"],
+                                    ["render", "--refine-level"], ["render", "--max-depth"],
+                                    ["preview", "--bvh-depth"]])
+@pytest.mark.parametrize("text", ["2.0", "2.", "0.2e1", "2"])
+def test_integer_options_take_whole_numbers_written_with_a_zero_fraction(option, text):
+    """``--n-rays 1000.0`` was refused as 'not an integer' where a suite's ``"n_rays": 1000.0`` was taken, and
+    ``--seed`` and ``--refine-level`` refused even ``1e3``: every integer option reads a whole number in decimal, as
+    ``decimal.Decimal`` (the oracle) does."""
+    from decimal import Decimal
+
+    from wrt.cli import build_parser
+
+    dest = option[1].lstrip("-").replace("-", "_")
+    assert getattr(build_parser().parse_args([*option, text]), dest) == int(Decimal(text))
+
+
 @pytest.mark.parametrize("text", ["12345678901234567e0", "123456789012345678900e-2", "9007199254740993E0"])
 def test_integer_options_in_exponent_notation_are_read_exactly(text):
     """A float rounded a whole number of more than 16 digits (``12345678901234567e0`` to ...568). The oracle:

@@ -245,14 +245,14 @@ def int_at_least(minimum: int, what: str, maximum: int | None = None):
 
 
 def _whole_number(text: str) -> int | None:
-    """``text`` as an int, also where written in exponent notation (``--n-rays 1e5``, as a ``sphere:1e6`` scene name
-    is: it was refused as 'not an integer'); None for anything else, a fraction (``2.5``, ``2.5e0``) included.
-    OverflowError for a whole number past 1e300 (:func:`whole_number`)."""
+    """``text`` as an int, also where written in exponent notation or with a zero fraction (``--n-rays 1e5``,
+    ``1000.0``), as a ``sphere:1e6`` scene name and a suite's ``"n_rays": 1000.0`` are (``1000.0`` was refused as 'not
+    an integer' here alone); None for anything else, a fraction (``2.5``, ``2.5e0``) included. OverflowError for a
+    whole number past 1e300 (:func:`whole_number`)."""
     try:
         return int(text)
     except ValueError:
-        pass
-    return whole_number(text) if "e" in text.lower() else None
+        return whole_number(text)
 
 
 def whole_number(text: str) -> int | None:
@@ -359,13 +359,7 @@ def _refine_level(text: str) -> int:
     """An argparse type: a subdivision refine level, 0 to ``MAX_REFINE_LEVEL``."""
     from .subdivision import MAX_REFINE_LEVEL
 
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if not 0 <= value <= MAX_REFINE_LEVEL:
-        raise argparse.ArgumentTypeError(f"must be 0 to {MAX_REFINE_LEVEL}, got {value}")
-    return value
+    return int_at_least(0, f"0 to {MAX_REFINE_LEVEL}", MAX_REFINE_LEVEL)(text)  # whole numbers as --spp reads them
 
 
 REFINE_HELP = ("subdivision steps for meshes by their subdivisionScheme (catmullClark, USD's fallback; loop, for "
@@ -407,12 +401,18 @@ def add_stage_options(p, settings_help: str = SETTINGS_HELP) -> None:
 
 def _seed(text: str) -> int:
     """An argparse type: a render seed (checked before any scene is loaded)."""
-    from .render import check_seed
+    from .render import MAX_SEED, check_seed
 
     try:
-        return check_seed(int(text))
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e) if "seed" in str(e) else f"{text!r} is not an integer") from None
+        value = _whole_number(text)  # '3.0' and '1e3' as --spp reads them (int() refused both)
+    except OverflowError:
+        value = text  # past 1e300: check_seed names it out of range
+    if value is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
+    try:
+        return check_seed(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be an integer from 0 to {MAX_SEED}, got {text}") from None
 
 
 def _add_render(sub) -> None:
