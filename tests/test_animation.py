@@ -1730,3 +1730,45 @@ def Camera "Other"
         with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
             scene = wrt.load_usd(still)
         assert list(scene.cameras) == ["/Other"]
+
+
+def test_an_exr_frame_whose_pixel_aspect_its_header_cannot_state_is_refused_before_the_render(tmp_path, monkeypatch):
+    """A stage whose pixelAspectRatio is 1e7 (past the [1e-6, 1e6] an OpenEXR header takes; the oracle: OpenEXR
+    refusing a header stating it): render_frames to .exr rendered frame 1, then failed at its save; a worker's task
+    named its temporary file. Now each refuses before any render, naming the file asked for."""
+    import OpenEXR
+
+    from wrt.animation import _task, render_frame_task
+
+    with pytest.raises(Exception):
+        with OpenEXR.File({"type": OpenEXR.scanlineimage, "pixelAspectRatio": 1e7},
+                          {"R": np.zeros((2, 2), np.float32)}) as f:
+            f.write(str(tmp_path / "oracle.exr"))
+    path = tmp_path / "wide_pixels.usda"
+    path.write_text("""#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/S"
+    startTimeCode = 1
+    endTimeCode = 2
+)
+def Sphere "Ball" {}
+def Camera "Cam" {
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Scope "Render" {
+    def RenderSettings "S" {
+        rel camera = </Cam>
+        uniform int2 resolution = (8, 8)
+        uniform float pixelAspectRatio = 1e7
+    }
+}
+""")
+    renders = []
+    monkeypatch.setattr(wrt.Renderer, "render", lambda self, **kwargs: renders.append(kwargs))
+    file = tmp_path / "f_1.exr"
+    with pytest.raises(ValueError, match=rf"cannot write {re.escape(str(file))}: pixels 1e\+07 times as wide"):
+        render_frames(path, [(1.0, file), (2.0, tmp_path / "f_2.exr")], devices=["cpu"])
+    with pytest.raises(ValueError, match=rf"cannot write {re.escape(str(file))}: pixels 1e\+07 times as wide"):
+        render_frame_task(_task(str(path), 1.0, file, 1, 0, 0.0, {}))
+    assert renders == [] and not list(tmp_path.glob("f_*"))

@@ -315,15 +315,18 @@ class FrameRenderer:
         self._said_once = set()
         self.last_warnings = []  # every warning of the last frame, those said at earlier frames too
 
-    def render(self, frame: float, spp: int = 1, seed: int = 0):
+    def render(self, frame: float, spp: int = 1, seed: int = 0, file=None):
         """The :class:`wrt.Image` of time code ``frame``. Each warning is said once over the frames; every one the
         frame gave, said before or not, is in :attr:`last_warnings` (for its log row: a camera that sees nothing at
-        frames 2 and 3 was in frame 2's row alone, as the frames' Renderers shared what was said)."""
+        frames 2 and 3 was in frame 2's row alone, as the frames' Renderers shared what was said).
+
+        ``file``, when given, is where the image will be saved: an ``.exr`` whose header cannot state the frame's
+        pixel aspect raises ValueError naming it before the render (:meth:`wrt.Image.save` refused it only after)."""
         with _frame_warnings(self._said_once, leave_out=()) as raised:
             self.last_warnings = raised  # the list the frame's warnings are recorded in
-            return self._render(frame, spp, seed)
+            return self._render(frame, spp, seed, file)
 
-    def _render(self, frame: float, spp: int, seed: int):
+    def _render(self, frame: float, spp: int, seed: int, file=None):
         from .render import Renderer, view_summary
         from .usd_frames import StageFrames
 
@@ -366,6 +369,10 @@ class FrameRenderer:
             renderer.accel.built_sah = tree_costs(renderer.accel)
             rebuilt = len(renderer.accel.built_sah)
         updated = _time.perf_counter()
+        if file is not None and os.fspath(file).lower().endswith(".exr"):
+            from .image import check_exr_pixel_aspect
+
+            check_exr_pixel_aspect(renderer.camera.rendered_pixel_aspect(renderer.width, renderer.height), file)
         image = renderer.render(spp=spp, seed=seed)
         self._scene = scene
         self.log.append(
@@ -665,7 +672,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 start = _time.perf_counter()
                 try:
                     with _frame_warnings(shown) as raised:
-                        image = renderer.render(frame, spp=spp, seed=seed)
+                        image = renderer.render(frame, spp=spp, seed=seed, file=file)
                         written = image.save(file, exposure=exposure)
                         aovs = [] if aov_pattern is None else _written_aovs(image, aov_pattern, frame)
                 except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
@@ -957,7 +964,8 @@ def render_frame_task(job: dict) -> dict:
             _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
         renderer = _WORKER_RENDERERS[key]
         try:
-            image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
+            # The client's file: an EXR refused by Image.save below named the temporary one.
+            image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"], file=job["file"])
         except SceneError as e:
             e.device = device  # for the frame's error row, written by the client (it travels with the pickled error)
             return {"error": e, "row": {"frame": job["frame"], "device": device}}
