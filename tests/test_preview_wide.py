@@ -256,3 +256,26 @@ def test_small_and_degenerate_meshes_draw_the_traced_wide_tree(builder):
                 np.testing.assert_array_equal(drawn[order], expected[oracle], err_msg=str(key))
                 np.testing.assert_allclose(shares[order], (cost / cost.sum())[oracle], rtol=1e-6, err_msg=str(key))
                 assert abs(shares.sum() - 1.0) < 1e-9, key
+
+
+@pytest.mark.parametrize("options, said, flag", [({"bvh_layout": "wide"}, "bvh_layout='wide'", "--bvh-layout wide"),
+                                                 ({"bvh_color": "sah"}, "bvh_color='sah'", "--bvh-color sah"),
+                                                 ({"bvh_layout": "wide", "bvh_depth": 1}, None, None)])
+def test_a_layout_or_colouring_without_boxes_is_warned_about_as_the_cli_warns(soup, tmp_path, capsys, options, said,
+                                                                              flag):
+    """``wrt.preview(bvh_layout='wide')`` without ``bvh_depth`` or ``bvh_leaves`` drew no boxes without a word, where
+    ``wrt preview --bvh-layout wide`` warns; the CLI says it once, in its flags' names."""
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        wrt.preview(soup, window_size=(32, 24), show_text=False, **options).close()
+    words = [str(w.message) for w in raised if "only affects the BVH boxes" in str(w.message)]
+    assert words == ([] if said is None else [f"{said} only affects the BVH boxes, and none are drawn without "
+                                              "bvh_depth or bvh_leaves"])
+    if said is None:
+        return
+    usda = tmp_path / "tri.usda"
+    usda.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    '[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    assert main(["preview", str(usda), *flag.split(), "-o", str(tmp_path / "p.png"), "--window", "32x24", "-q"]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "BVH" in line]
+    assert len(warned) == 1 and warned[0].startswith(f"wrt: warning: {flag} "), warned

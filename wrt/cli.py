@@ -1401,10 +1401,11 @@ def _run_preview(args) -> int:
     if args.bvh_instance is not None and args.bvh_depth is None and not args.bvh_leaves:  # before the load
         raise ValueError(f"--bvh-instance {args.bvh_instance} draws an instance's BVH boxes: give --bvh-depth K or "
                          "--bvh-leaves too")
-    if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
+    boxes = args.bvh_depth is not None or args.bvh_leaves
+    if args.bvh_color != "depth" and not boxes:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)
-    if args.bvh_layout != "binary" and args.bvh_depth is None and not args.bvh_leaves:
+    if args.bvh_layout != "binary" and not boxes:
         warnings.warn(f"--bvh-layout {args.bvh_layout} picks the BVH whose boxes are drawn, and none are drawn without "
                       "--bvh-depth K or --bvh-leaves", stacklevel=2)
     start = time.perf_counter()
@@ -1433,7 +1434,7 @@ def _run_preview(args) -> int:
             camera=args.camera,
             bvh_depth=args.bvh_depth,
             bvh_leaves=args.bvh_leaves,
-            bvh_color=args.bvh_color,
+            bvh_color=args.bvh_color if boxes else "depth",  # with no boxes, warned of above in the flags' names
             rays=args.rays,
             image=args.image,
             width=args.width,
@@ -1444,7 +1445,7 @@ def _run_preview(args) -> int:
             max_triangles=args.max_triangles,
             off_screen=output is not None,
             bvh_instance=instance,
-            bvh_layout=args.bvh_layout,
+            bvh_layout=args.bvh_layout if boxes else "binary",
         )
     except PreviewUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)

@@ -842,6 +842,11 @@ def preview(
     check_window_size(window_size)
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
     check_layout(bvh_layout)
+    if bvh_depth is None and not bvh_leaves:  # said as wrt preview says it of its flags: a choice with no effect
+        for label, value, default in (("bvh_color", bvh_color, "depth"), ("bvh_layout", bvh_layout, "binary")):
+            if value != default:
+                warnings.warn(f"{label}={value!r} only affects the BVH boxes, and none are drawn without bvh_depth or "
+                              "bvh_leaves", stacklevel=2)
     device = resolve_device(device)
     scene = _as_scene(scene)
     check_drawn_layout(scene, bvh_layout)  # before any work
