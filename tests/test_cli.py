@@ -633,6 +633,25 @@ def test_interrupted_render_saves_the_samples_it_has(tmp_path, monkeypatch, caps
     np.testing.assert_allclose(np.load(out), two.rgb, rtol=1e-5, atol=1e-6)
 
 
+def test_a_render_interrupted_in_its_first_launch_says_no_image_was_written(tmp_path, monkeypatch, capsys):
+    """A render of few samples is one launch (as many samples per pixel as fit in MAX_PATHS_PER_LAUNCH paths): Ctrl-C
+    in it had no samples to save and stopped with 'wrt: interrupted' alone, where README promises the image of the
+    samples done so far after Ctrl-C. It says that none was written."""
+    import importlib
+
+    render_module = importlib.import_module("wrt.render")  # ``wrt.render`` is also the function
+
+    def interrupt(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(render_module.Renderer, "_start_and_trace", interrupt)
+    out = tmp_path / "partial.png"
+    assert main(["render", "-o", str(out), "--width", "8", "--height", "6", "--spp", "2", "-q"]) == 130
+    assert f"wrt: warning: interrupted before the first launch of samples finished: {out} was not written" in \
+        capsys.readouterr().err.splitlines()
+    assert not out.exists()
+
+
 def test_negative_values_in_exponent_form_are_values_not_options(tmp_path):
     """Before Python 3.13 argparse took ``--time -1e3`` for an option and refused it: "expected one argument"."""
     out = tmp_path / "t.npy"

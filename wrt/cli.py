@@ -854,6 +854,9 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
             # A warning, not a progress line: with -q the file under the final name was left without a word.
             warnings.warn(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}, the image of "
                           "those samples only", stacklevel=2)
+        else:  # said: README's partial image is of finished launches, and a render of few samples is one launch
+            warnings.warn(f"interrupted before the first launch of samples finished: {output} was not written",
+                          stacklevel=2)
         raise
     progress(
         f"rendered {width}x{height} at {_drawn_spp(args)} spp ({args.integrator})",
