@@ -1117,6 +1117,9 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     (["render", "-o", "{dir}/out"], "cannot write {dir}/out: the file name has no extension (e.g. out.png); "
                                     "supported image formats are .png, .exr, .npy"),
     (["render", "--frames", "1:2", "-o", "{dir}/out"], "cannot write {dir}/out_0001: the file name has no extension"),
+    # A name ending in a dot: it was told 'e.g. out..png', a name of no extension either.
+    (["render", "-o", "{dir}/out."], "cannot write {dir}/out.: the file name has no extension (e.g. out.png); "),
+    (["preview", "-o", "{dir}/out."], "cannot write {dir}/out.: the file name has no extension (e.g. out.png); "),
     (["render", "-o", "{dir}/out.tif"], "cannot write {dir}/out.tif: supported image formats are .png, .exr, .npy"),
     (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
     # Named as render names it: 'cannot write out: previews are written as .png' read as a wrong extension.

@@ -1390,7 +1390,9 @@ def _run_preview(args) -> int:
     if output is not None and Path(output).suffix.lower() != ".png":
         # Named as given, as wrt render names its -o; a name without an extension is told so, as render tells it
         # ('cannot write out: previews are written as .png' read as if its extension were a wrong one).
-        missing = "" if Path(output).suffix else f"the file name has no extension (e.g. {Path(output).name}.png); "
+        from .image import no_extension_words
+
+        missing = "" if Path(output).suffix else no_extension_words(Path(output))
         raise ValueError(f"cannot write {output}: {missing}previews are written as .png")
     if no_window:  # the default preview.png: checked now too, saying where the name comes from
         try:

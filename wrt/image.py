@@ -370,6 +370,12 @@ def check_not_extension_alone(path) -> Path:
     return path
 
 
+def no_extension_words(path) -> str:
+    """What an error says of ``path`` (a Path) where its name has no extension, with a name that has one: a name
+    ending in a dot (``x.``) was told 'e.g. x..png'."""
+    return f"the file name has no extension (e.g. {path.name.rstrip('.')}.png); "
+
+
 def check_image_path(path) -> Path:
     """``path`` as a Path if :meth:`Image.save` can write its format; callers check before a long render.
 
@@ -391,7 +397,7 @@ def check_image_path(path) -> Path:
     if suffix not in IMAGE_FORMATS:  # the path as given: the name alone ('null') did not say which file
         shown = given if given == given.strip() else repr(given)  # 'x.png ': a space typed after it
         # A name without one ('-o out') was told only the formats, as if its extension were a wrong one.
-        missing = "" if suffix else f"the file name has no extension (e.g. {path.name}.png); "
+        missing = "" if suffix else no_extension_words(path)
         raise ValueError(f"cannot write {shown}: {missing}supported image formats are {', '.join(IMAGE_FORMATS)}")
     if suffix == ".exr" and importlib.util.find_spec("OpenEXR") is None:
         raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)")
