@@ -1404,6 +1404,9 @@ def test_a_suite_thread_count_written_as_a_whole_float_is_taken_as_the_other_cou
     suite.write_text(f'{{"scenes": ["sphere:200"], "accels": ["wrt:sah"], "threads": [1, {written}]}}')
     threads = Grid.from_suite(str(suite)).validated().threads
     assert threads == [1, int(Decimal(written))] and all(type(t) is int for t in threads)
+    # --threads gives strings: '3.0' was refused ('must be positive integers') where the suite's 3.0 was taken
+    threads = Grid.from_suite(str(suite), {"threads": ["1", written]}).validated().threads
+    assert threads == [1, int(Decimal(written))] and all(type(t) is int for t in threads)
     suite.write_text('{"scenes": ["sphere:200"], "accels": ["wrt:sah"], "threads": [1, 2.5]}')
     with pytest.raises(ValueError, match=r"suite\.json: threads\[1\]: .*got 2\.5"):
         Grid.from_suite(str(suite)).validated()

@@ -1498,6 +1498,22 @@ def test_integer_options_take_whole_numbers_written_with_a_zero_fraction(option,
     assert getattr(build_parser().parse_args([*option, text]), dest) == int(Decimal(text))
 
 
+@pytest.mark.parametrize("text, size", [("64.0x48", (64, 48)), ("6.4e1x4.8E1", (64, 48)), ("64x48", (64, 48))])
+def test_the_preview_window_size_takes_whole_numbers_as_the_integer_options_do(text, size, capsys):
+    """``--window 64.0x48`` was refused as 'not WIDTHxHEIGHT' where ``--width 64.0`` is taken; fractions and words
+    still are refused (the oracle: decimal.Decimal's reading of each side)."""
+    from decimal import Decimal
+
+    from wrt.cli import build_parser
+
+    assert build_parser().parse_args(["preview", "--window", text]).window == size
+    assert size == tuple(int(Decimal(side)) for side in text.lower().split("x"))
+    for bad in ("64.5x48", "64x", "x48", "64x48x3", "nanx48", "1e400x48"):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args(["preview", "--window", bad])
+        assert f"'{bad}' is not WIDTHxHEIGHT" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("text", ["12345678901234567e0", "123456789012345678900e-2", "9007199254740993E0"])
 def test_integer_options_in_exponent_notation_are_read_exactly(text):
     """A float rounded a whole number of more than 16 digits (``12345678901234567e0`` to ...568). The oracle:

@@ -507,14 +507,18 @@ def _check_scaling(scaling) -> None:
 
 
 def _positive_count(value) -> int | None:
-    """``value`` as a positive int (from an int or a string of digits), else None."""
-    if isinstance(value, bool):
+    """``value`` as a positive int (from an int, or a string writing a whole number as every integer option reads
+    one: ``--threads 2.0`` was refused where a suite's ``"threads": [2.0]`` was taken), else None."""
+    if isinstance(value, str):
+        from .cli import whole_number
+
+        try:
+            value = whole_number(value.strip())
+        except OverflowError:  # past 1e300: no thread count
+            return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         return None
-    try:
-        count = int(value)
-    except (TypeError, ValueError):
-        return None
-    return count if count >= 1 and str(value).strip() == str(count) else None
+    return int(value) if value >= 1 else None
 
 
 def hardware(device) -> dict:

@@ -1273,10 +1273,12 @@ def _frame_list(frames: list, shown: int = 6) -> str:
 
 
 def _window_size(text: str) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, e.g. 1280x800") from None
+    try:  # each side a whole number as every integer option reads one ('1280.0x800' was refused, int() alone)
+        width, height = (_whole_number(v) for v in text.lower().split("x"))
+    except (ValueError, OverflowError):
+        width = height = None
+    if width is None or height is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, e.g. 1280x800")
     from .preview import check_window_size
 
     try:
