@@ -1289,3 +1289,27 @@ def test_a_resumed_render_counts_and_names_the_dropped_samples_of_its_whole_imag
                                          r"pixel, resumed renders included"):
         resumed.render(spp=5, seed=2, resume=True)
     assert resumed.dropped_samples == whole.dropped_samples
+
+
+@pytest.mark.parametrize("options, said", [
+    ({"ao_radius": 0.01}, "ao_radius applies to integrator 'ao' only; 'whitted' does not use it"),
+    ({"integrator": "normals", "max_depth": 0}, "max_depth applies to integrator 'path' and 'whitted' only; "
+                                                "'normals' does not use it"),
+    ({"integrator": "ao", "ao_radius": 0.01}, None),
+    ({"max_depth": 0}, None),
+])
+def test_integrator_options_the_integrator_does_not_use_are_warned_about_as_the_cli_warns(options, said):
+    """``wrt.render(scene, ao_radius=0.01)`` (whitted) drew the image without it, without a word, where ``wrt render
+    --ao-radius`` warns; the oracle that the option is unused: the image equals the one rendered without it."""
+    triangle = wrt.Mesh("/T", np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), np.zeros(1, int))
+    scene = wrt.Scene(meshes=[triangle])
+    size = {"width": 8, "height": 6}
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        image = wrt.render(scene, **size, **options)
+    words = [str(w.message) for w in raised if "applies to integrator" in str(w.message)]
+    assert words == ([] if said is None else [said])
+    if said is not None:
+        unused = next(name for name in ("ao_radius", "max_depth") if name in options)
+        without = {k: v for k, v in options.items() if k != unused}
+        np.testing.assert_array_equal(image.rgb, wrt.render(scene, **size, **without).rgb)

@@ -771,9 +771,14 @@ def _check_distinct_outputs(paths: list, files: list) -> None:
 
 
 def _renderer_options(args) -> dict:
-    """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device."""
-    names = ("camera", "width", "height", "accel", "integrator", "max_depth", "ao_radius")
-    return {**{name: getattr(args, name) for name in names}, "builder": _built_builder(args)}
+    """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device. ``max_depth`` and
+    ``ao_radius`` only for an integrator that reads them: the others were warned of in the flags' names
+    (:func:`_warn_unused_integrator_options`), and the Renderer would say them again in its keywords'."""
+    names = ("camera", "width", "height", "accel", "integrator")
+    options = {**{name: getattr(args, name) for name in names}, "builder": _built_builder(args)}
+    options["max_depth"] = args.max_depth if args.integrator in DEFAULT_MAX_DEPTH else None
+    options["ao_radius"] = args.ao_radius if args.integrator == "ao" else None
+    return options
 
 
 def _load_options(args) -> dict:
@@ -1045,10 +1050,11 @@ def _run_products(args, paths: list, progress) -> int:
     scene = wrt.load_usd(paths[0], time=args.time, **_load_options(args))
     progress(loaded_summary(paths[0].name, scene.stats()), time.perf_counter() - start)
     start = time.perf_counter()
+    options = _renderer_options(args)
+    for name in ("camera", "width", "height"):  # each product names its own (refused above where given)
+        del options[name]
     written = wrt.render_products(scene, directory, spp=args.spp, device=args.device, seed=args.seed,
-                                  builder=_built_builder(args), accel=args.accel, integrator=args.integrator,
-                                  max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
-                                  progress=progress.bar)
+                                  exposure=args.exposure, progress=progress.bar, **options)
     progress(f"rendered {counted(len(written), 'product')} at {_drawn_spp(args)} spp ({args.integrator})",
              time.perf_counter() - start)
     for product, out in written.items():

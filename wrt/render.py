@@ -137,6 +137,17 @@ def check_asked_pixels(scene: Scene, width: int, height: int, n_views: int, aske
                           windowed)
 
 
+def warn_unused_integrator_options(integrator: str, max_depth, ao_radius) -> None:
+    """Warns of a ``max_depth`` or ``ao_radius`` given to an integrator that does not read it, as ``wrt render`` warns
+    of ``--max-depth`` and ``--ao-radius``: ``wrt.render(scene, ao_radius=0.5)`` (whitted) drew the image without
+    it, without a word."""
+    if ao_radius is not None and integrator != "ao":
+        warnings.warn(f"ao_radius applies to integrator 'ao' only; {integrator!r} does not use it", stacklevel=3)
+    if max_depth is not None and integrator not in DEFAULT_MAX_DEPTH:
+        users = " and ".join(repr(name) for name in DEFAULT_MAX_DEPTH)
+        warnings.warn(f"max_depth applies to integrator {users} only; {integrator!r} does not use it", stacklevel=3)
+
+
 def samples_per_launch(n_pixels: int, spp: int, batch: int | None = None) -> int:
     """Samples per pixel of each launch of a render of ``spp`` samples: ``batch``, by default as many as fit in
     :data:`MAX_PATHS_PER_LAUNCH` paths (at least one), never more than ``spp``."""
@@ -698,6 +709,7 @@ class Renderer:
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}{did_you_mean(integrator, INTEGRATORS)}; valid "
                              f"integrators: {', '.join(INTEGRATORS)}")
+        warn_unused_integrator_options(integrator, max_depth, ao_radius)
         if max_depth is None:
             max_depth = DEFAULT_MAX_DEPTH.get(integrator, 1)
         integral = isinstance(max_depth, (int, np.integer)) and not isinstance(max_depth, bool)
