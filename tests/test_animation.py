@@ -1772,3 +1772,22 @@ def Scope "Render" {
     with pytest.raises(ValueError, match=rf"cannot write {re.escape(str(file))}: pixels 1e\+07 times as wide"):
         render_frame_task(_task(str(path), 1.0, file, 1, 0, 0.0, {}))
     assert renders == [] and not list(tmp_path.glob("f_*"))
+
+
+def test_a_log_that_is_a_folder_or_no_log_is_refused_before_the_first_frame(tmp_path, monkeypatch):
+    """render_frames(log=FOLDER) rendered and wrote frame 1, then stopped in Python's words ('[Errno 21] Is a
+    directory'); a file of notes got rows appended. Both are refused before any render, naming the log."""
+    path = tmp_path / "tri.usda"
+    path.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    '[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    renders = []
+    monkeypatch.setattr(wrt.Renderer, "render", lambda self, **kwargs: renders.append(kwargs))
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    (tmp_path / "logs").mkdir()
+    jobs = [(1.0, tmp_path / "f_1.png")]
+    with pytest.raises(IsADirectoryError, match=rf"log {re.escape(str(tmp_path / 'logs'))}: a directory"):
+        render_frames(path, jobs, log=tmp_path / "logs", width=4, height=3)
+    with pytest.raises(ValueError, match=rf"log {re.escape(str(notes))}: line 1 is not a JSON row"):
+        render_frames(path, jobs, log=notes, width=4, height=3)
+    assert renders == [] and not (tmp_path / "f_1.png").exists() and notes.read_text() == "my notes\n"

@@ -752,6 +752,14 @@ class LogRows(list):
         self.log_row = log_row
         self.on_row = on_row
         if self.log is not None:
+            from .render_log import check_appendable
+
+            # Before the first frame, as wrt render checks --log: a folder, or a file that is no log, failed only at
+            # the first row, after that frame was rendered and written ('[Errno 21] Is a directory').
+            if self.log.is_dir():
+                raise IsADirectoryError(f"log {self.log}: a directory; give the log a file name, e.g. "
+                                        f"{self.log / 'frames.jsonl'}")
+            check_appendable(self.log, "log")
             self.log.parent.mkdir(parents=True, exist_ok=True)
 
     def append(self, row: dict) -> None:
