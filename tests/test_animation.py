@@ -168,6 +168,21 @@ def test_frames_whose_count_passes_float_range_are_refused_naming_the_option(tex
         parse_frames(text)
 
 
+@pytest.mark.parametrize("text", ["1:2:1e-300", "0:1e200"])
+def test_a_frame_count_past_float_precision_is_said_in_a_few_digits(text):
+    """'1:2:1e-300' was refused as giving '999,999,999,999,999,903,803,069,...' frames, 300 digits of which all
+    past the 16th are float noise. The oracle: the exact count (END - START) / STEP + 1 in Fraction arithmetic."""
+    from fractions import Fraction
+
+    start, end, *step = (Fraction(part) for part in text.split(":"))
+    exact = (end - start) / (step[0] if step else 1) + 1
+    with pytest.raises(ValueError) as error:
+        parse_frames(text)
+    said = re.fullmatch(r"--frames '.*' gives about (\S+) frames; at most 1,000,000 in one run", str(error.value))
+    assert said, error.value
+    assert abs(Fraction(said.group(1)) / exact - 1) < Fraction(1, 100)
+
+
 def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):
     points = np_rng.uniform(-1, 1, (600, 3)).astype(np.float32)
     indices = np_rng.integers(0, 600, (400, 3)).astype(np.int32)

@@ -74,7 +74,12 @@ def parse_frames(text: str) -> list[float]:
         raise ValueError(f"--frames range {text!r} is empty (END < START)")
     steps = (end - start) / step + 1e-9
     if not steps < MAX_FRAMES:  # infinite too: a subnormal step, or END - START past float64
-        many = f"{int(math.floor(steps)) + 1:,}" if math.isfinite(steps) else f"more than {MAX_FRAMES:,}"
+        if not math.isfinite(steps):
+            many = f"more than {MAX_FRAMES:,}"
+        elif steps < 2**53:  # a float counts frames exactly up to here
+            many = f"{int(math.floor(steps)) + 1:,}"
+        else:  # its digits past the 16th are float noise: '1:2:1e-300' spelt out 300 of them
+            many = f"about {steps:.3g}"
         raise ValueError(f"--frames {text!r} gives {many} frames; at most {MAX_FRAMES:,} in one run")
     if max(abs(start), abs(end)) >= 10.0**FRAME_DIGITS:  # frame_output refuses them too, naming itself, not --frames
         raise ValueError(f"--frames {text!r}: frames must lie within +-{10**FRAME_DIGITS - 1:,} (a file name spells a "
