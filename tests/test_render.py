@@ -1313,3 +1313,22 @@ def test_integrator_options_the_integrator_does_not_use_are_warned_about_as_the_
         unused = next(name for name in ("ao_radius", "max_depth") if name in options)
         without = {k: v for k, v in options.items() if k != unused}
         np.testing.assert_array_equal(image.rgb, wrt.render(scene, **size, **without).rgb)
+
+
+@pytest.mark.parametrize("integrator", ["normals", "depth", "albedo"])
+def test_spp_given_to_a_quick_look_is_warned_about_as_the_cli_warns(integrator):
+    """``wrt.render(scene, integrator="normals", spp=16)`` drew one sample per pixel without a word, where ``wrt
+    render --spp 16`` warns; the oracle that the samples were not drawn: the image equals the one of spp=1."""
+    triangle = wrt.Mesh("/T", np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), np.zeros(1, int))
+    scene = wrt.Scene(meshes=[triangle])
+    size = {"width": 8, "height": 6, "integrator": integrator}
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        image = wrt.render(scene, spp=16, **size)
+    assert [str(w.message) for w in raised if "spp applies" in str(w.message)] == [
+        f"spp applies to integrator 'whitted', 'path' and 'ao' only; {integrator!r} draws one sample per pixel, "
+        "through its centre"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        one = wrt.render(scene, spp=1, **size)
+    np.testing.assert_array_equal(image.rgb, one.rgb)

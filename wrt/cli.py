@@ -846,7 +846,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     built = renderer.timers["build"][0] / 1000.0
     progress(f"built {args.accel} BVH ({_built_builder(args)}) on {renderer.device}", built)
     try:
-        image = renderer.render(spp=args.spp, seed=args.seed, progress=progress.bar)
+        image = renderer.render(spp=_drawn_spp(args), seed=args.seed, progress=progress.bar)  # --spp warned of
     except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
         image = renderer.image_so_far()
         if image is not None:
@@ -1053,7 +1053,7 @@ def _run_products(args, paths: list, progress) -> int:
     options = _renderer_options(args)
     for name in ("camera", "width", "height"):  # each product names its own (refused above where given)
         del options[name]
-    written = wrt.render_products(scene, directory, spp=args.spp, device=args.device, seed=args.seed,
+    written = wrt.render_products(scene, directory, spp=_drawn_spp(args), device=args.device, seed=args.seed,
                                   exposure=args.exposure, progress=progress.bar, **options)
     progress(f"rendered {counted(len(written), 'product')} at {_drawn_spp(args)} spp ({args.integrator})",
              time.perf_counter() - start)
@@ -1158,7 +1158,8 @@ def _run_frames(args, paths: list, progress) -> int:
             said.append(row["view"])
             progress(f"view: {row['view']}")
 
-    common = {"spp": args.spp, "seed": args.seed, "exposure": _png_exposure(args, output), "progress": progress.bar,
+    common = {"spp": _drawn_spp(args), "seed": args.seed, "exposure": _png_exposure(args, output),
+              "progress": progress.bar,
               "log": args.log, "log_row": log_row,  # a row per frame as it finishes: an interrupted run keeps them
               "on_row": say_first_view, "aov_pattern": aov_pattern}
     common.update(_renderer_options(args), **_load_options(args))

@@ -1338,6 +1338,10 @@ class Renderer:
                    "seed starts over too" if state is not None else f"{self._sums_dropped} since the previous render")
             self._warn_once(("resume starts over", "seed" if state is not None else self._sums_dropped),
                             f"resume=True starts over from no samples: {why}")
+        if quick_look and spp > 1:  # said as wrt render says --spp with a quick look: the image was of one sample
+            sampled = [name for name in INTEGRATORS if name not in QUICK_LOOKS]
+            self._warn_once(("quick look spp",), f"spp applies to integrator {', '.join(map(repr, sampled[:-1]))} and "
+                            f"{sampled[-1]!r} only; {self.integrator!r} draws one sample per pixel, through its centre")
         if quick_look:
             spp = 1
         if (state["samples"] if resuming else 0) + spp > MAX_SPP:
