@@ -882,8 +882,8 @@ def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames)
         stem, suffix = name.split(".")
         output = tmp_path / f"{stem}{mark}.{suffix}"
         assert main(["render", str(stage), *extra, "--exposure", exposure, "-o", str(output)]) == 0
-        warned = [line for line in capsys.readouterr().err.splitlines() if "exposure applies to .png" in line]
-        assert len(warned) == warns, (name, warned)  # once, in the flag's name: Image.save's is not said again
+        warned = [line for line in capsys.readouterr().err.splitlines() if "--exposure applies to .png" in line]
+        assert len(warned) == warns, (name, warned)
     written = {stem: np.load(tmp_path / f"{stem}{'_1' if frames else ''}.npy") for stem in "bc"}
     np.testing.assert_array_equal(written["b"], written["c"])  # what the warning says: written unscaled
 

@@ -155,26 +155,3 @@ def test_exr_pixel_aspect_ratios_the_header_cannot_state_are_refused_naming_the_
             image.save(tmp_path / "x.exr")
         assert not (tmp_path / "x.exr").exists()
     image.save(tmp_path / "x.png")
-
-
-@pytest.mark.parametrize("suffix", [".exr", ".npy"])
-def test_an_exposure_given_for_a_linear_file_is_warned_about_as_the_cli_warns(tmp_path, suffix):
-    """``Image.save("x.exr", exposure=2)`` wrote the linear image unscaled without a word, where ``wrt render
-    --exposure 2 -o x.exr`` warns. The oracle that it is unscaled: the file read back (OpenEXR, numpy) holds rgb."""
-    import warnings
-
-    image = wrt.Image(rgb=image_of(3, 2))
-    with warnings.catch_warnings(record=True) as raised:
-        warnings.simplefilter("always")
-        path = image.save(tmp_path / f"x{suffix}", exposure=2.0)
-    assert [str(w.message) for w in raised] == [f"exposure applies to .png images only; a {suffix} image is written "
-                                                "linear, unscaled"]
-    if suffix == ".exr":
-        with OpenEXR.File(str(path), separate_channels=True) as f:
-            read = np.stack([np.array(f.channels()[c].pixels) for c in "RGB"], axis=-1)
-    else:
-        read = np.load(path)
-    np.testing.assert_array_equal(read, image.rgb.astype(np.float32))
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        image.save(tmp_path / f"y{suffix}")  # no exposure: nothing said

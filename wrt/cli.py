@@ -647,21 +647,21 @@ def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> No
     """One warning when ``--exposure`` is given but some outputs are linear (``.exr``, ``.npy``), which it leaves
     as they are, or the integrator's image is data (:data:`wrt.render.DATA_INTEGRATORS`), which a PNG stores as it
     is: a user asking for a brighter image would otherwise get the same file without a word."""
-    from .image import DATA_EXPOSURE_WARNING, LINEAR_EXPOSURE_WARNING
+    from .image import DATA_EXPOSURE_WARNING
 
     linear = [Path(o) for o in outputs if Path(o).suffix.lower() != ".png"]
     if exposure != 0.0 and integrator in DATA_INTEGRATORS:
         warnings.warn(DATA_EXPOSURE_WARNING.format(what="--exposure", image=f"the {integrator} integrator's image"),
                       stacklevel=2)
     elif exposure != 0.0 and linear:
-        warnings.warn(LINEAR_EXPOSURE_WARNING.format(what="--exposure", name=linear[0].name), stacklevel=2)
+        warnings.warn(f"--exposure applies to .png images only; {linear[0].name} is written linear, unscaled",
+                      stacklevel=2)
 
 
-def _png_exposure(args, output) -> float:
-    """The exposure ``Image.save`` gets for ``output``: none for a data image or a linear file (.exr, .npy), which it
-    leaves unscaled (said once by :func:`_warn_unused_exposure`, before the render, and not again by each save)."""
-    linear = Path(output).suffix.lower() != ".png"
-    return 0.0 if args.integrator in DATA_INTEGRATORS or linear else args.exposure
+def _png_exposure(args) -> float:
+    """The exposure a render's PNGs get: none for a data image (said once by :func:`_warn_unused_exposure`, before the
+    render, and not again by each ``Image.save``)."""
+    return 0.0 if args.integrator in DATA_INTEGRATORS else args.exposure
 
 
 def _warn_unused_integrator_options(args) -> None:
@@ -851,7 +851,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
         image = renderer.image_so_far()
         if image is not None:
             try:
-                out = image.save(output, exposure=_png_exposure(args, output))
+                out = image.save(output, exposure=_png_exposure(args))
             except OSError as e:  # a full disk: still a stop; the OSError made a batch log an error and go on
                 warnings.warn(f"interrupted after {renderer.samples_so_far} of {args.spp} spp; the image of those "
                               f"samples was not written: {error_line(e)}", stacklevel=2)
@@ -867,7 +867,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
         f"rendered {width}x{height} at {_drawn_spp(args)} spp ({args.integrator})",
         renderer.timers["render"][0] / 1000.0,
     )
-    out = image.save(output, exposure=_png_exposure(args, output))
+    out = image.save(output, exposure=_png_exposure(args))
     progress(f"wrote {out}")
     written = [Path(out)]
     for name in args.aov:
@@ -1158,8 +1158,7 @@ def _run_frames(args, paths: list, progress) -> int:
             said.append(row["view"])
             progress(f"view: {row['view']}")
 
-    common = {"spp": _drawn_spp(args), "seed": args.seed, "exposure": _png_exposure(args, output),
-              "progress": progress.bar,
+    common = {"spp": _drawn_spp(args), "seed": args.seed, "exposure": _png_exposure(args), "progress": progress.bar,
               "log": args.log, "log_row": log_row,  # a row per frame as it finishes: an interrupted run keeps them
               "on_row": say_first_view, "aov_pattern": aov_pattern}
     common.update(_renderer_options(args), **_load_options(args))

@@ -46,7 +46,6 @@ def linear_to_srgb(x: np.ndarray) -> np.ndarray:
 # Said where an exposure is given for a data image (Image.data), whose PNG it leaves unscaled.
 DATA_EXPOSURE_WARNING = ("{what} does not scale {image}: it is data (a normals or depth quick look), which a PNG "
                          "stores as it is, not as colour")
-LINEAR_EXPOSURE_WARNING = "{what} applies to .png images only; {name} is written linear, unscaled"
 
 
 def check_exposure(exposure) -> float:
@@ -563,9 +562,6 @@ class Image:
             check_exr_pixel_aspect(self.pixel_aspect_ratio, path)
         if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
             warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
-        elif exposure != 0.0 and suffix != ".png":  # said as wrt render says --exposure with -o x.exr
-            # By its format, not its name: render_frames' workers save into a temporary file of another name.
-            warnings.warn(LINEAR_EXPOSURE_WARNING.format(what="exposure", name=f"a {suffix} image"), stacklevel=2)
 
         def write(target: Path) -> None:
             if suffix == ".png":
