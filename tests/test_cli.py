@@ -1484,12 +1484,12 @@ def test_integer_options_take_whole_numbers_in_exponent_notation(text, value):
 
 @pytest.mark.parametrize("option", [["bench", "--n-rays"], ["render", "--spp"], ["render", "--seed"],
                                     ["render", "--refine-level"], ["render", "--max-depth"],
-                                    ["preview", "--bvh-depth"]])
+                                    ["preview", "--bvh-depth"], ["preview", "--bvh-instance"]])
 @pytest.mark.parametrize("text", ["2.0", "2.", "0.2e1", "2"])
 def test_integer_options_take_whole_numbers_written_with_a_zero_fraction(option, text):
     """``--n-rays 1000.0`` was refused as 'not an integer' where a suite's ``"n_rays": 1000.0`` was taken, and
-    ``--seed`` and ``--refine-level`` refused even ``1e3``: every integer option reads a whole number in decimal, as
-    ``decimal.Decimal`` (the oracle) does."""
+    ``--seed`` and ``--refine-level`` refused even ``1e3`` (``--bvh-instance 2.0`` was a path): every integer option
+    reads a whole number in decimal, as ``decimal.Decimal`` (the oracle) does."""
     from decimal import Decimal
 
     from wrt.cli import build_parser

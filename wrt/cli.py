@@ -1295,8 +1295,13 @@ def _window_size(text: str) -> tuple[int, int]:
 
 
 def _instance_choice(text: str) -> int | str:
-    """``--bvh-instance``: an instance index (digits), else an instance path."""
-    return int(text) if text.strip().isdigit() else _non_empty(text)
+    """``--bvh-instance``: an instance index (a whole number, written as every integer option may: ``1.0`` was taken
+    for a path), else an instance path."""
+    try:
+        index = _whole_number(text.strip())
+    except OverflowError:  # past 1e300: no index any scene has, said as a path that names no instance
+        index = None
+    return index if index is not None and index >= 0 else _non_empty(text)
 
 
 def _add_preview(sub) -> None:
