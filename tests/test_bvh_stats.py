@@ -169,6 +169,17 @@ def test_parse_builders():
         parse_builders("kd")
 
 
+@pytest.mark.parametrize("name, meant", [("wrt:sah", "sah"), ("wrt:lbvh", "lbvh"), ("wrt:binned_sah", "binned_sah")])
+def test_a_builder_named_as_wrt_bench_names_an_accelerator_is_told_the_builder_of_wrt_meant(name, meant):
+    """``--builder wrt:sah`` (wrt bench's name of wrt's accelerator, README: ``wrt:BUILDER``) was told 'did you mean
+    warp:sah', Warp's tree, not the wrt builder it names; the hint now names that builder, which parse_builders
+    takes."""
+    with pytest.raises(ValueError) as error:
+        parse_builders(name)
+    assert f"(did you mean {meant!r}? " in str(error.value) and "warp:" not in str(error.value).split(";")[0]
+    assert parse_builders(meant) == [Builder.from_str(meant).value]
+
+
 def test_cli_bvh_stats_table_and_json(capsys):
     path = str(warp_assets("bunny.usd"))
     assert (

@@ -105,7 +105,11 @@ def parse_builders(text) -> list[str]:
                     names.append(Builder.from_str(name).value)
                 except ValueError:  # matched against wrt's builders alone, 'wrp:sah' meant 'sweep_sah'
                     every = [*builder_names(), "all", *(WARP_PREFIX + b for b in WARP_BUILDERS)]
-                    raise ValueError(f"unknown BVH builder {name!r}{did_you_mean(name, every)}; valid builders: "
+                    kind, _, builder = name.partition(":")
+                    # 'wrt:sah', as wrt bench names wrt's accelerator, was told 'did you mean warp:sah': Warp's tree
+                    meant = (f" (did you mean {builder!r}? wrt's builders are named without wrt bench's 'wrt:')"
+                             if kind == "wrt" and builder in builder_names() else did_you_mean(name, every))
+                    raise ValueError(f"unknown BVH builder {name!r}{meant}; valid builders: "
                                      f"{', '.join(every)}") from None
     if not names:
         raise ValueError(f"no builder given; valid builders: {', '.join(builder_names())}, all, warp:<name>")
