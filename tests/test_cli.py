@@ -1514,6 +1514,20 @@ def test_the_preview_window_size_takes_whole_numbers_as_the_integer_options_do(t
         assert f"'{bad}' is not WIDTHxHEIGHT" in capsys.readouterr().err
 
 
+def test_a_builder_named_as_wrt_bench_names_warps_tree_is_told_the_options_that_build_it(capsys):
+    """``wrt render --builder warp:sah`` (wrt bench's and bvh-stats' name of wp.Mesh's tree) was refused listing the
+    choices alone; the error now says how render asks for that tree (README: ``--accel warp`` picks wp.Mesh,
+    ``--builder`` its builder). wrt preview, which draws wrt's trees alone and has no --accel, gives no such hint."""
+    from wrt.cli import build_parser
+
+    for command, hint in (("render", True), ("preview", False)):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args([command, "--builder", "warp:sah"])
+        (line,) = error_lines(capsys.readouterr().err)
+        assert ("invalid choice: 'warp:sah' (Warp's wp.Mesh tree is --accel warp --builder sah)" in line) == hint, line
+    assert build_parser().parse_args(["render", "--accel", "warp", "--builder", "sah"]).builder == "sah"
+
+
 @pytest.mark.parametrize("text", ["12345678901234567e0", "123456789012345678900e-2", "9007199254740993E0"])
 def test_integer_options_in_exponent_notation_are_read_exactly(text):
     """A float rounded a whole number of more than 16 digits (``12345678901234567e0`` to ...568). The oracle:

@@ -202,6 +202,10 @@ class _Parser(argparse.ArgumentParser):
             super()._check_value(action, value)
         except argparse.ArgumentError as e:
             hint = did_you_mean(value, action.choices) if action.choices is not None else ""
+            kind, _, builder = str(value).partition(":")
+            accel = any("--accel" in a.option_strings for a in self._actions)  # wrt render's; preview draws wrt's
+            if action.dest == "builder" and accel and kind == "warp" and builder in WARP_BUILDERS:
+                hint = f" (Warp's wp.Mesh tree is --accel warp --builder {builder})"  # bench's name: was no hint
             if not hint or repr(value) not in e.message:
                 raise
             raise argparse.ArgumentError(action, e.message.replace(repr(value), repr(value) + hint, 1)) from None
