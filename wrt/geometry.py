@@ -292,42 +292,21 @@ def finite_max(a: float, b: float) -> float:
 
 # Rays in a box face plane. A zero direction component (safe_inverse's FLAT_INVERSE) keeps the ray in a plane of
 # constant coordinate; in a box's face plane, bound - origin is exactly 0, so that slab shrank to t = 0 and the box
-# was culled: holes at seams between tiles or instances under axis-aligned rays. Such slabs are widened, in the way
-# that is free on each device:
-# - on the CPU, the origin is moved per plane once per ray (``box_origins``), so boxes within a hair of the ray's
-#   plane count as touched (never a new miss): nothing is added per box test. The slab then ends at the margin times
-#   FLAT_INVERSE, so the margin is at least 2^-124 of the distances the tree's points and the origin lie at, over
-#   the direction's length (``flat_margin``): 4.7 times any t at which the ray can meet the tree. A fixed 1e-18
-#   ended the slab at t = 1e20: rays along an edge in a box face plane missed beyond it (a wall at 1e20, or a unit
-#   one seen from 1e20 away, or through an instance scaled by 2^66, whose local direction is 2^-66 long);
-# - on CUDA, where two more origins would cost registers, a flat slab that holds the ray's plane (its two distances
-#   of opposite signs, or 0: the signs of bound - origin are exact) is made infinite per box test, where a slack of
-#   1e20 of t was added to it, which ended it at t = 1e20 as the CPU's margin did. ``box_origins`` returns the
-#   origin itself.
-# The other slabs are exactly as before: the snippets give their values back unchanged.
+# was culled: holes at seams between tiles or instances under axis-aligned rays. Such slabs are widened by moving
+# the origin per plane once per ray (``box_origins``: up for lower planes, down for upper ones), so boxes within a
+# hair of the ray's plane count as touched (never a new miss) and nothing is added per box test. The slab then ends
+# at the margin times FLAT_INVERSE, so the margin is at least 2^-124 of the distances the tree's points and the
+# origin lie at, over the direction's length (``flat_margin``): 4.7 times any t at which the ray can meet the tree.
+# A fixed 1e-18 ended the slab at t = 1e20: rays along an edge in a box face plane missed beyond it (a wall at 1e20,
+# or a unit one seen from 1e20 away, or through an instance scaled by 2^66, whose local direction is 2^-66 long).
+# CUDA does the same (GPU_NOTES row 94): its slack of 1e20 of t per box test ended the slab there too, and a flat
+# slab made infinite per box test when it holds the ray's plane cost the BVH4 closest hit 12-17% on the H100 (a
+# compare and a select per slab and child, each waiting on the box's loads); the two origins cost it 1-8%.
 _ORIGIN_SHIFT = """
-#if defined(__CUDA_ARCH__)
-    return 0.0f;
-#else
     float a = o < 0.0f ? -o : o;
     float margin = a * 2.384185791015625e-07f;  // 2^-22: at least two ulps of o
     margin = margin > least ? margin : least;
     return (d < 1.0e-38f && d > -1.0e-38f) ? sign * margin : 0.0f;
-#endif
-"""
-_FLAT_SLAB_ENTRY = """
-#if defined(__CUDA_ARCH__)
-    return (fabsf(inv) >= 1.0e38f && t <= 0.0f) ? -INFINITY : t;
-#else
-    return t;
-#endif
-"""
-_FLAT_SLAB_EXIT = """
-#if defined(__CUDA_ARCH__)
-    return (fabsf(inv) >= 1.0e38f && t >= 0.0f) ? INFINITY : t;
-#else
-    return t;
-#endif
 """
 FLAT_MARGIN_SCALE = wp.constant(2.0**-124)  # times FLAT_INVERSE (1e38): 4.7, over twice sqrt(3) (see flat_margin)
 FLAT_MARGIN_LEAST = wp.constant(1.0e-18)
@@ -336,19 +315,8 @@ FLAT_MARGIN_MOST = wp.constant(2.0**100)  # far beyond any t float32 holds; keep
 
 @wp.func_native(_ORIGIN_SHIFT)
 def origin_shift(o: float, d: float, least: float, sign: float) -> float:
-    """CPU: ``sign`` times a margin (two ulps of ``o``, at least ``least``) where the direction component ``d`` is
-    zero (as ``safe_inverse`` sees it), else 0; CUDA: 0 (see the comment above)."""
-
-
-@wp.func_native(_FLAT_SLAB_ENTRY)
-def flat_slab_entry(t: float, inv: float) -> float:
-    """CUDA: ``-inf`` for the entry ``t`` of a flat slab (``inv`` is ``FLAT_INVERSE``) that holds the ray's plane,
-    else ``t``; CPU: ``t`` (see the comment above)."""
-
-
-@wp.func_native(_FLAT_SLAB_EXIT)
-def flat_slab_exit(t: float, inv: float) -> float:
-    """CUDA: ``+inf`` for the exit ``t`` of a flat slab that holds the ray's plane, else ``t``; CPU: ``t``."""
+    """``sign`` times a margin (two ulps of ``o``, at least ``least``) where the direction component ``d`` is zero (as
+    ``safe_inverse`` sees it), else 0 (see the comment above)."""
 
 
 @wp.func
@@ -359,7 +327,7 @@ def box_reach(lower: wp.vec3, upper: wp.vec3):
 
 @wp.func
 def flat_margin(origin: wp.vec3, direction: wp.vec3, reach: float):
-    """The least margin ``box_origins`` moves a ray off its flat planes by on the CPU: ``FLAT_MARGIN_SCALE`` of
+    """The least margin ``box_origins`` moves a ray off its flat planes by: ``FLAT_MARGIN_SCALE`` of
     ``max(|origin|, reach) / |direction|`` (largest components; ``reach``: of the tree's root box, ``box_reach``),
     at least ``FLAT_MARGIN_LEAST``. A point ``p`` of the tree meets the ray at ``|t| <= sqrt(3) (|p| + |origin|) /
     |direction|``, at most twice ``sqrt(3)`` of that ratio, and the flat slab ends at the margin times FLAT_INVERSE,
@@ -372,7 +340,7 @@ def flat_margin(origin: wp.vec3, direction: wp.vec3, reach: float):
 @wp.func
 def box_origins(origin: wp.vec3, direction: wp.vec3, reach: float):
     """The origins that ``intersect_ray_box`` measures a box's lower and upper planes from: ``origin`` moved up and
-    down by a margin along the axes that ``direction`` does not move along (on the CPU; see the comment above), for a
+    down by a margin along the axes that ``direction`` does not move along (see the comment above), for a
     tree whose root box reaches ``reach`` (``box_reach``) from the origin. Only for rays that can hit
     (``ray_can_hit``: a finite origin, a direction not zero)."""
     least = flat_margin(origin, direction, reach)
@@ -401,12 +369,12 @@ def intersect_ray_box(
     """
     t0 = wp.cw_mul(lower - origin_lower, inv_dir)
     t1 = wp.cw_mul(upper - origin_upper, inv_dir)
-    lo_x = flat_slab_entry(finite_min(t0[0], t1[0]), inv_dir[0])
-    lo_y = flat_slab_entry(finite_min(t0[1], t1[1]), inv_dir[1])
-    lo_z = flat_slab_entry(finite_min(t0[2], t1[2]), inv_dir[2])
-    hi_x = flat_slab_exit(finite_max(t0[0], t1[0]), inv_dir[0])
-    hi_y = flat_slab_exit(finite_max(t0[1], t1[1]), inv_dir[1])
-    hi_z = flat_slab_exit(finite_max(t0[2], t1[2]), inv_dir[2])
+    lo_x = finite_min(t0[0], t1[0])
+    lo_y = finite_min(t0[1], t1[1])
+    lo_z = finite_min(t0[2], t1[2])
+    hi_x = finite_max(t0[0], t1[0])
+    hi_y = finite_max(t0[1], t1[1])
+    hi_z = finite_max(t0[2], t1[2])
     near = finite_max(finite_max(lo_x, lo_y), finite_max(lo_z, t_min))
     far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf

@@ -35,7 +35,6 @@ from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
-from .wide_cpu import on_cpu
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -214,14 +213,13 @@ def device_compact_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array)
 @wp.func
 def root_reach(bvh: DeviceCompactBvh):
     """``geometry.box_reach`` of the tree's root box, the union of inner node 0's two child boxes (a root leaf's empty
-    second child holds zeros), for ``box_origins``; 0 on CUDA, whose ``box_origins`` does not use it."""
+    second child holds zeros), for ``box_origins``."""
     reach = float(0.0)
-    if on_cpu():
-        a = bvh.xy0[0]
-        b = bvh.xy1[0]
-        z = bvh.zz[0]
-        for k in range(4):
-            reach = wp.max(reach, wp.max(wp.max(wp.abs(a[k]), wp.abs(b[k])), wp.abs(z[k])))
+    a = bvh.xy0[0]
+    b = bvh.xy1[0]
+    z = bvh.zz[0]
+    for k in range(4):
+        reach = wp.max(reach, wp.max(wp.max(wp.abs(a[k]), wp.abs(b[k])), wp.abs(z[k])))
     return reach
 
 

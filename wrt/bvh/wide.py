@@ -32,6 +32,7 @@ import warp as wp
 
 from ..geometry import (
     box_origins,
+    box_reach,
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
@@ -197,14 +198,20 @@ def _store_children(bvh: DeviceWideBvh, lowers: wp.array, uppers: wp.array, link
 @wp.func
 def root_reach(bvh: DeviceWideBvh):
     """``geometry.box_reach`` of the tree's root box, the union of wide node 0's child boxes (the empty slots' are
-    infinite and left out), for ``box_origins``; on the CPU, from its box runs (``wide_cpu``). 0 on CUDA, whose
-    ``box_origins`` does not use it."""
+    infinite and left out), for ``box_origins``: on the CPU from its box runs (``wide_cpu``), on CUDA from its child
+    records."""
     reach = float(0.0)
     if on_cpu():
         for k in range(BOX_PLANES * bvh.width):
             x = wp.abs(bvh.boxes[k])
             if x < wp.inf:
                 reach = wp.max(reach, x)
+    else:
+        for j in range(bvh.width):
+            lower, upper, link = load_child(bvh.children, j)
+            r = box_reach(lower, upper)
+            if r < wp.inf:
+                reach = wp.max(reach, r)
     return reach
 
 
