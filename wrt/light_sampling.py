@@ -42,6 +42,7 @@ from .glowing_hulls import flat_front, flat_shape, hull_pdf, sample_hull
 from .glowing_spheres import GLOW_HULL
 from .glowing_tubes import TUBE_OPEN, sample_tube, tube_pdf, tube_pdf_terms, tube_point_density
 from .ies import ies_factor
+from .instance_corners import instance_corners
 from .light_features import ALL_FEATURES, LightFeatures
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
@@ -78,7 +79,7 @@ from .spherical_rect import (
 )
 from .spherical_triangle import sample_spherical_triangle, seen_solid_angle
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
-from .transforms import corners_to_world, normal_to_world
+from .transforms import normal_to_world
 
 LIGHT_DISTANT = wp.constant(0)
 LIGHT_SPHERE = wp.constant(1)
@@ -686,7 +687,7 @@ def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
     edge length squared, overflowed for a triangle 1e19 wide and vanished for one 1e-20 wide). It is turned to the
     front side: a mirroring instance transform reverses the corners' winding, not the side that
     :func:`wrt.shade.hit_point` calls the front (its normal moves by the inverse transpose). The corners move by
-    :func:`wrt.transforms.corners_to_world`, as ``hit_point``'s do, so sampled points lie on the surface hit."""
+    :func:`wrt.instance_corners.instance_corners`, as ``hit_point``'s do, so sampled points lie on the surface hit."""
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
@@ -694,7 +695,7 @@ def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
     if instance >= 0:
         m = scene.world_to_local[instance]
         front = normal_to_world(m, cr)
-        a, b, c = corners_to_world(m, a, b, c)
+        a, b, c = instance_corners(scene, instance, a, b, c)
         cr, down = scaled_cross(a, b, c)
         if wp.dot(cr, front) < 0.0:
             cr = -cr

@@ -81,6 +81,11 @@ class DeviceScene:
     num_opacities: int  # T + S when any geometry has a displayOpacity, else 0 (then opacities is a placeholder)
     instance_opacities: wp.array[float]  # (N,) each instance's displayOpacity (Instances.opacities; NaN: none), or (1,)
     num_instance_opacities: int  # N when any instance has an opacity, else 0 (then instance_opacities is a placeholder)
+    blas_centres: wp.array[wp.vec3]  # (N,) the point of each instance's prototype its BLAS is built about
+    # (wrt.tlas.blas_centres), or (1,)
+    blas_offsets: wp.array[wp.vec3]  # (N,) where each instance places that point, less its origin
+    # (wrt.tlas.blas_offsets), or (1,)
+    num_blas_offsets: int  # N when a prototype's BLAS is built about its centre, else 0 (the arrays are placeholders)
 
 
 # A stage's metersPerUnit below this, or not finite, is not a unit: load_usd falls back to centimetres.
@@ -1739,6 +1744,7 @@ class Scene:
             s.num_instance_opacities = len(instance_opacities)
             s.instance_opacities = wp.array(instance_opacities if len(instance_opacities) else np.full(1, np.nan),
                                             dtype=float, device=device)
+            s.blas_centres, s.blas_offsets, s.num_blas_offsets = self._blas_origin_arrays(device)
             self._cache[key] = s
         return self._cache[key]
 
@@ -1763,6 +1769,21 @@ class Scene:
                                 wp.array(normals, dtype=wp.vec3, device=device),
                                 wp.array(colors, dtype=wp.vec3, device=device))
         return self._cache[key]
+
+    def _blas_origin_arrays(self, device) -> tuple:
+        """``(blas_centres, blas_offsets, num_blas_offsets)`` of :class:`DeviceScene`: each instance's prototype's
+        :func:`wrt.tlas.blas_centres` row ``m`` and its :func:`wrt.tlas.blas_offsets` ``L m``, the float32 values the
+        TLAS moves rays by, so that shading moves an instance's corners to the world about the same point
+        (:func:`wrt.instance_corners.instance_corners`); one-entry placeholders when no BLAS is built about a centre."""
+        from .tlas import blas_centres, blas_offsets
+
+        centres = blas_centres(self)[self.instances.prototype] if len(self.instances) else np.zeros((0, 3))
+        if not centres.any():
+            zero = wp.zeros(1, dtype=wp.vec3, device=device)
+            return zero, zero, 0
+        offsets = blas_offsets(self.instances.to_world, centres)
+        return (wp.array(centres.astype(np.float32), dtype=wp.vec3, device=device),
+                wp.array(offsets, dtype=wp.vec3, device=device), len(centres))
 
     def _instance_color_arrays(self, device) -> tuple:
         """``(instance_colors, num_instance_colors, takes_instance_color)`` of :class:`DeviceScene`: one-entry

@@ -46,6 +46,7 @@ import warp as wp
 from .camera import DeviceCamera, clipped_ray, film_ray
 from .floats import FLOAT32_MAX, largest_magnitude
 from .geometry import face_normal, stable_length
+from .instance_corners import instance_corners
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
@@ -53,7 +54,6 @@ from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
 from .transforms import (
     abs_vec,
-    corners_to_world,
     inverse_transform_magnitude,
     inverse_transform_vector,
     linear_part,
@@ -284,7 +284,7 @@ def hit_point(
         m = scene.world_to_local[instance]
         h.err = inverse_transform_magnitude(m, h.err)
         prototype_sliver = sliver_scale(a, b, c)
-        a, b, c = corners_to_world(m, a, b, c)
+        a, b, c = instance_corners(scene, instance, a, b, c)  # about the BLAS's centre, as traced
         h.p = point_in_triangle(a, b, c, u, v)  # from the world corners, which the neighbours share
         # An instance that stretches its prototype unevenly moves ray origins into prototype space (tlas.moved_ray)
         # rounded at the scale of its largest stretch, and its world triangles rest on that rounding at the scale of

@@ -98,6 +98,20 @@ def corners_to_world(m: mat34, a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 
 @wp.func
+def corners_to_world_about(m: mat34, centre: wp.vec3, offset: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """:func:`corners_to_world` of corners ``a, b, c`` of a prototype whose BLAS is built about ``centre``
+    (:func:`wrt.tlas.blas_centres`), which its instance places ``offset`` from its origin ``c_m`` (``L centre``,
+    :func:`wrt.tlas.blas_offsets`): each corner moved by ``(A^-1 (p - centre) + offset) + c_m``, as the trace moves
+    rays into that BLAS. ``A^-1`` is the float32 inverse of ``A``, whose rounding moves a point by its relative error
+    times the point's distance from where it is applied: applied to ``p`` itself, the corners of sheared octahedra
+    50 of their sizes off their prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
+    inverse = inverse_linear(m)
+    origin = translation(m)
+    return ((inverse * (a - centre) + offset) + origin, (inverse * (b - centre) + offset) + origin,
+            (inverse * (c - centre) + offset) + origin)
+
+
+@wp.func
 def inverse_transform_vector(m: mat34, v: wp.vec3):
     """The vector that ``m`` maps to ``v``: ``A^-1 v`` (a local tangent in world space, for a world-to-local ``m``)."""
     return inverse_linear(m) * v
