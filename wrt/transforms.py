@@ -87,26 +87,24 @@ def inverse_transform_point(m: mat34, p: wp.vec3):
 
 
 @wp.func
-def corners_to_world(m: mat34, a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """Corners ``a, b, c`` of a prototype-space triangle in world space, for its instance's world-to-local ``m``:
-    each corner moved by ``A^-1 p + c``. The one rule both the hit point (:func:`wrt.shade.hit_point`) and light
-    sampling (:func:`wrt.light_sampling.emitter_triangle`) place an instanced triangle by, so that a point sampled
-    on an emitter lies on the surface a ray hits (to the bit)."""
-    inverse = inverse_linear(m)
-    offset = translation(m)
-    return inverse * a + offset, inverse * b + offset, inverse * c + offset
+def corners_to_world(inverse: wp.mat33, origin: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """Corners ``a, b, c`` of a prototype-space triangle in world space, for its instance's local-to-world linear part
+    ``inverse`` (``A^-1``) and origin ``origin`` (``c`` of its world-to-local ``[A | c]``): each corner moved by
+    ``A^-1 p + c``. :func:`wrt.instance_corners.instance_corners` is the one rule both the hit point
+    (:func:`wrt.shade.hit_point`) and light sampling (:func:`wrt.light_sampling.emitter_triangle`) place an
+    instanced triangle by, so that a point sampled on an emitter lies on the surface a ray hits (to the bit)."""
+    return inverse * a + origin, inverse * b + origin, inverse * c + origin
 
 
 @wp.func
-def corners_to_world_about(m: mat34, centre: wp.vec3, offset: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+def corners_to_world_about(inverse: wp.mat33, origin: wp.vec3, centre: wp.vec3, offset: wp.vec3, a: wp.vec3,
+                           b: wp.vec3, c: wp.vec3):
     """:func:`corners_to_world` of corners ``a, b, c`` of a prototype whose BLAS is built about ``centre``
-    (:func:`wrt.tlas.blas_centres`), which its instance places ``offset`` from its origin ``c_m`` (``L centre``,
-    :func:`wrt.tlas.blas_offsets`): each corner moved by ``(A^-1 (p - centre) + offset) + c_m``, as the trace moves
-    rays into that BLAS. ``A^-1`` is the float32 inverse of ``A``, whose rounding moves a point by its relative error
-    times the point's distance from where it is applied: applied to ``p`` itself, the corners of sheared octahedra
-    50 of their sizes off their prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
-    inverse = inverse_linear(m)
-    origin = translation(m)
+    (:func:`wrt.tlas.blas_centres`), which its instance places ``offset`` from its origin (``L centre``,
+    :func:`wrt.tlas.blas_offsets`): each corner moved by ``(A^-1 (p - centre) + offset) + c``, as the trace moves
+    rays into that BLAS. ``A^-1``'s rounding moves a point by its relative error times the point's distance from
+    where it is applied: applied to ``p`` itself, the corners of sheared octahedra 50 of their sizes off their
+    prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
     return ((inverse * (a - centre) + offset) + origin, (inverse * (b - centre) + offset) + origin,
             (inverse * (c - centre) + offset) + origin)
 
