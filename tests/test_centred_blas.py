@@ -1,5 +1,5 @@
 """A prototype whose triangles lie far off its origin has its BLAS built about their box's centre ``m``
-(:func:`wrt.tlas.blas_centres`), and each instance's ray is moved into it by ``L m`` more (``blas_offsets``). Every
+(:func:`wrt.tlas.blas_centres`), and each instance's ray is moved into it from ``c + L m`` (``blas_origins``). Every
 other reader of the hit (shading's point, normals and primvars, light sampling of a glowing instance, shadow rays,
 the cost AOV) and every later state of the accelerator (instances moved, prototype points refitted so that the
 centre moves) must see the same surfaces as the equivalent scene whose prototype lies at its origin and whose
@@ -252,3 +252,29 @@ def test_shading_points_of_sheared_instances_lie_on_their_triangles(offset):
     normal /= np.linalg.norm(normal, axis=1)[:, None]
     off_plane = np.abs(((points[met] - p0) * normal).sum(axis=1))
     assert off_plane.max() < 2e-3, f"{np.count_nonzero(off_plane >= 2e-3)} shading points off (max {off_plane.max()})"
+
+
+def test_instances_that_bring_a_far_off_prototype_back_are_hit_where_float64_puts_them():
+    """Turned, stretched (some mirrored) instances of an octahedron 1e6 off its prototype's origin whose transforms
+    bring it back within 60 of the world origin (``c`` near ``-L m``, up to 2e6): rays from 3 to 30 away aimed well
+    inside random triangles hit that triangle at the float64 ``t`` on the triangles placed from each instance's
+    float32 origin ``c`` (which float32 holds to 0.125 there; shading and shapes place the instance from it too).
+    With ``c`` and ``L m`` held apart, each ray's ``origin - c`` was rounded at ``c``'s size: the octahedra were met
+    up to 0.125 off, ray by ray (rays hit other triangles and missed); the BLAS's origin ``c + L m`` is held as the
+    float32 nearest it and what that leaves (``wrt.tlas.blas_origins``), so ``origin - (c + L m)`` is exact there."""
+    rng = np.random.default_rng(11)
+    offset = np.array([1e6, -3e5, 2e5])
+    back = np.eye(4)
+    back[:3, 3] = -offset
+    to_world = turned_placements(rng) @ back
+    scene, _, indices = octahedra(offset, to_world)
+    placed = to_world.copy()
+    placed[:, :3, 3] = to_world[:, :3, 3].astype(np.float32)  # the instances' float32 origins
+    points = (OCTAHEDRON[0].astype(np.float64) + offset).astype(np.float32).astype(np.float64)
+    world = np.concatenate([points @ m[:3, :3].T + m[:3, 3] for m in placed])
+    origins, directions, t, row, clear, allowed = aimed_rays(rng, world, indices)
+    hits = wrt.trace(scene, origins, directions)
+    wrong = np.count_nonzero(hits.prim[clear] != row[clear])
+    assert wrong == 0, f"{wrong} of {clear.sum()} rays hit another triangle or missed"
+    off = np.abs(hits.t - t) > allowed
+    assert not off[clear].any(), f"{np.count_nonzero(off[clear])} of {clear.sum()} rays hit off the float64 t"

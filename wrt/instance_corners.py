@@ -25,8 +25,8 @@ def instance_corners(scene: DeviceScene, instance: int, a: wp.vec3, b: wp.vec3, 
     wb = b
     wc = c
     if instance < scene.num_blas_offsets:
-        wa, wb, wc = corners_to_world_about(inverse, origin, scene.blas_centres[instance], scene.blas_offsets[instance],
-                                            a, b, c)
+        wa, wb, wc = corners_to_world_about(inverse, scene.blas_origins[instance], scene.blas_centres[instance],
+                                            scene.blas_origin_rests[instance], a, b, c)
     else:
         wa, wb, wc = corners_to_world(inverse, origin, a, b, c)
     return wa, wb, wc

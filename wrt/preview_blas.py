@@ -5,7 +5,7 @@ A scene with instances is traced through a two-level BVH (:mod:`wrt.tlas`), whos
 default: a box per instance or two, nothing of the trees inside them. Here the BLAS of the chosen instance's
 prototype (built once in prototype space, or scaled by ``2^k`` for an instance of :func:`wrt.tlas.instance_exponents`
 ``k``, and about its box's centre ``m`` where :func:`wrt.tlas.blas_centres` says so) has its nodes' corners moved by
-``to_world @ diag(2^-k)``, offset by ``L m`` (:func:`wrt.tlas.blas_offsets`): the boxes are then the
+``to_world @ diag(2^-k)``, placed at the BLAS's origin (:func:`wrt.tlas.blas_origins`): the boxes are then the
 parallelepipeds the instance's rays meet, seen in the world.
 """
 
@@ -15,7 +15,7 @@ import numpy as np
 
 from .bvh import FlatBvh
 from .errors import did_you_mean
-from .tlas import blas_centres, blas_offsets, blas_parts, instance_exponents
+from .tlas import blas_centres, blas_origins, blas_parts, instance_exponents
 
 SUGGESTION_LIMIT = 10_000  # most instance paths searched for a close one to name in the error (difflib is quadratic)
 
@@ -96,8 +96,10 @@ def instance_blas(accel, scene, row: int) -> tuple[FlatBvh, np.ndarray]:
     for b, (part, _, _, k) in enumerate(blas_parts(scene)):
         if part == prototype + 1 and k == exponent:
             to_world = np.asarray(instances.to_world[row], np.float64) @ np.diag([2.0**-exponent] * 3 + [1.0])
-            # Built about its centre: placed where the trace places it (wrt.tlas.blas_offsets).
-            to_world[:3, 3] += blas_offsets(instances.to_world[row][None], blas_centres(scene)[prototype][None])[0]
+            centre = blas_centres(scene)[prototype]
+            if centre.any():  # built about its centre: placed where the trace places it (wrt.tlas.blas_origins)
+                origin, rest = blas_origins(instances.to_world[row][None], centre[None])
+                to_world[:3, 3] = origin[0].astype(np.float64) + rest[0]
             return accel.blas[b], to_world
     raise ValueError(f"{name} has no BLAS: its prototype holds no triangles (analytic shapes are TLAS entries of "
                      "their own, drawn by the TLAS boxes)")

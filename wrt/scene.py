@@ -83,8 +83,9 @@ class DeviceScene:
     num_instance_opacities: int  # N when any instance has an opacity, else 0 (then instance_opacities is a placeholder)
     blas_centres: wp.array[wp.vec3]  # (N,) the point of each instance's prototype its BLAS is built about
     # (wrt.tlas.blas_centres), or (1,)
-    blas_offsets: wp.array[wp.vec3]  # (N,) where each instance places that point, less its origin
-    # (wrt.tlas.blas_offsets), or (1,)
+    blas_origins: wp.array[wp.vec3]  # (N,) where each instance places that point, the nearest float32
+    # (wrt.tlas.blas_origins), or (1,)
+    blas_origin_rests: wp.array[wp.vec3]  # (N,) what that float32 leaves of it, or (1,)
     num_blas_offsets: int  # N when a prototype's BLAS is built about its centre, else 0 (the arrays are placeholders)
     local_linear: wp.array[wp.mat33]  # (N,) each instance's to-world linear part L in float32 (NaN where float32
     # cannot hold it: the float32 inverse of A is taken there), or (1,)
@@ -1746,7 +1747,8 @@ class Scene:
             s.num_instance_opacities = len(instance_opacities)
             s.instance_opacities = wp.array(instance_opacities if len(instance_opacities) else np.full(1, np.nan),
                                             dtype=float, device=device)
-            s.blas_centres, s.blas_offsets, s.num_blas_offsets = self._blas_origin_arrays(device)
+            s.blas_centres, s.blas_origins, s.blas_origin_rests, s.num_blas_offsets = self._blas_origin_arrays(
+                device)
             s.local_linear = wp.array(self._local_linear(), dtype=wp.mat33, device=device)
             self._cache[key] = s
         return self._cache[key]
@@ -1774,19 +1776,21 @@ class Scene:
         return self._cache[key]
 
     def _blas_origin_arrays(self, device) -> tuple:
-        """``(blas_centres, blas_offsets, num_blas_offsets)`` of :class:`DeviceScene`: each instance's prototype's
-        :func:`wrt.tlas.blas_centres` row ``m`` and its :func:`wrt.tlas.blas_offsets` ``L m``, the float32 values the
-        TLAS moves rays by, so that shading moves an instance's corners to the world about the same point
-        (:func:`wrt.instance_corners.instance_corners`); one-entry placeholders when no BLAS is built about a centre."""
-        from .tlas import blas_centres, blas_offsets
+        """``(blas_centres, blas_origins, blas_origin_rests, num_blas_offsets)`` of :class:`DeviceScene`: each
+        instance's prototype's :func:`wrt.tlas.blas_centres` row ``m`` and where the instance places it
+        (:func:`wrt.tlas.blas_origins`), the float32 values the TLAS moves rays by, so that shading moves an instance's
+        corners to the world about the same point (:func:`wrt.instance_corners.instance_corners`); one-entry
+        placeholders when no BLAS is built about a centre."""
+        from .tlas import blas_centres, blas_origins
 
         centres = blas_centres(self)[self.instances.prototype] if len(self.instances) else np.zeros((0, 3))
         if not centres.any():
             zero = wp.zeros(1, dtype=wp.vec3, device=device)
-            return zero, zero, 0
-        offsets = blas_offsets(self.instances.to_world, centres)
+            return zero, zero, zero, 0
+        origins, rests = blas_origins(self.instances.to_world, centres)
         return (wp.array(centres.astype(np.float32), dtype=wp.vec3, device=device),
-                wp.array(offsets, dtype=wp.vec3, device=device), len(centres))
+                wp.array(origins, dtype=wp.vec3, device=device), wp.array(rests, dtype=wp.vec3, device=device),
+                len(centres))
 
     def _local_linear(self) -> np.ndarray:
         """``(max(N, 1), 3, 3)`` float32: each instance's to-world linear part ``L``, rounded once from float64, that

@@ -34,7 +34,7 @@ An instance scaled past ``2^100`` (or below ``2^-100``) is traced in a copy of i
 of two that undoes its scale (:func:`instance_exponents`): moved into its own space, a ray's direction is as long as
 the inverse scale, and at 1e36 its components below 1e-38 (the box test's zero) were 1% of it, at 3e-39 it overflowed.
 
-Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance (and 12
+Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance (and 24
 bytes more where a prototype's BLAS is built about its centre, :func:`blas_centres`); the unique
 triangles once per prototype, plus once more per other power of two its instances are traced at (only instances
 scaled past ``2^100`` or below ``2^-100`` ask for one: :func:`blas_parts`); see
@@ -100,8 +100,10 @@ class DeviceTlas:
     entry_blas: wp.array[wp.int32]  # slot -> BLAS index into blases, or -1 - k for analytic shape entry k
     entry_instance: wp.array[wp.int32]  # slot -> instance (row of world_to_local), -1: world space, no transform
     world_to_local: wp.array[mat34]  # per instance: world -> prototype space
-    blas_offsets: wp.array[wp.vec3]  # per instance: its BLAS's origin less its own, world space (blas_offsets);
-    # one zero when no prototype is built about a centre (has_offsets 0), as in nearly every scene
+    blas_origins: wp.array[wp.vec3]  # per instance: its BLAS's origin in the world, the nearest float32
+    # (blas_origins), and blas_origin_rests what that float32 leaves of it; one zero each when no prototype is built
+    # about a centre (has_offsets 0), as in nearly every scene
+    blas_origin_rests: wp.array[wp.vec3]
     blases: wp.array[DeviceBvh]  # one BLAS per prototype (prototype space) plus the world-space one
     blas_first: wp.array[wp.int32]  # geometry id of triangle 0 of each BLAS
     shape_xforms: wp.array[mat34]  # per shape entry: world -> the shape's canonical space (an instanced shape's
@@ -111,7 +113,7 @@ class DeviceTlas:
     shape_params: wp.array[wp.vec4]  # per unique shape: its parameters
     num_triangles: int  # unique triangles; geometry ids from here on are shapes
     num_entries: int  # entries in the TLAS; 0 means every ray misses
-    has_offsets: int  # 1 when blas_offsets holds one row per instance, 0 when it holds one zero
+    has_offsets: int  # 1 when blas_origins and blas_origin_rests hold one row per instance, 0 when one zero
 
 
 # A ray is moved (moved_ray) only when its local origin lies farther from the local origin than twice its geometry's
@@ -122,13 +124,16 @@ FAR_ORIGIN = wp.constant(2.0)
 
 
 @wp.func
-def moved_ray(m: mat34, offset: wp.vec3, origin: wp.vec3, direction: wp.vec3, reach: float):
+def moved_ray(m: mat34, base: wp.vec3, rest: wp.vec3, origin: wp.vec3, direction: wp.vec3, reach: float):
     """``(o, d, t0)``: the ray in the local space of world-to-local ``m`` (an instance's, or a shape's canonical
-    space) whose origin lies ``offset`` from ``m``'s ``c`` in the world (an instance's BLAS built about its centre,
-    :func:`blas_offsets`; else 0), its origin moved along it to ``t0`` (``o + t d`` there is the world ray's point at
-    ``t0 + t``) when it lies farther than ``FAR_ORIGIN`` times ``reach`` (how far the geometry reaches from the local
-    origin) from it. ``w = (origin - c) - offset``: ``c`` and ``offset`` each exact or rounded at their own size, as
-    one float32 ``c + offset`` was not (0.5 at 1e7, a quarter of a small instance's size there).
+    space) whose origin lies at ``base + rest`` in the world (``m``'s ``c`` and 0; for an instance's BLAS built about
+    its centre the float32 nearest its origin and what that leaves of it, :func:`blas_origins`), its origin moved
+    along it to ``t0`` (``o + t d`` there is the world ray's point at ``t0 + t``) when it lies farther than
+    ``FAR_ORIGIN`` times ``reach`` (how far the geometry reaches from the local origin) from it. ``w = (origin - base)
+    - rest``: ``origin - base`` is exact near the geometry, and ``rest`` is far smaller. Held as ``c`` and ``L m``
+    apart, ``origin - c`` was rounded at ``c``'s size where the instance lies far from ``c`` (a prototype built 1e6
+    off its origin whose instances bring it back: rays met its BLAS up to 0.125 off, per ray, and a glowing one
+    shadowed its own samples); held as one float32 ``c + L m``, it moved instances placed at 1e7 by up to 0.5.
 
     Moved into local space from its own origin as ``A w`` (``w = origin - c``, ``m = [A | c]``), a ray's local
     origin is rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6) seen from
@@ -150,7 +155,7 @@ def moved_ray(m: mat34, offset: wp.vec3, origin: wp.vec3, direction: wp.vec3, re
     instance 2^-100 across overflowed to inf, of one 2^100 across underflowed to 0, and such rays were never moved).
     """
     a = linear_part(m)
-    w = (origin - translation(m)) - offset
+    w = (origin - base) - rest
     d = transform_vector(m, direction)
     o = a * w
     t0 = float(0.0)
@@ -175,8 +180,13 @@ def entry_ray(tlas: DeviceTlas, instance: int, blas: DeviceBvh, origin: wp.vec3,
     if instance >= 0:
         lower, upper = node_box(blas, 0)
         reach = wp.max(largest_magnitude(lower), largest_magnitude(upper))
-        offset = tlas.blas_offsets[instance * tlas.has_offsets]
-        o, d, t0 = moved_ray(tlas.world_to_local[instance], offset, origin, direction, reach)
+        m = tlas.world_to_local[instance]
+        base = translation(m)
+        rest = wp.vec3(0.0)
+        if tlas.has_offsets != 0:  # a BLAS built about its centre (blas_origins)
+            base = tlas.blas_origins[instance]
+            rest = tlas.blas_origin_rests[instance]
+        o, d, t0 = moved_ray(m, base, rest, origin, direction, reach)
     return o, d, t0
 
 
@@ -231,7 +241,8 @@ def shape_entry(tlas: DeviceTlas, b: int, instance: int, origin: wp.vec3, direct
     start = origin
     if instance >= 0:
         start = origin - translation(tlas.world_to_local[instance])
-    o, d, t0 = moved_ray(tlas.shape_xforms[e], wp.vec3(0.0), start, direction, reach)
+    m = tlas.shape_xforms[e]
+    o, d, t0 = moved_ray(m, translation(m), wp.vec3(0.0), start, direction, reach)
     return o, d, t0, row, kind, params
 
 
@@ -581,13 +592,15 @@ class InstancedAccelerator(Accelerator):
         self.skipped_instances = np.flatnonzero(~invertible)
         rows = [r[invertible[r]] for r in instances.rows_of_prototypes(len(scene.prototypes))]
         exponents = self._exponents = instance_exponents(scene)
-        offsets = blas_offsets(instances.to_world, blas_centres(scene)[instances.prototype]).astype(np.float64)
+        centres = blas_centres(scene)[instances.prototype]
+        origins, rests = blas_origins(instances.to_world, centres)
         for (part, k), b in blas_of_part.items():
             if part == 0:
                 continue
             mine = rows[part - 1][exponents[rows[part - 1]] == k]
             placed = as_placed(instances.to_world[mine])
-            placed[:, :3, 3] += offsets[mine]  # the BLAS's origin, held apart from the instance's (moved_ray)
+            # The BLAS's origin (moved_ray): the instance's float32 origin but for prototypes built about a centre.
+            placed[:, :3, 3] = origins[mine].astype(np.float64) + rests[mine]
             placed[:, :3, :3] *= 2.0**-k  # from the BLAS's scaled space
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
                                  placed)
@@ -664,9 +677,9 @@ class InstancedAccelerator(Accelerator):
             inverse, _ = scene.instance_inverses()
             scaled = inverse * np.ldexp(1.0, exponents)[:, None, None]
             t.world_to_local = wp.array(device_transforms(scaled, instances.to_world), dtype=mat34, device=device)
-        t.has_offsets = int(offsets.any())  # else one zero: 12 bytes per instance only where a BLAS is centred
-        t.blas_offsets = wp.array(offsets.astype(np.float32) if t.has_offsets else np.zeros((1, 3), np.float32),
-                                  dtype=wp.vec3, device=device)
+        t.has_offsets = int(centres.any())  # else one zero each: 24 bytes per instance only where a BLAS is centred
+        t.blas_origins, t.blas_origin_rests = (wp.array(a if t.has_offsets else np.zeros((1, 3), np.float32),
+                                                        dtype=wp.vec3, device=device) for a in (origins, rests))
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
         t.shape_xforms = wp.array(_non_empty(shape_xforms), dtype=mat34, device=device)
@@ -676,7 +689,8 @@ class InstancedAccelerator(Accelerator):
         t.num_entries = self.num_entries
         self.device_tlas = t
         self._tlas_arrays = [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
-        self._tlas_arrays += [t.world_to_local, t.blas_offsets, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
+        self._tlas_arrays += [t.world_to_local, t.blas_origins, t.blas_origin_rests, t.blases, t.blas_first,
+                              t.shape_xforms, t.shape_rows]
         self._blas_arrays = [a for d in self._device_blas[: len(self.blas)] for a in (
             d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes)]
 
@@ -811,7 +825,7 @@ def _triangle_reach(prototype, centre=np.zeros(3)) -> float:
 
 def blas_centres(scene: Scene) -> np.ndarray:
     """``(P, 3)`` float64 (float32 values): the point of each prototype's space that its BLAS is built about (its
-    points less it, :func:`_part_triangles`; its instances place it at ``c`` plus :func:`blas_offsets`): the
+    points less it, :func:`_part_triangles`; its instances place it at :func:`blas_origins`): the
     centre of the box of the points its triangles use where that box lies farther from the prototype's origin than
     its own size, else 0 (so that the BLAS of nearly every prototype holds its points bit for bit). A prototype's
     analytic shapes are placed from the instance's own origin as before (:func:`shape_entry`).
@@ -839,12 +853,19 @@ def blas_centres(scene: Scene) -> np.ndarray:
     return scene._cache[key]
 
 
-def blas_offsets(to_world: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """``(N, 3)`` float32 ``L m``: where each instance (``to_world`` ``(N, 4, 4)``, ``L`` its linear part) places its
-    BLAS's origin, the :func:`blas_centres` row ``m`` of its prototype (``centres`` ``(N, 3)``), from its own origin
-    ``c``; 0 for most. Held apart from ``c`` (:func:`moved_ray`): ``c + L m`` as one float32 moved instances placed
-    at 1e7 (``c`` exact, a PointInstancer's float positions) by up to 0.5."""
-    return np.einsum("nij,nj->ni", np.asarray(to_world, np.float64)[:, :3, :3], centres).astype(np.float32)
+def blas_origins(to_world: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(origins, rests)``, ``(N, 3)`` float32 each: where each instance (``to_world`` ``(N, 4, 4)``, ``L`` its linear
+    part) places its BLAS's origin, the :func:`blas_centres` row ``m`` of its prototype (``centres`` ``(N, 3)``): at
+    ``b = c + L m`` in float64, ``c`` the instance's float32 origin (where its analytic shapes are placed from), held
+    as the float32 nearest ``b`` and what that leaves of it (:func:`moved_ray`; for ``m = 0``, ``c`` and 0). Held as
+    ``c`` and ``L m`` apart, a ray's ``origin - c`` was rounded at ``c``'s size where the instance lies far from ``c``
+    (a prototype 1e6 off its origin whose instances bring it back); as one float32 ``c + L m``, instances placed at
+    1e7 (``c`` exact, a PointInstancer's float positions) moved by up to 0.5."""
+    to_world = np.asarray(to_world, np.float64)
+    placed = to_world[:, :3, 3].astype(np.float32).astype(np.float64)
+    placed += np.einsum("nij,nj->ni", to_world[:, :3, :3], centres)
+    origins = placed.astype(np.float32)
+    return origins, (placed - origins).astype(np.float32)
 
 
 def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int, exponent: int = 0) -> tuple:

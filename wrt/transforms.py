@@ -97,16 +97,16 @@ def corners_to_world(inverse: wp.mat33, origin: wp.vec3, a: wp.vec3, b: wp.vec3,
 
 
 @wp.func
-def corners_to_world_about(inverse: wp.mat33, origin: wp.vec3, centre: wp.vec3, offset: wp.vec3, a: wp.vec3,
+def corners_to_world_about(inverse: wp.mat33, origin: wp.vec3, centre: wp.vec3, rest: wp.vec3, a: wp.vec3,
                            b: wp.vec3, c: wp.vec3):
     """:func:`corners_to_world` of corners ``a, b, c`` of a prototype whose BLAS is built about ``centre``
-    (:func:`wrt.tlas.blas_centres`), which its instance places ``offset`` from its origin (``L centre``,
-    :func:`wrt.tlas.blas_offsets`): each corner moved by ``(A^-1 (p - centre) + offset) + c``, as the trace moves
-    rays into that BLAS. ``A^-1``'s rounding moves a point by its relative error times the point's distance from
-    where it is applied: applied to ``p`` itself, the corners of sheared octahedra 50 of their sizes off their
-    prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
-    return ((inverse * (a - centre) + offset) + origin, (inverse * (b - centre) + offset) + origin,
-            (inverse * (c - centre) + offset) + origin)
+    (:func:`wrt.tlas.blas_centres`), which its instance places at ``origin + rest`` (the float32 nearest and what it
+    leaves, :func:`wrt.tlas.blas_origins`): each corner moved by ``(A^-1 (p - centre) + rest) + origin``, as the
+    trace moves rays into that BLAS. ``A^-1``'s rounding moves a point by its relative error times the point's
+    distance from where it is applied: applied to ``p`` itself, the corners of sheared octahedra 50 of their sizes
+    off their prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
+    return ((inverse * (a - centre) + rest) + origin, (inverse * (b - centre) + rest) + origin,
+            (inverse * (c - centre) + rest) + origin)
 
 
 @wp.func
