@@ -78,6 +78,33 @@ def test_rays_hit_a_concave_face_only_inside_its_outline(tmp_path, shape):
     np.testing.assert_allclose(hits.t[hit], 5.0, rtol=1e-6)
 
 
+# A dart whose reflex corner is listed twice: as one point named twice in faceVertexIndices (exporters repeat a corner
+# where they weld a seam), or as two points at the same place. Each corner of the pair has an edge of no length, so
+# neither turns; the face was taken for convex and fanned, drawing its notch, (0, 0) (2, 1) (4, 0), without a word.
+REPEATED_REFLEX = {"index": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)], [0, 1, 1, 2, 3]),
+                   "point": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)],
+                             [0, 1, 2, 3, 4])}
+
+
+@pytest.mark.parametrize("repeated", sorted(REPEATED_REFLEX))
+def test_rays_hit_a_dart_whose_reflex_corner_repeats_only_inside_its_outline(tmp_path, repeated):
+    points, face = REPEATED_REFLEX[repeated]
+    outline = [points[i][:2] for i in face]
+    body = (f'def Mesh "Dart"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [5]\n'
+            f'    int[] faceVertexIndices = {face}\n    uniform token subdivisionScheme = "none"\n}}\n')
+    scene, messages = load_recording_warnings(write(tmp_path, body))
+    assert not messages
+    x, y = np.meshgrid(np.linspace(-0.3, 4.3, 47), np.linspace(-0.3, 3.3, 37))
+    x, y = x.reshape(-1), y.reshape(-1)
+    hits = trace(scene, np.stack([x, y, np.full_like(x, 5.0)], axis=1), np.tile([0.0, 0.0, -1.0], (len(x), 1)))
+    hit = hits.prim >= 0
+    inside = inside_polygon(x, y, outline)  # the even-odd rule on the outline USD lists: the oracle
+    clear = distance_to_outline(x, y, [outline[i] for i in (0, 1, 3, 4)]) > 1e-4  # (no edge of no length)
+    assert clear.sum() > 1500
+    assert not (hit & ~inside & clear).any(), f"{int((hit & ~inside & clear).sum())} rays hit the dart's notch"
+    assert not (~hit & inside & clear).any(), f"{int((~hit & inside & clear).sum())} rays missed inside the dart"
+
+
 @pytest.mark.parametrize("shape", sorted(OUTLINES))
 def test_clipped_triangles_cover_the_face_once_and_keep_its_winding(shape):
     outline = OUTLINES[shape]
@@ -306,6 +333,8 @@ def test_a_bow_tie_has_no_area_to_be_concave_in_and_keeps_its_fan_silently(tmp_p
 @pytest.mark.parametrize("outline", [
     [(0, 0), (1, 0), (2, 0), (2, 2), (1, 0.5), (0, 2)],  # a straight corner beside a reflex one
     [(0, 0), (2, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2), (0, 2)],  # repeated points
+    [(0, 0), (2, 1), (2, 1), (4, 0), (2, 3)],  # a dart whose reflex corner is repeated
+    [(1, 2), (0, 2), (0, 0), (2, 0), (2, 1), (1, 1), (1, 1), (1, 1)],  # an L whose reflex corner is there thrice
     [(0, 0), (1, 0), (2, 0), (1, 0)],  # no area: all in a line
     [(0, 0), (4, 0), (4, 4), (0, 4), (0, 0), (1, 1), (1, 3), (3, 3), (3, 1), (1, 1)],  # a square with a square hole
 ])

@@ -99,27 +99,58 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     normals = _cross(relative, following).sum(axis=2)  # (3, F)
     # A corner is reflex when it turns against the normal by more than REFLEX_SINE.
     outgoing = following - relative
-    incoming = _turned(outgoing, -1)
-    turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
     lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
+    incoming, in_lengths = _turned(outgoing, -1), _turned(lengths, -1)
+    perimeters = lengths.sum(axis=1)
+    repeated = lengths == 0.0  # corners whose next corner is at the same place (a point listed twice)
+    if repeated.any():
+        outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, repeated)
+    turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
+    turn[repeated] = 0.0  # the last corner of a run of repeats turns for all of them
     normal_lengths = np.sqrt((normals * normals).sum(axis=0))
-    reflex = turn < -REFLEX_SINE * lengths * _turned(lengths, -1) * normal_lengths[:, None]
+    reflex = turn < -REFLEX_SINE * lengths * in_lengths * normal_lengths[:, None]
     # A face with no area has no plane to be convex in: the fan is as good as anything.
-    flat = normal_lengths <= _FLAT * lengths.sum(axis=1) ** 2
+    flat = normal_lengths <= _FLAT * perimeters ** 2
     reflex[flat] = False
     if not find_stars:
         return reflex, np.zeros(len(flat), bool)
     # The total turning, the sum of the angles between each edge and the next, is 2 pi for a convex face and 2 pi m
-    # for one that winds round m times; halfway between the two is safe from rounding. A repeated point (an edge of
-    # no length) loses its corner's turn, which can only make the total smaller: no false star. All rows at once:
-    # picking the faces without a reflex corner first copied more than the sum costs.
+    # for one that winds round m times; halfway between the two is safe from rounding. A run of repeated points
+    # turns once, at its last corner (the others add atan2(0, 1) = 0). All rows at once: picking the faces without a
+    # reflex corner first copied more than the sum costs.
     dots = np.einsum("ifk,ifk->fk", incoming, outgoing)
+    dots[repeated] = 1.0
     turns = np.arctan2(turn, dots * normal_lengths[:, None]).sum(axis=1)  # atan2(sin, cos), both times |N|
     return reflex, (turns > 3.0 * np.pi) & ~flat & ~reflex.any(axis=1)
 
 
+def _past_repeats(outgoing: np.ndarray, lengths: np.ndarray, repeated: np.ndarray) -> tuple:
+    """``(outgoing, lengths, incoming, in_lengths)``: each corner's edges ``(3, F, k)`` and their lengths ``(F, k)``
+    taken past points listed again at the same place (``repeated``: corners whose own outgoing edge has no length):
+    the next edge of some length as the one leaving a corner, the last one before it as the one arriving. A reflex
+    corner listed twice (one point named twice in ``faceVertexIndices``, or two points at the same place) has no
+    length on one side of each copy, so neither turned: the face was taken for convex and fanned over its notch.
+    Faces all of whose corners lie at one place keep edges of no length (they are flat)."""
+    k = lengths.shape[1]
+    order = np.arange(2 * k)
+    kept = np.concatenate([~repeated, ~repeated], axis=1)  # twice round, so that the search wraps
+    # The latest edge of some length at or before each position, and the first at or after it.
+    last = np.maximum.accumulate(np.where(kept, order, -1), axis=1)
+    first = np.minimum.accumulate(np.where(kept, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
+    leaving = np.where(first[:, :k] < 2 * k, first[:, :k] % k, np.arange(k))  # (F, k) edge leaving each corner
+    arriving = np.where(last[:, k - 1:2 * k - 1] >= 0, last[:, k - 1:2 * k - 1] % k, np.arange(k) - 1)
+    arriving %= k
+    rows = np.arange(lengths.shape[0])[:, None]
+    return (outgoing[:, rows, leaving], lengths[rows, leaving], outgoing[:, rows, arriving],
+            lengths[rows, arriving])
+
+
 def clip_ears(xy) -> tuple[np.ndarray, bool]:
     """Ear-clips the polygon ``xy`` ``(n, 2)`` float (n >= 3, counter-clockwise: positive area).
+
+    A corner at the same place as the next (a point listed twice) is left out of the clipping, and given a triangle
+    of no area in its place: each copy has an edge of no length, so it turns neither way and is no ear, and where
+    the copies were the polygon's convex corners no ear was found (a dart whose tips are listed twice kept its fan).
 
     Returns:
         ``(n - 2, 3)`` int64 corner numbers ``0 .. n-1`` of the triangles, each in the polygon's order (so they wind
@@ -128,6 +159,20 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
         triangulates to nothing visible).
     """
     xy = np.asarray(xy, np.float64)
+    n = len(xy)
+    kept = np.flatnonzero((xy != np.roll(xy, -1, axis=0)).any(axis=1))  # the last corner of each run of copies
+    if len(kept) == n or len(kept) < 3:
+        return _clip_distinct_ears(xy)
+    triangles, clipped = _clip_distinct_ears(xy[kept])
+    following = kept[np.searchsorted(kept, np.arange(n)) % len(kept)]  # the kept corner at or after each corner
+    copies = np.setdiff1d(np.arange(n), kept)
+    # (copy, the kept corner at its place, the kept corner after that): in the polygon's order, of no area.
+    after = kept[(np.searchsorted(kept, following[copies]) + 1) % len(kept)]
+    return np.concatenate([kept[triangles], np.stack([copies, following[copies], after], axis=1)]), clipped
+
+
+def _clip_distinct_ears(xy: np.ndarray) -> tuple[np.ndarray, bool]:
+    """:func:`clip_ears` of a polygon ``xy`` ``(n, 2)`` float64 without a corner at the place of the next."""
     n = len(xy)
     xs, ys = xy[:, 0].tolist(), xy[:, 1].tolist()
     size = float(np.ptp(xy, axis=0).max()) if n else 0.0
@@ -313,6 +358,9 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
             block = faces[b:b + step]
             corners = planes[:, face_indices[starts[block][:, None] + np.arange(k)]].astype(np.float64)
             triangles, clipped = clip_ears_batch(plane_coordinates_batch(corners))
+            # A face with a corner at the place of the next is clipped alone, past its copies (clip_ears): the batch
+            # finds no ear where the copies are its convex corners.
+            clipped &= (corners != _turned(corners, 1)).any(axis=0).all(axis=1)
             rows = first_tri[block[clipped]][:, None] + np.arange(k - 2)
             tri_corners[rows] = starts[block[clipped]][:, None, None] + triangles[clipped]
             # No ear at some step: clipped alone, which finishes where the corners left lie in a line.
