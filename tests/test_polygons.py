@@ -78,19 +78,29 @@ def test_rays_hit_a_concave_face_only_inside_its_outline(tmp_path, shape):
     np.testing.assert_allclose(hits.t[hit], 5.0, rtol=1e-6)
 
 
-# A dart whose reflex corner is listed twice: as one point named twice in faceVertexIndices (exporters repeat a corner
-# where they weld a seam), or as two points at the same place. Each corner of the pair has an edge of no length, so
-# neither turns; the face was taken for convex and fanned, drawing its notch, (0, 0) (2, 1) (4, 0), without a word.
-REPEATED_REFLEX = {"index": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)], [0, 1, 1, 2, 3]),
-                   "point": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)],
-                             [0, 1, 2, 3, 4])}
+# A dart whose corners are listed twice: as one point named twice in faceVertexIndices (exporters repeat a corner
+# where they weld a seam), as two points at the same place, or as two points a float32 ulp apart (a weld that missed).
+# Each copy of an exact pair has an edge of no length, so neither turned: the face was taken for convex and fanned,
+# drawing its notch, (0, 0) (2, 1) (4, 0), without a word. An ulp apart, the reflex corner's copies turned by +-180
+# degrees and the face was taken for a star; copies of its tips lay on the ears beside them and blocked them: both
+# kept the fan with a warning that the face crossed itself.
+NEAR_TWO = 1.9999998807907104  # float32 ulps below 2, 1 and 4, above 2 and 3
+NEAR_ONE, NEAR_FOUR, PAST_TWO, PAST_THREE = 0.9999999403953552, 3.999999761581421, 2.000000238418579, 3.000000238418579
+REPEATED_CORNERS = {
+    "index": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)], [0, 1, 1, 2, 3]),
+    "point": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)], [0, 1, 2, 3, 4]),
+    "ulp_reflex": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (NEAR_TWO, NEAR_ONE, 0.0), (4.0, 0.0, 0.0), (2.0, 3.0, 0.0)],
+                   [0, 1, 2, 3, 4]),
+    "ulp_tips": ([(0.0, 0.0, 0.0), (2.0, 1.0, 0.0), (4.0, 0.0, 0.0), (NEAR_FOUR, 0.0, 0.0), (2.0, 3.0, 0.0),
+                  (PAST_TWO, PAST_THREE, 0.0)], [0, 1, 2, 3, 4, 5]),
+}
 
 
-@pytest.mark.parametrize("repeated", sorted(REPEATED_REFLEX))
-def test_rays_hit_a_dart_whose_reflex_corner_repeats_only_inside_its_outline(tmp_path, repeated):
-    points, face = REPEATED_REFLEX[repeated]
+@pytest.mark.parametrize("repeated", sorted(REPEATED_CORNERS))
+def test_rays_hit_a_dart_whose_corners_repeat_only_inside_its_outline(tmp_path, repeated):
+    points, face = REPEATED_CORNERS[repeated]
     outline = [points[i][:2] for i in face]
-    body = (f'def Mesh "Dart"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [5]\n'
+    body = (f'def Mesh "Dart"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [{len(face)}]\n'
             f'    int[] faceVertexIndices = {face}\n    uniform token subdivisionScheme = "none"\n}}\n')
     scene, messages = load_recording_warnings(write(tmp_path, body))
     assert not messages
@@ -99,7 +109,8 @@ def test_rays_hit_a_dart_whose_reflex_corner_repeats_only_inside_its_outline(tmp
     hits = trace(scene, np.stack([x, y, np.full_like(x, 5.0)], axis=1), np.tile([0.0, 0.0, -1.0], (len(x), 1)))
     hit = hits.prim >= 0
     inside = inside_polygon(x, y, outline)  # the even-odd rule on the outline USD lists: the oracle
-    clear = distance_to_outline(x, y, [outline[i] for i in (0, 1, 3, 4)]) > 1e-4  # (no edge of no length)
+    distinct = [c for c, d in zip(outline, outline[1:] + outline[:1]) if max(abs(c[0] - d[0]), abs(c[1] - d[1])) > 1e-3]
+    clear = distance_to_outline(x, y, distinct) > 1e-4  # (no edge of no length)
     assert clear.sum() > 1500
     assert not (hit & ~inside & clear).any(), f"{int((hit & ~inside & clear).sum())} rays hit the dart's notch"
     assert not (~hit & inside & clear).any(), f"{int((~hit & inside & clear).sum())} rays missed inside the dart"

@@ -26,6 +26,7 @@ MAX_CLIPPED_CORNERS = 10_000  # faces with more corners keep their fan (ear clip
 REFLEX_SINE = 1e-6  # a corner turning the wrong way by less than this sine of its angle counts as straight
 BLOCK_CORNERS = 1 << 16  # corners checked for convexity per numpy pass (small enough to stay in cache)
 _FLAT = 1e-12  # corner triangles under this fraction of the squared face size are flat (neither convex nor reflex)
+COPY_DISTANCE = 2.0 ** -16  # corners closer than this fraction of their face's size are clipped as one (clip_ears)
 
 
 def reflex_counts(points, counts, face_indices) -> np.ndarray:
@@ -102,7 +103,9 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
     incoming, in_lengths = _turned(outgoing, -1), _turned(lengths, -1)
     perimeters = lengths.sum(axis=1)
-    repeated = lengths == 0.0  # corners whose next corner is at the same place (a point listed twice)
+    # Corners whose next corner is at the same place (a point listed twice, or a few float32 ulps away: _copies).
+    sizes = np.maximum(np.ptp(corners, axis=2).max(axis=0), np.finfo(np.float64).tiny)
+    repeated = lengths <= COPY_DISTANCE * sizes[:, None]
     if repeated.any():
         outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, repeated)
     turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
@@ -160,7 +163,7 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
     """
     xy = np.asarray(xy, np.float64)
     n = len(xy)
-    kept = np.flatnonzero((xy != np.roll(xy, -1, axis=0)).any(axis=1))  # the last corner of each run of copies
+    kept = np.flatnonzero(~_copies(xy))  # the last corner of each run of copies
     if len(kept) == n or len(kept) < 3:
         return _clip_distinct_ears(xy)
     triangles, clipped = _clip_distinct_ears(xy[kept])
@@ -169,6 +172,15 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
     # (copy, the kept corner at its place, the kept corner after that): in the polygon's order, of no area.
     after = kept[(np.searchsorted(kept, following[copies]) + 1) % len(kept)]
     return np.concatenate([kept[triangles], np.stack([copies, following[copies], after], axis=1)]), clipped
+
+
+def _copies(corners: np.ndarray) -> np.ndarray:
+    """``(..., k)`` bool: the corners of faces ``corners`` ``(..., k, d)`` at the place of the next one, within
+    :data:`COPY_DISTANCE` of the face's size: a point listed twice, or two points a few float32 ulps apart (a weld
+    that missed), whose copy lies on the ears beside it and blocked them, so that the face kept its fan."""
+    gaps = np.abs(corners - np.roll(corners, -1, axis=-2)).max(axis=-1)
+    sizes = np.ptp(corners, axis=-2).max(axis=-1)
+    return gaps <= COPY_DISTANCE * sizes[..., None]
 
 
 def _clip_distinct_ears(xy: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -360,7 +372,7 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
             triangles, clipped = clip_ears_batch(plane_coordinates_batch(corners))
             # A face with a corner at the place of the next is clipped alone, past its copies (clip_ears): the batch
             # finds no ear where the copies are its convex corners.
-            clipped &= (corners != _turned(corners, 1)).any(axis=0).all(axis=1)
+            clipped &= ~_copies(np.moveaxis(corners, 0, -1)).any(axis=1)
             rows = first_tri[block[clipped]][:, None] + np.arange(k - 2)
             tri_corners[rows] = starts[block[clipped]][:, None, None] + triangles[clipped]
             # No ear at some step: clipped alone, which finishes where the corners left lie in a line.
