@@ -26,7 +26,7 @@ MAX_CLIPPED_CORNERS = 10_000  # faces with more corners keep their fan (ear clip
 REFLEX_SINE = 1e-6  # a corner turning the wrong way by less than this sine of its angle counts as straight
 BLOCK_CORNERS = 1 << 16  # corners checked for convexity per numpy pass (small enough to stay in cache)
 _FLAT = 1e-12  # corner triangles under this fraction of the squared face size are flat (neither convex nor reflex)
-COPY_DISTANCE = 2.0 ** -16  # corners closer than this fraction of their face's size are clipped as one (clip_ears)
+COPY_DISTANCE = 2.0 ** -16  # corners closer than this fraction of their face's perimeter count as one (copies)
 
 
 def reflex_counts(points, counts, face_indices) -> np.ndarray:
@@ -104,8 +104,7 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     incoming, in_lengths = _turned(outgoing, -1), _turned(lengths, -1)
     perimeters = lengths.sum(axis=1)
     # Corners whose next corner is at the same place (a point listed twice, or a few float32 ulps away: _copies).
-    sizes = np.maximum(np.ptp(corners, axis=2).max(axis=0), np.finfo(np.float64).tiny)
-    repeated = lengths <= COPY_DISTANCE * sizes[:, None]
+    repeated = lengths <= COPY_DISTANCE * perimeters[:, None]
     if repeated.any():
         outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, repeated)
     turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
@@ -176,11 +175,11 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
 
 def _copies(corners: np.ndarray) -> np.ndarray:
     """``(..., k)`` bool: the corners of faces ``corners`` ``(..., k, d)`` at the place of the next one, within
-    :data:`COPY_DISTANCE` of the face's size: a point listed twice, or two points a few float32 ulps apart (a weld
-    that missed), whose copy lies on the ears beside it and blocked them, so that the face kept its fan."""
-    gaps = np.abs(corners - np.roll(corners, -1, axis=-2)).max(axis=-1)
-    sizes = np.ptp(corners, axis=-2).max(axis=-1)
-    return gaps <= COPY_DISTANCE * sizes[..., None]
+    :data:`COPY_DISTANCE` of the face's perimeter (as :func:`convexity` finds them): a point listed twice, or two
+    points a few float32 ulps apart (a weld that missed), whose copy lies on the ears beside it and blocked them, so
+    that the face kept its fan."""
+    gaps = np.sqrt(((corners - np.roll(corners, -1, axis=-2)) ** 2).sum(axis=-1))
+    return gaps <= COPY_DISTANCE * gaps.sum(axis=-1, keepdims=True)
 
 
 def _clip_distinct_ears(xy: np.ndarray) -> tuple[np.ndarray, bool]:
