@@ -430,9 +430,11 @@ def test_preview_shows_the_instance_colours(tmp_path):
 
 
 @pytest.mark.parametrize("moving", [False, True])
-def test_time_sampled_colours_follow_the_positions_rule(tmp_path, moving):
-    """Time-sampled colours are read as positions are: interpolated between samples (as ComputeFlattened gives at
-    that time), or held at the earlier sample when velocities move the instances (USD's velocity path)."""
+def test_time_sampled_colours_are_read_as_compute_flattened_reads_them(tmp_path, moving):
+    """Time-sampled colours are interpolated between samples, as ``ComputeFlattened`` gives them at that time, also
+    where velocities move the instances: USD's velocity path holds positions, orientations, scales and protoIndices
+    at their earlier sample (``ComputeInstanceTransformsAtTime``), not primvars, and a mesh's colours beside velocity
+    moved points are interpolated too. wrt held the instancer's, drawing the sample at 0 at time 4."""
     path = instancer_stage(tmp_path / "pi.usda")
     stage = Usd.Stage.Open(path)
     pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
@@ -440,18 +442,38 @@ def test_time_sampled_colours_follow_the_positions_rule(tmp_path, moving):
     primvar.GetAttr().Clear()
     primvar.Set(RGB, 0.0)
     primvar.Set(RGB[::-1], 10.0)
-    if moving:  # velocities at the positions' samples: USD holds every instance attribute at its earlier sample
+    if moving:  # velocities at the positions' samples: USD holds the instance transforms at their earlier sample
         positions = [Gf.Vec3f(x, 0.0, 0.0) for x in XS]
         pi.GetPositionsAttr().Set(positions, 0.0)
         pi.GetPositionsAttr().Set(positions, 10.0)
         pi.CreateVelocitiesAttr().Set([Gf.Vec3f(0.0)] * 3, 0.0)
         pi.GetVelocitiesAttr().Set([Gf.Vec3f(0.0)] * 3, 10.0)
     stage.GetRootLayer().Save()
-    expected = RGB if moving else np.asarray(primvar.ComputeFlattened(Usd.TimeCode(4.0)), np.float64)
-    if not moving:
-        assert not np.allclose(expected, RGB)  # a real blend
+    expected = np.asarray(primvar.ComputeFlattened(Usd.TimeCode(4.0)), np.float64)
+    assert not np.allclose(expected, RGB)  # a real blend
     albedo, _ = albedo_at_instances(load(path, time=4.0))
     np.testing.assert_allclose(albedo, expected, atol=1e-6)
+
+
+def test_instancer_opacities_beside_velocities_are_read_as_compute_flattened_reads_them(tmp_path):
+    """``displayOpacity`` on an instancer moved by velocities, sampled 0.2, 0.4 at 0 and 0.6, 0.8 at 10: at time 5
+    USD's ``ComputeFlattened`` gives 0.4, 0.6, and so does wrt (it held 0.2, 0.4, the sample at 0)."""
+    path = instancer_stage(tmp_path / "pi.usda")
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    positions = [Gf.Vec3f(x, 0.0, 0.0) for x in XS]
+    for time in (0.0, 10.0):
+        pi.GetPositionsAttr().Set(positions, time)
+        pi.CreateVelocitiesAttr().Set([Gf.Vec3f(0.0)] * 3, time)
+    primvar = UsdGeom.PrimvarsAPI(pi).CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray,
+                                                    UsdGeom.Tokens.vertex)
+    primvar.Set([0.2, 0.4, 0.6], 0.0)
+    primvar.Set([0.6, 0.8, 1.0], 10.0)
+    stage.GetRootLayer().Save()
+    scene = load(path, time=5.0)
+    expected = np.asarray(primvar.ComputeFlattened(Usd.TimeCode(5.0)), np.float64)
+    np.testing.assert_allclose(expected, [0.4, 0.6, 0.8], atol=1e-6)  # a real blend
+    np.testing.assert_allclose(scene.instances.opacities[np.argsort(scene.instances.index)], expected, atol=1e-6)
 
 
 def test_instancers_without_colours_and_native_instances_stay_uncoloured(tmp_path):

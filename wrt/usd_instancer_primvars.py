@@ -25,6 +25,7 @@ from .usd_primvars import (
     quaternion_typed,
     unit_opacities,
 )
+from .usd_values import value_at
 
 MAX_INSTANCE_UVS = 64  # distinct st a PointInstancer gives the instances of one prototype (a copy of it each)
 MAX_INSTANCE_WIDTHS = 64  # distinct primvars:widths a PointInstancer gives the instances of one prototype, likewise
@@ -51,18 +52,18 @@ class InstancerPrimvarReading:
                        "materials read were ignored", prim, ", ".join(found[1:]))
         return found[0] if found else None
 
-    def _instance_colors(self, prim: Usd.Prim, n: int, read, name: str) -> np.ndarray | None:
+    def _instance_colors(self, prim: Usd.Prim, n: int, name: str) -> np.ndarray | None:
         """``(n, 3)`` float32 colour of each of the ``n`` instances of PointInstancer ``prim``, from its colour
         primvar ``name`` (``displayColor``, or the one its prototypes' materials read; the rgb of a 4-vector one)
         (see :meth:`_instance_values`)."""
-        values = self._instance_values(prim, n, read, name, (3, 4))
+        values = self._instance_values(prim, n, name, (3, 4))
         if values is None:
             return None
         values = linear_colors(values[:, :3], [UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).GetAttr()], prim, self._skip)
         # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
         return np.broadcast_to(finite_colors(values.astype(np.float32), prim, name, self._skip), (n, 3))
 
-    def _instance_uv_groups(self, prim: Usd.Prim, n: int, read, wanted: list[str], beneath: bool, rows: np.ndarray,
+    def _instance_uv_groups(self, prim: Usd.Prim, n: int, wanted: list[str], beneath: bool, rows: np.ndarray,
                             ctx: Context, uvs_by_name: dict) -> list[tuple]:
         """``[(outer_uv, rows), ...]``: the instances ``rows`` of one prototype of PointInstancer ``prim`` by the
         texture coordinates handed to its meshes that lack the primvars ``wanted``: the instancer's st of each
@@ -72,7 +73,7 @@ class InstancerPrimvarReading:
         them all read the reader's fallback, with a warning."""
         for name in wanted:
             if name not in uvs_by_name:
-                uvs_by_name[name] = self._instance_uvs(prim, n, read, name, beneath)
+                uvs_by_name[name] = self._instance_uvs(prim, n, name, beneath)
         names = [name for name in wanted if uvs_by_name[name] is not None]
         if not names:
             return [(ctx.outer_uv, rows)]
@@ -94,7 +95,7 @@ class InstancerPrimvarReading:
             groups.append((tuple(sorted(outer.items())) or None, rows[group.reshape(-1) == k]))
         return groups
 
-    def _instance_uvs(self, prim: Usd.Prim, n: int, read, name: str, beneath: bool) -> np.ndarray | None:
+    def _instance_uvs(self, prim: Usd.Prim, n: int, name: str, beneath: bool) -> np.ndarray | None:
         """``(n, 2)`` float64 st of each of the ``n`` instances of PointInstancer ``prim`` from its texture-coordinate
         primvar ``name`` (the first two components; NaN where not finite in float32, with a warning), or None without
         a usable one (see :meth:`_instance_values`). A constant one reaches the prototypes beneath the instancer by
@@ -103,7 +104,7 @@ class InstancerPrimvarReading:
             return None
         if not UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).HasValue():
             return None
-        values = self._instance_values(prim, n, read, name, (2, 3, 4))
+        values = self._instance_values(prim, n, name, (2, 3, 4))
         if values is None:
             return None
         # A double past float32 is none too: handed down as it was, the mesh's float32 st held inf there.
@@ -115,7 +116,7 @@ class InstancerPrimvarReading:
             values[bad] = np.nan
         return values
 
-    def _instance_widths(self, prim: Usd.Prim, n: int, read, beneath: bool) -> np.ndarray | None:
+    def _instance_widths(self, prim: Usd.Prim, n: int, beneath: bool) -> np.ndarray | None:
         """``(n,)`` float64 ``primvars:widths`` of each of the ``n`` instances of PointInstancer ``prim`` (see
         :meth:`_instance_values`), or None without a usable one. As UsdGeomPointInstancer's primvar rules have it,
         each instance's is a constant widths at the root of its prototype, sizing its points and curves that have no
@@ -125,7 +126,7 @@ class InstancerPrimvarReading:
             return None
         if not UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths").HasValue():
             return None
-        values = self._instance_values(prim, n, read, "widths", (1,))
+        values = self._instance_values(prim, n, "widths", (1,))
         return None if values is None else np.broadcast_to(values[:, 0], (n,))
 
     def _instance_width_groups(self, prim: Usd.Prim, widths, rows: np.ndarray, ctx: Context) -> list[tuple]:
@@ -144,26 +145,29 @@ class InstancerPrimvarReading:
         # One NaN object, so that the content read with it is found again (NaN != NaN).
         return [(math.nan if math.isnan(w) else float(w), rows[group.reshape(-1) == k]) for k, w in enumerate(distinct)]
 
-    def _instance_opacities(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
+    def _instance_opacities(self, prim: Usd.Prim, n: int) -> np.ndarray | None:
         """``(n,)`` float32 ``displayOpacity`` of each of the ``n`` instances of PointInstancer ``prim`` (see
         :meth:`_instance_values`; NaN read as 1 and values clamped to [0, 1], as on meshes), or None without one."""
         if not UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayOpacity").HasValue():
             return None
-        values = self._instance_values(prim, n, read, "displayOpacity", (1,))
+        values = self._instance_values(prim, n, "displayOpacity", (1,))
         if values is None:
             return None
         return np.broadcast_to(unit_opacities(values.reshape(-1), prim, self._skip).astype(np.float32), (n,))
 
-    def _instance_values(self, prim: Usd.Prim, n: int, read, name: str, widths: tuple) -> np.ndarray | None:
+    def _instance_values(self, prim: Usd.Prim, n: int, name: str, widths: tuple) -> np.ndarray | None:
         """``(1 or n, k)`` float64 values of PointInstancer ``prim``'s primvar ``name``, ``k`` one of ``widths`` (an
         array of numbers has ``k = 1``): ``constant`` or ``uniform`` gives one value to all, ``vertex``, ``varying`` or
         ``faceVarying`` one element (``elementSize`` values) per instance (after its ``indices``, which pick whole
-        elements), read by ``read`` as the positions are; of several values for one instance the first, with a
-        warning. None, with a warning naming it and what was expected, when it cannot be used: another type,
-        interpolation, or a length other than ``n``."""
+        elements), read at the reader's time as ``ComputeFlattened`` reads it (:func:`value_at`: interpolated between
+        samples), also where velocities move the instances: USD holds positions, orientations, scales and protoIndices
+        at their earlier sample then (``ComputeInstanceTransformsAtTime``), not primvars, and meshes moved by
+        velocities read theirs so too (a colour sampled red at 0 and green at 10 was red at 5, not USD's (0.5, 0.5, 0)).
+        Of several values for one instance the first, with a warning. None, with a warning naming it and what was
+        expected, when it cannot be used: another type, interpolation, or a length other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         # (a constant one holding one value rather than an array is that value, as on a gprim: it was unreadable)
-        raw = one_value_as_array(read(primvar.GetAttr(), self.time), primvar.GetAttr(), primvar.GetInterpolation())
+        raw = one_value_as_array(value_at(primvar.GetAttr(), self.time), primvar.GetAttr(), primvar.GetInterpolation())
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
         try:
             values = np.asarray(raw if raw is not None else [], np.float64)
@@ -182,7 +186,7 @@ class InstancerPrimvarReading:
             return None
         elements = values.reshape(-1, size, values.shape[1])  # an element: the elementSize values one index picks
         if primvar.IsIndexed():  # flattened as ComputeFlattened does, at the same time as the values
-            raw = read(primvar.GetIndicesAttr(), self.time)
+            raw = value_at(primvar.GetIndicesAttr(), self.time)
             indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
             if np.any((indices < 0) | (indices >= len(elements))):
                 self._skip(unreadable, prim, f"indices out of range for {len(elements)} elements")

@@ -32,13 +32,13 @@ class PointInstancerReading(InstancerPrimvarReading):
         n = len(proto_indices)
         if n == 0:
             return
-        m, read, parts = self._instance_transforms(prim, pi, n)
+        m, parts = self._instance_transforms(prim, pi, n)
         if m is None:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
         uvs_by_name = {}  # texture-coordinate primvar -> (n, 2) st of the instances (NaN: none), or None
         widths_by_name = {}  # "widths" -> (n,) primvars:widths of the instances, or None (read once, when wanted)
-        opacities = self._instance_opacities(prim, n, read)
+        opacities = self._instance_opacities(prim, n)
         keep = self._instance_mask(prim, pi, n)
         if keep is None:
             return
@@ -114,9 +114,9 @@ class PointInstancerReading(InstancerPrimvarReading):
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
             if content.wants_widths and "widths" not in widths_by_name:
-                widths_by_name["widths"] = self._instance_widths(prim, n, read, beneath)
+                widths_by_name["widths"] = self._instance_widths(prim, n, beneath)
             ctx.content.wants_widths |= content.wants_widths and widths_by_name.get("widths") is None
-            uv_groups = self._instance_uv_groups(prim, n, read, content.outer_uvs, beneath, rows, ctx, uvs_by_name)
+            uv_groups = self._instance_uv_groups(prim, n, content.outer_uvs, beneath, rows, ctx, uvs_by_name)
             ctx.content.want_uvs([name for name in content.outer_uvs if uvs_by_name.get(name) is None])
             ctx.content.want_colors(content.outer_colors)
             name = self._instance_color_name(prim, content.outer_colors)
@@ -126,7 +126,7 @@ class PointInstancerReading(InstancerPrimvarReading):
                 # Hydra makes only non-constant ones instance primvars. As an instance colour it went past that.
                 name = None
             if name not in colors_by_name:
-                colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
+                colors_by_name[name] = None if name is None else self._instance_colors(prim, n, name)
             looks = instance_looks(colors_by_name[name], target_opacities)
             widths = widths_by_name.get("widths") if content.wants_widths else None
             for outer_uv, uv_rows in uv_groups:
@@ -211,10 +211,10 @@ class PointInstancerReading(InstancerPrimvarReading):
         return proto_indices, in_range
 
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
-        """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
-        that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
-        their primvars are read too, and the ``(name, (n, ...) values)`` of the attributes the transforms are made of
-        (for :meth:`_finite_instances`).
+        """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, their attributes
+        read by :func:`held_value` when velocities move them, else by :func:`value_at` (its primvars are read by
+        :func:`value_at` either way, as USD's are: :mod:`wrt.usd_instancer_primvars`), and the ``(name, (n, ...)
+        values)`` of the attributes the transforms are made of (for :meth:`_finite_instances`).
         The transforms are None, with a warning, where ``positions`` is missing, blocked, shorter or longer than
         ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns, and Hydra draws nothing)."""
         t = self.time
@@ -250,7 +250,7 @@ class PointInstancerReading(InstancerPrimvarReading):
             self._skip("PointInstancers whose positions are not of the schema's type (point3f[]) were skipped (USD "
                        "computes no instance transforms for them)", prim,
                        f"positions is {self._authored_type(positions_attr)}")
-            return None, value_at, None
+            return None, None
         ignored = [a for a in (orient_attr, scales_attr) if not self._of_schema_type(a)]
         for attr in ignored:
             self._skip("PointInstancer orientations or scales not of the schema's type were ignored (read as "
@@ -271,12 +271,12 @@ class PointInstancerReading(InstancerPrimvarReading):
             found = "blocked" if blocked else "no" if raw is None else f"{len(raw)}"
             self._skip("PointInstancers with fewer positions than protoIndices were skipped (USD computes no instance "
                        "transforms for them)", prim, f"{found} positions for {n} protoIndices")
-            return None, read, None
+            return None, None
         positions = per_instance(positions_attr, 3, "positions", None, raw)
         if len(positions) > n:
             self._skip("PointInstancers whose positions are longer than protoIndices were skipped (USD computes no "
                        "instance transforms for them)", prim, f"{len(positions)} positions for {n} protoIndices")
-            return None, read, None
+            return None, None
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              None if orient_attr in ignored else
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
@@ -299,7 +299,7 @@ class PointInstancerReading(InstancerPrimvarReading):
         spin_name = f"{orient_attr.GetName()} (turned by angularVelocities)"
         parts = [(velocity_names, positions), (str(orient_attr.GetName()), quats), ("scales", scales)]
         parts += [(spin_name, spun[1][:n])] if spun is not None else []
-        return m, read, parts
+        return m, parts
 
     def _of_schema_type(self, attr: Usd.Attribute) -> bool:
         """``attr`` holds no value, or one of its schema's value type (``float3[]`` for ``point3f[]``: roles aside),
