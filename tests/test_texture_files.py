@@ -126,6 +126,31 @@ def test_grey_of_a_sample_of_no_stated_meaning_stored_plane_by_plane_reads_its_g
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
+@pytest.mark.parametrize("deflate", [False, True])
+def test_white_is_zero_float_grey_of_a_sample_of_no_stated_meaning_stored_plane_by_plane_reads_its_grey(tmp_path,
+                                                                                                        deflate):
+    """WhiteIsZero float grey with a second sample of no stated meaning (ExtraSamples 0), stored plane by plane, reads
+    its grey plane as one sample of WhiteIsZero float grey reads (Pillow, the oracle, hands that over as stored: the
+    samples written, float64), as the BlackIsZero one does. Uncompressed, only BlackIsZero grey was read by its plane:
+    the texture failed with Pillow's bare words ('unknown raw mode for given image mode'); deflated, it read."""
+    grey = np.float32([[0.25, -0.5, 2.0], [0.0, 1.0, 0.75]])
+    alone = write_tiff(tmp_path / "alone.tif", grey[..., None], rows_per_strip=2, sample_format=3, photometric=0)
+    with PilImage.open(alone) as img:
+        np.testing.assert_array_equal(np.asarray(img, np.float64), grey)  # (the oracle: one sample, as stored)
+    samples = np.stack([grey, np.full_like(grey, 9)], axis=2)
+    path = write_tiff(tmp_path / "g.tif", samples, rows_per_strip=2, sample_format=3, deflate=deflate, planar=True,
+                      extra_sample=0, photometric=0)
+    image = load_image(path, "raw")
+    np.testing.assert_array_equal(image[..., :3], np.repeat(grey[..., None], 3, axis=2).astype(np.float64))
+    np.testing.assert_array_equal(image[..., 3], 1.0)
+    # Signed WhiteIsZero grey so stored is refused, named, as one sample of it is: its plane is not read as BlackIsZero.
+    signed = np.stack([np.int16([[5, -7, 0], [1, 2, 3]]), np.full((2, 3), 9, np.int16)], axis=2)
+    signed_path = write_tiff(tmp_path / "s.tif", signed, rows_per_strip=2, sample_format=2, deflate=deflate,
+                             planar=True, extra_sample=0, photometric=0)
+    with pytest.raises(TextureError, match="16-bit signed integer samples, which Pillow"):
+        load_image(signed_path, "raw")
+
+
 TWELVE_BIT_GREY = np.array([[0, 4095, 7], [2048, 1000, 4094]])
 
 

@@ -830,20 +830,27 @@ def _planar_layout(data: bytes) -> tuple[int, int, int, bool] | None:
 
 def _grey_plane_alone(data: bytes) -> bytes | None:
     """The first plane of file ``data`` as a TIFF of its own (:func:`wrt.tiff_planes.tiff_plane`) where it is a TIFF
-    of BlackIsZero grey stored plane by plane whose samples past the grey are all of no stated meaning
-    (``ExtraSamples`` 0) that :func:`_planar_layout` leaves (signed, float or 32-bit samples): the grey, which reads
-    as one sample of such grey does. Uncompressed, Pillow knew no raw mode for it ('unknown raw mode for given image
-    mode', the whole reason given); compressed, it read the first plane. None for any other file."""
+    of grey (BlackIsZero or WhiteIsZero) stored plane by plane whose samples past the grey are all of no stated
+    meaning (``ExtraSamples`` 0) that :func:`_planar_layout` leaves (signed, float or 32-bit samples): the grey, of the
+    file's PhotometricInterpretation, which reads as one sample of such grey does. Uncompressed, Pillow knew no raw
+    mode for it ('unknown raw mode for given image mode', the whole reason given; WhiteIsZero float grey still so
+    where BlackIsZero alone was taken); compressed, it read the first plane. None for any other file."""
     directory = tiff_directory(data)
     if directory is None:
         return None
     try:
         extras = directory.values(EXTRA_SAMPLES)  # (missing: alpha, as _planar_layout takes it)
-        grey = (directory.first(PLANAR_CONFIGURATION, 1) == 2 and directory.first(PHOTOMETRIC, -1) == BLACK_IS_ZERO
+        photometric = directory.first(PHOTOMETRIC, -1)
+        grey = (directory.first(PLANAR_CONFIGURATION, 1) == 2 and photometric in (WHITE_IS_ZERO, BLACK_IS_ZERO)
                 and directory.first(SAMPLES_PER_PIXEL, 1) > 1 and extras and not any(extras))
     except struct.error:  # (values past the end: refused before, _refuse_damaged_tiff)
         return None
-    return tiff_plane(data, 0) if grey else None
+    plane = tiff_plane(data, 0) if grey else None
+    if plane is None or photometric == BLACK_IS_ZERO:
+        return plane
+    # (a plane file is BlackIsZero: its WhiteIsZero grey would read uninverted, signed grey read where one sample of
+    # it is refused)
+    return with_value(tiff_directory(plane), PHOTOMETRIC, WHITE_IS_ZERO)
 
 
 def _read_planes(data: bytes, name: str, bits: int, colour: int, extra: int, white_is_zero: bool
