@@ -391,3 +391,27 @@ def test_a_tiff_whose_layout_tags_are_longs_reads_as_of_shorts(tmp_path, byte_or
     image = read(tmp_path, tiff_file(tags, planes, byte_order=byte_order))
     want = 1.0 - samples[..., :1] / 65535.0 if grey else samples / 65535.0
     np.testing.assert_allclose(image[..., :3], np.broadcast_to(want, (2, 3, 3)), atol=1e-7)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("tag", [256, 257, 258, 259, 262, 277, 278, "white"],
+                         ids=["width", "height", "bits", "compression", "photometric", "samples", "rows", "white"])
+def test_a_tiff_of_its_samples_together_whose_layout_tags_are_bytes_reads_as_of_shorts(tmp_path, byte_order, tag):
+    """libtiff (under Storm's OpenImageIO) reads the size, BitsPerSample, Compression, PhotometricInterpretation,
+    SamplesPerPixel and RowsPerStrip of BYTE values as of SHORT ones; Pillow (as tifffile) takes a BYTE entry's values
+    for bytes and opens no such file, which was refused in false words ('3 channels of 8-bit unsigned integer
+    samples, which Pillow (wrt's TIFF reader) does not decode'). 8-bit RGB of its samples together (BitsPerSample's
+    three BYTEs made SHORTs past the entry) and 16-bit WhiteIsZero grey of a BYTE PhotometricInterpretation read as
+    the samples written (float64; WhiteIsZero: 1 - sample / 65535), as the same file of SHORT values does."""
+    white = tag == "white"
+    samples = np.random.default_rng(72).integers(0, 65536 if white else 256, (2, 3, 1 if white else 3))
+    channels, bits = (1, 16) if white else (3, 8)
+    tags = {256: (SHORT, [3]), 257: (SHORT, [2]), 258: (SHORT, [bits] * channels), 259: (SHORT, [1]),
+            262: (SHORT, [0 if white else 2]), 277: (SHORT, [channels]), 278: (SHORT, [2])}
+    stored = samples.astype(byte_order + ("u2" if white else "u1")).tobytes()
+    want = 1.0 - samples / 65535.0 if white else samples / 255.0
+    shorts = read(tmp_path, tiff_file(tags, [stored], byte_order=byte_order), "shorts.tif")
+    np.testing.assert_allclose(shorts[..., :3], np.broadcast_to(want, (2, 3, 3)), atol=1e-7)  # (as Pillow reads it)
+    tags[262 if white else tag] = (BYTE, tags[262 if white else tag][1])
+    image = read(tmp_path, tiff_file(tags, [stored], byte_order=byte_order))
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to(want, (2, 3, 3)), atol=1e-7)

@@ -72,6 +72,7 @@ from .tiff_checks import (
     tiff_first_values,
     tiff_sample_layout,
     tiff_samples,
+    with_byte_numbers_as_shorts,
     with_value,
     without_tags,
 )
@@ -491,6 +492,7 @@ def _read_pillow_samples(data: bytes, name: str, auto: bool = False) -> tuple[np
                            "open (it reads its header as a classic TIFF's); save it in little-endian (Intel) byte "
                            "order, or as EXR")
     _refuse_damaged_tiff(data, name)
+    data = with_byte_numbers_as_shorts(data)  # (libtiff reads them so; Pillow opens no file of some)
     try:
         with _pillow_size_limit_lifted():
             _refuse_undefined_alpha(data, name)

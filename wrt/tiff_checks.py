@@ -43,6 +43,10 @@ SAMPLE_FORMATS = {UNSIGNED: "unsigned integer", SIGNED: "signed integer", 3: "fl
 # skipped there, as libtiff, under Storm's TIFF reader, skips them, and named.
 PIXEL_TAGS = {256, 257, 258, 259, 262, 266, 273, 277, 278, 279, 284, 317, 320, 322, 323, 324, 325, 338, 339, 347, 513,
               514, 519, 520, 521, 529, 530, 531, 532}
+# Those of them whose values are SHORT or LONG numbers (TIFF 6.0: all but JPEGTables, YCbCrCoefficients and
+# ReferenceBlackWhite), which libtiff reads of BYTE values too; Pillow (as tifffile) takes a BYTE entry's values for
+# bytes, not numbers, and opens no file of such a size, depth, compression, photometric, sample count or strip height
+NUMBER_TAGS = PIXEL_TAGS - {347, 529, 532}
 
 
 def tiff_samples(data: bytes) -> tuple[int, int, int] | None:
@@ -240,6 +244,38 @@ def _bytes_filled(directory: TiffDirectory, kind: str, pieces: int) -> list[int]
     row_bytes = -(-across * pixel_bits // 8)
     return [(rows if kind == "tile" else min(rows, height - (k % per_plane) * rows)) * row_bytes
             for k in range(pieces)]
+
+
+def with_byte_numbers_as_shorts(data: bytes) -> bytes:
+    """The TIFF (or BigTIFF) file ``data`` with the BYTE entries of :data:`NUMBER_TAGS` in its first image directory
+    made SHORT entries of the same values (put past the file's end where they no longer fit in the entry), as libtiff
+    reads them; ``data`` itself where it has none, is no TIFF, or its directory or their values are cut short (named
+    where it is read: :func:`wrt.textures._refuse_damaged_tiff`). Pillow opened no file of a BYTE size, BitsPerSample,
+    Compression, PhotometricInterpretation, SamplesPerPixel or RowsPerStrip, and wrt named it as of samples Pillow
+    does not decode."""
+    directory = tiff_directory(data)
+    tags = [] if directory is None else [tag for tag in sorted(NUMBER_TAGS)
+                                         if directory.entries.get(tag, (None,))[0] == BYTE]
+    if not tags:
+        return data
+    out = bytearray(data)
+    for tag in tags:
+        try:
+            values = directory.values(tag)
+        except struct.error:
+            return data
+        packed = struct.pack(f"{directory.order}{len(values)}H", *values)
+        if len(packed) > directory.inline:
+            out += bytes(len(out) % 2)  # (values start on a word boundary)
+            field = struct.pack(directory.order + directory.offset, len(out))
+            out += packed
+        else:
+            field = packed.ljust(directory.inline, b"\0")
+        at = directory.places[tag]
+        struct.pack_into(directory.order + "H", out, at + 2, SHORT)  # (past the tag; the count stays)
+        at += 4 + struct.calcsize(directory.order + directory.offset)  # (past tag, type and count: the value field)
+        out[at : at + directory.inline] = field
+    return bytes(out)
 
 
 def without_tags(directory: TiffDirectory, tags) -> bytes:
