@@ -329,3 +329,30 @@ def test_the_image_hangs_on_the_image_plane_the_right_way_up():
     assert meets.sum() == 1
     assert len({seen[k] for k in np.flatnonzero(~meets)}) == 1  # the background, alike at three corners
     assert seen[int(np.argmax(meets))] != seen[int(np.argmin(meets))]
+
+
+def test_sah_shares_of_boxes_wider_than_float32s_range_are_finite():
+    """Two triangles near x = -2e38 and x = +2e38 (past the traced reach, which a warning names): the root box is
+    4e38 wide, more than float32 holds. Its SAH cost share, the only box of the cut at depth 0, is 1 (the share of a
+    cut of one box); the leaves' are their float64 ``A N / sum A N``. Taken in float32, the root's width was inf, its
+    share inf / inf = NaN, and the boxes were drawn in no colour of the bar."""
+    half = np.array([[-2e38, 0, 0], [-1.9e38, 1e37, 0], [-2e38, 0, 1e37]])
+    points = np.concatenate([half, half * [-1, 1, 1]]).astype(np.float32)
+    scene = wrt.Scene(meshes=[wrt.Mesh("/Wide", points, np.arange(6).reshape(2, 3), np.arange(2))])
+    camera = wrt.Camera.look_at((0.0, 0.0, 1e38), (0.0, 0.0, 0.0))  # the framing camera would stand past float32
+    for options in ({"bvh_depth": 0}, {"bvh_leaves": True}):
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*coordinates past")
+            warnings.simplefilter("error", RuntimeWarning)  # numpy's 'overflow encountered in subtract'
+            plotter = wrt.preview(scene, camera=camera, builder="sweep_sah", bvh_color="sah", window_size=(32, 24),
+                                  show_text=False, show_lights=False, **options)
+        try:
+            boxes = plotter.actors["bvh"].mapper.dataset
+            corners = np.asarray(boxes.points, np.float64).reshape(-1, 8, 3)
+            shares = np.asarray(boxes.cell_data["sah_share"])[::12]
+        finally:
+            plotter.close()
+        extent = corners.max(axis=1) - corners.min(axis=1)  # float64: 4e38 is no overflow there
+        area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
+        expected = area / area.sum()  # one triangle per leaf; the root: 1
+        np.testing.assert_allclose(shares, expected, rtol=1e-6, err_msg=str(options))

@@ -639,7 +639,8 @@ def bvh_boxes(bvh: FlatBvh | WideBoxes, nodes, color: str = "depth", max_boxes: 
     total = len(nodes)
     depths = bvh.depths()
     if color == "sah":
-        extent = np.maximum(bvh.uppers[nodes] - bvh.lowers[nodes], 0.0).astype(np.float64)
+        # In float64: a box wider than float32 holds (from -2e38 to 2e38) was inf wide, its share inf / inf = NaN.
+        extent = np.maximum(bvh.uppers[nodes].astype(np.float64) - bvh.lowers[nodes], 0.0)
         area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
         below = subtree_prim_counts(bvh, depths) if isinstance(bvh, FlatBvh) else bvh.refs_below  # WideBoxes
         cost = area * below[nodes]
