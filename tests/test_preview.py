@@ -1192,6 +1192,24 @@ def test_cluster_vertices_keeps_every_triangle_facing_as_its_source(bunny):
         assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0), budget
 
 
+@pytest.mark.parametrize("scale", [1e21, 1e-21])
+def test_cluster_vertices_of_huge_and_tiny_meshes_keeps_every_triangle_facing_as_its_source(bunny, scale):
+    """The bunny 1e21 or 1e-21 units tall (float32 points, within wrt's reach): the source normals that wind snapped
+    triangles back were float32 products of edges, inf past 1.8e19 units (numpy's 'overflow encountered in cast') and
+    0 below 1e-19, and 2 (1e21) and 6 (1e-21) of 372 simplified triangles were left turned over."""
+    points, indices = bunny.triangles()
+    points = (points.astype(np.float64) * scale).astype(np.float32)
+    rows = np.arange(len(indices))[:, None]
+    source = points[indices].astype(np.float64) / scale  # float64 oracle, in the bunny's own units
+    source = np.cross(source[:, 1] - source[:, 0], source[:, 2] - source[:, 0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        p, i, r = cluster_vertices(points, indices, rows, 500)
+    corners = p[i].astype(np.float64) / scale
+    facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0)
+
+
 @pytest.mark.parametrize("bound", [50, 1 << 40, 1 << 62])
 def test_cluster_ids_are_numpys_unique_inverse(bound):
     """The clustering ranks its points' cell keys with one sort of key and row packed together where both fit in 63

@@ -505,10 +505,12 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         once = first_rows(np.arange(len(rows)), triangle_keys(kept, clusters))
         return centres, kept[once].astype(np.int32), np.asarray(colors)[rows[once]]
 
-    # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles.
-    normals = source_normals(points, indices)
+    # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles. Normals and area are
+    # taken of the points scaled by a power of two into a box of side about 1 (exact: the same signs and ratios).
+    unit = math.ldexp(1.0, -math.frexp(extent)[1])
+    normals = source_normals(points, indices, unit)
     area = 0.5 * float(np.sqrt(np.einsum("ij,ij->i", normals, normals)).sum(dtype=np.float64))
-    resolution = int(np.clip(extent * math.sqrt(max_triangles / max(2.0 * area, 1e-30)), 2, MAX_CLUSTER_GRID))
+    resolution = int(np.clip(extent * unit * math.sqrt(max_triangles / max(2.0 * area, 1e-30)), 2, MAX_CLUSTER_GRID))
     fits, too_fine = None, None  # (resolution, result) of the finest grid that fits; coarsest one that does not
     for _ in range(CLUSTER_STEPS):
         ids, clusters, tris, candidates, keys = cluster(resolution)
@@ -580,14 +582,17 @@ def triangle_keys(tris: np.ndarray, clusters: int) -> np.ndarray:
     return np.column_stack([odd, smallest, middle, largest])
 
 
-def source_normals(points: np.ndarray, indices: np.ndarray) -> np.ndarray:
-    """``(T, 3)`` float32 ``(b - a) x (c - a)`` of each triangle, its edges taken in float64 (a chunk at a time). From
-    float32 corners, the 0.1-unit triangles of an instance 1e7 from the origin (drawn from float64 points) lay on a
-    1-unit grid: their normals were noise, and the snapped triangles wound back by them faced any way, 5 % of a
-    simplified ball's inwards, culled."""
+def source_normals(points: np.ndarray, indices: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """``(T, 3)`` float32 ``(b - a) x (c - a)`` of each triangle of the points times ``scale`` (a power of two, so
+    exact), its edges taken in float64 (a chunk at a time). From float32 corners, the 0.1-unit triangles of an
+    instance 1e7 from the origin (drawn from float64 points) lay on a 1-unit grid: their normals were noise, and the
+    snapped triangles wound back by them faced any way, 5 % of a simplified ball's inwards, culled. A ``scale`` that
+    brings the points into a box of side about 1 keeps the float32 products finite and normal: unscaled, a bunny
+    1e21 units tall had normals of inf (numpy's 'overflow encountered in cast') and one 1e-21 tall of 0, and 2 and 6
+    of its 372 simplified triangles were left turned over."""
     normals = np.empty((len(indices), 3), np.float32)
     for a in range(0, len(indices), NORMAL_CHUNK):
-        corners = points[indices[a : a + NORMAL_CHUNK]]
+        corners = points[indices[a : a + NORMAL_CHUNK]].astype(np.float64) * scale
         normals[a : a + NORMAL_CHUNK] = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     return normals
 
