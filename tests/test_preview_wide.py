@@ -168,6 +168,26 @@ def test_cli_refuses_a_wide_layout_of_analytic_shapes_naming_the_flag(tmp_path, 
     assert not out.exists()
 
 
+def test_a_layout_without_boxes_is_only_warned_about_in_a_scene_of_shapes(tmp_path, capsys):
+    """Without --bvh-depth or --bvh-leaves no boxes are drawn, and --bvh-layout is named in a warning saying so, as
+    --bvh-color is: for a scene of analytic shapes the run then failed on that option all the same (the warning
+    'none are drawn', then 'error: --bvh-layout wide: ... has instances or analytic shapes', status 2, no PNG), as
+    wrt.preview(bvh_layout='wide') with no boxes raised."""
+    usda = tmp_path / "ball.usda"
+    usda.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
+    out = tmp_path / "ball.png"
+    assert main(["preview", str(usda), "--bvh-layout", "wide", "-o", str(out), "--window", "64x48", "-q"]) == 0
+    assert out.is_file()
+    err = capsys.readouterr().err
+    assert "--bvh-layout wide picks the BVH whose boxes are drawn, and none are drawn" in err
+    assert "error" not in err
+    plotter = wrt.preview(str(usda), bvh_layout="wide8", window_size=(64, 48))
+    try:
+        assert "bvh" not in plotter.actors
+    finally:
+        plotter.close()
+
+
 def test_compact_layout_of_instances_or_shapes_is_refused_as_wide_is(soup, tmp_path, capsys):
     """``compact`` is the binary tree of the flattened triangles where the trace takes it for a scene with instances
     (a BvhAccelerator over the 2 x 120 triangles, not the two-level BVH the preview draws); the preview drew the

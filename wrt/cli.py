@@ -1440,9 +1440,10 @@ def _run_preview(args) -> int:
         from .preview_blas import CLI_NAMES, instance_row
 
         instance = instance_row(scene, instance, CLI_NAMES)
-    from .preview_wide import check_drawn_layout  # refused now, naming the flag, as --bvh-instance is
+    if args.bvh_depth is not None or args.bvh_leaves:  # without boxes the layout is only warned about, above
+        from .preview_wide import check_drawn_layout  # refused now, naming the flag, as --bvh-instance is
 
-    check_drawn_layout(scene, args.bvh_layout, "--bvh-layout {}", "--bvh-layout binary")
+        check_drawn_layout(scene, args.bvh_layout, "--bvh-layout {}", "--bvh-layout binary")
     if args.image:  # the film is rendered: refused now, naming the options, not inside the preview
         from .render import resolve_view
 

@@ -811,7 +811,7 @@ def preview(
         PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
             a window where there is no display.
         ValueError: bad arguments (unknown camera, builder, layout or colouring, both ``bvh_depth`` and
-            ``bvh_leaves``, a ``bvh_layout`` but binary of a scene with instances or analytic shapes).
+            ``bvh_leaves``, a ``bvh_layout`` but binary drawn for a scene with instances or analytic shapes).
     """
     pv = import_pyvista()
     # By their truth, image="false" rendered the scene, show_text="false" wrote the summary and off_screen="false"
@@ -855,7 +855,8 @@ def preview(
                               "bvh_leaves", stacklevel=2)
     device = resolve_device(device)
     scene = _as_scene(scene)
-    check_drawn_layout(scene, bvh_layout)  # before any work
+    if bvh_depth is not None or bvh_leaves:  # the layout of the boxes drawn; without any it picks nothing
+        check_drawn_layout(scene, bvh_layout)  # before any work
     instance = None if bvh_instance is None else instance_row(scene, bvh_instance)  # refused before any work
     if show_lights:  # as a render checks them: a NaN assigned to a light's position or transform was drawn as NaN
         check_lights(scene.lights)  # points without a word, where a render refuses it naming the light
