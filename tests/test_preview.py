@@ -797,6 +797,31 @@ def test_summary_of_the_top_level_tree_says_what_its_entries_are():
             assert "meshes" not in line, line
 
 
+def test_summary_of_an_empty_top_level_tree_names_the_instances_left_out():
+    """Three instances of a triangle, two scaled to a point (numpy's determinant 0), which the trace leaves out (a
+    warning says so when the scene is made); with all three so, the TLAS line said 'empty (no triangles or analytic
+    shapes) ... 0 entries: none' of a scene whose title counts 3 triangles. It counts the instances left out."""
+    triangle = wrt.Mesh("/P/M", np.float32([[-1, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]), [0])
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    to_world[:, 0, 3] = [0.0, 4.0, 8.0]
+    for singular in ([0, 1], [0, 1, 2]):
+        placed = to_world.copy()
+        placed[singular, :3, :3] = 0.0
+        assert np.all(np.linalg.det(placed[singular, :3, :3]) == 0)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*singular transform")
+            scene = wrt.Scene(prototypes=[Prototype("/P", [triangle])], instances=Instances.from_transforms([0] * 3,
+                                                                                                          placed))
+            plotter = wrt.preview(scene, bvh_depth=0, window_size=(64, 48))
+        try:
+            line = next(x for x in summary_text(plotter).splitlines() if x.startswith("TLAS"))
+        finally:
+            plotter.close()
+        traced = 3 - len(singular)
+        assert f"{traced} entr" in line and f"{len(singular)} instances left out of the trace" in line, line
+        assert "no triangles or analytic shapes)" not in line, line
+
+
 def test_to_pyvista_gives_meshes_and_instances_without_triangles_empty_blocks(tmp_path):
     """A Points prim is read as instances of a sphere prototype, which has no triangles: to_pyvista raised pyvista's
     "Empty arrays are not allowed" for its blocks (usd-wg's simpleAssetScene too), and a mesh of points without faces

@@ -967,8 +967,9 @@ def preview(
 def tlas_entries(scene: Scene, total: int) -> str:
     """What the ``total`` entries of ``scene``'s TLAS are, counted: one per instance traced in a BLAS (of a prototype
     with triangles and a transform that inverts), one per analytic shape (an instanced one once per instance) and one
-    for all the non-instanced meshes where there are any. 'An instance or shape each, one for the other meshes' was
-    said of every TLAS: three instances alone read as two and a mesh entry."""
+    for all the non-instanced meshes where there are any; then how many instances the trace leaves out (a transform
+    that does not invert). 'An instance or shape each, one for the other meshes' was said of every TLAS: three
+    instances alone read as two and a mesh entry."""
     meshes = 1 if scene.num_flat_triangles else 0
     with_triangles = scene.prototype_ranges()[:, 1] > 0 if len(scene.prototypes) else np.zeros(0, bool)
     traced = scene.instance_inverses()[1]
@@ -977,7 +978,11 @@ def tlas_entries(scene: Scene, total: int) -> str:
     parts = [counted(instances, "instance")] if instances else []
     parts += [counted(shapes, "analytic shape")] if shapes else []
     parts += ["1 for the non-instanced meshes"] if meshes else []
-    return f"{counted(total, 'entry', 'entries')}: {', '.join(parts) or 'none'}"
+    # Instances whose transform does not invert (a zero scale) have no entry: a TLAS of only such read 'empty (no
+    # triangles or analytic shapes) ... 0 entries: none' of a scene whose title counts their triangles.
+    left_out = int((~traced).sum()) if len(scene.instances) else 0
+    skipped = f"; {counted(left_out, 'instance')} left out of the trace, their transforms singular" if left_out else ""
+    return f"{counted(total, 'entry', 'entries')}: {', '.join(parts) or 'none'}{skipped}"
 
 
 def check_window_size(window_size) -> None:
@@ -1178,7 +1183,7 @@ def _add_bvh(plotter, bvh: FlatBvh | WideBoxes, depth, color: str, max_boxes: in
     from matplotlib.colors import LinearSegmentedColormap
 
     if not bvh.num_prims:  # a scene with nothing to draw: 'past the deepest leaf ... the leaves, 0 boxes' said before
-        return f"{counted(bvh.num_nodes, 'node')}: empty (no triangles or analytic shapes), no boxes", ""
+        return f"{counted(bvh.num_nodes, 'node')}: empty (no triangles or analytic shapes traced), no boxes", ""
     nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
     boxes = bvh_boxes(bvh, nodes, color, max_boxes)
     shown = boxes.n_cells // 12
