@@ -224,3 +224,36 @@ def test_a_kerb_on_a_long_thin_quad_casts_its_contact_shadow(instanced):
     assert (shadowed & road).sum() >= 15  # the shadow is about 0.16 long and 0.3 wide: 4 x 8 pixels of 0.0375
     np.testing.assert_array_equal(shade[shadowed & road], 0.0)
     np.testing.assert_allclose(shade[lit & road], ALBEDO * np.dot(normal, to_sun) / np.pi, rtol=1e-4)
+
+
+@pytest.mark.parametrize("length", [1e5, 1e6])
+@pytest.mark.parametrize("instanced", [False, True], ids=["flat", "instanced"])
+def test_a_needle_is_shaded_by_the_normal_of_its_float32_corners(length, instanced):
+    """A needle (half a ``length`` x 1 strip, aspect up to 2e6) under a sun 3 degrees up is lit as its own plane
+    is: radiance ``ALBEDO cos / pi`` with ``cos`` from the float64 normal of the float32 corners wrt reads (a flat
+    lit plane: no other surface). The float32 edges ``b - a`` round by half an ulp of ``length`` (0.03 at 1e6) against
+    a width of 1, so a float32 cross product of them turned the normal by up to eps times the aspect: at 1e6 a
+    tenth of a radian, and the needle was drawn from 0.6 to 2 times as bright as its plane is lit."""
+    u, v = TILT @ [1, 0, 0], TILT @ [0, 1, 0]
+    normal = np.cross(u, v)
+    corners = np.array([-length / 2 * u - 0.5 * v, length / 2 * u - 0.5 * v, length / 2 * u + 0.5 * v])
+    to_sun = np.cos(0.05) * (0.6 * u + 0.8 * v) + np.sin(0.05) * normal
+    sun = [wrt.DistantLight(direction=-to_sun, color=np.ones(3))]
+    if instanced:  # a prototype twice as long, halved along the needle
+        to_world = np.eye(4)
+        to_world[:3, :3] = np.eye(3) - 0.5 * np.outer(u, u)
+        stretch = np.eye(3) + np.outer(u, u)
+        proto = wrt.Prototype("/P", [wrt.Mesh("/P/needle", corners @ stretch.T, [[0, 1, 2]], [0], double_sided=True)])
+        instances = wrt.Instances(np.zeros(1, np.int32), to_world[None], np.zeros(1, np.int32), np.full(1, -1), ["/I"])
+        scene = wrt.Scene(prototypes=[proto], instances=instances, lights=sun)
+        a, b, c = (np.asarray(proto.meshes[0].points, np.float32).astype(np.float64) @ to_world[:3, :3].T)
+    else:
+        scene = wrt.Scene(meshes=[wrt.Mesh("/needle", corners, [[0, 1, 2]], [0], double_sided=True)], lights=sun)
+        a, b, c = scene.triangles()[0].astype(np.float64)
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n)
+    camera = wrt.Camera.orthographic(eye=3 * normal, target=(0, 0, 0), up=v, height=0.9, clipping_range=(0.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=16, height=16, device="cpu", max_depth=1)
+    on = img.aovs["prim"].reshape(-1) >= 0
+    assert on.sum() >= 100  # the half of the pixels the needle covers
+    np.testing.assert_allclose(img.rgb.reshape(-1, 3)[on], ALBEDO * abs(np.dot(n, to_sun)) / np.pi, rtol=1e-3)

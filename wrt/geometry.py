@@ -240,17 +240,40 @@ def stable_length(v: wp.vec3):
     return length
 
 
+# Below this largest component of face_normal's float32 cross product (of edges scaled into [1, 2)), the edges from
+# the first corner are within about 1.8 degrees of parallel and the normal comes from float64 (needle_normal).
+NEEDLE_NORMAL = wp.constant(2.0**-5)
+
+
+@wp.func
+def needle_normal(a: wp.vec3, b: wp.vec3, c: wp.vec3, down_b: float, down_c: float):
+    """``face_normal`` in float64: the edges of float32 corners are exact there (their products too), so the
+    normal is the corners' own to float32's rounding of the result, however thin the triangle."""
+    ab = (wp.vec3d(b) - wp.vec3d(a)) * wp.float64(down_b)
+    ac = (wp.vec3d(c) - wp.vec3d(a)) * wp.float64(down_c)
+    n = wp.cross(ab, ac)
+    return wp.vec3(wp.float32(n[0]), wp.float32(n[1]), wp.float32(n[2]))
+
+
 @wp.func
 def face_normal(a: wp.vec3, b: wp.vec3, c: wp.vec3):
     """``cross(b - a, c - a)`` (not normalised) with each edge first scaled by the power of two that brings its
     largest component into ``[1, 2)``: the same direction, and the same bits once normalised, where nothing over-
     or underflows, but the products cannot: in a scene scaled by 1e20 the cross product (an edge length squared)
-    was inf or NaN, by 1e-30 it was 0, and surfaces were shaded with a NaN normal or one facing the ray."""
+    was inf or NaN, by 1e-30 it was 0, and surfaces were shaded with a NaN normal or one facing the ray.
+
+    Where the two edges are nearly parallel (a needle; the cross product below ``NEEDLE_NORMAL``) it is taken in
+    float64 (``needle_normal``): in float32 the rounding of ``b - a`` and of the products, an epsilon of the edges'
+    lengths, turned the normal by about epsilon times the aspect, a tenth of a radian on a 1e6 x 1 strip (lit 0.6 to
+    2 times as bright as its plane under a low sun), up to any direction at 1e7."""
     ab = b - a
     ac = c - a
     down_b, _ = unit_scales(ab)
     down_c, _ = unit_scales(ac)
-    return wp.cross(ab * down_b, ac * down_c)
+    n = wp.cross(ab * down_b, ac * down_c)
+    if largest_magnitude(n) < NEEDLE_NORMAL:
+        n = needle_normal(a, b, c, down_b, down_c)
+    return n
 
 
 @wp.func
