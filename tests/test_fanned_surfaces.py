@@ -257,3 +257,30 @@ def test_a_needle_is_shaded_by_the_normal_of_its_float32_corners(length, instanc
     on = img.aovs["prim"].reshape(-1) >= 0
     assert on.sum() >= 100  # the half of the pixels the needle covers
     np.testing.assert_allclose(img.rgb.reshape(-1, 3)[on], ALBEDO * abs(np.dot(n, to_sun)) / np.pi, rtol=1e-3)
+
+
+def test_a_long_thin_quad_stretched_along_its_normal_is_shaded_by_its_own_plane():
+    """The 1000 x 1 road drawn through an instance that stretches it 1024 times along its normal (its world corners
+    stay in the plane): each triangle is lit as the float64 transform of its float32 prototype corners is. The
+    prototype normal of the triangle whose edges from its first corner are a thousandth of a radian apart was off by
+    about epsilon times its aspect in float32, and the stretch multiplies that tilt by 1024: 1.8% too dark or bright
+    (31% at 16384)."""
+    u, v = TILT @ [1, 0, 0], TILT @ [0, 1, 0]
+    normal = np.cross(u, v)
+    to_sun = np.cos(0.2) * (0.6 * u + 0.8 * v) + np.sin(0.2) * normal
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.eye(3) + 1023 * np.outer(normal, normal)
+    road = road_mesh(u, v, name="/Proto/road")
+    instances = wrt.Instances(np.zeros(1, np.int32), to_world[None], np.zeros(1, np.int32), np.full(1, -1), ["/I"])
+    scene = wrt.Scene(prototypes=[wrt.Prototype("/Proto", [road])], instances=instances,
+                      lights=[wrt.DistantLight(direction=-to_sun, color=np.ones(3))])
+    camera = wrt.Camera.orthographic(eye=3 * normal, target=(0, 0, 0), up=v, height=0.9, clipping_range=(0.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=16, height=16, device="cpu", max_depth=1)
+    corners = np.asarray(road.points, np.float32).astype(np.float64) @ to_world[:3, :3].T
+    prim = img.aovs["prim"].reshape(-1)
+    for k, (a, b, c) in enumerate(corners[[[0, 1, 2], [0, 2, 3]]]):
+        n = np.cross(b - a, c - a)
+        n /= np.linalg.norm(n)
+        assert (prim == k).sum() >= 50
+        np.testing.assert_allclose(img.rgb.reshape(-1, 3)[prim == k], ALBEDO * abs(np.dot(n, to_sun)) / np.pi,
+                                   rtol=1e-4, err_msg=f"triangle {k}")
