@@ -998,6 +998,22 @@ def test_a_bad_thread_count_raises_on_a_gpu_too(monkeypatch):
     assert resolve_threads(None, gpu) == 1
 
 
+def test_a_thread_count_of_a_superscript_digit_is_named(monkeypatch):
+    """``"²"`` passes ``str.isdigit`` but not ``int``: ``WRT_THREADS=²`` (and ``threads="²"``) raised int's own
+    'invalid literal for int() with base 10', naming neither the variable nor the argument. Other decimal digits
+    (``"٣"``) are numbers to ``int`` and are taken."""
+    from wrt.trace import resolve_threads
+
+    cpu = wp.get_device("cpu")
+    monkeypatch.setenv("WRT_THREADS", "\u00b2")
+    with pytest.raises(ValueError, match="WRT_THREADS environment variable must be .*, got '\u00b2'"):
+        resolve_threads(None, cpu)
+    monkeypatch.delenv("WRT_THREADS")
+    with pytest.raises(ValueError, match="threads must be .*, got '\u00b2'"):
+        resolve_threads("\u00b2", cpu)
+    assert resolve_threads("\u0663", cpu) == int("\u0663") == 3
+
+
 def test_cpu_launches_use_every_core_unless_told(monkeypatch):
     from wrt.trace import resolve_threads
 

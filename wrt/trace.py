@@ -147,7 +147,8 @@ def _thread_count(threads) -> int:
     if threads == "all":
         return max(os.cpu_count() or 1, 1)
     given = threads
-    if isinstance(threads, str) and threads.isdigit():
+    # isdecimal, not isdigit: "²" is a digit that int() refuses, with its own message naming neither source.
+    if isinstance(threads, str) and threads.isdecimal():
         threads = int(threads)
     # A bool is an int to Python: threads=True would quietly mean one thread.
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) or threads < 1:
