@@ -6,6 +6,7 @@ import importlib
 import threading
 
 import numpy as np
+import pytest
 
 import wrt
 from wrt.instancing import Instances, Prototype
@@ -13,6 +14,7 @@ from wrt.scene import Scene
 
 wrt_render = importlib.import_module("wrt.render")  # wrt.render is also the function
 trace_module = importlib.import_module("wrt.trace")
+scene_module = importlib.import_module("wrt.scene")
 
 CAMERA = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
 OPTIONS = dict(camera=CAMERA, width=16, height=12, device="cpu", integrator="depth")
@@ -549,3 +551,45 @@ def test_a_render_interrupted_while_it_waits_for_its_renderer_back_leaves_the_re
     assert renderer._calls._lock.acquire(blocking=False)  # no thread holds it
     renderer._calls._lock.release()
     np.testing.assert_array_equal(renderer.render().rgb, wrt.render(square_scene(), **OPTIONS).rgb)
+
+
+@pytest.mark.parametrize("asked", ["bounds", "triangles"])
+def test_a_scene_read_in_one_thread_while_another_moves_its_mesh_keeps_no_stale_cache(monkeypatch, asked):
+    """Thread A asks the scene for ``bounds()`` (or ``triangles()``, a user's export or viewer) while thread B moves
+    the square (``mesh.points = ...``) and reads the scene again. A's method dropped the stale caches under the lock,
+    then made its value without it, and stored the old square's value into the cache B's edit had just emptied:
+    from then on ``bounds()`` held the old box, and ``triangles()`` the old points, of which the next trace built its
+    BVH (the old square hit at t = 3, not 2) until the next edit. A read now holds the scene's lock while it makes
+    its value: B's edit waits for it, and drops it. Oracle: the same calls on a scene made with the moved square."""
+    scene = square_scene()
+    real = scene_module._concatenate_meshes
+    reading, moved = threading.Event(), threading.Event()
+
+    def concatenate(meshes):
+        made = real(meshes)
+        if threading.current_thread().name == "A" and not reading.is_set():
+            reading.set()
+            moved.wait(timeout=0.5)  # before the lock B had moved and read by now; now B waits for this read
+        return made
+
+    monkeypatch.setattr(scene_module, "_concatenate_meshes", concatenate)
+    a = threading.Thread(target=getattr(scene, asked), name="A")
+    a.start()
+    assert reading.wait(timeout=60)
+
+    def move():
+        scene.meshes[0].points = SQUARE + np.float32([0, 0, 1])
+        getattr(scene, asked)()
+        moved.set()
+
+    b = threading.Thread(target=move, name="B")
+    b.start()
+    for thread in (a, b):
+        thread.join(timeout=60)
+        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    monkeypatch.undo()
+
+    fresh = square_scene(1.0)
+    np.testing.assert_array_equal(scene.bounds(), fresh.bounds())
+    np.testing.assert_array_equal(scene.triangles()[0], fresh.triangles()[0])
+    assert wrt.trace(scene, *RAY).t[0] == wrt.trace(fresh, *RAY).t[0] == 2.0

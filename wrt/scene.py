@@ -24,6 +24,7 @@ ones first, then each instance's prototype shapes in instance order.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import operator
 import weakref
@@ -652,6 +653,21 @@ class IdRows(NamedTuple):
         return out.astype(np.int64 if total > ROW_DTYPE_LIMIT else np.int32)
 
 
+def of_one_state(method):
+    """A :class:`Scene` method that checks the caches (:meth:`Scene.drop_stale_caches`) and then makes and caches a
+    value of the scene, holding the scene's lock (:attr:`Scene.lock`) throughout: holding it for the check alone,
+    ``scene.bounds()`` or ``scene.triangles()`` in one thread made its value of the old mesh while another thread
+    moved it and emptied the cache, then stored that value into the emptied cache, where it stayed (the old box, and
+    the old points the next trace built its BVH of) until the next edit."""
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with EDITS:
+            return method(self, *args, **kwargs)
+
+    return locked
+
+
 def writes_stoppable(array: np.ndarray) -> bool:
     """Whether :meth:`Scene.freeze` making ``array`` read-only stops every write to its elements: it owns its memory,
     or no write can reach it already (:func:`read_only_throughout`: the loader's views). A view of a caller's
@@ -1041,6 +1057,7 @@ class Scene:
                 paths = list(dict.fromkeys(self.instances.path(int(i)) for i in these[:4]))
                 self._warn_prims(what, paths, len(these))
 
+    @of_one_state
     def warn_past_traced_reach(self) -> None:
         """Warns naming the meshes and instances with a coordinate past :data:`TRACED_REACH` (2^126, 8.5e37), where
         rays can miss their triangles: the watertight test subtracts a ray's origin from each corner and shears the
@@ -1125,6 +1142,7 @@ class Scene:
         """The TextureInputs of every material (the values of its ``textures`` dict)."""
         return [t for m in self.materials for t in getattr(m, "textures", {}).values()]
 
+    @of_one_state
     def check_vertices(self) -> None:
         """:meth:`Mesh.check_vertices` of every mesh, prototypes' too: their points may have been edited since. Once
         per state of the meshes (a cache entry: an edit drops it; instances moved keep it, as the meshes stay)."""
@@ -1248,6 +1266,7 @@ class Scene:
         """``(N + 1,)`` int64: rendered shape index (see the module docstring) where each instance's shapes start."""
         return self._id_layout().instance_shapes
 
+    @of_one_state
     def _id_layout(self) -> _IdLayout:
         """The counts and offsets of :meth:`num_geometry_triangles`, :meth:`prototype_ranges`,
         :meth:`instance_offsets`, :meth:`prototype_shape_ranges` and :meth:`instance_shape_offsets`, made together:
@@ -1286,6 +1305,7 @@ class Scene:
         """Triangles of the non-instanced meshes (the first rows of both orders)."""
         return self._id_layout().flat  # cached: a sum over every mesh took 8 ms for 40k meshes, several per render
 
+    @of_one_state
     def geometry(self) -> tuple[np.ndarray, np.ndarray]:
         """Every unique triangle once, in geometry order (module docstring): non-instanced meshes in world space,
         then prototype meshes in prototype space. Without instances this is :meth:`triangles`.
@@ -1448,6 +1468,7 @@ class Scene:
             elements[drawn[point >= 0]] = point[point >= 0]
         return ids, elements
 
+    @of_one_state
     def _prim_table(self) -> tuple:
         """What :meth:`prim_paths`, :meth:`hit_prims` and :meth:`hit_paths` look prims up in, made once per scene
         state and cached (for 40k parts it took 0.4 s, and a render product with ids asked for it per layer):
@@ -1502,6 +1523,7 @@ class Scene:
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
 
+    @of_one_state
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """All triangles in world space, instances expanded, in the documented order (module docstring).
 
@@ -1900,6 +1922,7 @@ class Scene:
             self._cache[key] = wp.array(transforms, dtype=mat34, device=device)
         return self._cache[key]
 
+    @of_one_state
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space axis-aligned bounds ``(lower, upper)`` of all points; unit cube around 0 when empty.
 
