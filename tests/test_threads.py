@@ -593,3 +593,40 @@ def test_a_scene_read_in_one_thread_while_another_moves_its_mesh_keeps_no_stale_
     np.testing.assert_array_equal(scene.bounds(), fresh.bounds())
     np.testing.assert_array_equal(scene.triangles()[0], fresh.triangles()[0])
     assert wrt.trace(scene, *RAY).t[0] == wrt.trace(fresh, *RAY).t[0] == 2.0
+
+
+def test_hits_named_in_one_thread_while_another_replaces_the_mesh_are_named_as_traced(monkeypatch):
+    """Thread A names the prims of hits traced on ``/Square`` (``scene.hit_paths(hits)``) while thread B replaces
+    the mesh by ``/Other`` and reads the scene. ``hit_paths`` checked that the hits were of the scene as it was, then
+    looked their ids up in the table of the scene as B had left it: the hits on ``/Square`` were named ``/Other``,
+    without a word. The check and the look-up now hold the scene's lock together: B's edit waits for them. Oracle:
+    the names of the hits asked in this thread before any edit."""
+    scene = square_scene()
+    hits = wrt.trace(scene, *RAY)
+    expected = scene.hit_paths(hits)
+    real = scene_module.check_traced_in
+    checked, replaced = threading.Event(), threading.Event()
+
+    def check(*args, **kwargs):
+        real(*args, **kwargs)
+        if threading.current_thread().name == "A" and not checked.is_set():
+            checked.set()
+            replaced.wait(timeout=0.5)  # before the lock B had replaced and read by now; now B waits for this call
+
+    monkeypatch.setattr(scene_module, "check_traced_in", check)
+    named = []
+    a = threading.Thread(target=lambda: named.append(scene.hit_paths(hits)), name="A")
+    a.start()
+    assert checked.wait(timeout=60)
+
+    def replace():
+        scene.meshes = [dataclasses.replace(scene.meshes[0], path="/Other")]
+        scene.bounds()
+        replaced.set()
+
+    b = threading.Thread(target=replace, name="B")
+    b.start()
+    for thread in (a, b):
+        thread.join(timeout=60)
+        assert not thread.is_alive(), "a look-up and an edit of one scene waited for each other"
+    assert [list(part) for part in named[0]] == [list(part) for part in expected] == [["/Square"], [""]]

@@ -655,10 +655,12 @@ class IdRows(NamedTuple):
 
 def of_one_state(method):
     """A :class:`Scene` method that checks the caches (:meth:`Scene.drop_stale_caches`) and then makes and caches a
-    value of the scene, holding the scene's lock (:attr:`Scene.lock`) throughout: holding it for the check alone,
-    ``scene.bounds()`` or ``scene.triangles()`` in one thread made its value of the old mesh while another thread
-    moved it and emptied the cache, then stored that value into the emptied cache, where it stayed (the old box, and
-    the old points the next trace built its BVH of) until the next edit."""
+    value of the scene, or reads it in several steps, holding the scene's lock (:attr:`Scene.lock`) throughout:
+    holding it for the check alone, ``scene.bounds()`` or ``scene.triangles()`` in one thread made its value of the
+    old mesh while another thread moved it and emptied the cache, then stored that value into the emptied cache,
+    where it stayed (the old box, and the old points the next trace built its BVH of) until the next edit; and
+    ``scene.hit_paths(hits)`` checked that the hits were of the scene as it was, then named them by the table of the
+    scene as another thread had left it (hits on ``/Square`` named ``/Other``)."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
@@ -1388,6 +1390,7 @@ class Scene:
         prim id ``k`` of :meth:`hit_prims`."""
         return list(self._prim_table()[0])  # a copy: the table is the scene's cache
 
+    @of_one_state
     def hit_prims(self, geometry_ids, instances=None) -> tuple[np.ndarray, np.ndarray]:
         """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
         miss. A prim id is an index into :meth:`prim_paths`; an element is the face of a mesh (``Mesh.face_ids``:
@@ -1501,6 +1504,7 @@ class Scene:
                                 prototype_of)
         return self._cache[key]
 
+    @of_one_state
     def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
         """The prims that hits name, by path: ``(prims, instances)``, ``(N,)`` object arrays of str, ``""`` where
         there is none (a miss; ``instances`` on non-instanced geometry).
