@@ -630,3 +630,50 @@ def test_hits_named_in_one_thread_while_another_replaces_the_mesh_are_named_as_t
         thread.join(timeout=60)
         assert not thread.is_alive(), "a look-up and an edit of one scene waited for each other"
     assert [list(part) for part in named[0]] == [list(part) for part in expected] == [["/Square"], [""]]
+
+
+def test_instance_inverses_read_in_one_thread_while_another_moves_the_instances_are_not_kept_stale(monkeypatch):
+    """Thread A reads ``scene.instance_inverses()`` (as ``wrt.preview`` and the far-view warnings do) while thread B
+    moves the instances (``instances.to_world = ...``) and reads the scene, which drops the caches. A inverted the
+    old pose without the lock and stored its inverses into the emptied cache, over B's: the next trace built a TLAS
+    of the new pose with the inverses of the old one and hit the instances where neither pose puts them (until the
+    next move). The read now holds the scene's lock: B's move waits for it. Oracle: a trace of a scene made with the
+    moved instances, and their inverses in float64 (numpy)."""
+    grid = np.linspace(-1.2, 1.2, 13, dtype=np.float32)
+    origins = np.stack([*np.meshgrid(grid, grid), np.full((13, 13), 3.0, np.float32)], -1).reshape(-1, 3)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (len(origins), 1))
+    scene = instanced_scene(0.0)
+    scene.invalidate()  # no inverses cached: the read below makes them
+    grown = two_instances(0.3)
+    grown[:, :3, :3] *= 1.5  # turned or scaled, not only moved: a device transform's translation is made of to_world
+    real = scene_module.invert_transforms
+    inverting, moved = threading.Event(), threading.Event()
+
+    def invert(*args, **kwargs):
+        result = real(*args, **kwargs)
+        if threading.current_thread().name == "A" and not inverting.is_set():
+            inverting.set()
+            moved.wait(timeout=0.5)  # before the lock B had moved and read by now; now B waits for this read
+        return result
+
+    monkeypatch.setattr(scene_module, "invert_transforms", invert)
+    a = threading.Thread(target=scene.instance_inverses, name="A")
+    a.start()
+    assert inverting.wait(timeout=60)
+
+    def move():
+        scene.instances.to_world = grown
+        scene.bounds()
+        moved.set()
+
+    b = threading.Thread(target=move, name="B")
+    b.start()
+    for thread in (a, b):
+        thread.join(timeout=60)
+        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    monkeypatch.undo()
+    np.testing.assert_allclose(scene.instance_inverses()[0], np.linalg.inv(grown)[:, :3], atol=1e-12)
+    fresh = wrt.trace(wrt.Scene(prototypes=scene.prototypes, instances=Instances.from_transforms([0, 0], grown)),
+                      origins, directions)
+    assert fresh.hit.any()
+    np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, fresh.t)

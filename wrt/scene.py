@@ -660,7 +660,9 @@ def of_one_state(method):
     old mesh while another thread moved it and emptied the cache, then stored that value into the emptied cache,
     where it stayed (the old box, and the old points the next trace built its BVH of) until the next edit; and
     ``scene.hit_paths(hits)`` checked that the hits were of the scene as it was, then named them by the table of the
-    scene as another thread had left it (hits on ``/Square`` named ``/Other``)."""
+    scene as another thread had left it (hits on ``/Square`` named ``/Other``). So are the cached reads that drop
+    nothing themselves (their callers, builds, do): ``scene.instance_inverses()`` read by a viewer thread stored the
+    inverses of the old pose over the new, and the next trace built a TLAS of the new pose with them."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
@@ -1332,6 +1334,7 @@ class Scene:
         the number of rendered triangles."""
         return self._id_layout().instances
 
+    @of_one_state
     def expanded_ids(self, prim, instance) -> np.ndarray:
         """Rows of :meth:`triangles` of hits given as ``(geometry id, instance)`` (``-1`` prims stay ``-1``).
 
@@ -1344,6 +1347,7 @@ class Scene:
         """
         return self.id_rows(copy=False).expand(prim, instance)
 
+    @of_one_state
     def id_rows(self, copy: bool = True) -> IdRows:
         """What :meth:`expanded_ids` reads, as the scene is now; ``copy``: the instances' prototype ids copied, so
         that a later edit in place (after :meth:`invalidate`) does not reach it: in their own int32, as the uncopied
@@ -1352,6 +1356,7 @@ class Scene:
         rows = IdRows(self._id_layout(), prototype)
         return rows.copied() if copy else rows
 
+    @of_one_state
     def split_ids(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """The inverse of :meth:`expanded_ids`: ``(geometry id, instance)`` int64 of rows of :meth:`triangles`."""
         rows = np.asarray(rows, np.int64)
@@ -1566,6 +1571,7 @@ class Scene:
         # Per-instance float32 points and int64 indices, then their concatenation: twice 12 + 24 bytes each.
         check_host_memory(2 * (12 * points + 24 * triangles), what)
 
+    @of_one_state
     def corner_attributes(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-corner shading normals and colours for every triangle, in geometry order (:meth:`geometry`).
 
@@ -1588,6 +1594,7 @@ class Scene:
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
         return self._cache[key]
 
+    @of_one_state
     def corner_opacities(self) -> np.ndarray | None:
         """``(T + S, 3)`` float32 ``displayOpacity`` per corner of every triangle (geometry order), then one row per
         analytic shape, NaN where a mesh or shape has none; None when none has any (the device keeps a placeholder)."""
@@ -1611,6 +1618,7 @@ class Scene:
         every mesh took 70-145 ms for 40k meshes per upload."""
         return np.isnan(self.corner_attributes()[1][:, 0, 0])
 
+    @of_one_state
     def triangle_materials(self) -> np.ndarray:
         """``(T,)`` int32 material of every triangle (geometry order) as a device material index: 0 for the default
         material, ``k + 1`` for ``materials[k]``."""
@@ -1648,6 +1656,7 @@ class Scene:
         sided = np.repeat(np.array([bool(m.double_sided) for m in meshes], bool), [len(m.indices) for m in meshes])
         return np.concatenate([sided, np.array([bool(s.double_sided) for s in self._geometry_shapes()], bool)])
 
+    @of_one_state
     def triangle_partners(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The coincident partners of each single-sided triangle (:func:`wrt.twins.find_partners`): ``(offsets
         (T + 1,) int32, ranges (K, 2) int32)`` of geometry ids; None when no triangle has one (every scene whose
@@ -1691,6 +1700,7 @@ class Scene:
                       f"first {MAX_PARTNERS}: where none of those holds a culled hit on one, the camera sees what "
                       f"lies behind it: {shown}", stacklevel=user_stacklevel())
 
+    @of_one_state
     def corner_uvs(self) -> np.ndarray:
         """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has
         none), then one row per analytic shape: its ``st``, else the ``st_fallback`` of its material's texture, as a
@@ -1779,6 +1789,7 @@ class Scene:
             self._cache[key] = s
         return self._cache[key]
 
+    @of_one_state
     def _device_geometry(self, device) -> tuple:
         """``(points, indices, normals, colors)`` of :meth:`to_device` on ``device``, made of the meshes and shapes
         alone: kept when the instances move (:data:`KEPT_WHEN_INSTANCES_MOVE`), as the upload of the chess set's
@@ -1846,6 +1857,7 @@ class Scene:
         return (wp.array(colors, dtype=wp.vec3, device=device), len(colors),
                 wp.array(takes if len(takes) else np.zeros(1, np.uint8), dtype=wp.uint8, device=device))
 
+    @of_one_state
     def shape_arrays(self, device) -> tuple:
         """``(kinds, params, to_local)`` device arrays of the unique analytic shapes in geometry order (at least one
         entry each), uploaded once and shared by the accelerator and the shading data."""
@@ -1866,6 +1878,7 @@ class Scene:
             )
         return self._cache[key]
 
+    @of_one_state
     def instanced_shape_origins(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(offsets (E, 3) float32, firsts (S,) int64, ranks (N,) int64)``: where each analytic shape of a prototype
         lies from the origin of each of its instances, in world space (its instance's transform composed with its
@@ -1894,6 +1907,7 @@ class Scene:
             self._cache[key] = (np.concatenate(offsets or [np.zeros((0, 3), np.float32)]), firsts, ranks)
         return self._cache[key]
 
+    @of_one_state
     def instance_inverses(self) -> tuple[np.ndarray, np.ndarray]:
         """``(world_to_local (N, 3, 4) float64, ok (N,) bool)`` of the instances (:func:`invert_transforms`), computed
         once: the TLAS build, its BLAS list and the device transforms each inverted every instance again (3 x 6 s
@@ -1913,6 +1927,7 @@ class Scene:
         self.freeze([self.instances.to_world])
         self._cache[("instance_inverses",)] = (world_to_local, np.ones(len(world_to_local), dtype=bool))
 
+    @of_one_state
     def world_to_local(self, device) -> wp.array:
         """``(max(N, 1),)`` mat34 world-to-prototype transforms of the instances on ``device`` (zero for a singular
         transform), uploaded once and shared by the accelerator and the shading data."""
@@ -1956,6 +1971,7 @@ class Scene:
         self._cache[key] = result
         return result
 
+    @of_one_state
     def _mesh_bounds(self) -> tuple:
         """``(lower, upper, prototype boxes)``: the float64 box of the points the world-space meshes' triangles use
         (inf and -inf without any) and each prototype's own box (:meth:`Prototype.bounds`), which :meth:`bounds`
