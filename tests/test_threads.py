@@ -677,3 +677,46 @@ def test_instance_inverses_read_in_one_thread_while_another_moves_the_instances_
                       origins, directions)
     assert fresh.hit.any()
     np.testing.assert_array_equal(wrt.trace(scene, origins, directions).t, fresh.t)
+
+
+def test_instance_exponents_read_in_one_thread_while_another_scales_the_instances_are_not_kept_stale(monkeypatch):
+    """Thread A asks for the instances' BLAS exponents (``wrt.tlas.instance_exponents``, as the BLAS preview does)
+    while thread B scales the instances by 2^-110 (past ``EXTREME_EXPONENT``) and reads the scene. A read the
+    old inverses, then stored their exponents (0) into the cache B's edit had emptied: the next trace built its BLASes
+    and TLAS as if the instances were of unit scale. The read now holds the scene's lock: B's edit waits for it.
+    Oracle: the same function on a scene made with the scaled instances, in this thread."""
+    tlas = importlib.import_module("wrt.tlas")
+    scene = instanced_scene(0.0)
+    scene.invalidate()
+    tiny = two_instances(0.0)
+    tiny[:, :3, :3] *= 2.0**-110
+    real = Scene.instance_inverses
+    inverted, scaled = threading.Event(), threading.Event()
+
+    def inverses(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        if threading.current_thread().name == "A" and not inverted.is_set():
+            inverted.set()
+            scaled.wait(timeout=0.5)  # before the lock B had scaled and read by now; now B waits for this read
+        return result
+
+    monkeypatch.setattr(Scene, "instance_inverses", inverses)
+    a = threading.Thread(target=tlas.instance_exponents, args=(scene,), name="A")
+    a.start()
+    assert inverted.wait(timeout=60)
+
+    def scale():
+        scene.instances.to_world = tiny
+        scene.bounds()
+        scaled.set()
+
+    b = threading.Thread(target=scale, name="B")
+    b.start()
+    for thread in (a, b):
+        thread.join(timeout=60)
+        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    monkeypatch.undo()
+    fresh = wrt.Scene(prototypes=scene.prototypes, instances=Instances.from_transforms([0, 0], tiny))
+    expected = tlas.instance_exponents(fresh)
+    assert expected.any()
+    np.testing.assert_array_equal(tlas.instance_exponents(scene), expected)

@@ -654,8 +654,9 @@ class IdRows(NamedTuple):
 
 
 def of_one_state(method):
-    """A :class:`Scene` method that checks the caches (:meth:`Scene.drop_stale_caches`) and then makes and caches a
-    value of the scene, or reads it in several steps, holding the scene's lock (:attr:`Scene.lock`) throughout:
+    """A :class:`Scene` method (or a function whose first argument is the scene: ``wrt.tlas.instance_exponents``,
+    which a BLAS preview asks for too) that checks the caches (:meth:`Scene.drop_stale_caches`) and then makes and
+    caches a value of the scene, or reads it in several steps, holding the scene's lock (:attr:`Scene.lock`) throughout:
     holding it for the check alone, ``scene.bounds()`` or ``scene.triangles()`` in one thread made its value of the
     old mesh while another thread moved it and emptied the cache, then stored that value into the emptied cache,
     where it stayed (the old box, and the old points the next trace built its BVH of) until the next edit; and

@@ -67,7 +67,7 @@ from .floats import FLOAT32_MAX, largest_magnitude, next_up, unit_scales
 from .geometry import box_origins, box_reach, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, thicken_flat_transforms, world_boxes
 from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_boxes, shape_uv
-from .scene import Scene
+from .scene import Scene, of_one_state
 from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
 from .transforms import linear_part, mat34, transform_vector, translation
 from .unique import sorted_unique
@@ -778,6 +778,7 @@ def warn_shapes_too_small(scene: Scene, to_local: np.ndarray, ok: np.ndarray, sh
                           paths)
 
 
+@of_one_state  # cached in the scene: made of one state of it (a viewer thread asks too)
 def instance_exponents(scene: Scene) -> np.ndarray:
     """``(N,)`` int: for each instance whose world-to-local matrix ``A`` (:meth:`Scene.instance_inverses`) has its
     largest entry beyond ``2^EXTREME_EXPONENT`` or below ``2^-EXTREME_EXPONENT`` (an instance scaled by 1e36, or by
@@ -823,6 +824,7 @@ def _triangle_reach(prototype, centre=np.zeros(3)) -> float:
     return reach
 
 
+@of_one_state  # cached in the scene: made of one state of it (a viewer thread asks too)
 def blas_centres(scene: Scene) -> np.ndarray:
     """``(P, 3)`` float64 (float32 values): the point of each prototype's space that its BLAS is built about (its
     points less it, :func:`_part_triangles`; its instances place it at :func:`blas_origins`): the
@@ -883,6 +885,7 @@ def _part_triangles(scene: Scene, points, indices, part: int, first: int, count:
     return np.ascontiguousarray(part_points), np.ascontiguousarray(indices[first : first + count] - v0)
 
 
+@of_one_state  # cached in the scene: made of one state of it (a viewer thread asks too)
 def _part_vertex_offsets(scene: Scene) -> np.ndarray:
     """``(P + 2,)`` first :meth:`Scene.geometry` vertex of each part (world-space meshes, then each prototype), and
     the total; kept in the scene's cache, as every part asked for all of them (quadratic in the prototypes: 6 s
