@@ -720,3 +720,41 @@ def test_instance_exponents_read_in_one_thread_while_another_scales_the_instance
     expected = tlas.instance_exponents(fresh)
     assert expected.any()
     np.testing.assert_array_equal(tlas.instance_exponents(scene), expected)
+
+
+def test_a_light_given_a_nan_colour_by_another_thread_while_a_renderer_builds_is_refused_by_its_next_render(
+        monkeypatch):
+    """Thread B gives the light a NaN colour (``light.color = ...``, an assignment without the lock) after a
+    Renderer's build in thread A checked the lights but before it recorded them as drawn: the record held the NaN
+    colour as checked, so no later render checked it again, and the kept Renderer drew at every render, its samples
+    lit by the lamp dropped as not finite (19 of this 16x12 image's), where a new Renderer refuses it. The lights
+    are now recorded before the check: the next render sees the change, and refuses it. Oracle: a new Renderer of
+    the scene as B left it."""
+    light = wrt.SphereLight(position=np.array((0.5, 0.5, 4.0)), radius=0.3, color=np.array((30.0, 30.0, 30.0)),
+                            path="/Lamp")
+    scene = dataclasses.replace(square_scene(), lights=[light])
+    options = dict(OPTIONS, integrator="path")
+    real = wrt_render.check_lights
+    checked, assigned = threading.Event(), threading.Event()
+
+    def check(lights):
+        real(lights)
+        if threading.current_thread().name == "A" and not checked.is_set():
+            checked.set()
+            assigned.wait(timeout=2.0)
+
+    monkeypatch.setattr(wrt_render, "check_lights", check)
+    made = []
+    a = threading.Thread(target=lambda: made.append(wrt.Renderer(scene, **options)), name="A")
+    a.start()
+    assert checked.wait(timeout=60)
+    light.color = np.array([np.nan, 1.0, 1.0])
+    assigned.set()
+    a.join(timeout=60)
+    assert not a.is_alive()
+    monkeypatch.undo()
+    with pytest.raises(wrt.SceneError, match="/Lamp: SphereLight color must be finite") as fresh:
+        wrt.Renderer(scene, **options)
+    with pytest.raises(wrt.SceneError) as kept:
+        made[0].render()
+    assert str(kept.value) == str(fresh.value)

@@ -794,17 +794,21 @@ class Renderer:
     def _build_locked(self) -> None:
         """:meth:`_build`, with the scene's lock held."""
         # What is drawn is recorded as it is before the build reads it: a light appended by another thread in the
-        # middle of the build (no lock needed to append) was recorded as drawn and never uploaded.
+        # middle of the build (no lock needed to append) was recorded as drawn and never uploaded. Before the lights'
+        # check too (a light's fields are assigned without the lock): recorded after it, a light given a NaN colour by
+        # another thread between the two was recorded as checked, and the kept Renderer drew it black at every render,
+        # where a new one refused it; now the next render sees a change, and checks it. (A field the check converts,
+        # a tuple made an array, is one change more: the next render builds again, once.)
         self.scene.drop_stale_caches()
         generation = self.scene.cache_generation
+        lights, dark = tuple(dataclass_parts(self.scene.lights)), bool(self.scene.dark_lights)
         # Lights are checked again when one was replaced or given a new field, and after scene.invalidate(), which
         # makes their arrays writeable: a NaN written into a light's colour then drew a kept Renderer's image black
         # without a word, where a new render refused it.
         if generation != getattr(self, "_scene_generation", None) or parts_changed(
-            getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))
+            getattr(self, "_scene_lights", ()), lights
         ):
             check_lights(self.scene.lights)
-        lights, dark = tuple(dataclass_parts(self.scene.lights)), bool(self.scene.dark_lights)  # as checked
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
         self._ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
