@@ -758,3 +758,27 @@ def test_a_light_given_a_nan_colour_by_another_thread_while_a_renderer_builds_is
     with pytest.raises(wrt.SceneError) as kept:
         made[0].render()
     assert str(kept.value) == str(fresh.value)
+
+
+def test_a_cpu_trace_split_over_threads_with_per_ray_limits_and_strided_rays_gives_the_hits_of_one_thread():
+    """``threads=3`` splits a launch of 40k rays into pieces (``run_in_chunks``); each piece must take its own rows of
+    every per-ray array, also of ``t_min``/``t_max`` given per ray and of rays given as strided views (numpy
+    columns, a ``wp.array`` taken every other row), and of the instances' ids. Oracle: the same call with
+    ``threads=1`` (bit for bit), and the any-hit query against its hits."""
+    import warp as wp
+
+    rng = np.random.default_rng(5)
+    scene = wrt.Scene(prototypes=[Prototype("/Proto", meshes=[square_scene().meshes[0]])],
+                      instances=Instances.from_transforms([0, 0], mirrored_instances(0.1)))
+    n = 2 * trace_module.MIN_RAYS_PER_THREAD + 7
+    table = rng.normal(size=(n, 9))
+    origins = table[:, 0:6:2] * [0.6, 0.6, 0.1] + [0.0, 0.0, 3.0]  # strided columns
+    directions = table[:, 3:6] * [0.2, 0.2, 0.1] + [0.0, 0.0, -1.0]
+    limits = rng.uniform(0.0, 4.0, size=(2 * n, 2))[::2]  # strided rows
+    t_min, t_max = limits.min(axis=1), limits.max(axis=1)
+    one = wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max, threads=1)
+    assert 0 < one.hit.sum() < n and (one.instance == 1).any()
+    doubled = [wp.array(np.repeat(r, 2, axis=0).astype(np.float32), dtype=wp.vec3)[::2] for r in (origins, directions)]
+    for rays in ((origins, directions), doubled):
+        assert wrt.trace(scene, *rays, t_min=t_min, t_max=t_max, threads=3) == one
+        np.testing.assert_array_equal(wrt.occluded(scene, *rays, t_min=t_min, t_max=t_max, threads=3), one.hit)
