@@ -516,6 +516,9 @@ class InterruptedWait:
         if threading.current_thread().name == "R":
             self.let_go.set()
 
+    def _is_owned(self) -> bool:
+        return self._lock._is_owned()
+
     def __enter__(self):
         return self.acquire()
 
@@ -782,3 +785,45 @@ def test_a_cpu_trace_split_over_threads_with_per_ray_limits_and_strided_rays_giv
     for rays in ((origins, directions), doubled):
         assert wrt.trace(scene, *rays, t_min=t_min, t_max=t_max, threads=3) == one
         np.testing.assert_array_equal(wrt.occluded(scene, *rays, t_min=t_min, t_max=t_max, threads=3), one.hit)
+
+
+class InterruptedAsTaken(InterruptedWait):
+    """A renderer's lock whose first wait in the thread named R takes it and then raises KeyboardInterrupt: Ctrl-C
+    that arrives as the wait ends, which Python raises at the call's return, the lock taken."""
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        taken = self._lock.acquire(blocking, timeout)
+        if blocking and threading.current_thread().name == "R" and not self.waits:
+            self.waits += 1
+            raise KeyboardInterrupt("Ctrl-C as the wait for the renderer ended")
+        return taken
+
+
+def test_a_render_interrupted_as_it_takes_its_renderer_lets_go_of_it():
+    """``one_call_at_a_time`` took the Renderer's lock before its ``try``: an interrupt (Ctrl-C) raised as the
+    acquire returned, the lock taken, left it held by the interrupted thread for good, and every later call from
+    another thread waited for it without end. The interrupt comes through and the lock is free after it: a render
+    from another thread ends (within the join's timeout) and draws what a fresh Renderer draws."""
+    scene = square_scene()
+    renderer = wrt.Renderer(scene, **OPTIONS)
+    renderer._calls = InterruptedAsTaken()
+    errors = []
+
+    def render():
+        try:
+            renderer.render()
+        except BaseException as error:  # noqa: BLE001 - told by the assertions below
+            errors.append(error)
+
+    r = threading.Thread(target=render, name="R")
+    r.start()
+    r.join(timeout=60)
+    assert not r.is_alive()
+    assert [type(error) for error in errors] == [KeyboardInterrupt], errors
+    images = []
+    other = threading.Thread(target=lambda: images.append(renderer.render().rgb), daemon=True)  # a hang ends here
+    other.start()
+    other.join(timeout=30)
+    assert not other.is_alive(), "the interrupted render kept the renderer's lock"
+    assert renderer._calls_held == 0
+    np.testing.assert_array_equal(images[0], wrt.render(square_scene(), **OPTIONS).rgb)

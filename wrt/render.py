@@ -506,11 +506,13 @@ def one_call_at_a_time(method):
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
-        me = threading.get_ident()  # (first: nothing that can raise between the acquire and the try)
-        self._calls.acquire()
-        self._calls_owner = me
-        self._calls_held += 1
+        me = threading.get_ident()
         try:
+            # Inside the try: Python raises a Ctrl-C that comes as the wait ends at the acquire's return, the lock
+            # taken; taken before the try, it stayed held by the interrupted thread, and every later call waited.
+            self._calls.acquire()
+            self._calls_owner = me
+            self._calls_held += 1
             return method(self, *args, **kwargs)
         finally:
             # Not where its wait to take the lock back (_scene_turn) was interrupted (Ctrl-C): it holds nothing then,
@@ -520,6 +522,8 @@ def one_call_at_a_time(method):
                 self._calls_held -= 1
                 if self._calls_held == 0:
                     self._calls_owner = None
+                self._calls.release()
+            elif self._calls._is_owned():  # taken (here or in _scene_turn) but interrupted before it was counted
                 self._calls.release()
 
     return locked
