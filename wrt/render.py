@@ -560,6 +560,23 @@ def check_lights(lights) -> None:
             part.__post_init__()
 
 
+def check_lights_as_recorded(lights: list, parts: tuple) -> tuple:
+    """:func:`check_lights` of ``lights``, whose record (:func:`wrt.scene.dataclass_parts`) was ``parts`` before the
+    check; returns the record of the lights as checked, taken after the check (which may give a field its array) where
+    nothing else changed during it. A light's fields are assigned without the scene's lock: recorded after the check
+    alone, a NaN colour given by another thread between the two was recorded as checked, and a kept Renderer drew it
+    at every render (its samples dropped as not finite) where a new one refused it. A light changed during the check
+    is checked again; where the lights keep changing, the record before the last check is returned, so that the next
+    render sees the change and checks it."""
+    for _ in range(3):
+        check_lights(lights)
+        checked = tuple(dataclass_parts(lights))
+        if not parts_changed(parts, checked):
+            return checked
+        before, parts = parts, checked
+    return before
+
+
 def not_a_camera_list(cameras) -> bool:
     """Whether ``cameras`` cannot be a list of cameras: a single path or camera given where a list belongs (a path
     was read one character at a time: "no camera at '/'"), a mapping (its keys were read as prim paths), or no
@@ -798,11 +815,7 @@ class Renderer:
     def _build_locked(self) -> None:
         """:meth:`_build`, with the scene's lock held."""
         # What is drawn is recorded as it is before the build reads it: a light appended by another thread in the
-        # middle of the build (no lock needed to append) was recorded as drawn and never uploaded. Before the lights'
-        # check too (a light's fields are assigned without the lock): recorded after it, a light given a NaN colour by
-        # another thread between the two was recorded as checked, and the kept Renderer drew it black at every render,
-        # where a new one refused it; now the next render sees a change, and checks it. (A field the check converts,
-        # a tuple made an array, is one change more: the next render builds again, once.)
+        # middle of the build (no lock needed to append) was recorded as drawn and never uploaded.
         self.scene.drop_stale_caches()
         generation = self.scene.cache_generation
         lights, dark = tuple(dataclass_parts(self.scene.lights)), bool(self.scene.dark_lights)
@@ -812,7 +825,7 @@ class Renderer:
         if generation != getattr(self, "_scene_generation", None) or parts_changed(
             getattr(self, "_scene_lights", ()), lights
         ):
-            check_lights(self.scene.lights)
+            lights = check_lights_as_recorded(self.scene.lights, lights)
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
         self._ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
