@@ -86,8 +86,9 @@ def Xform "World"
     def Xform "Car" (
         variants = {
             string paint = "blue"
+            string wheels = "stock"
         }
-        prepend variantSets = "paint"
+        prepend variantSets = ["paint", "wheels"]
     )
     {
         variantSet "paint" = {
@@ -102,6 +103,16 @@ def Xform "World"
                 {
                     color3f[] primvars:displayColor = [(1, 0, 0)]
                 }
+            }
+        }
+        variantSet "wheels" = {
+            "sport" {
+                def Sphere "Wheel"
+                {
+                    double radius = 0.3
+                }
+            }
+            "stock" {
             }
         }
     }
@@ -125,6 +136,11 @@ def Scope "Render"
     {
         rel camera = </Room/Camera>
         uniform int2 resolution = (48, 36)
+        rel products = </Render/Final/beauty>
+        def RenderProduct "beauty"
+        {
+            uniform token productName = "final.png"
+        }
     }
     def RenderSettings "Preview"
     {
@@ -218,6 +234,41 @@ def test_readme_wrt_command_line_parses(line, args):
         build_parser().parse_args(args[1:])
     except SystemExit as e:
         pytest.fail(f"README.md block at line {line}: {' '.join(args)!r} does not parse (exit status {e.code})")
+
+
+# The README's `wrt render` lines that run here, on the stand-ins (a GPU, Dask, --help or the forest left out), at a
+# small size: a size given is cut to SMALL, none given is SMALL (but on shot.usda, whose RenderSettings give it), and
+# samples per pixel to 2.
+RUNNABLE_RENDERS = [(line, args) for line, args in WRT_COMMANDS if args[1] == "render"
+                    and not {"--help", "--dask", "--devices"} & set(args)
+                    and "forest.usdc" not in args]  # written by scenes/forest.py before it, a minute's work
+SMALL = {"--width": "16", "--height": "12"}
+
+
+def small_render(args: list[str]) -> list[str]:
+    """``args`` (from ``render`` on) at a small size and few samples per pixel."""
+    args = [SMALL.get(before, "2" if before == "--spp" else arg) for before, arg in zip([None, *args], args)]
+    if not {"--products", *SMALL} & set(args) and "shot.usda" not in args:
+        args += [option for pair in SMALL.items() for option in pair]
+    return args + ["-q"]
+
+
+@pytest.mark.parametrize("line, args", RUNNABLE_RENDERS, ids=[" ".join(a)[:60] for _, a in RUNNABLE_RENDERS])
+def test_readme_wrt_render_command_runs(line, args, tmp_path, monkeypatch):
+    """Each runs as a reader typing it into a folder of the files it names would: parsing alone let a line name a
+    camera the stand-in scene (the bundled room) has not, `--camera /World/Cam` for its /World/Camera."""
+    from wrt.cli import main
+
+    write_stand_ins(tmp_path)
+    shutil.copy(tmp_path / "scene.usda", tmp_path / "scene.usd")
+    for stem in "abc":
+        shutil.copy(tmp_path / "scene.usda", tmp_path / f"{stem}.usd")
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "animated.usda").write_text(ANIMATED_USDA)
+    monkeypatch.chdir(tmp_path)
+    assert main(small_render(args[1:])) == 0, f"README.md block at line {line}: {' '.join(args)!r} fails"
+    if "-o" in args and "{stem}" not in args[args.index("-o") + 1] and "#" not in args[args.index("-o") + 1]:
+        assert (tmp_path / args[args.index("-o") + 1]).is_file()
 
 
 @pytest.mark.parametrize("line, args", SCRIPT_COMMANDS, ids=[" ".join(a)[:60] for _, a in SCRIPT_COMMANDS])
