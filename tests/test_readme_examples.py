@@ -238,10 +238,10 @@ def test_readme_wrt_command_line_parses(line, args):
 
 # The README's `wrt render` lines that run here, on the stand-ins (a GPU, Dask, --help or the forest left out), at a
 # small size: a size given is cut to SMALL, none given is SMALL (but on shot.usda, whose RenderSettings give it), and
-# samples per pixel to 2.
-RUNNABLE_RENDERS = [(line, args) for line, args in WRT_COMMANDS if args[1] == "render"
-                    and not {"--help", "--dask", "--devices"} & set(args)
-                    and "forest.usdc" not in args]  # written by scenes/forest.py before it, a minute's work
+# samples per pixel to 2; and its `wrt bvh-stats` lines as written (a second or two on the room).
+RUNNABLE_COMMANDS = [(line, args) for line, args in WRT_COMMANDS if args[1] in ("render", "bvh-stats")
+                     and not {"--help", "--dask", "--devices"} & set(args)
+                     and "forest.usdc" not in args]  # written by scenes/forest.py before it, a minute's work
 SMALL = {"--width": "16", "--height": "12"}
 
 
@@ -253,8 +253,8 @@ def small_render(args: list[str]) -> list[str]:
     return args + ["-q"]
 
 
-@pytest.mark.parametrize("line, args", RUNNABLE_RENDERS, ids=[" ".join(a)[:60] for _, a in RUNNABLE_RENDERS])
-def test_readme_wrt_render_command_runs(line, args, tmp_path, monkeypatch):
+@pytest.mark.parametrize("line, args", RUNNABLE_COMMANDS, ids=[" ".join(a)[:60] for _, a in RUNNABLE_COMMANDS])
+def test_readme_wrt_command_runs(line, args, tmp_path, monkeypatch):
     """Each runs as a reader typing it into a folder of the files it names would: parsing alone let a line name a
     camera the stand-in scene (the bundled room) has not, `--camera /World/Cam` for its /World/Camera."""
     from wrt.cli import main
@@ -266,7 +266,8 @@ def test_readme_wrt_render_command_runs(line, args, tmp_path, monkeypatch):
     (tmp_path / "scenes").mkdir()
     (tmp_path / "scenes" / "animated.usda").write_text(ANIMATED_USDA)
     monkeypatch.chdir(tmp_path)
-    assert main(small_render(args[1:])) == 0, f"README.md block at line {line}: {' '.join(args)!r} fails"
+    command = small_render(args[1:]) if args[1] == "render" else args[1:]
+    assert main(command) == 0, f"README.md block at line {line}: {' '.join(args)!r} fails"
     if "-o" in args and "{stem}" not in args[args.index("-o") + 1] and "#" not in args[args.index("-o") + 1]:
         assert (tmp_path / args[args.index("-o") + 1]).is_file()
 
