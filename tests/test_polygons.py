@@ -461,3 +461,82 @@ def test_chess_set_concave_faces_are_clipped_inside(assets):
             assert (facing > -1e-6 * perimeter**2).all(), (str(prim.GetPath()), int(f))
             np.testing.assert_allclose(0.5 * facing.sum(), norm, rtol=1e-6, atol=1e-6 * perimeter**2)
     assert concave_faces > 0
+
+
+# Zero-width spikes: a tip whose two neighbours lie at one place (the outline goes out to the tip and back). By the
+# even-odd rule (what USD renderers draw) a spike has no area. Outward, it was clipped into a triangle outside the
+# outline plus a turned-over copy; inward, the face was taken for a star, fanned, and warned of as crossing itself.
+SQUARE_SPIKED_OUT = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, 2.0), (1.0, 3.0), (1.0, 2.0), (0.0, 2.0)]
+SQUARE_SPIKED_IN = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, 2.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)]
+SPIKES = {
+    "out": SQUARE_SPIKED_OUT,
+    "in": SQUARE_SPIKED_IN,
+    "out_tip_first": SQUARE_SPIKED_OUT[4:] + SQUARE_SPIKED_OUT[:4],  # corner numbers wrap round the tip
+    "out_tip_last": SQUARE_SPIKED_OUT[5:] + SQUARE_SPIKED_OUT[:5],
+    "in_tip_first": SQUARE_SPIKED_IN[4:] + SQUARE_SPIKED_IN[:4],
+    "two": [(0.0, 0.0), (1.0, 0.0), (1.0, -1.0), (1.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, 2.0), (1.0, 1.0),
+            (1.0, 2.0), (0.0, 2.0)],
+    "ulps": [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, 2.0), (1.0, 1.0), (NEAR_ONE, PAST_TWO), (0.0, 2.0)],
+    "ulps_out": [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, NEAR_TWO), (1.0, 3.0), (NEAR_ONE, 2.0), (0.0, 2.0)],
+    "L_spiked_into_notch": [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.5, 1.5), (1.0, 1.0), (1.0, 2.0),
+                            (0.0, 2.0)],
+    "copied_tip": [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (1.0, 2.0), (1.0, 3.0), (1.0, 3.0), (1.0, 2.0), (0.0, 2.0)],
+}
+
+
+@pytest.mark.parametrize("spike", sorted(SPIKES))
+def test_rays_hit_a_face_with_a_spike_only_inside_its_outline_without_a_warning(tmp_path, spike):
+    outline = SPIKES[spike]
+    scene, messages = load_recording_warnings(write(tmp_path, flat_mesh_usda(outline)))
+    assert not messages
+    x, y = np.meshgrid(np.linspace(-0.3, 2.3, 27), np.linspace(-1.3, 3.3, 47))
+    x, y = x.reshape(-1), y.reshape(-1)
+    hits = trace(scene, np.stack([x, y, np.full_like(x, 5.0)], axis=1), np.tile([0.0, 0.0, -1.0], (len(x), 1)))
+    hit = hits.prim >= 0
+    inside = inside_polygon(x, y, outline)  # the even-odd rule on the outline USD lists: a spike has no inside
+    clear = distance_to_outline(x, y, outline) > 1e-4
+    assert not (hit & ~inside & clear).any(), f"{int((hit & ~inside & clear).sum())} rays hit outside the {spike}"
+    assert not (~hit & inside & clear).any(), f"{int((~hit & inside & clear).sum())} rays missed inside the {spike}"
+
+
+def assert_covers_once(points, tri_corners, outline):
+    """Triangles ``tri_corners`` of a face in the plane z = 0: none turned over (beyond float32 ulps of a spike),
+    their areas add up to the shoelace area, and each one with area has its centre inside the outline."""
+    p = points[tri_corners]
+    facing = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
+    assert (facing > -1e-6).all(), facing
+    np.testing.assert_allclose(0.5 * facing.sum(), shoelace(outline), rtol=1e-6)
+    centres = p[facing > 1e-6].mean(axis=1)
+    assert inside_polygon(centres[:, 0], centres[:, 1], outline).all()
+
+
+@pytest.mark.parametrize("spike", sorted(SPIKES))
+def test_a_face_with_a_spike_gives_n_minus_2_triangles_covering_it_once(spike):
+    outline = SPIKES[spike]
+    n = len(outline)
+    points = np.array([(x, y, 0.0) for x, y in outline], np.float32).astype(np.float64)
+    problems = []
+    tri_corners, face_ids = triangulate([n], np.arange(n), points, on_problem=lambda *a: problems.append(a))
+    assert not problems
+    assert tri_corners.shape == (n - 2, 3) and (face_ids == 0).all()
+    assert_covers_once(points, tri_corners, outline)
+    triangles, clipped = clip_ears(points[:, :2])
+    assert clipped and triangles.shape == (n - 2, 3)
+    assert_covers_once(points, triangles, outline)
+
+
+def test_many_faces_with_spikes_are_clipped_together_inside_their_outlines():
+    """All the spiked faces above, started at every corner, in one mesh: clipped together (clip_ears_batch)."""
+    outlines = [outline[s:] + outline[:s] for outline in SPIKES.values() for s in range(len(outline))]
+    faces = [[(x + 10.0 * i, y, 0.0) for x, y in outline] for i, outline in enumerate(outlines)]
+    points = np.array([p for face in faces for p in face], np.float32).astype(np.float64)
+    counts = np.array([len(face) for face in faces])
+    problems = []
+    tri_corners, face_ids = triangulate(counts, np.arange(len(points)), points,
+                                        on_problem=lambda *a: problems.append(a))
+    assert not problems
+    starts = np.cumsum(counts) - counts
+    for f, outline in enumerate(outlines):
+        rows = tri_corners[face_ids == f]
+        assert len(rows) == counts[f] - 2 and ((rows >= starts[f]) & (rows < starts[f] + counts[f])).all()
+        assert_covers_once(points - [10.0 * f, 0.0, 0.0], rows, outline)

@@ -95,6 +95,7 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     # Newell normal (twice the area vector) of each face, relative to its first corner for precision far out.
     # (Each face's corners shifted by one with _turned, not np.roll: the same copies at a fraction of the overhead,
     # which small meshes pay per mesh.)
+    k = corners.shape[2]
     relative = corners - corners[:, :, :1]
     following = _turned(relative, 1)
     normals = _cross(relative, following).sum(axis=2)  # (3, F)
@@ -103,14 +104,15 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
     incoming, in_lengths = _turned(outgoing, -1), _turned(lengths, -1)
     perimeters = lengths.sum(axis=1)
-    # Corners whose next corner is at the same place (a point listed twice, or a few float32 ulps away: _copies).
-    repeated = lengths <= COPY_DISTANCE * perimeters[:, None]
-    if repeated.any():
-        outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, repeated)
+    # Corners left out of the outline (copies of the next corner, spike tips and the copy before each: _left_out).
+    left_out, tips = _left_out(outgoing, lengths, perimeters, k >= 5)[:2]
+    if left_out.any():
+        outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, left_out)
     turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
-    turn[repeated] = 0.0  # the last corner of a run of repeats turns for all of them
+    turn[left_out] = 0.0  # the last corner of a run of repeats turns for all of them
     normal_lengths = np.sqrt((normals * normals).sum(axis=0))
-    reflex = turn < -REFLEX_SINE * lengths * in_lengths * normal_lengths[:, None]
+    # A spike tip counts as reflex: the fan over it draws outside the outline or turns a triangle over.
+    reflex = (turn < -REFLEX_SINE * lengths * in_lengths * normal_lengths[:, None]) | tips
     # A face with no area has no plane to be convex in: the fan is as good as anything.
     flat = normal_lengths <= _FLAT * perimeters ** 2
     reflex[flat] = False
@@ -121,7 +123,7 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     # turns once, at its last corner (the others add atan2(0, 1) = 0). All rows at once: picking the faces without a
     # reflex corner first copied more than the sum costs.
     dots = np.einsum("ifk,ifk->fk", incoming, outgoing)
-    dots[repeated] = 1.0
+    dots[left_out] = 1.0
     turns = np.arctan2(turn, dots * normal_lengths[:, None]).sum(axis=1)  # atan2(sin, cos), both times |N|
     return reflex, (turns > 3.0 * np.pi) & ~flat & ~reflex.any(axis=1)
 
@@ -133,18 +135,72 @@ def _past_repeats(outgoing: np.ndarray, lengths: np.ndarray, repeated: np.ndarra
     corner listed twice (one point named twice in ``faceVertexIndices``, or two points at the same place) has no
     length on one side of each copy, so neither turned: the face was taken for convex and fanned over its notch.
     Faces all of whose corners lie at one place keep edges of no length (they are flat)."""
-    k = lengths.shape[1]
+    leaving, arriving = _nearest_kept_edges(~repeated)
+    rows = np.arange(lengths.shape[0])[:, None]
+    return (outgoing[:, rows, leaving], lengths[rows, leaving], outgoing[:, rows, arriving],
+            lengths[rows, arriving])
+
+
+def _nearest_kept_edges(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(leaving, arriving)`` ``(F, k)``: for each corner the first edge ``kept`` at or after it (the one leaving
+    it) and the last one before it (the one arriving), by the corner it leaves; a face with none kept keeps its own."""
+    k = kept.shape[1]
     order = np.arange(2 * k)
-    kept = np.concatenate([~repeated, ~repeated], axis=1)  # twice round, so that the search wraps
+    kept = np.concatenate([kept, kept], axis=1)  # twice round, so that the search wraps
     # The latest edge of some length at or before each position, and the first at or after it.
     last = np.maximum.accumulate(np.where(kept, order, -1), axis=1)
     first = np.minimum.accumulate(np.where(kept, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
     leaving = np.where(first[:, :k] < 2 * k, first[:, :k] % k, np.arange(k))  # (F, k) edge leaving each corner
     arriving = np.where(last[:, k - 1:2 * k - 1] >= 0, last[:, k - 1:2 * k - 1] % k, np.arange(k) - 1)
-    arriving %= k
-    rows = np.arange(lengths.shape[0])[:, None]
-    return (outgoing[:, rows, leaving], lengths[rows, leaving], outgoing[:, rows, arriving],
-            lengths[rows, arriving])
+    return leaving, arriving % k
+
+
+def _left_out(outgoing: np.ndarray, lengths: np.ndarray, perimeters: np.ndarray, find_tips: bool = True) -> tuple:
+    """``(left_out, tips, repeated, arriving)`` ``(F, k)`` of faces whose edges are ``outgoing`` ``(d, F, k)`` (each
+    corner's, axis first), of ``lengths``, round ``perimeters`` ``(F,)``: the corners that are not part of the
+    outline, and why.
+
+    ``repeated``: copies, corners at the place of the next one (within :data:`COPY_DISTANCE` of the perimeter: a
+    point listed twice, or a few float32 ulps away). ``tips``: the tips of zero-width spikes, corners (not copies)
+    whose last corner before them that is no copy (``arriving``) lies at the place of the next one: the outline goes
+    out and back, an area of nothing by the even-odd rule, but the tip turns back by 180 degrees, so a spike outward
+    was clipped into a triangle outside the outline and one inward made the face look like a star. ``left_out``: the
+    copies, the tips and the corner ``arriving`` at each tip (with the tip gone, a copy of the one after it).
+    Faces of fewer than five corners (``find_tips`` False) have no spike with area beside it to look for."""
+    tolerance = COPY_DISTANCE * perimeters[:, None]
+    repeated = lengths <= tolerance
+    n_faces, k = lengths.shape
+    arriving = np.broadcast_to((np.arange(k) - 1) % k, (n_faces, k))
+    if not find_tips:
+        return repeated, np.zeros_like(repeated), repeated, arriving
+    if repeated.any():
+        arriving = _nearest_kept_edges(~repeated)[1]
+    rows = np.arange(n_faces)[:, None]
+    span = outgoing[:, rows, arriving] + outgoing  # from the corner before the tip to the one after it
+    tips = ~repeated & (np.sqrt((span * span).sum(axis=0)) <= tolerance)
+    left_out = repeated | tips
+    if tips.any():
+        left_out[np.nonzero(tips)[0], arriving[tips]] = True
+    return left_out, tips, repeated, arriving
+
+
+def _no_area_triangles(left_out: np.ndarray, tips: np.ndarray, repeated: np.ndarray, arriving: np.ndarray):
+    """``(F, k, 3)`` int64: for each corner left out of its face (:func:`_left_out`) a triangle of no area, in the
+    face's order: a copy with the corner at its place and the next kept one after that, a tip with the corners on
+    either side (at one place), the corner before a tip with the next two kept corners (the first at its place)."""
+    n_faces, k = left_out.shape
+    order = np.arange(2 * k)
+    kept = np.concatenate([~left_out, ~left_out], axis=1)
+    first = np.minimum.accumulate(np.where(kept, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
+    first = np.append(first, np.full((n_faces, 1), 2 * k), axis=1) % k  # (F, 2k + 1) first kept at or after
+    rows = np.arange(n_faces)[:, None]
+    corner = np.broadcast_to(np.arange(k), (n_faces, k))
+    after_next = first[rows, corner + 2]  # the first kept corner after the next one
+    kept_after = first[rows, corner + 1]
+    triangles = np.stack([corner, kept_after, first[rows, kept_after + 1]], axis=2)  # before a tip
+    triangles[repeated] = np.stack([corner, (corner + 1) % k, after_next], axis=2)[repeated]
+    triangles[tips] = np.stack([arriving, corner, (corner + 1) % k], axis=2)[tips]
+    return triangles
 
 
 def clip_ears(xy) -> tuple[np.ndarray, bool]:
@@ -162,24 +218,20 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
     """
     xy = np.asarray(xy, np.float64)
     n = len(xy)
-    kept = np.flatnonzero(~_copies(xy))  # the last corner of each run of copies
+    left_out, tips, repeated, arriving = _left_out_of_faces(xy.T[:, None, :])
+    kept = np.flatnonzero(~left_out[0])
     if len(kept) == n or len(kept) < 3:
         return _clip_distinct_ears(xy)
     triangles, clipped = _clip_distinct_ears(xy[kept])
-    following = kept[np.searchsorted(kept, np.arange(n)) % len(kept)]  # the kept corner at or after each corner
-    copies = np.setdiff1d(np.arange(n), kept)
-    # (copy, the kept corner at its place, the kept corner after that): in the polygon's order, of no area.
-    after = kept[(np.searchsorted(kept, following[copies]) + 1) % len(kept)]
-    return np.concatenate([kept[triangles], np.stack([copies, following[copies], after], axis=1)]), clipped
+    no_area = _no_area_triangles(left_out, tips, repeated, arriving)[0][left_out[0]]
+    return np.concatenate([kept[triangles], no_area]), clipped
 
 
-def _copies(corners: np.ndarray) -> np.ndarray:
-    """``(..., k)`` bool: the corners of faces ``corners`` ``(..., k, d)`` at the place of the next one, within
-    :data:`COPY_DISTANCE` of the face's perimeter (as :func:`convexity` finds them): a point listed twice, or two
-    points a few float32 ulps apart (a weld that missed), whose copy lies on the ears beside it and blocked them, so
-    that the face kept its fan."""
-    gaps = np.sqrt(((corners - np.roll(corners, -1, axis=-2)) ** 2).sum(axis=-1))
-    return gaps <= COPY_DISTANCE * gaps.sum(axis=-1, keepdims=True)
+def _left_out_of_faces(corners: np.ndarray) -> tuple:
+    """:func:`_left_out` of faces ``corners`` ``(d, F, k)`` float64 (axis first)."""
+    outgoing = _turned(corners, 1) - corners
+    lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
+    return _left_out(outgoing, lengths, lengths.sum(axis=1), corners.shape[2] >= 5)
 
 
 def _clip_distinct_ears(xy: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -321,30 +373,29 @@ def clip_ears_batch(xy) -> tuple[np.ndarray, np.ndarray]:
     return triangles, clipped
 
 
-def _clip_ears_past_copies_batch(corners: np.ndarray, copies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`clip_ears_batch` of faces ``corners`` ``(3, F, k)`` float64 (axis first) that may have ``copies``
-    ``(F, k)`` (:func:`_copies`), as :func:`clip_ears` clips one: each face without its copies, those of one count of
-    distinct corners together, and a triangle of no area for each copy (20,000 darts whose reflex corner is listed
-    twice took 10 s clipped one at a time, as many without copies 0.1 s). Returns what :func:`clip_ears_batch`
-    returns, corner numbers of the faces as given."""
-    n_faces, k = copies.shape
+def _clip_ears_past_left_out_batch(corners: np.ndarray, left_out: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`clip_ears_batch` of faces ``corners`` ``(3, F, k)`` float64 (axis first) with corners ``left_out``
+    (:func:`_left_out_of_faces`: copies, spike tips), as :func:`clip_ears` clips one: each face without them, those of
+    one count of kept corners together, and a triangle of no area for each corner left out (20,000 darts whose reflex
+    corner is listed twice took 10 s clipped one at a time, as many without copies 0.1 s). Returns what
+    :func:`clip_ears_batch` returns, corner numbers of the faces as given."""
+    dropped = left_out[0]
+    n_faces, k = dropped.shape
+    no_area = _no_area_triangles(*left_out)
     triangles = np.zeros((n_faces, k - 2, 3), np.int64)
     clipped = np.zeros(n_faces, bool)
-    distinct = k - copies.sum(axis=1)
-    order = np.argsort(copies, axis=1, kind="stable")  # each face's distinct corners first, in the face's order
+    distinct = k - dropped.sum(axis=1)
+    order = np.argsort(dropped, axis=1, kind="stable")  # each face's kept corners first, in the face's order
     for m in np.unique(distinct[distinct >= 3]).tolist():
         group = np.flatnonzero(distinct == m)
-        kept, copied = order[group, :m], order[group, m:]  # (G, m), (G, k - m)
+        kept, gone = order[group, :m], order[group, m:]  # (G, m), (G, k - m)
         rows = np.arange(len(group))[:, None]
         if m == 3:
             ears, done = np.zeros((len(group), 1, 3), np.int64) + np.arange(3), np.ones(len(group), bool)
         else:
             ears, done = clip_ears_batch(plane_coordinates_batch(corners[:, group[:, None], kept]))
         triangles[group, :m - 2] = kept[rows[:, :, None], ears]
-        # (copy, the distinct corner at its place, the distinct corner after that): in the face's order, of no area.
-        at = (kept[:, None, :] < copied[:, :, None]).sum(axis=2)  # (G, k - m): where each copy's next corner is
-        following, after = kept[rows, at % m], kept[rows, (at + 1) % m]
-        triangles[group, m - 2:] = np.stack([copied, following, after], axis=2)
+        triangles[group, m - 2:] = no_area[group[:, None], gone]
         clipped[group] = done
     return triangles, clipped
 
@@ -396,9 +447,9 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
         for b in range(0, len(faces), step):
             block = faces[b:b + step]
             corners = planes[:, face_indices[starts[block][:, None] + np.arange(k)]].astype(np.float64)
-            copies = _copies(np.moveaxis(corners, 0, -1))
-            if copies.any():  # clipped past their copies (the batch finds no ear where copies are convex corners)
-                triangles, clipped = _clip_ears_past_copies_batch(corners, copies)
+            left_out = _left_out_of_faces(corners)
+            if left_out[0].any():  # clipped past copies and spikes (no ear is found where copies are convex corners)
+                triangles, clipped = _clip_ears_past_left_out_batch(corners, left_out)
             else:
                 triangles, clipped = clip_ears_batch(plane_coordinates_batch(corners))
             rows = first_tri[block[clipped]][:, None] + np.arange(k - 2)
