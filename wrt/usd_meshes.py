@@ -281,7 +281,7 @@ class MeshReading:
             self._skip("meshes whose faceVertexCounts UsdGeom.Mesh.ValidateTopology accepts but no faces can be made "
                        "of were skipped", prim, problem)
             return None
-        self._check_points(prim, points)
+        points = self._finite_points(prim, points, face_indices)
         degenerate = int((counts < 3).sum())
         if degenerate:  # refined or not, as Storm warns "degenerated face found" (HdMeshUtil)
             self._skip("faces of fewer than three corners draw nothing", prim, f"{degenerate} of {len(counts)} faces")
@@ -422,13 +422,26 @@ class MeshReading:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
             return scheme_type(counts, face_indices, n_points, self.refine_level, **options)
 
-    def _check_points(self, prim, points):
-        """Raises SceneError naming the first point of ``points`` that is not finite."""
+    def _finite_points(self, prim, points: np.ndarray, face_indices: np.ndarray) -> np.ndarray:
+        """``points``, or a copy with those no face uses that are not finite (NaN, inf) moved onto a point a face
+        uses, with a warning naming the prim and how many: USD renderers ignore points no face uses, and such a point
+        stopped the whole load. Raises SceneError naming the first point a face uses that is not finite."""
         bad = ~np.isfinite(points).all(axis=1)
-        if bad.any():
-            i = int(np.argmax(bad))
+        if not bad.any():
+            return points
+        used = np.zeros(len(points), bool)
+        used[face_indices] = True
+        if (bad & used).any():
+            i = int(np.argmax(bad & used))
             raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
                               UsdGeom.Mesh(prim).GetPointsAttr())
+        # Onto a used point, not removed: vertex primvars and skinning weights keep their rows; the bounds, the
+        # default camera and the trees take only points the triangles use, and this one is in none.
+        self._skip("points no face uses that are not finite were ignored", prim,
+                   f"{int(bad.sum())} of {len(points)} points")
+        points = points.copy()
+        points[bad] = points[face_indices[0]]
+        return points
 
 
 def topology_problem(counts: np.ndarray, face_indices: np.ndarray, n_points: int) -> str | None:
