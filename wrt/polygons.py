@@ -14,6 +14,11 @@ ids, the corner positions into ``faceVertexIndices`` (which primvars are looked 
 fan had them. What cannot be clipped (a face that crosses itself, with reflex corners or as a star whose corners all
 turn one way, see :func:`convexity`; a face of more than ``MAX_CLIPPED_CORNERS`` corners, whose clipping would take
 quadratic time) keeps its fan, reported through ``on_problem``.
+
+Corners that add no outline are left out of the clipping, each with a triangle of no area in the face's rows
+(:func:`_left_out`): copies (a point listed twice, or a few float32 ulps away) and the tips of zero-width spikes (the
+outline out to a point and back: no area by the even-odd rule, which USD renderers draw), whose tip counts as a
+reflex corner, since the fan over it draws outside the outline or turns a triangle over.
 """
 
 from __future__ import annotations
@@ -105,9 +110,9 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     incoming, in_lengths = _turned(outgoing, -1), _turned(lengths, -1)
     perimeters = lengths.sum(axis=1)
     # Corners left out of the outline (copies of the next corner, spike tips and the copy before each: _left_out).
-    left_out, tips = _left_out(outgoing, lengths, perimeters, k >= 5)[:2]
+    left_out, tips = _left_out(relative, outgoing, lengths, perimeters, k >= 5, with_triangles=False)[:2]
     if left_out.any():
-        outgoing, lengths, incoming, in_lengths = _past_repeats(outgoing, lengths, left_out)
+        outgoing, lengths, incoming, in_lengths = _edges_between_kept(relative, ~left_out)
     turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
     turn[left_out] = 0.0  # the last corner of a run of repeats turns for all of them
     normal_lengths = np.sqrt((normals * normals).sum(axis=0))
@@ -128,79 +133,104 @@ def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np
     return reflex, (turns > 3.0 * np.pi) & ~flat & ~reflex.any(axis=1)
 
 
-def _past_repeats(outgoing: np.ndarray, lengths: np.ndarray, repeated: np.ndarray) -> tuple:
-    """``(outgoing, lengths, incoming, in_lengths)``: each corner's edges ``(3, F, k)`` and their lengths ``(F, k)``
-    taken past points listed again at the same place (``repeated``: corners whose own outgoing edge has no length):
-    the next edge of some length as the one leaving a corner, the last one before it as the one arriving. A reflex
-    corner listed twice (one point named twice in ``faceVertexIndices``, or two points at the same place) has no
-    length on one side of each copy, so neither turned: the face was taken for convex and fanned over its notch.
-    Faces all of whose corners lie at one place keep edges of no length (they are flat)."""
-    leaving, arriving = _nearest_kept_edges(~repeated)
-    rows = np.arange(lengths.shape[0])[:, None]
-    return (outgoing[:, rows, leaving], lengths[rows, leaving], outgoing[:, rows, arriving],
-            lengths[rows, arriving])
-
-
-def _nearest_kept_edges(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(leaving, arriving)`` ``(F, k)``: for each corner the first edge ``kept`` at or after it (the one leaving
-    it) and the last one before it (the one arriving), by the corner it leaves; a face with none kept keeps its own."""
+def _kept_neighbours(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(following, preceding)`` ``(F, k)``: the nearest corner ``kept`` after and before each corner, cyclically
+    (a face with none kept: the corner's own neighbours)."""
     k = kept.shape[1]
     order = np.arange(2 * k)
-    kept = np.concatenate([kept, kept], axis=1)  # twice round, so that the search wraps
-    # The latest edge of some length at or before each position, and the first at or after it.
-    last = np.maximum.accumulate(np.where(kept, order, -1), axis=1)
-    first = np.minimum.accumulate(np.where(kept, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
-    leaving = np.where(first[:, :k] < 2 * k, first[:, :k] % k, np.arange(k))  # (F, k) edge leaving each corner
-    arriving = np.where(last[:, k - 1:2 * k - 1] >= 0, last[:, k - 1:2 * k - 1] % k, np.arange(k) - 1)
-    return leaving, arriving % k
+    twice = np.concatenate([kept, kept], axis=1)  # twice round, so that the search wraps
+    last = np.maximum.accumulate(np.where(twice, order, -1), axis=1)
+    first = np.minimum.accumulate(np.where(twice, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
+    own = np.arange(k)
+    following = np.where(first[:, 1:k + 1] < 2 * k, first[:, 1:k + 1], own + 1) % k
+    preceding = np.where(last[:, k - 1:2 * k - 1] >= 0, last[:, k - 1:2 * k - 1], own - 1) % k
+    return following, preceding
 
 
-def _left_out(outgoing: np.ndarray, lengths: np.ndarray, perimeters: np.ndarray, find_tips: bool = True) -> tuple:
-    """``(left_out, tips, repeated, arriving)`` ``(F, k)`` of faces whose edges are ``outgoing`` ``(d, F, k)`` (each
-    corner's, axis first), of ``lengths``, round ``perimeters`` ``(F,)``: the corners that are not part of the
-    outline, and why.
+def _edges_between_kept(relative: np.ndarray, kept: np.ndarray) -> tuple:
+    """``(outgoing, lengths, incoming, in_lengths)``: each corner's edges ``(3, F, k)`` to the next corner ``kept``
+    and from the last one before it, and their lengths ``(F, k)``, for faces ``relative`` ``(3, F, k)`` whose other
+    corners are left out (:func:`_left_out`). A reflex corner listed twice (one point named twice in
+    ``faceVertexIndices``, or two points at the same place) has no length on one side of each copy, so neither turned:
+    the face was taken for convex and fanned over its notch."""
+    following, preceding = _kept_neighbours(kept)
+    rows = np.arange(kept.shape[0])[:, None]
+    outgoing = relative[:, rows, following] - relative
+    incoming = relative - relative[:, rows, preceding]
+    return (outgoing, np.sqrt((outgoing * outgoing).sum(axis=0)), incoming,
+            np.sqrt((incoming * incoming).sum(axis=0)))
 
-    ``repeated``: copies, corners at the place of the next one (within :data:`COPY_DISTANCE` of the perimeter: a
-    point listed twice, or a few float32 ulps away). ``tips``: the tips of zero-width spikes, corners (not copies)
-    whose last corner before them that is no copy (``arriving``) lies at the place of the next one: the outline goes
-    out and back, an area of nothing by the even-odd rule, but the tip turns back by 180 degrees, so a spike outward
-    was clipped into a triangle outside the outline and one inward made the face look like a star. ``left_out``: the
-    copies, the tips and the corner ``arriving`` at each tip (with the tip gone, a copy of the one after it).
-    Faces of fewer than five corners (``find_tips`` False) have no spike with area beside it to look for."""
+
+def _left_out(corners: np.ndarray, outgoing: np.ndarray, lengths: np.ndarray, perimeters: np.ndarray,
+              find_tips: bool = True, with_triangles: bool = True) -> tuple:
+    """``(left_out, tips, triangles)`` of faces ``corners`` ``(d, F, k)`` float64 (axis first) whose ``outgoing``
+    edges ``(d, F, k)`` have ``lengths`` ``(F, k)`` round ``perimeters`` ``(F,)``: the corners ``(F, k)`` that are
+    not part of the outline, the spike tips among them, and ``(F, k, 3)`` a triangle of no area for each corner left
+    out, in the face's order (None when no face has a corner to leave out, or without ``with_triangles``).
+
+    Left out, round by round until none is, of the corners still in (at least three are kept):
+
+    - copies, corners at the place of the next one (within :data:`COPY_DISTANCE` of the perimeter: a point listed
+      twice, or a few float32 ulps away, a weld that missed): triangle (copy, next, the one after);
+    - the tips of zero-width spikes, corners whose two neighbours lie at one place: the outline goes out and back,
+      an area of nothing by the even-odd rule (what USD renderers draw), but the tip turns back by 180 degrees, so a
+      spike outward was clipped into a triangle outside the outline and one inward made the face look like a star:
+      triangle (previous, tip, next);
+    - the corner before each tip, at the place of the one after it: triangle (it, the one after the tip, the next).
+
+    A spike on a spike goes in the next round, with its base. Faces of fewer than five corners (``find_tips``
+    False) have no spike beside an area to look for: their copies are left out in one round (leaving copies out
+    makes no new ones), and without ``with_triangles`` (the convexity check) in one numpy pass, as before there
+    were rounds: 500k quads with a corner listed twice took twice as long in rounds."""
     tolerance = COPY_DISTANCE * perimeters[:, None]
-    repeated = lengths <= tolerance
+    candidates = lengths <= tolerance
+    if not (find_tips or with_triangles):
+        return candidates, np.zeros_like(candidates), None
+    if find_tips:
+        span = _turned(outgoing, -1) + outgoing  # from each corner's previous corner to its next
+        candidates |= (span * span).sum(axis=0) <= tolerance * tolerance
     n_faces, k = lengths.shape
-    arriving = np.broadcast_to((np.arange(k) - 1) % k, (n_faces, k))
-    if not find_tips:
-        return repeated, np.zeros_like(repeated), repeated, arriving
-    if repeated.any():
-        arriving = _nearest_kept_edges(~repeated)[1]
-    rows = np.arange(n_faces)[:, None]
-    span = outgoing[:, rows, arriving] + outgoing  # from the corner before the tip to the one after it
-    tips = ~repeated & (np.sqrt((span * span).sum(axis=0)) <= tolerance)
-    left_out = repeated | tips
-    if tips.any():
-        left_out[np.nonzero(tips)[0], arriving[tips]] = True
-    return left_out, tips, repeated, arriving
+    left_out = np.zeros((n_faces, k), bool)
+    tips = np.zeros((n_faces, k), bool)
+    faces = np.flatnonzero(candidates.any(axis=1))
+    if len(faces) == 0:
+        return left_out, tips, None
+    triangles = np.zeros((n_faces, k, 3), np.int64) if with_triangles else None
+    corners, tolerance = corners[:, faces], tolerance[faces]
+    rows = np.arange(len(faces))[:, None]
+    alive = np.ones((len(faces), k), bool)
+    corner = np.broadcast_to(np.arange(k), alive.shape)
 
+    def distances(a, b):
+        gap = a - b
+        return np.sqrt((gap * gap).sum(axis=0))
 
-def _no_area_triangles(left_out: np.ndarray, tips: np.ndarray, repeated: np.ndarray, arriving: np.ndarray):
-    """``(F, k, 3)`` int64: for each corner left out of its face (:func:`_left_out`) a triangle of no area, in the
-    face's order: a copy with the corner at its place and the next kept one after that, a tip with the corners on
-    either side (at one place), the corner before a tip with the next two kept corners (the first at its place)."""
-    n_faces, k = left_out.shape
-    order = np.arange(2 * k)
-    kept = np.concatenate([~left_out, ~left_out], axis=1)
-    first = np.minimum.accumulate(np.where(kept, order, 2 * k)[:, ::-1], axis=1)[:, ::-1]
-    first = np.append(first, np.full((n_faces, 1), 2 * k), axis=1) % k  # (F, 2k + 1) first kept at or after
-    rows = np.arange(n_faces)[:, None]
-    corner = np.broadcast_to(np.arange(k), (n_faces, k))
-    after_next = first[rows, corner + 2]  # the first kept corner after the next one
-    kept_after = first[rows, corner + 1]
-    triangles = np.stack([corner, kept_after, first[rows, kept_after + 1]], axis=2)  # before a tip
-    triangles[repeated] = np.stack([corner, (corner + 1) % k, after_next], axis=2)[repeated]
-    triangles[tips] = np.stack([arriving, corner, (corner + 1) % k], axis=2)[tips]
-    return triangles
+    for _ in range(k):
+        following, preceding = _kept_neighbours(alive)
+        ahead = corners[:, rows, following]
+        copy = alive & (distances(ahead, corners) <= tolerance)
+        tip = (alive & ~copy & (distances(ahead, corners[:, rows, preceding]) <= tolerance) if find_tips
+               else np.zeros_like(copy))
+        tip &= ~tip[rows, following] & ~tip[rows, preceding]  # (two tips side by side: a zigzag of no area)
+        base = np.zeros_like(tip)
+        base[np.nonzero(tip)[0], preceding[tip]] = True
+        drop = copy | tip | base
+        drop &= (alive.sum(axis=1) - drop.sum(axis=1) >= 3)[:, None]
+        if not drop.any():
+            break
+        tips[faces] |= tip & drop
+        alive &= ~drop
+        if triangles is None:
+            continue
+        after = following[rows, following]
+        found = np.stack([corner, following, after], axis=2)  # a copy's
+        found[tip] = np.stack([preceding, corner, following], axis=2)[tip]
+        found[base] = np.stack([corner, after, following[rows, after]], axis=2)[base]
+        triangles[faces[np.nonzero(drop)[0]], np.nonzero(drop)[1]] = found[drop]
+        if not find_tips:
+            break  # copies alone: all gone in one round
+    left_out[faces] = ~alive
+    return left_out, tips, triangles
 
 
 def clip_ears(xy) -> tuple[np.ndarray, bool]:
@@ -209,6 +239,7 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
     A corner at the same place as the next (a point listed twice) is left out of the clipping, and given a triangle
     of no area in its place: each copy has an edge of no length, so it turns neither way and is no ear, and where
     the copies were the polygon's convex corners no ear was found (a dart whose tips are listed twice kept its fan).
+    So is the tip of a zero-width spike, with the corner before it (:func:`_left_out`): no area by the even-odd rule.
 
     Returns:
         ``(n - 2, 3)`` int64 corner numbers ``0 .. n-1`` of the triangles, each in the polygon's order (so they wind
@@ -218,20 +249,19 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
     """
     xy = np.asarray(xy, np.float64)
     n = len(xy)
-    left_out, tips, repeated, arriving = _left_out_of_faces(xy.T[:, None, :])
+    left_out, _, no_area = _left_out_of_faces(xy.T[:, None, :])
     kept = np.flatnonzero(~left_out[0])
     if len(kept) == n or len(kept) < 3:
         return _clip_distinct_ears(xy)
     triangles, clipped = _clip_distinct_ears(xy[kept])
-    no_area = _no_area_triangles(left_out, tips, repeated, arriving)[0][left_out[0]]
-    return np.concatenate([kept[triangles], no_area]), clipped
+    return np.concatenate([kept[triangles], no_area[0][left_out[0]]]), clipped
 
 
 def _left_out_of_faces(corners: np.ndarray) -> tuple:
     """:func:`_left_out` of faces ``corners`` ``(d, F, k)`` float64 (axis first)."""
     outgoing = _turned(corners, 1) - corners
     lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
-    return _left_out(outgoing, lengths, lengths.sum(axis=1), corners.shape[2] >= 5)
+    return _left_out(corners, outgoing, lengths, lengths.sum(axis=1), corners.shape[2] >= 5)
 
 
 def _clip_distinct_ears(xy: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -379,9 +409,8 @@ def _clip_ears_past_left_out_batch(corners: np.ndarray, left_out: tuple) -> tupl
     one count of kept corners together, and a triangle of no area for each corner left out (20,000 darts whose reflex
     corner is listed twice took 10 s clipped one at a time, as many without copies 0.1 s). Returns what
     :func:`clip_ears_batch` returns, corner numbers of the faces as given."""
-    dropped = left_out[0]
+    dropped, _, no_area = left_out
     n_faces, k = dropped.shape
-    no_area = _no_area_triangles(*left_out)
     triangles = np.zeros((n_faces, k - 2, 3), np.int64)
     clipped = np.zeros(n_faces, bool)
     distinct = k - dropped.sum(axis=1)
