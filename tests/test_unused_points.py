@@ -77,3 +77,18 @@ def test_an_unused_nan_point_of_a_subdivision_mesh_changes_nothing(tmp_path):
     np.testing.assert_array_equal(scene.bounds()[0], clean.bounds()[0])
     np.testing.assert_array_equal(scene.bounds()[1], clean.bounds()[1])
     assert_same_image(scene, clean)
+
+
+@pytest.mark.parametrize("unused", [(50.0, 60.0, 70.0), (1.5, float("nan"), 0.0)])
+def test_unused_points_stay_out_of_the_bounds_and_the_tree(tmp_path, unused):
+    """A guard (this held before for finite points): a point no face uses, far off or NaN, is in neither the scene's
+    bounds (which frame the default camera) nor the BVH's root box; both are the box of the points USD's faces use."""
+    from wrt.bvh.build import build_bvh
+
+    path = write(tmp_path, mesh_usda([*QUADS, unused]))
+    scene, _ = load_recording_warnings(path)
+    used, _ = usd_used_points(path)
+    tree = build_bvh(*scene.triangles())
+    for lower, upper in (scene.bounds(), (tree.lowers[0], tree.uppers[0])):
+        np.testing.assert_array_equal(lower, used.min(axis=0).astype(np.float32))
+        np.testing.assert_array_equal(upper, used.max(axis=0).astype(np.float32))
