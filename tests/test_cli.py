@@ -1591,6 +1591,33 @@ def test_zero_with_any_exponent_is_zero(text, capsys):
     assert "must be a positive integer, got 0" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("text, message", [
+    ("1e99999999999999999999", "must be a positive integer, at most 1e300, got 1e99999999999999999999"),
+    ("0e99999999999999999999", "must be a positive integer, got 0"),
+    ("-0.0E+99999999999999999999", "must be a positive integer, got 0"),
+    ("1e-99999999999999999999", "'1e-99999999999999999999' is not an integer"),
+])
+def test_integer_options_read_exponents_past_what_decimal_reads(text, message, capsys):
+    """An exponent past 999,999,999,999,999,999 (decimal.Decimal's limit) made the number 'not an integer' whatever
+    it was: ``1e99999999999999999999`` is a whole number past 1e300, ``0e99999999999999999999`` is 0 (as ``0e400``
+    is), and ``1e-99999999999999999999`` a fraction. The oracle: the mantissa and exponent as written (Fraction of
+    the mantissa; the exponent's sign), as Fraction of the whole text would take 10^(10^20)."""
+    import re
+    from fractions import Fraction
+
+    from wrt.cli import build_parser
+
+    mantissa, exponent = re.fullmatch(r"(-?[\d.]+)e([+-]?\d+)", text.lower()).groups()
+    zero, positive = Fraction(mantissa) == 0, int(exponent) > 0
+    assert message.endswith("got 0") == zero and ("at most 1e300" in message) == (positive and not zero)
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args(["bench", f"--n-rays={text}"])
+    assert exit_.value.code == 2
+    assert message in capsys.readouterr().err
+    if zero:
+        assert build_parser().parse_args(["preview", "--bvh-depth", text]).bvh_depth == 0
+
+
 def test_help_texts_name_the_defaults_the_library_uses(capsys):
     """Defaults that argparse cannot show (the option's own default is None: chosen later), and the AOV files
     --aov-dir writes, are written into the help: they name the library's values, read here from the code that

@@ -271,7 +271,7 @@ def whole_number(text: str) -> int | None:
     try:
         number = decimal.Decimal(text)
     except decimal.InvalidOperation:
-        return None
+        return _past_decimals_exponents(text)
     if not number.is_finite() or number != number.to_integral_value():
         return None
     if number.is_zero():
@@ -280,6 +280,30 @@ def whole_number(text: str) -> int | None:
         raise OverflowError(f"{text} is past 1e300")
     return int(number)
 
+
+
+# A decimal number in exponent notation (digits grouped by '_' as decimal.Decimal and int() read them).
+_DIGITS = r"\d+(?:_\d+)*"
+_EXPONENT_NOTATION = re.compile(rf"\s*[+-]?({_DIGITS}(?:\.(?:{_DIGITS})?)?|\.{_DIGITS})[eE]([+-]?{_DIGITS})\s*")
+DECIMAL_EXPONENT_LIMIT = 999_999_999_999_999_999  # decimal.Decimal reads no exponent past this (libmpdec's MAX_EMAX)
+
+
+def _past_decimals_exponents(text: str) -> int | None:
+    """:func:`whole_number` of a ``text`` that ``decimal.Decimal`` refuses: a number whose exponent is past
+    :data:`DECIMAL_EXPONENT_LIMIT` (``1e99999999999999999999``, called 'not an integer' though it is a whole number
+    past 1e300; ``0e99999999999999999999``, which is 0) is read from its mantissa and the exponent's sign, as no
+    mantissa written comes near that many digits; None for anything else Decimal refuses (a word, a stray '_')."""
+    match = _EXPONENT_NOTATION.fullmatch(text)
+    if match is None:
+        return None
+    mantissa, exponent = match.groups()
+    if abs(int(exponent)) <= DECIMAL_EXPONENT_LIMIT:  # Decimal refused it for another reason: no number
+        return None
+    if not mantissa.strip("0._"):
+        return 0
+    if exponent.startswith("-"):
+        return None  # a fraction: 1e-99999999999999999999
+    raise OverflowError(f"{text} is past 1e300")
 
 positive_int = int_at_least(1, "a positive integer")
 non_negative_int = int_at_least(0, "a non-negative integer")
