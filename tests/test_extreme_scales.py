@@ -599,3 +599,42 @@ def test_a_far_shape_is_warned_of_once_whatever_else_a_moving_camera_loses():
     said = [message for message in far_view_warnings(animate) if "analytic shapes" in message]
     for path in named:
         assert sum(path in message for message in said) == 1, said
+
+
+def shadowed_ball(size: float, scale: float) -> wrt.Scene:
+    """A ball ``size`` across (a 12 x 8 faceted sphere) instanced by ``diag(3, 2, 3) scale`` 12 of its widths in front
+    of the camera, under a sun that a card (in the world) hides it from: its world the same for every ``size`` with
+    ``size * scale`` fixed."""
+    ball = uv_sphere(center=(0, 0, 0), radius=1.0, rings=8, segments=12, smooth=False)
+    proto = wrt.Prototype("/ball", meshes=[wrt.Mesh("/ball/mesh", (ball.points * size).astype(np.float32),
+                                                     ball.indices, np.zeros(len(ball.indices), np.int32))])
+    width = size * scale
+    placed = np.diag([3 * scale, 2 * scale, 3 * scale, 1.0])
+    placed[:3, 3] = np.array([0.0, 0.0, -12.0]) * width
+    toward_sun = np.array([-0.8, 0.4, 0.4]) / np.linalg.norm([0.8, 0.4, 0.4])
+    centre = np.array([0.0, 0.0, -12.0]) + 6 * toward_sun
+    across, up = np.array([0.0, 0.0, 2.5]), np.array([0.0, 2.5, 0.0])
+    card = np.array([centre - across - up, centre + across - up, centre + across + up, centre - across + up]) * width
+    card = wrt.Mesh("/card", card.astype(np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32))
+    sun = wrt.DistantLight(-toward_sun, np.full(3, 2.0, np.float32))
+    return wrt.Scene(meshes=[card], prototypes=[proto], instances=wrt.Instances.from_transforms([0], placed[None]),
+                     lights=[sun])
+
+
+@pytest.mark.parametrize("size, scale", [(1e-10, 1e39), (1e10, 1e-30)])
+def test_an_instance_whose_to_world_scale_float32_cannot_hold_is_shaded_as_one_it_can(size, scale):
+    """A ball 1e-10 across instanced by 3e39 (its ``L`` past float32's range, its ``A`` subnormal; traced in a BLAS
+    scaled by 2^130, :func:`wrt.tlas.instance_exponents`), in a card's shadow, is drawn as the same world made of a
+    ball 1 across scaled by 1e29 (the oracle; its ``L`` float32 holds): its shading points were moved to the world by
+    the float32 inverse of ``A``, which overflowed (NaN points, NaN error bounds), so its shadow rays started nowhere,
+    met nothing, and the ball was lit. The second case (``A`` 1e30, ``L`` 1e-30, both held) guards the ordinary
+    path."""
+    width = size * scale
+    camera = wrt.Camera(to_world=np.diag([width, width, width, 1.0]), focal_length=50.0, horizontal_aperture=36.0)
+    ref, img = (wrt.render(shadowed_ball(s, width / s), camera=camera, width=16, height=12, device="cpu")
+                for s in (1.0, size))
+    ball = ref.aovs["instance"] == 0
+    shadowed = ref.rgb[ball].max(axis=1) == 0
+    assert ball.sum() > 30 and 5 < shadowed.sum() < ball.sum(), shadowed.sum()  # in view, partly in the card's shadow
+    np.testing.assert_array_equal(img.aovs["instance"], ref.aovs["instance"])
+    np.testing.assert_allclose(img.rgb[ball], ref.rgb[ball], atol=1e-4)

@@ -89,7 +89,10 @@ class DeviceScene:
     blas_origin_rests: wp.array[wp.vec3]  # (N,) what that float32 leaves of it, or (1,)
     num_blas_offsets: int  # N when a prototype's BLAS is built about its centre, else 0 (the arrays are placeholders)
     local_linear: wp.array[wp.mat33]  # (N,) each instance's to-world linear part L in float32 (NaN where float32
-    # cannot hold it: the float32 inverse of A is taken there), or (1,)
+    # cannot hold it: the float32 inverse of A is taken there), or (1,); L 2^-e where local_scales holds 2^e
+    local_scales: wp.array[wp.vec2]  # (N,) two powers of two whose product 2^e local_linear's row is L over, 1 for
+    # most (Scene._local_linear), or (1,)
+    num_local_scales: int  # N when some instance's L lies past float32's range, else 0 (local_scales a placeholder)
 
 
 # A stage's metersPerUnit below this, or not finite, is not a unit: load_usd falls back to centimetres.
@@ -1786,7 +1789,11 @@ class Scene:
                                             dtype=float, device=device)
             s.blas_centres, s.blas_origins, s.blas_origin_rests, s.num_blas_offsets = self._blas_origin_arrays(
                 device)
-            s.local_linear = wp.array(self._local_linear(), dtype=wp.mat33, device=device)
+            linear, scales = self._local_linear()
+            s.local_linear = wp.array(linear, dtype=wp.mat33, device=device)
+            s.num_local_scales = len(scales) if (scales != 1).any() else 0
+            s.local_scales = wp.array(scales if s.num_local_scales else np.ones((1, 2), np.float32), dtype=wp.vec2,
+                                      device=device)
             self._cache[key] = s
         return self._cache[key]
 
@@ -1830,23 +1837,40 @@ class Scene:
                 wp.array(origins, dtype=wp.vec3, device=device), wp.array(rests, dtype=wp.vec3, device=device),
                 len(centres))
 
-    def _local_linear(self) -> np.ndarray:
-        """``(max(N, 1), 3, 3)`` float32: each instance's to-world linear part ``L``, rounded once from float64, that
-        shading moves its corners to the world by (:func:`wrt.instance_corners.instance_corners`); NaN where float32
-        does not hold it (an entry past its range, or below its normal range but not zero) or the instance is left
-        out of the trace, so that the float32 inverse of ``A`` is taken there as before. That inverse, of the
-        adjugate over the determinant, is off by up to the matrix's condition number times float32's step: 6% for
-        octahedra sheared by 300 (condition 9e4), whose corners came up to 0.011 off the triangles traced, three
-        times the needles' thickness."""
+    def _local_linear(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(linear (max(N, 1), 3, 3), scales (max(N, 1), 2))`` float32: each instance's to-world linear part ``L``,
+        rounded once from float64, that shading moves its corners to the world by
+        (:func:`wrt.instance_corners.instance_corners`), as ``L 2^-e`` times the two powers of two of ``scales``
+        (``2^e``; 1 and 1 for every ``L`` float32 holds); NaN where float32 does not hold it even so (an entry below
+        its normal range but not zero) or the instance is left out of the trace, so that the float32 inverse of ``A``
+        is taken there as before. That inverse, of the adjugate over the determinant, is off by up to the matrix's
+        condition number times float32's step: 6% for octahedra sheared by 300 (condition 9e4), whose corners came up
+        to 0.011 off the triangles traced, three times the needles' thickness. An ``L`` past float32's range (a ball
+        1e-10 across instanced by 3e39, traced in a BLAS scaled by 2^130: :func:`wrt.tlas.instance_exponents`) took
+        that inverse too, which overflowed: NaN shading points, whose shadow rays met nothing."""
         if not len(self.instances):
-            return np.full((1, 3, 3), np.nan, np.float32)
+            return np.full((1, 3, 3), np.nan, np.float32), np.ones((1, 2), np.float32)
         linear = self.instances.to_world[:, :3, :3]
-        with np.errstate(over="ignore", invalid="ignore"):
-            rounded = linear.astype(np.float32)
-        magnitude = np.abs(rounded)
-        held = (np.isfinite(rounded) & ((magnitude == 0) | (magnitude >= np.finfo(np.float32).tiny))).all(axis=(1, 2))
-        rounded[~(held & self.instance_inverses()[1])] = np.nan
-        return rounded
+
+        def held_in_float32(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            with np.errstate(over="ignore", invalid="ignore"):
+                rounded = np.ldexp(linear, -e[:, None, None]).astype(np.float32)
+            magnitude = np.abs(rounded)
+            tiny = np.finfo(np.float32).tiny
+            return rounded, (np.isfinite(rounded) & ((magnitude == 0) | (magnitude >= tiny))).all(axis=(1, 2))
+
+        e = np.zeros(len(linear), np.int64)
+        rounded, held = held_in_float32(e)
+        if not held.all():  # past float32's range: L 2^-e, its largest entry in [1, 2), 2^e two normal powers of two
+            largest = np.abs(linear).reshape(len(linear), -1).max(axis=1)
+            e = np.where(~held & np.isfinite(largest) & (largest > 0), np.frexp(largest)[1] - 1, 0)
+            e = np.where(np.abs(e) <= 2 * 126, e, 0)
+            rounded, held = held_in_float32(e)
+        held &= self.instance_inverses()[1]
+        rounded[~held] = np.nan
+        e[~held] = 0
+        scales = np.ldexp(np.ones((len(e), 2)), np.stack([e // 2, e - e // 2], axis=1)).astype(np.float32)
+        return rounded, scales
 
     def _instance_color_arrays(self, device) -> tuple:
         """``(instance_colors, num_instance_colors, takes_instance_color)`` of :class:`DeviceScene`: one-entry

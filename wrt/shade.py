@@ -46,7 +46,7 @@ import warp as wp
 from .camera import DeviceCamera, clipped_ray, film_ray
 from .floats import FLOAT32_MAX, largest_magnitude
 from .geometry import face_normal, stable_length
-from .instance_corners import instance_corners
+from .instance_corners import instance_corners, instance_magnitude
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
@@ -282,7 +282,7 @@ def hit_point(
         # Normals move by the inverse transpose, so the front side stays the front side under mirroring. Corner
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
-        h.err = inverse_transform_magnitude(m, h.err)
+        h.err = instance_magnitude(scene, instance, h.err)  # from L where float32 cannot hold A^-1
         prototype_sliver = sliver_scale(a, b, c)
         a, b, c = instance_corners(scene, instance, a, b, c)  # about the BLAS's centre, as traced
         h.p = point_in_triangle(a, b, c, u, v)  # from the world corners, which the neighbours share

@@ -87,26 +87,36 @@ def inverse_transform_point(m: mat34, p: wp.vec3):
 
 
 @wp.func
-def corners_to_world(inverse: wp.mat33, origin: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+def corners_to_world(inverse: wp.mat33, scales: wp.vec2, origin: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
     """Corners ``a, b, c`` of a prototype-space triangle in world space, for its instance's local-to-world linear part
-    ``inverse`` (``A^-1``) and origin ``origin`` (``c`` of its world-to-local ``[A | c]``): each corner moved by
-    ``A^-1 p + c``. :func:`wrt.instance_corners.instance_corners` is the one rule both the hit point
-    (:func:`wrt.shade.hit_point`) and light sampling (:func:`wrt.light_sampling.emitter_triangle`) place an
-    instanced triangle by, so that a point sampled on an emitter lies on the surface a ray hits (to the bit)."""
-    return inverse * a + origin, inverse * b + origin, inverse * c + origin
+    ``inverse`` (``A^-1``) times ``scales``' two powers of two (1 and 1 but where float32 cannot hold ``A^-1``) and
+    origin ``origin`` (``c`` of its world-to-local ``[A | c]``): each corner moved by ``A^-1 p + c``.
+    :func:`wrt.instance_corners.instance_corners` is the one rule both the hit point (:func:`wrt.shade.hit_point`) and
+    light sampling (:func:`wrt.light_sampling.emitter_triangle`) place an instanced triangle by, so that a point
+    sampled on an emitter lies on the surface a ray hits (to the bit)."""
+    return (scaled_by(inverse * a, scales) + origin, scaled_by(inverse * b, scales) + origin,
+            scaled_by(inverse * c, scales) + origin)
 
 
 @wp.func
-def corners_to_world_about(inverse: wp.mat33, origin: wp.vec3, centre: wp.vec3, rest: wp.vec3, a: wp.vec3,
-                           b: wp.vec3, c: wp.vec3):
-    """:func:`corners_to_world` of corners ``a, b, c`` of a prototype whose BLAS is built about ``centre``
-    (:func:`wrt.tlas.blas_centres`), which its instance places at ``origin + rest`` (the float32 nearest and what it
-    leaves, :func:`wrt.tlas.blas_origins`): each corner moved by ``(A^-1 (p - centre) + rest) + origin``, as the
-    trace moves rays into that BLAS. ``A^-1``'s rounding moves a point by its relative error times the point's
+def scaled_by(v: wp.vec3, scales: wp.vec2):
+    """``v`` times the two powers of two of ``scales``, one after the other (their product may lie past float32's
+    range: an instance scaled by 3e39); ``v`` itself, bit for bit, for 1 and 1."""
+    return (v * scales[0]) * scales[1]
+
+
+@wp.func
+def corners_to_world_about(inverse: wp.mat33, scales: wp.vec2, origin: wp.vec3, centre: wp.vec3, rest: wp.vec3,
+                           a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """:func:`corners_to_world` (``scales`` as there) of corners ``a, b, c`` of a prototype whose BLAS is built about
+    ``centre`` (:func:`wrt.tlas.blas_centres`), which its instance places at ``origin + rest`` (the float32 nearest
+    and what it leaves, :func:`wrt.tlas.blas_origins`): each corner moved by ``(A^-1 (p - centre) + rest) + origin``,
+    as the trace moves rays into that BLAS. ``A^-1``'s rounding moves a point by its relative error times the point's
     distance from where it is applied: applied to ``p`` itself, the corners of sheared octahedra 50 of their sizes
     off their prototype's origin came up to 0.37 off the triangle traced (0.011 about the centre)."""
-    return ((inverse * (a - centre) + rest) + origin, (inverse * (b - centre) + rest) + origin,
-            (inverse * (c - centre) + rest) + origin)
+    return ((scaled_by(inverse * (a - centre), scales) + rest) + origin,
+            (scaled_by(inverse * (b - centre), scales) + rest) + origin,
+            (scaled_by(inverse * (c - centre), scales) + rest) + origin)
 
 
 @wp.func
