@@ -1806,3 +1806,10 @@ def test_a_log_that_is_a_folder_or_no_log_is_refused_before_the_first_frame(tmp_
     with pytest.raises(ValueError, match=rf"log {re.escape(str(notes))}: line 1 is not a JSON row"):
         render_frames(path, jobs, log=notes, width=4, height=3)
     assert renders == [] and not (tmp_path / "f_1.png").exists() and notes.read_text() == "my notes\n"
+    # A log whose folder is a file: refused in Python's words alone ('[Errno 17] File exists: ...notes.txt'), which
+    # named neither the log nor what was wrong with it.
+    for log in (notes / "frames.jsonl", notes / "sub" / "frames.jsonl"):
+        with pytest.raises(NotADirectoryError, match=rf"log {re.escape(str(log))}: .*{re.escape(str(notes))} is a "
+                                                      "file, not a directory"):
+            render_frames(path, jobs, log=log, width=4, height=3)
+    assert renders == [] and notes.read_text() == "my notes\n"

@@ -757,6 +757,7 @@ class LogRows(list):
         self.log_row = log_row
         self.on_row = on_row
         if self.log is not None:
+            from .image import check_folder_path
             from .render_log import check_appendable
 
             # Before the first frame, as wrt render checks --log: a folder, or a file that is no log, failed only at
@@ -765,6 +766,8 @@ class LogRows(list):
                 raise IsADirectoryError(f"log {self.log}: a directory; give the log a file name, e.g. "
                                         f"{self.log / 'frames.jsonl'}")
             check_appendable(self.log, "log")
+            # A file where its folder goes: refused naming the log, not in mkdir's words ('File exists: notes.txt').
+            check_folder_path(self.log.parent, f"log {self.log}: its folder")
             self.log.parent.mkdir(parents=True, exist_ok=True)
 
     def append(self, row: dict) -> None:
