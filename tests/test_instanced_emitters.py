@@ -412,3 +412,25 @@ def test_instanced_mesh_lights_keep_their_names_when_usd_numbers_the_prototypes_
         tris = light_table.emitter_triangles(scene, [np.zeros(3)], lights)
         assert np.bincount(tris.owner, minlength=2).tolist() == [4, 2]  # LampA's quad in /A and /C, LampB's in /B
     assert all(found == ["/A/Light", "/B/Bulb"] for found in names), names
+
+
+def test_glowing_quads_instanced_by_a_scale_float32_cannot_hold_light_the_floor_as_lamberts_formula_says():
+    """The quads of the first test 1e-36 of their size in the prototype, instanced by 1e39 (their ``L`` past
+    float32's range) in a world 1000 times as large: the floor's radiance is that of Lambert's formula over the
+    unscaled quads (the oracle; radiance does not change with the world's scale). Its emitter samples were moved to
+    the world by the float32 inverse of ``A``, which overflowed: NaN points, and the floor was black without a word."""
+    world, size = 1e3, 1e-36
+    transforms = [np.diag([world] * 3 + [1.0]) @ np.asarray(t) @ np.diag([1 / size] * 3 + [1.0]) for t in TRANSFORMS]
+    floor = quad((0, 0, 0), (40 * world, 0, 0), (0, 40 * world, 0), name="/floor")
+    lamp = quad((0, 0, 0), (0.4 * size, 0, 0), (0, 0.3 * size, 0), name="/P/lamp", material=0, double_sided=False)
+    instances = wrt.Instances.from_transforms(np.zeros(len(transforms)), np.array(transforms))
+    glowing = wrt.Material(diffuse_color=0.0, emissive_color=RADIANCE)
+    scene = wrt.Scene(meshes=[floor], prototypes=[wrt.Prototype("/P", [lamp])], instances=instances,
+                      materials=[glowing])
+    _, _, unit_lamp = lamp_scene(TRANSFORMS)
+    expected = expected_floor(world_corners(unit_lamp, TRANSFORMS))
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5 * world), target=(0, 0, 0), up=(0, 1, 0), height=PATCH * world)
+    img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=512, seed=3, integrator="whitted", max_depth=1)
+    rendered = img.rgb.mean(axis=-1)
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+    assert np.abs(rendered / expected - 1).max() < 0.1, rendered / expected
