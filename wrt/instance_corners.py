@@ -58,11 +58,12 @@ def instance_magnitude(scene: DeviceScene, instance: int, v: wp.vec3):
     where the float32 inverse overflowed (an instance scaled by 3e39: an infinite bound, and shadow rays from
     nowhere)."""
     m = scene.world_to_local[instance]
-    scales = local_scales(scene, instance)
-    linear = scene.local_linear[instance]
-    if (scales[0] == 1.0 and scales[1] == 1.0) or wp.isnan(linear[0, 0]):
-        return inverse_transform_magnitude(m, v)
-    terms = wp.vec3(0.0)
-    for r in range(3):
-        terms[r] = wp.abs(linear[r, 0]) * v[0] + wp.abs(linear[r, 1]) * v[1] + wp.abs(linear[r, 2]) * v[2]
-    return scaled_by(terms, scales) + abs_vec(translation(m))
+    if instance < scene.num_local_scales:  # read only in scenes with such an instance
+        scales = scene.local_scales[instance]
+        linear = scene.local_linear[instance]
+        if (scales[0] != 1.0 or scales[1] != 1.0) and not wp.isnan(linear[0, 0]):
+            terms = wp.vec3(0.0)
+            for r in range(3):
+                terms[r] = wp.abs(linear[r, 0]) * v[0] + wp.abs(linear[r, 1]) * v[1] + wp.abs(linear[r, 2]) * v[2]
+            return scaled_by(terms, scales) + abs_vec(translation(m))
+    return inverse_transform_magnitude(m, v)
