@@ -147,7 +147,7 @@ def measure(shape, aspect, rng, n_rays, accel, instanced, far):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("--accel", default="wrt", choices=["wrt", "warp"])
     parser.add_argument("--instanced", action="store_true", help="the triangles drawn through a stretching instance")
     parser.add_argument("--rays", type=int, default=1000, help="rays per placement")
