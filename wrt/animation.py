@@ -30,6 +30,7 @@ import hashlib
 import math
 import os
 import re
+import threading
 import time as _time
 import warnings
 from decimal import Decimal, InvalidOperation
@@ -471,6 +472,36 @@ def warn_frames_outside_range(path, frames) -> None:
         warnings.warn(f"{os.path.basename(path)}: {what} {outside_range(*found)}", TimeRangeWarning, stacklevel=3)
 
 
+# Frames recording their warnings (_frame_warnings), over all threads: how many are inside, the filters and hook the
+# first in found (put back by the last out), and each thread's frames (thread id -> [(its list, leave_out), ...], a
+# nested frame last). Each frame had its own warnings.catch_warnings, which swaps the process's hook and filters: two
+# frames in two threads ending in the order they began (A in, B in, A out, B out) left A's recorder as the process's
+# hook for good, every later warning of the process recorded into A's finished list and never shown, and a warning A
+# gave while B was inside went into B's list. The recorder passes a warning of a thread with no frame inside on to the
+# hook there was before, so one put back late (by a catch_warnings of another thread) loses nothing.
+_FRAME_CAPTURE = {"lock": threading.Lock(), "inside": 0, "filters": None, "hook": None, "records": {}}
+
+
+def _record_frame_warning(message, category, filename, lineno, file=None, line=None):
+    """``warnings.showwarning`` while frames render: a warning given in a thread rendering one is recorded in its
+    innermost frame's list, unless one of its frames leaves its class out; any other is shown by the hook there was
+    before, as it would have been."""
+    records = _FRAME_CAPTURE["records"].get(threading.get_ident())
+    if not records:
+        _FRAME_CAPTURE["hook"](message, category, filename, lineno, file, line)
+    elif not any(issubclass(category, left) for _, leave_out in records for left in leave_out):
+        records[-1][0].append(warnings.WarningMessage(message, category, filename, lineno, file, line))
+
+
+def _every_time_filters() -> None:
+    """Makes the process's filters that show a warning now and then (``default``, ``module``, ``once``, and the
+    default action where no filter matches) show it every time, for each frame to record it."""
+    now_and_then = ("default", "module", "once")
+    warnings.filters[:] = [("always" if f[0] in now_and_then else f[0], *f[1:]) for f in warnings.filters]
+    last = warnings.defaultaction  # for a warning no filter matches
+    warnings.simplefilter("always" if last in now_and_then else last, append=True)
+
+
 @contextlib.contextmanager
 def _frame_warnings(shown: set, leave_out=(TimeRangeWarning,)):
     """Leaves out the warnings of the classes ``leave_out`` inside (by default the :class:`TimeRangeWarning` of each
@@ -480,21 +511,37 @@ def _frame_warnings(shown: set, leave_out=(TimeRangeWarning,)):
 
     The caller's filters still decide inside, only those that show a warning now and then showing it every time (to
     be recorded): one they make an error raises where it is given, failing the frame. Under an "always" filter for
-    all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run.
+    all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run. Frames in
+    several threads each record their own thread's warnings (:data:`_FRAME_CAPTURE`); while any is inside, the
+    filters are the every-time ones for every thread.
 
     Yields the list the frame's warnings are recorded in (complete once the block is left), for its log row: all of
     them, those said before included."""
-    raised = []
+    capture, ident, raised = _FRAME_CAPTURE, threading.get_ident(), []
+    with capture["lock"]:
+        if not capture["inside"]:
+            capture["filters"] = list(warnings.filters)
+            _every_time_filters()
+            if warnings.showwarning is not _record_frame_warning:
+                capture["hook"] = warnings.showwarning
+            warnings.showwarning = _record_frame_warning
+        capture["inside"] += 1
+        capture["records"].setdefault(ident, []).append((raised, tuple(leave_out)))
     try:
-        with warnings.catch_warnings(record=True) as raised:
-            now_and_then = ("default", "module", "once")
-            warnings.filters[:] = [("always" if f[0] in now_and_then else f[0], *f[1:]) for f in warnings.filters]
-            last = warnings.defaultaction  # for a warning no filter matches
-            warnings.simplefilter("always" if last in now_and_then else last, append=True)
-            for category in leave_out:
-                warnings.simplefilter("ignore", category)
-            yield raised
+        yield raised
     finally:
+        with capture["lock"]:
+            records = capture["records"][ident]
+            records.pop()
+            if not records:
+                del capture["records"][ident]
+            capture["inside"] -= 1
+            if not capture["inside"]:
+                warnings.filters[:] = capture["filters"]
+                warnings._filters_mutated()  # the registries' "said already" marks, made under the others, go
+                if warnings.showwarning is _record_frame_warning:
+                    # (a hook another thread put in place meanwhile, as logging.captureWarnings does, stays)
+                    warnings.showwarning = capture["hook"]
         for w in raised:
             said = said_as(str(w.message), w.category, getattr(w.message, "said_once_key", None))
             if said not in shown:
