@@ -837,3 +837,60 @@ def test_a_render_interrupted_as_it_takes_its_renderer_lets_go_of_it():
     assert not other.is_alive(), "the interrupted render kept the renderer's lock"
     assert renderer._calls_held == 0
     np.testing.assert_array_equal(images[0], wrt.render(square_scene(), **OPTIONS).rgb)
+
+
+def _ends_in_time(call, seconds: float = 60.0):
+    """``call()``'s result, run in a daemon thread that must end within ``seconds`` (a hang fails, not freezes, the
+    test)."""
+    out = {}
+
+    def run():
+        try:
+            out["value"] = call()
+        except BaseException as e:  # noqa: BLE001 (raised again in the test's thread)
+            out["error"] = e
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"still running after {seconds} s (a deadlock on the scene's lock?)"
+    if "error" in out:
+        raise out["error"]
+    return out["value"]
+
+
+def test_traces_and_renders_split_over_threads_under_the_scenes_lock_end(monkeypatch):
+    """Guard for the reads that hold ``scene.lock`` throughout (``of_one_state``): a thread holding it (``with
+    scene.lock:`` over edits and a trace, as the README says) whose trace or render is split over a CPU thread pool
+    must not wait for workers that wait for its lock (an RLock owned by the caller's thread, not the workers). Oracle:
+    the same calls without the lock, ``threads=1`` (bit for bit)."""
+    monkeypatch.setenv("WRT_THREADS", "2")
+    scene = Scene(prototypes=[Prototype("/Proto", meshes=[square_scene().meshes[0]])],
+                  instances=Instances.from_transforms([0, 0], mirrored_instances(0.1)))
+    n = 2 * trace_module.MIN_RAYS_PER_THREAD
+    rng = np.random.default_rng(3)
+    origins = rng.normal(size=(n, 3)) * [0.6, 0.6, 0.0] + [0.0, 0.0, 3.0]
+    directions = np.tile([0.0, 0.0, -1.0], (n, 1))
+    one = wrt.trace(scene, origins, directions, threads=1)
+    assert one.hit.any()
+    named = scene.hit_paths(one)
+
+    def locked_trace():
+        with scene.lock:
+            scene.instances.to_world = scene.instances.to_world.copy()  # an edit under the lock, as a user's
+            hits = wrt.trace(scene, origins, directions)
+            return hits, scene.hit_paths(hits)
+
+    hits, paths = _ends_in_time(locked_trace)
+    assert hits == one
+    np.testing.assert_array_equal(np.asarray(paths), np.asarray(named))
+    camera = wrt.Camera.look_at((0.0, 0.0, 3.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 40.0)
+    options = {"camera": camera, "width": 256, "height": 128, "device": "cpu", "integrator": "whitted"}
+    expected = wrt.Renderer(scene, **options).render(spp=1, seed=0)
+
+    def locked_render():
+        with scene.lock:
+            return wrt.Renderer(scene, **options).render(spp=1, seed=0)
+
+    image = _ends_in_time(locked_render)
+    np.testing.assert_array_equal(image.rgb, expected.rgb)
