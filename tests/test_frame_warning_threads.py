@@ -31,6 +31,7 @@ def test_frames_in_two_threads_ending_in_the_order_they_began_leave_warnings_sho
     out = {}
     with warnings.catch_warnings(record=True) as seen:  # the process's hook the frames must give back
         warnings.simplefilter("always")
+        filters, hook = list(warnings.filters), warnings.showwarning
         threads = {name: threading.Thread(target=_frame, args=(name, *events[name], out)) for name in "AB"}
         threads["A"].start()
         assert events["A"][0].wait(TIMEOUT)  # A in
@@ -44,6 +45,7 @@ def test_frames_in_two_threads_ending_in_the_order_they_began_leave_warnings_sho
         events["B"][3].set()  # B out
         threads["B"].join(TIMEOUT)
         assert not any(t.is_alive() for t in threads.values())
+        assert (warnings.filters, warnings.showwarning) == (filters, hook)  # as they were before the frames
         warnings.warn("said after both frames", UserWarning)
     # Oracle: each frame's list holds its own thread's warning alone, and the process shows a later warning (and each
     # frame's warning, passed on once at its end) through the hook it had before.

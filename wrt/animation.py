@@ -538,7 +538,11 @@ def _frame_warnings(shown: set, leave_out=(TimeRangeWarning,)):
             capture["inside"] -= 1
             if not capture["inside"]:
                 warnings.filters[:] = capture["filters"]
-                warnings._filters_mutated()  # the registries' "said already" marks, made under the others, go
+                # The registries' "said already" marks, made under the others, go (as catch_warnings does; Python's
+                # own, private: left where a later Python lacks it, where only marks of "always" filters, none, remain)
+                mutated = getattr(warnings, "_filters_mutated", None)
+                if callable(mutated):
+                    mutated()
                 if warnings.showwarning is _record_frame_warning:
                     # (a hook another thread put in place meanwhile, as logging.captureWarnings does, stays)
                     warnings.showwarning = capture["hook"]
