@@ -444,7 +444,7 @@ def test_rays_whose_hits_lie_past_float32s_t_are_named_in_a_warning(accel, layou
             r"have no float32 t and are reported as misses \(or at t = -inf\)\. .* scale such directions up",
             str(said[0].message)), str(said[0].message)
         hit = result.hit if query is wrt.trace else result
-        assert hit[:5].tolist() == [True, False, False, False, False]  # the documented miss (wp.Mesh misses row 5)
+        assert hit[:5].tolist() == [True, False, False, False, False]  # the documented miss
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # rays of unit length, from beyond the scene, and empty batches say nothing
             far = np.array([[0, 0, 1e5], [0, 0, -1e5], [3e38, 0, 0]], np.float32)
@@ -1290,8 +1290,6 @@ def test_tiny_t_limits_keep_their_meaning_along_short_directions(accel, layout, 
     scene = one_triangle_scene(instanced)
     query = {"accel": accel, "layout": layout}
     lengths = np.array([1.0, 1e-20, 1e-30, 1e-37, 1e-40], np.float32)  # 1e-40: a subnormal float32
-    if accel == "warp":  # wp.Mesh misses every ray along a direction below about 3e-39 (README)
-        lengths = lengths[:-1]
     for sign in (1.0, -1.0):
         directions = np.zeros((len(lengths), 3), np.float32)
         directions[:, 2] = sign * lengths
@@ -1556,3 +1554,53 @@ def test_hits_compare_by_their_arrays():
     fewer = wrt.trace(scene, origins, directions, t_max=0.5)  # the one hit is past t_max
     assert hits != fewer and hits not in [fewer] and fewer.t.tolist() == [np.inf] * 3
     assert hits != wrt.trace(scene, origins[:2], directions) and hits != "hits"
+
+
+def test_wp_mesh_traces_directions_below_1e38_as_wrt_does(np_rng):
+    """``accel="warp"`` missed every ray whose direction's components were all below about 1e-38 (``(0, 0, -1e-39)``
+    straight down onto a triangle; ``wp.mesh_query_ray``'s inverses overflow), where wrt's kernels, which trace
+    each ray scaled into ``[1, 2)`` by a power of two (``traverse.unit_ray``), hit them. Its kernels now scale
+    alike. Oracle: the float64 closest hit of each ray (unit rays into a soup 2^-10 across, then the same rays
+    scaled by 2^-127, whose hits lie at ``t`` up to 1e36); and the scaled ray's hit is the unit ray's exactly, ``t``
+    times 2^127, limits scaled with it."""
+    points, indices = random_soup(np_rng, 100)
+    points = points * np.float32(2.0**-10)
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 1000, seed=4)
+    directions = (directions / np.linalg.norm(directions, axis=1, keepdims=True)).astype(np.float32)
+    tiny = directions * np.float32(2.0**-127)  # every component below 5.9e-39 (subnormal: rounded)
+    assert (np.abs(tiny) < 1e-38).all()
+    directions = tiny * np.float32(2.0**127)  # exact: the unit rays along the tiny ones
+    n = len(tiny)
+    t, prim, clear = float64_closest_hits(points, indices, origins, tiny, np.zeros(n), np.full(n, np.inf))
+    assert clear.mean() > 0.9 and np.isfinite(t).mean() > 0.2
+    unit = wrt.trace(scene, origins, directions, accel="warp")
+    for accel in ("warp", "wrt"):
+        hits = wrt.trace(scene, origins, tiny, accel=accel)
+        np.testing.assert_array_equal(hits.prim[clear], prim[clear], err_msg=accel)
+        np.testing.assert_allclose(hits.t[clear & hits.hit], t[clear & hits.hit], rtol=1e-4, err_msg=accel)
+        np.testing.assert_array_equal(wrt.occluded(scene, origins, tiny, accel=accel), hits.hit, err_msg=accel)
+    warp = wrt.trace(scene, origins, tiny, accel="warp")
+    for name in ("t", "u", "v", "prim"):
+        scale = np.float32(2.0**127) if name == "t" else np.float32(1)
+        np.testing.assert_array_equal(getattr(warp, name), getattr(unit, name) * scale, err_msg=name)
+    # Limits scale with the ray: [t_min, t_max) around each unit hit, as the tiny rays' limits.
+    t_min = np.where(unit.hit, unit.t * np.float32(0.5), 0).astype(np.float32)
+    t_max = np.where(unit.hit, unit.t, np.inf).astype(np.float32)  # exclusive: the hit itself is cut off
+    limited_unit = wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max, accel="warp")
+    scaled = np.float32(2.0**127)
+    limited = wrt.trace(scene, origins, tiny, t_min=t_min * scaled, t_max=t_max * scaled, accel="warp")
+    np.testing.assert_array_equal(limited.prim, limited_unit.prim)
+    np.testing.assert_array_equal(limited.t, limited_unit.t * scaled)
+    blocked = wrt.occluded(scene, origins, tiny, t_min=t_min * scaled, t_max=t_max * scaled, accel="warp")
+    np.testing.assert_array_equal(blocked, limited.hit)
+    # Straight down onto one triangle along directions of 1e-39, 3e-40 and 2^-140 (subnormal): t = 1e-5 / length.
+    lengths = np.array([1e-39, 3e-40, 2.0**-140], np.float32)
+    down = np.zeros((3, 3), np.float32)
+    down[:, 2] = -lengths
+    above = np.array([[0.0, 0.0, 1e-5]], np.float32)
+    triangle = one_triangle_scene(False)
+    for accel in ("warp", "wrt"):
+        hits = wrt.trace(triangle, above, down, accel=accel)
+        np.testing.assert_allclose(hits.t, 1e-5 / lengths.astype(np.float64), rtol=1e-6, err_msg=accel)
+        assert wrt.occluded(triangle, above, down, accel=accel).all()

@@ -7,6 +7,7 @@ any of its kernels is launched: a render with ``accel="wrt"`` (the default) then
 
 import warp as wp
 
+from .bvh.traverse import unit_ray
 from .geometry import box_origins, box_reach, intersect_ray_box, ray_can_hit, safe_inverse
 
 # The rounding of wrt.trace (see the note there): no FMA contraction; no backward pass (nothing differentiates a trace,
@@ -72,10 +73,12 @@ def trace_mesh_kernel(
     prims: wp.array[wp.int32],
     costs: wp.array[wp.vec2i],
 ):
-    """Closest hit of every ray through Warp's ``wp.Mesh`` BVH (costs are not available: written as 0)."""
+    """Closest hit of every ray through Warp's ``wp.Mesh`` BVH (costs are not available: written as 0). Each ray is
+    traced scaled by ``unit_ray``, as wrt's own kernels trace it (see ``WarpMeshAccelerator.unit_rays``)."""
     i = wp.tid()
-    t, u, v, prim = mesh_query(mesh, origins[i], directions[i], t_mins[i], t_maxs[i], lower, upper)
-    ts[i] = t
+    d, t_min, t_max, down = unit_ray(directions[i], t_mins[i], t_maxs[i])
+    t, u, v, prim = mesh_query(mesh, origins[i], d, t_min, t_max, lower, upper)
+    ts[i] = t * down
     us[i] = u
     vs[i] = v
     prims[i] = prim
@@ -102,12 +105,11 @@ def occluded_mesh_kernel(
     at ``t_max = t`` with no hit below it (and its traversal, like the closest-hit one's, drops a box entered within
     rounding of the limit, so it also missed a floor one ulp under ``t_max``). A ray with an infinite ``t_max`` has
     no limit to lose a box or a hit at and takes ``wp.mesh_query_ray_anyhit``, so ``wp.Mesh`` any-hit rays in the
-    benchmarks (``t_max = inf``) cost Warp's query alone."""
+    benchmarks (``t_max = inf``) cost Warp's query alone. Rays are scaled by ``unit_ray``, as in
+    ``trace_mesh_kernel``."""
     i = wp.tid()
     origin = origins[i]
-    direction = directions[i]
-    t_min = t_mins[i]
-    t_max = t_maxs[i]
+    direction, t_min, t_max, down = unit_ray(directions[i], t_mins[i], t_maxs[i])
     hit = False
     if ray_can_hit(origin, direction, t_min, t_max):
         if wp.isfinite(t_max):

@@ -448,9 +448,12 @@ def mesh_box(points) -> list:
 
 
 class WarpMeshAccelerator(Accelerator):
-    """Warp's builtin ``wp.Mesh`` BVH, for comparison."""
+    """Warp's builtin ``wp.Mesh`` BVH, for comparison. Its kernels trace each ray scaled by ``traverse.unit_ray``,
+    as wrt's do: unscaled, ``wp.mesh_query_ray`` missed every ray whose direction's components were all below about
+    1e-38 (their inverses overflow), ``(0, 0, -1e-39)`` straight down onto a triangle among them."""
 
     name = "warp"
+    unit_rays = True
 
     def __init__(self, scene: Scene, builder: str, device):
         if builder not in WARP_BUILDERS:
