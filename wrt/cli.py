@@ -1757,7 +1757,8 @@ def _add_bvh_stats(sub) -> None:
                    help="surface samples of the EPO estimate")
     p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0, metavar="K",
                    help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
-                   f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
+                   f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; EPO is n/a for a tree whose "
+                   "pre-splits split a triangle (it sits in several leaves)")
     p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device to build on, e.g. cpu or cuda:0")
     p.add_argument("--time", type=_finite_float, default=None, help=TIME_HELP)
     # Only which prims are loaded follows the settings here: no camera, image or material is made.

@@ -45,8 +45,8 @@ def collect_stats(
         intersection_cost: SAH/EPO ``C_i``.
         epo_samples: surface samples of the EPO estimate (default when ``None``).
         presplit: pre-split levels of wrt's builds (``wrt.build_bvh``); the SAH trees that renders and ``wrt bench``
-            trace use ``wrt.trace.ACCELERATOR_PRESPLIT``. EPO is not estimated for them (``None``): a triangle may
-            sit in several leaves.
+            trace use ``wrt.trace.ACCELERATOR_PRESPLIT``. EPO is not estimated (``None``) for a tree whose pre-splits
+            split a triangle, which then sits in several leaves; where they split none, it is.
         device: Warp device to build on.
     """
     from .warp_mesh import warp_mesh_bvh
