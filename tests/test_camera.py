@@ -1553,3 +1553,31 @@ def test_cameras_of_equal_numbers_compare_equal_whatever_holds_them():
     differs.to_world[0][3] = 1e-300
     assert differs != base
     assert wrt.Camera(clipping_range=[0.5, 100.0]) != wrt.Camera(clipping_range=(0.5, 101.0))
+
+
+@pytest.mark.parametrize("low, high", [(-2e38, 2e38), (-8e37, 8e37), (1e37, 1e38), (1e38, 2e38)])
+def test_the_default_camera_of_a_scene_near_float32s_range_stays_finite(low, high):
+    """A scene reaching 2e38 (past wrt's traced reach, warned about) got a default camera 8.5e38 away, past float32's
+    largest value: its float32 eye was inf, the preview's frustum NaN (numpy's "invalid value") and its rays' origins
+    inf; so did one reaching 8e37, within reach. The eye now stays within 2^126 (8.5e37) on every axis, nearer along
+    the same view, with a warning. Oracle: the float64 line from the eye to the box's centre is the camera's view
+    (off the origin it turns towards the centre; a centre past 2^126 too: the eye is at 2^126 on each axis)."""
+    from wrt.preview import frustum_corners
+
+    lower, upper = np.full(3, low, np.float32), np.full(3, high, np.float32)
+    points = np.array([lower, [upper[0], lower[1], upper[2]], upper], np.float32)
+    scene = wrt.Scene.from_triangles(points, [[0, 1, 2]])
+    with pytest.warns(UserWarning, match=r"frame_scene: the camera that frames the box .* past 8\.51e\+37 \(2\^126\)"):
+        cam, width, height = resolve_view(scene, None, 8, 6)
+    eye = cam.to_world[:3, 3]
+    assert np.isfinite(cam.to_world.astype(np.float32)).all() and np.abs(eye).max() <= 2.0**126, cam.to_world
+    centre = (lower.astype(np.float64) + upper) / 2
+    np.testing.assert_allclose(-cam.to_world[:3, 2], (centre - eye) / np.linalg.norm(centre - eye), atol=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's "invalid value encountered" where the eye was inf
+        assert np.isfinite(frustum_corners(cam, width, height, 1e30)).all()
+        s = cam.to_struct(width, height)
+        assert np.isfinite(np.array([s.origin, s.right, s.up, s.forward], np.float64)).all()
+    with pytest.warns(UserWarning):  # frame_scene's again, and the scene's past traced reach where it is
+        origins, directions = camera_rays(scene, None, width, height)
+    assert np.isfinite(origins).all() and np.isfinite(directions).all() and (np.abs(directions).max(axis=1) > 0).all()

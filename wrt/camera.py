@@ -27,11 +27,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import warp as wp
 
 from .errors import bottom_row_problem, did_you_mean, prim_path, stray_field
+from .floats import TRACED_REACH
 from .geometry import stable_length
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
@@ -635,7 +637,9 @@ def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Ca
     the narrower of its two fields of view), from the front and above (a box of no size
     as one 1e-6 across), and everything behind it: its far clipping plane is at infinity. A box of any other size
     fills the view: its radius was taken as at least 1e-6, and a scene scaled by 1e-20 was a dot in the middle of
-    the image."""
+    the image. The eye stays within :data:`wrt.floats.TRACED_REACH` (2^126, 8.5e37) of the origin on every axis,
+    nearer the box (along the same view) where it would not, with a warning: the view of a box reaching 2e38 was
+    8.5e38 away, past float32's range, so the camera's float32 eye was infinite and its frustum and rays NaN."""
     lower = np.asarray(lower, dtype=np.float64)
     upper = np.asarray(upper, dtype=np.float64)
     center = (lower + upper) / 2.0
@@ -648,11 +652,34 @@ def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Ca
     # Turned from its offset, placed at the eye after: a box far from the origin (1e30) rounds the eye's offset
     # away along some axes, and eye - center turned the view to look straight down (or refused it as along up).
     offset = _normalized(view) * distance
+    eye = center + offset
+    if (np.abs(eye) > TRACED_REACH).any():  # (NaN: as before)
+        eye = nearest_eye_within_reach(center, offset)
+        warnings.warn(f"frame_scene: the camera that frames the box {lower.tolist()} to {upper.tolist()} whole would "
+                      f"sit at {(center + offset).tolist()}, past {TRACED_REACH:.3g} (2^126), beyond which its rays "
+                      f"are not finite in float32 or overflow the triangle test: it is placed at {eye.tolist()} "
+                      "instead and may not see all of the scene", stacklevel=2)
+        offset = eye - np.asarray(center)
+        if not offset.any():
+            raise ValueError(f"frame_scene: the box {lower.tolist()} to {upper.tolist()} lies past {TRACED_REACH:.3g} "
+                             "(2^126), where no camera can be placed to see it; pass a camera")
+        distance = float(np.linalg.norm(offset))
     # No far plane: the box bounds the geometry, not the lights, and an area light behind it (a backdrop, or any
     # light of a stage of lights alone, framed as the unit cube) was hidden by a far plane just past the box.
     # expandAperture keeps the whole square field of view in the image whatever its aspect (the vertical one alone,
     # look_at's fit, cut a portrait image's scene at its sides); a landscape image gets the same view.
     camera = Camera.look_at(offset, (0.0, 0.0, 0.0), up, fov_y_deg, clipping_range=(distance * 1e-4, math.inf),
                             fit="expandAperture")
-    camera.to_world[:3, 3] = center + offset
+    camera.to_world[:3, 3] = eye
     return camera
+
+
+def nearest_eye_within_reach(center: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """``center + s * offset`` for the largest ``s`` in ``[0, 1]`` whose coordinates are all within
+    :data:`~wrt.floats.TRACED_REACH` (where the triangle test's differences from the eye stay in float32's range),
+    ``center`` clipped to it taken for ``center`` where that is past it (float64, ``(3,)`` each)."""
+    center = np.clip(center, -TRACED_REACH, TRACED_REACH)
+    room = TRACED_REACH - np.sign(offset) * center  # how far each axis may move the way the offset points
+    moving = offset != 0.0
+    scale = min(1.0, float(np.min(room[moving] / np.abs(offset[moving]), initial=1.0)))
+    return center + scale * offset

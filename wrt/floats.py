@@ -9,6 +9,7 @@ before the tests whose constants assume it (``unit_scales``).
 import warp as wp
 
 FLOAT32_MAX = wp.constant(3.4028234663852886e38)  # the largest finite float32
+TRACED_REACH = 2.0**126  # Scene.warn_past_traced_reach: coordinates beyond it can overflow the triangle test
 
 
 @wp.func_native("""

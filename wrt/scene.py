@@ -35,6 +35,7 @@ import warp as wp
 
 from .assignments import EDITS, CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
 from .camera import Camera
+from .floats import TRACED_REACH
 from .instancing import (
     NO_FLOAT32_INVERSE_SKIPPED,
     ROW_DTYPE_LIMIT,
@@ -518,9 +519,6 @@ def dataclass_field_names(cls: type) -> tuple | None:
         names = tuple(f.name for f in dataclasses.fields(cls)) if dataclasses.is_dataclass(cls) else None
         _FIELD_NAMES[cls] = names
     return names
-
-
-TRACED_REACH = 2.0**126  # Scene.warn_past_traced_reach: coordinates beyond it can overflow the triangle test
 
 
 def has_area(points: np.ndarray, indices: np.ndarray, chunk: int = 1 << 16) -> bool:
