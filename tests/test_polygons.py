@@ -545,3 +545,35 @@ def test_many_faces_with_spikes_are_clipped_together_inside_their_outlines():
         rows = tri_corners[face_ids == f]
         assert len(rows) == counts[f] - 2 and ((rows >= starts[f]) & (rows < starts[f] + counts[f])).all()
         assert_covers_once(points - [10.0 * f, 0.0, 0.0], rows, outline)
+
+
+def fine_comb(teeth: int, length: float, width: float, gap: float) -> list:
+    """A comb, counter-clockwise: a back from y = -1 to 0 and ``teeth`` teeth ``length`` long, ``width`` wide and
+    ``gap`` apart."""
+    right = teeth * width + (teeth - 1) * gap
+    outline = [(0.0, -1.0), (right, -1.0)]
+    for t in reversed(range(teeth)):
+        x = t * (width + gap)
+        outline += [(x + width, length), (x, length)]
+        if t:
+            outline += [(x, 0.0), (x - gap, 0.0)]
+    return outline
+
+
+@pytest.mark.parametrize("outline", [
+    fine_comb(300, 1.0, 0.01, 0.005),  # gaps 2^-17 of the perimeter (604), 3e-3 of the extent
+    # A 1e6 square with a notch 3 wide and 7e5 deep: 6e-7 of the perimeter, 3e-6 of the extent (48 float32 ulps).
+    [(0.0, 0.0), (1e6, 0.0), (1e6, 1e6), (500003.0, 1e6), (500003.0, 3e5), (5e5, 3e5), (5e5, 1e6), (0.0, 1e6)],
+], ids=["comb", "notched_square"])
+def test_narrow_gaps_of_a_face_of_a_long_perimeter_are_not_copies(outline):
+    """Corners count as copies within COPY_DISTANCE of their face's extent, a few float32 ulps: before, within 2^-16
+    of its perimeter, which grows with the corners, so a comb's gaps (and a huge square's narrow notch) were taken
+    as zero-width spikes and covered by triangles turned over (1000 of a 500-tooth comb's 2002; oracle: float64
+    shoelace areas and the even-odd rule on the outline)."""
+    n = len(outline)
+    points = np.array([(x, y, 0.0) for x, y in outline], np.float32).astype(np.float64)
+    assert shoelace(outline) > 0
+    problems = []
+    tri_corners, _ = triangulate([n], np.arange(n), points, on_problem=lambda *a: problems.append(a))
+    assert not problems and tri_corners.shape == (n - 2, 3)
+    assert_covers_once(points, tri_corners, outline)
