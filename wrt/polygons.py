@@ -201,7 +201,7 @@ def _left_out(corners: np.ndarray, outgoing: np.ndarray, lengths: np.ndarray, pe
     faces = np.flatnonzero(candidates.any(axis=1))
     if len(faces) == 0:
         return left_out, tips, None
-    corners = corners[:, faces]
+    corners = corners if len(faces) == n_faces else corners[:, faces]  # (every face a candidate: no copy made)
     tolerance = COPY_DISTANCE * np.ptp(corners, axis=2).max(axis=0)[:, None]
     if not (find_tips or with_triangles):
         left_out[faces] = lengths[faces] <= tolerance
