@@ -31,12 +31,12 @@ MAX_CLIPPED_CORNERS = 10_000  # faces with more corners keep their fan (ear clip
 REFLEX_SINE = 1e-6  # a corner turning the wrong way by less than this sine of its angle counts as straight
 BLOCK_CORNERS = 1 << 16  # corners checked for convexity per numpy pass (small enough to stay in cache)
 _FLAT = 1e-12  # corner triangles under this fraction of the squared face size are flat (neither convex nor reflex)
-# Corners closer than this fraction of their face's extent (its largest width along an axis) count as one (copies):
+# Corners closer than this fraction of their face's size (its farthest corner from the first) count as one (copies):
 # 8-16 float32 ulps of coordinates the face's size, a weld that missed. Not a fraction of the perimeter, which grows
 # with the corners: a comb of 500 teeth 1 long had its gaps 0.01 wide (2^-16 of its perimeter is 0.016) taken as
 # spikes of no area and covered by triangles turned over, and a 1e6 square lost a notch 3 wide.
 COPY_DISTANCE = 2.0 ** -20
-_COPY_PERIMETER = COPY_DISTANCE / 2  # the extent is at most half the perimeter: the faces that may have copies
+_COPY_PERIMETER = COPY_DISTANCE / 2  # the size is at most half the perimeter: the faces that may have copies
 
 
 def reflex_counts(points, counts, face_indices) -> np.ndarray:
@@ -175,7 +175,7 @@ def _left_out(corners: np.ndarray, outgoing: np.ndarray, lengths: np.ndarray, pe
 
     Left out, round by round until none is, of the corners still in (at least three are kept):
 
-    - copies, corners at the place of the next one (within :data:`COPY_DISTANCE` of the extent: a point listed
+    - copies, corners at the place of the next one (within :data:`COPY_DISTANCE` of the face's size: a point listed
       twice, or a few float32 ulps away, a weld that missed): triangle (copy, next, the one after);
     - the tips of zero-width spikes, corners whose two neighbours lie at one place: the outline goes out and back,
       an area of nothing by the even-odd rule (what USD renderers draw), but the tip turns back by 180 degrees, so a
@@ -187,7 +187,7 @@ def _left_out(corners: np.ndarray, outgoing: np.ndarray, lengths: np.ndarray, pe
     False) have no spike beside an area to look for: their copies are left out in one round (leaving copies out
     makes no new ones), and without ``with_triangles`` (the convexity check) in one numpy pass, as before there
     were rounds: 500k quads with a corner listed twice took twice as long in rounds."""
-    # The perimeter, a sum the caller has, picks the faces that may have copies; their extent (a pass over their
+    # The perimeter, a sum the caller has, picks the faces that may have copies; their size (a pass over their
     # corners, which would cost the convexity check of every face a third more) decides.
     tolerance = _COPY_PERIMETER * perimeters[:, None]
     candidates = lengths <= tolerance
@@ -202,7 +202,11 @@ def _left_out(corners: np.ndarray, outgoing: np.ndarray, lengths: np.ndarray, pe
     if len(faces) == 0:
         return left_out, tips, None
     corners = corners if len(faces) == n_faces else corners[:, faces]  # (every face a candidate: no copy made)
-    tolerance = COPY_DISTANCE * np.ptp(corners, axis=2).max(axis=0)[:, None]
+    # The size: the farthest corner from the first, which turning the face into its plane keeps (clip_ears has it
+    # in plane coordinates, the convexity check in the scene's axes: one measure, so a pair one takes as a copy the
+    # other does too).
+    reach = corners - corners[:, :, :1]
+    tolerance = COPY_DISTANCE * np.sqrt((reach * reach).sum(axis=0).max(axis=1))[:, None]
     if not (find_tips or with_triangles):
         left_out[faces] = lengths[faces] <= tolerance
         return left_out, tips, None
