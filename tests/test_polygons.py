@@ -566,7 +566,7 @@ def fine_comb(teeth: int, length: float, width: float, gap: float) -> list:
     [(0.0, 0.0), (1e6, 0.0), (1e6, 1e6), (500003.0, 1e6), (500003.0, 3e5), (5e5, 3e5), (5e5, 1e6), (0.0, 1e6)],
 ], ids=["comb", "notched_square"])
 def test_narrow_gaps_of_a_face_of_a_long_perimeter_are_not_copies(outline):
-    """Corners count as copies within COPY_DISTANCE of their face's extent, a few float32 ulps: before, within 2^-16
+    """Corners count as copies within COPY_DISTANCE of their face's size, a few float32 ulps: before, within 2^-16
     of its perimeter, which grows with the corners, so a comb's gaps (and a huge square's narrow notch) were taken
     as zero-width spikes and covered by triangles turned over (1000 of a 500-tooth comb's 2002; oracle: float64
     shoelace areas and the even-odd rule on the outline)."""
