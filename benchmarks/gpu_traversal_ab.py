@@ -132,6 +132,8 @@ def main() -> None:
                         "sbvh:ALPHA[:BUDGET] (sbvh_trial.py) each; a +dfs suffix numbers the wide nodes depth first")
     parser.add_argument("--block-dims", help="comma list of CUDA threads per block; subjects at other than "
                         "wrt.bvh.traverse.TRACE_BLOCK_DIM (the default: what wrt launches) are NAME/bBLOCK")
+    parser.add_argument("--old-mesh", action="store_true", help="with --baseline, also time the baseline package's "
+                        "wp.Mesh kernels (old-warp:NAME), for a change of wrt's wp.Mesh trace path")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
     args = parser.parse_args()
     if args.assets:
@@ -243,6 +245,11 @@ def run(args, device) -> None:
                 subjects += [Subject(f"warp:{c}{label}", mesh_kernel, [m.id, *new_trace.mesh_box(points)], rays,
                                      any_hit, device, block)
                              for c, m in meshes.items()]
+                if args.old_mesh and "old" in trace_mods:
+                    old_trace = trace_mods["old"]
+                    old_kernel = old_trace.occluded_mesh_kernel if any_hit else old_trace.trace_mesh_kernel
+                    subjects += [Subject(f"old-warp:{c}{label}", old_kernel, [m.id, *old_trace.mesh_box(points)],
+                                         rays, any_hit, device, block) for c, m in meshes.items()]
             log(f"{scene_name} {kind}: {n} rays, {len(subjects)} subjects; compiling and warming up")
             for s in subjects:
                 s.launch()
@@ -263,6 +270,8 @@ def run(args, device) -> None:
                 if reference is not None:
                     row["agree_warp_sah"] = float(np.mean(answers[s.name][-1] == reference[-1]))
                 old = answers.get("old:" + s.name.split(":", 1)[1]) if s.name.startswith("wrt:") else None
+                if s.name.startswith("warp:"):  # the baseline's wp.Mesh kernel (--old-mesh), where it ran
+                    old = answers.get("old-" + s.name)
                 if "@" in s.name:  # another tree of the same triangles: the default tree's hits are the reference
                     old = answers.get(s.name.split("@")[0])
                 if "/b" in s.name and old is None:  # another block size: the default block size's hits
