@@ -556,6 +556,38 @@ def test_a_render_interrupted_while_it_waits_for_its_renderer_back_leaves_the_re
     np.testing.assert_array_equal(renderer.render().rgb, wrt.render(square_scene(), **OPTIONS).rgb)
 
 
+def pausing_in_a(real, inside: threading.Event, edited: threading.Event):
+    """``real`` made to stop thread A where it first returns: ``inside`` is set, then A waits up to 0.5 s for
+    ``edited`` (without the scene's lock held there, thread B had edited and read by then; with it, B waits)."""
+
+    def paused(*args, **kwargs):
+        result = real(*args, **kwargs)
+        if threading.current_thread().name == "A" and not inside.is_set():
+            inside.set()
+            edited.wait(timeout=0.5)
+        return result
+
+    return paused
+
+
+def read_while_edited(read, edit, inside: threading.Event, edited: threading.Event) -> None:
+    """Runs ``read`` in thread A and, once it is inside (``inside``: see :func:`pausing_in_a`), ``edit`` in thread B,
+    which then sets ``edited``; fails where the two wait for each other for a minute."""
+
+    def edit_then_say():
+        edit()
+        edited.set()
+
+    a = threading.Thread(target=read, name="A")
+    a.start()
+    assert inside.wait(timeout=60)
+    b = threading.Thread(target=edit_then_say, name="B")
+    b.start()
+    for thread in (a, b):
+        thread.join(timeout=60)
+        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+
+
 @pytest.mark.parametrize("asked", ["bounds", "triangles"])
 def test_a_scene_read_in_one_thread_while_another_moves_its_mesh_keeps_no_stale_cache(monkeypatch, asked):
     """Thread A asks the scene for ``bounds()`` (or ``triangles()``, a user's export or viewer) while thread B moves
@@ -565,31 +597,15 @@ def test_a_scene_read_in_one_thread_while_another_moves_its_mesh_keeps_no_stale_
     BVH (the old square hit at t = 3, not 2) until the next edit. A read now holds the scene's lock while it makes
     its value: B's edit waits for it, and drops it. Oracle: the same calls on a scene made with the moved square."""
     scene = square_scene()
-    real = scene_module._concatenate_meshes
     reading, moved = threading.Event(), threading.Event()
-
-    def concatenate(meshes):
-        made = real(meshes)
-        if threading.current_thread().name == "A" and not reading.is_set():
-            reading.set()
-            moved.wait(timeout=0.5)  # before the lock B had moved and read by now; now B waits for this read
-        return made
-
-    monkeypatch.setattr(scene_module, "_concatenate_meshes", concatenate)
-    a = threading.Thread(target=getattr(scene, asked), name="A")
-    a.start()
-    assert reading.wait(timeout=60)
+    monkeypatch.setattr(scene_module, "_concatenate_meshes",
+                        pausing_in_a(scene_module._concatenate_meshes, reading, moved))
 
     def move():
         scene.meshes[0].points = SQUARE + np.float32([0, 0, 1])
         getattr(scene, asked)()
-        moved.set()
 
-    b = threading.Thread(target=move, name="B")
-    b.start()
-    for thread in (a, b):
-        thread.join(timeout=60)
-        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    read_while_edited(getattr(scene, asked), move, reading, moved)
     monkeypatch.undo()
 
     fresh = square_scene(1.0)
@@ -607,31 +623,15 @@ def test_hits_named_in_one_thread_while_another_replaces_the_mesh_are_named_as_t
     scene = square_scene()
     hits = wrt.trace(scene, *RAY)
     expected = scene.hit_paths(hits)
-    real = scene_module.check_traced_in
     checked, replaced = threading.Event(), threading.Event()
-
-    def check(*args, **kwargs):
-        real(*args, **kwargs)
-        if threading.current_thread().name == "A" and not checked.is_set():
-            checked.set()
-            replaced.wait(timeout=0.5)  # before the lock B had replaced and read by now; now B waits for this call
-
-    monkeypatch.setattr(scene_module, "check_traced_in", check)
+    monkeypatch.setattr(scene_module, "check_traced_in", pausing_in_a(scene_module.check_traced_in, checked, replaced))
     named = []
-    a = threading.Thread(target=lambda: named.append(scene.hit_paths(hits)), name="A")
-    a.start()
-    assert checked.wait(timeout=60)
 
     def replace():
         scene.meshes = [dataclasses.replace(scene.meshes[0], path="/Other")]
         scene.bounds()
-        replaced.set()
 
-    b = threading.Thread(target=replace, name="B")
-    b.start()
-    for thread in (a, b):
-        thread.join(timeout=60)
-        assert not thread.is_alive(), "a look-up and an edit of one scene waited for each other"
+    read_while_edited(lambda: named.append(scene.hit_paths(hits)), replace, checked, replaced)
     assert [list(part) for part in named[0]] == [list(part) for part in expected] == [["/Square"], [""]]
 
 
@@ -649,31 +649,15 @@ def test_instance_inverses_read_in_one_thread_while_another_moves_the_instances_
     scene.invalidate()  # no inverses cached: the read below makes them
     grown = two_instances(0.3)
     grown[:, :3, :3] *= 1.5  # turned or scaled, not only moved: a device transform's translation is made of to_world
-    real = scene_module.invert_transforms
     inverting, moved = threading.Event(), threading.Event()
-
-    def invert(*args, **kwargs):
-        result = real(*args, **kwargs)
-        if threading.current_thread().name == "A" and not inverting.is_set():
-            inverting.set()
-            moved.wait(timeout=0.5)  # before the lock B had moved and read by now; now B waits for this read
-        return result
-
-    monkeypatch.setattr(scene_module, "invert_transforms", invert)
-    a = threading.Thread(target=scene.instance_inverses, name="A")
-    a.start()
-    assert inverting.wait(timeout=60)
+    monkeypatch.setattr(scene_module, "invert_transforms",
+                        pausing_in_a(scene_module.invert_transforms, inverting, moved))
 
     def move():
         scene.instances.to_world = grown
         scene.bounds()
-        moved.set()
 
-    b = threading.Thread(target=move, name="B")
-    b.start()
-    for thread in (a, b):
-        thread.join(timeout=60)
-        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    read_while_edited(scene.instance_inverses, move, inverting, moved)
     monkeypatch.undo()
     np.testing.assert_allclose(scene.instance_inverses()[0], np.linalg.inv(grown)[:, :3], atol=1e-12)
     fresh = wrt.trace(wrt.Scene(prototypes=scene.prototypes, instances=Instances.from_transforms([0, 0], grown)),
@@ -693,31 +677,14 @@ def test_instance_exponents_read_in_one_thread_while_another_scales_the_instance
     scene.invalidate()
     tiny = two_instances(0.0)
     tiny[:, :3, :3] *= 2.0**-110
-    real = Scene.instance_inverses
     inverted, scaled = threading.Event(), threading.Event()
-
-    def inverses(self, *args, **kwargs):
-        result = real(self, *args, **kwargs)
-        if threading.current_thread().name == "A" and not inverted.is_set():
-            inverted.set()
-            scaled.wait(timeout=0.5)  # before the lock B had scaled and read by now; now B waits for this read
-        return result
-
-    monkeypatch.setattr(Scene, "instance_inverses", inverses)
-    a = threading.Thread(target=tlas.instance_exponents, args=(scene,), name="A")
-    a.start()
-    assert inverted.wait(timeout=60)
+    monkeypatch.setattr(Scene, "instance_inverses", pausing_in_a(Scene.instance_inverses, inverted, scaled))
 
     def scale():
         scene.instances.to_world = tiny
         scene.bounds()
-        scaled.set()
 
-    b = threading.Thread(target=scale, name="B")
-    b.start()
-    for thread in (a, b):
-        thread.join(timeout=60)
-        assert not thread.is_alive(), "a read and an edit of one scene waited for each other"
+    read_while_edited(lambda: tlas.instance_exponents(scene), scale, inverted, scaled)
     monkeypatch.undo()
     fresh = wrt.Scene(prototypes=scene.prototypes, instances=Instances.from_transforms([0, 0], tiny))
     expected = tlas.instance_exponents(fresh)
