@@ -92,3 +92,14 @@ def test_unused_points_stay_out_of_the_bounds_and_the_tree(tmp_path, unused):
     for lower, upper in (scene.bounds(), (tree.lowers[0], tree.uppers[0])):
         np.testing.assert_array_equal(lower, used.min(axis=0).astype(np.float32))
         np.testing.assert_array_equal(upper, used.max(axis=0).astype(np.float32))
+
+
+def test_a_mesh_of_no_faces_whose_points_are_not_finite_loads_with_a_warning(tmp_path):
+    """A mesh with points, one infinite, and only a face of no corners (the fuzzer's find) stopped the load with an
+    IndexError from the code that moves unused points onto a used one, where it has none. It draws nothing, as USD's
+    renderers draw it: the scene holds no triangle of it, and its point is named in the warning."""
+    body = ('def Mesh "Grid"\n{\n    point3f[] points = [(0, 0, 0), (inf, 0, 0), (1, 1, 0)]\n'
+            "    int[] faceVertexCounts = [0]\n    int[] faceVertexIndices = []\n}\n")
+    scene, messages = load_recording_warnings(write(tmp_path, body))
+    assert any("/Grid" in m and "not finite" in m and "1 of 3 points" in m for m in messages), messages
+    assert len(scene.triangles()[1]) == 0

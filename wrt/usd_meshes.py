@@ -440,7 +440,8 @@ class MeshReading:
         self._skip("points no face uses that are not finite were ignored", prim,
                    f"{int(bad.sum())} of {len(points)} points")
         points = points.copy()
-        points[bad] = points[face_indices[0]]
+        # (a mesh of no faces, which draws nothing, has no used point: 0; indexing its first one raised IndexError)
+        points[bad] = points[face_indices[0]] if len(face_indices) else 0.0
         return points
 
 
