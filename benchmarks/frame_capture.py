@@ -23,6 +23,7 @@ import warp as wp
 import wrt
 from wrt.bench import hardware, resolve_scene
 from wrt.bvh import traverse
+from wrt.options import DEFAULT_MAX_DEPTH
 from wrt.render import resolve_camera
 
 
@@ -45,7 +46,8 @@ def main() -> None:
     parser.add_argument("--height", type=int, default=1080)
     parser.add_argument("--device", default="cuda:0" if wp.is_cuda_available() else "cpu")
     parser.add_argument("--integrator", default="path")
-    parser.add_argument("--max-depth", type=int, default=2, help="2: camera hit, its shadow ray, one bounce")
+    parser.add_argument("--max-depth", type=int, default=2, help="2: camera hit, its shadow ray, one bounce (path and "
+                        "whitted only: the other integrators do not bounce)")
     parser.add_argument("--builder", default="sah")
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--distances", default="1,0.5", help="camera distances, as fractions of the default one")
@@ -68,6 +70,8 @@ def main() -> None:
 
 
 def time_frame(scene, camera, device, args) -> None:
+    # Given to the integrators that read it alone: wrt.Renderer warns of a max_depth given to another (ao, normals)
+    bounces = {"max_depth": args.max_depth} if args.integrator in DEFAULT_MAX_DEPTH else {}
     renderer = wrt.Renderer(
         scene,
         camera=camera,
@@ -76,7 +80,7 @@ def time_frame(scene, camera, device, args) -> None:
         device=device,
         builder=args.builder,
         integrator=args.integrator,
-        max_depth=args.max_depth,
+        **bounces,
     )
     print(f"build {renderer.timers['build'][0]:.0f} ms ({args.builder}, accelerator {type(renderer.accel).__name__})")
     renderer.render()  # compile and allocate
