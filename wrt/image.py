@@ -599,15 +599,20 @@ class Image:
         """Writes AOV ``name`` as the ``.npy`` array ``path`` (whole or not at all); returns the path. ``path`` must end
         in ``.npy`` (a ``ValueError`` otherwise: ``depth.exr`` got NumPy bytes under an EXR name, which no EXR reader
         opens; a preview: :meth:`save_aov_png`)."""
-        self._check_aov(name)
-        if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
-            raise TypeError(f"save_aov: path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
-        path = check_not_extension_alone(path)
+        path = self._aov_path(name, path, "save_aov")
         if path.suffix.lower() != ".npy":
             raise ValueError(f"save_aov: cannot write {path}: the AOV's values are a NumPy array, so name it .npy (a "
                              f"picture of them: save_aov_png, as .png)")
         write_atomically(path, lambda target: write_npy(target, self.aovs[name]))
         return path
+
+    def _aov_path(self, name, path, method: str) -> Path:
+        """``path`` as a Path for ``method`` (``save_aov``, ``save_aov_png``) to write AOV ``name`` to, both checked
+        (:meth:`_check_aov`, a str or os.PathLike, not an extension alone); its suffix is the method's to check."""
+        self._check_aov(name)
+        if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
+            raise TypeError(f"{method}: path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
+        return check_not_extension_alone(path)
 
     def _check_aov(self, name) -> None:
         """Raises ``ValueError`` unless ``name`` is one of :attr:`aovs`, with the name meant where one is close."""
@@ -617,10 +622,7 @@ class Image:
     def save_aov_png(self, name: str, path) -> Path:
         """Writes the :func:`aov_preview` of AOV ``name`` as a PNG; ``path`` must end in ``.png`` (a ``ValueError``
         otherwise: ``d.exr`` got PNG bytes under an EXR name; the values themselves: :meth:`save_aovs`)."""
-        self._check_aov(name)
-        if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
-            raise TypeError(f"save_aov_png: path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
-        path = check_not_extension_alone(path)
+        path = self._aov_path(name, path, "save_aov_png")
         if path.suffix.lower() != ".png":
             raise ValueError(f"save_aov_png: cannot write {path.name}: the preview is a PNG, so name it .png (the "
                              f"AOV's values: save_aovs, as .npy)")
