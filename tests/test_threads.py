@@ -526,6 +526,19 @@ class InterruptedWait:
         self.release()
 
 
+def render_in_thread_r(renderer) -> tuple[threading.Thread, list]:
+    """A thread named R, not started, that renders with ``renderer``, and the list of what its render raises."""
+    errors = []
+
+    def render():
+        try:
+            renderer.render()
+        except BaseException as error:  # noqa: BLE001 - told by the callers' assertions
+            errors.append(error)
+
+    return threading.Thread(target=render, name="R"), errors
+
+
 def test_a_render_interrupted_while_it_waits_for_its_renderer_back_leaves_the_renderer_as_it_was():
     """A render that found the scene's lock taken let go of its Renderer's until it was free; interrupted as it waited
     to take the Renderer's back (Ctrl-C), its call released a lock it did not hold ('cannot release un-acquired lock'
@@ -535,15 +548,7 @@ def test_a_render_interrupted_while_it_waits_for_its_renderer_back_leaves_the_re
     scene = square_scene()
     renderer = wrt.Renderer(scene, **OPTIONS)
     renderer._calls = InterruptedWait()
-    errors = []
-
-    def render():
-        try:
-            renderer.render()
-        except BaseException as error:  # noqa: BLE001 - told by the assertions below
-            errors.append(error)
-
-    r = threading.Thread(target=render, name="R")
+    r, errors = render_in_thread_r(renderer)
     with scene.lock:
         r.start()
         assert renderer._calls.let_go.wait(timeout=60)  # R waits for the scene's lock, not holding the renderer's
@@ -784,26 +789,14 @@ def test_a_render_interrupted_as_it_takes_its_renderer_lets_go_of_it():
     scene = square_scene()
     renderer = wrt.Renderer(scene, **OPTIONS)
     renderer._calls = InterruptedAsTaken()
-    errors = []
-
-    def render():
-        try:
-            renderer.render()
-        except BaseException as error:  # noqa: BLE001 - told by the assertions below
-            errors.append(error)
-
-    r = threading.Thread(target=render, name="R")
+    r, errors = render_in_thread_r(renderer)
     r.start()
     r.join(timeout=60)
     assert not r.is_alive()
     assert [type(error) for error in errors] == [KeyboardInterrupt], errors
-    images = []
-    other = threading.Thread(target=lambda: images.append(renderer.render().rgb), daemon=True)  # a hang ends here
-    other.start()
-    other.join(timeout=30)
-    assert not other.is_alive(), "the interrupted render kept the renderer's lock"
+    image = _ends_in_time(lambda: renderer.render().rgb, seconds=30)  # fails if the interrupted render kept the lock
     assert renderer._calls_held == 0
-    np.testing.assert_array_equal(images[0], wrt.render(square_scene(), **OPTIONS).rgb)
+    np.testing.assert_array_equal(image, wrt.render(square_scene(), **OPTIONS).rgb)
 
 
 def _ends_in_time(call, seconds: float = 60.0):
