@@ -329,12 +329,9 @@ def test_rows_written_before_repeats_were_recorded_resume_by_their_settings_json
     assert summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), err
 
 
-def test_a_resume_in_a_moved_folder_finds_the_rows_of_its_scenes(tmp_path, monkeypatch, capsys):
-    """Rows read relative scene paths from the folder their run started in (cwd); once that folder is gone (the
-    project moved, proj/ renamed proj2/), none of them was found and every scene was measured again (1 measured, 0
-    resumed), where rows written before cwd was recorded resumed, read from the current folder. The oracle: the
-    same scene file and settings, so the same triangles and rays (the row's inputs hash), which the row keeps."""
-    project = tmp_path / "proj"
+def bench_project_run(project: Path, monkeypatch) -> Path:
+    """``project`` holding ``bench/quad.usda`` and ``bench/suite.json`` (one row), benchmarked from there into
+    ``out`` (the current folder left there)."""
     (project / "bench").mkdir(parents=True)
     (project / "bench" / "quad.usda").write_text(QUAD)
     (project / "bench" / "suite.json").write_text(json.dumps(
@@ -342,13 +339,27 @@ def test_a_resume_in_a_moved_folder_finds_the_rows_of_its_scenes(tmp_path, monke
          "repeats": 1}))
     monkeypatch.chdir(project)
     assert main(["bench", "bench/suite.json", "-q", "-o", "out"]) == 0
+    return project
+
+
+def resumed_summary(capsys) -> list[str]:
+    """The summary lines of ``wrt bench bench/suite.json -o out --resume`` run in the current folder."""
+    capsys.readouterr()
+    assert main(["bench", "bench/suite.json", "-q", "-o", "out", "--resume"]) == 0
+    return [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+
+
+def test_a_resume_in_a_moved_folder_finds_the_rows_of_its_scenes(tmp_path, monkeypatch, capsys):
+    """Rows read relative scene paths from the folder their run started in (cwd); once that folder is gone (the
+    project moved, proj/ renamed proj2/), none of them was found and every scene was measured again (1 measured, 0
+    resumed), where rows written before cwd was recorded resumed, read from the current folder. The oracle: the
+    same scene file and settings, so the same triangles and rays (the row's inputs hash), which the row keeps."""
+    project = bench_project_run(tmp_path / "proj", monkeypatch)
     first = read_rows(project / "out")
     monkeypatch.chdir(tmp_path)
     project.rename(tmp_path / "proj2")
     monkeypatch.chdir(tmp_path / "proj2")
-    capsys.readouterr()
-    assert main(["bench", "bench/suite.json", "-q", "-o", "out", "--resume"]) == 0
-    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    summary = resumed_summary(capsys)
     assert summary[0].startswith("wrt: 0 rows measured, 1 resumed, 0 failed"), summary
     assert [row["inputs"] for row in read_rows(tmp_path / "proj2" / "out")] == [first[0]["inputs"]]
 
@@ -360,19 +371,10 @@ def test_a_resume_in_a_copied_folder_measures_its_own_scenes(tmp_path, monkeypat
     The oracle: proj2/bench/quad.usda is a file no run measured, so this run measures it (1 measured)."""
     import shutil
 
-    project = tmp_path / "proj"
-    (project / "bench").mkdir(parents=True)
-    (project / "bench" / "quad.usda").write_text(QUAD)
-    (project / "bench" / "suite.json").write_text(json.dumps(
-        {"scenes": ["quad.usda"], "accels": ["wrt:sah"], "devices": ["cpu"], "rays": ["primary"], "n_rays": 100,
-         "repeats": 1}))
-    monkeypatch.chdir(project)
-    assert main(["bench", "bench/suite.json", "-q", "-o", "out"]) == 0
+    project = bench_project_run(tmp_path / "proj", monkeypatch)
     shutil.copytree(project, tmp_path / "proj2")
     monkeypatch.chdir(tmp_path / "proj2")
-    capsys.readouterr()
-    assert main(["bench", "bench/suite.json", "-q", "-o", "out", "--resume"]) == 0
-    summary = [line for line in capsys.readouterr().err.splitlines() if "results in" in line]
+    summary = resumed_summary(capsys)
     assert summary[0].startswith("wrt: 1 row measured, 0 resumed, 0 failed"), summary
     rows = read_rows(tmp_path / "proj2" / "out")
     assert sorted(os.path.realpath(Path(row["cwd"]) / row["scene"]) for row in rows) == \
