@@ -13,6 +13,8 @@ import pytest
 pv = pytest.importorskip("pyvista")
 pv.OFF_SCREEN = True
 
+from preview_boxes import box_data  # noqa: E402
+
 import wrt  # noqa: E402
 from wrt.instancing import Instances, Prototype  # noqa: E402
 from wrt.primitives import Shape  # noqa: E402
@@ -162,12 +164,7 @@ def test_tlas_boxes_are_coloured_by_their_depth_and_sah_share_in_the_walked_tree
         with warnings.catch_warnings():  # a cut past the deepest leaf says it draws the leaves
             warnings.filterwarnings("ignore", message="BVH depth .* is past the tree's deepest leaf")
             plotter = wrt.preview(scene, bvh_color=color, window_size=(32, 24), show_text=False, **options)
-        try:
-            boxes = plotter.actors["bvh"].mapper.dataset
-            corners = np.asarray(boxes.points, np.float64).reshape(-1, 8, 3)
-            values = np.asarray(boxes.cell_data["depth" if color == "depth" else "sah_share"])[::12]  # 12 per box
-        finally:
-            plotter.close()
+        corners, values = box_data(plotter, "depth" if color == "depth" else "sah_share")
         expected = walked_boxes(tlas, depth)
         drawn = {tuple(np.r_[c.min(axis=0), c.max(axis=0)]): v for c, v in zip(corners, values)}
         assert drawn.keys() == expected.keys(), (depth, color)
@@ -346,12 +343,7 @@ def test_sah_shares_of_boxes_wider_than_float32s_range_are_finite():
             warnings.simplefilter("error", RuntimeWarning)  # numpy's 'overflow encountered in subtract'
             plotter = wrt.preview(scene, camera=camera, builder="sweep_sah", bvh_color="sah", window_size=(32, 24),
                                   show_text=False, show_lights=False, **options)
-        try:
-            boxes = plotter.actors["bvh"].mapper.dataset
-            corners = np.asarray(boxes.points, np.float64).reshape(-1, 8, 3)
-            shares = np.asarray(boxes.cell_data["sah_share"])[::12]
-        finally:
-            plotter.close()
+        corners, shares = box_data(plotter, "sah_share")
         extent = corners.max(axis=1) - corners.min(axis=1)  # float64: 4e38 is no overflow there
         area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
         expected = area / area.sum()  # one triangle per leaf; the root: 1

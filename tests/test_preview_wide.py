@@ -10,6 +10,8 @@ import pytest
 pv = pytest.importorskip("pyvista")
 pv.OFF_SCREEN = True
 
+from preview_boxes import box_data  # noqa: E402
+
 import wrt  # noqa: E402
 from wrt.bvh import convert_layout  # noqa: E402
 from wrt.cli import main  # noqa: E402
@@ -81,12 +83,7 @@ def test_wide_boxes_sah_share_counts_the_triangles_below_each_wide_node(soup, la
     corners = np.asarray(points, np.float64)[indices]
     plotter = wrt.preview(soup, builder=BUILDER, bvh_depth=2, bvh_layout=layout, bvh_color="sah",
                           window_size=(32, 24), show_text=False)
-    try:
-        boxes = plotter.actors["bvh"].mapper.dataset
-        drawn = np.asarray(boxes.points, np.float64).reshape(-1, 8, 3)
-        shares = np.asarray(boxes.cell_data["sah_share"])[::12]
-    finally:
-        plotter.close()
+    drawn, shares = box_data(plotter, "sah_share")
     cut = walked_cut(soup, layout, 2)
     lower = np.array([corners[ids].min(axis=(0, 1)) for ids in cut])
     upper = np.array([corners[ids].max(axis=(0, 1)) for ids in cut])
@@ -259,12 +256,7 @@ def test_small_and_degenerate_meshes_draw_the_traced_wide_tree(builder):
                     warnings.simplefilter("ignore")  # past the deepest leaf: said, and checked in test_preview
                     plotter = wrt.preview(scene, builder=builder, bvh_layout=layout, bvh_color="sah",
                                           window_size=(32, 24), show_text=False, **options)
-                try:
-                    data = plotter.actors["bvh"].mapper.dataset
-                    drawn = np.asarray(data.points, np.float64).reshape(-1, 8, 3)
-                    shares = np.asarray(data.cell_data["sah_share"])[::12]
-                finally:
-                    plotter.close()
+                drawn, shares = box_data(plotter, "sah_share")
                 drawn = np.stack([drawn.min(axis=1), drawn.max(axis=1)], axis=1)
                 expected = np.array([[r[1], r[2]] for r in cut])
                 e = expected[:, 1] - expected[:, 0]
